@@ -1,0 +1,67 @@
+#include "psmat/iecm/jacobian.hpp"
+
+namespace psmat::iecm {
+
+namespace {
+// Calls f(a, j, Tseg) for every cell a = (i,p) and row j, where Tseg(q) = T[(i,p),(j,q)]
+// for q = 0..C-1 (eq. 2.13 in terms of the blocks of M).
+template <class F>
+void for_each_T_segment(const NodalInverse& net, bool lower_only, F&& f) {
+  const Index R = net.shape().rows, C = net.shape().cols;
+  const RowMatrixXd A = net.A();
+  const Eigen::MatrixXd Mrr = net.Mrr();
+  const RowMatrixXd Mcc = net.Mcc();
+  Eigen::ArrayXd w(C), seg(C);
+  for (Index i = 0; i < R; ++i) {
+    for (Index p = 0; p < C; ++p) {
+      const Index a = i * C + p;
+      w = A.row(i).array() - Mcc.row(p).array();  // A[i,q] - Mcc[p,q]
+      for (Index j = lower_only ? i : 0; j < R; ++j) {
+        seg = w + (A(j, p) - Mrr(i, j));          // + A[j,p] - Mrr[i,j]
+        f(a, j, seg);
+      }
+    }
+  }
+}
+}  // namespace
+
+void jacobian(const NodalInverse& net, const ConstVecRef& G, RowMatRef J) {
+  const Index C = net.shape().cols;
+  for_each_T_segment(net, false, [&](Index a, Index j, const Eigen::ArrayXd& T) {
+    J.row(a).segment(j * C, C) = (G[a] * G[a]) * T.square().matrix().transpose();
+  });
+}
+
+void scaled_hadamard(const NodalInverse& net, const ConstVecRef& G, Eigen::MatrixXd& S,
+                     bool lower_only) {
+  const Index C = net.shape().cols;
+  S.resize(net.shape().cells(), net.shape().cells());
+  for_each_T_segment(net, lower_only, [&](Index a, Index j, const Eigen::ArrayXd& T) {
+    // column a of S (= row a, S is symmetric): G_a G_b T[a,b]^2
+    S.col(a).segment(j * C, C) = G[a] * (G.segment(j * C, C).array() * T.square()).matrix();
+  });
+}
+
+void hadamard_product(const NodalInverse& net, const ConstVecRef& v, VecRef out,
+                      HadamardWork& work) {
+  const Index R = net.shape().rows, C = net.shape().cols, n = net.shape().nodes();
+  const Eigen::MatrixXd& M = net.M();
+  const Eigen::Map<const RowMatrixXd> V(v.data(), R, C);
+  // P = L_v M, row by row of the Laplacian: row node i has degree sum_p v[i,p] and
+  // neighbours R+p; column node R+p has degree sum_i v[i,p] and neighbours i.
+  work.P.resize(n, n);
+  work.P.topRows(R).noalias() = V.rowwise().sum().asDiagonal() * M.topRows(R);
+  work.P.topRows(R).noalias() -= V * M.bottomRows(C);
+  work.P.bottomRows(C).noalias() = V.colwise().sum().transpose().asDiagonal() * M.bottomRows(C);
+  work.P.bottomRows(C).noalias() -= V.transpose() * M.topRows(R);
+  // K = M P: its diagonal and the row-column block.
+  work.Krc.resize(R, C);
+  work.Krc.noalias() = M.topRows(R) * work.P.rightCols(C);
+  // diag(K)[k] = sum_m M[k,m] P[m,k] = column sums of M∘P (M is symmetric)
+  work.kdiag = (M.array() * work.P.array()).colwise().sum().transpose();
+  for (Index i = 0; i < R; ++i)
+    for (Index p = 0; p < C; ++p)
+      out[i * C + p] = work.kdiag[i] + work.kdiag[R + p] - 2.0 * work.Krc(i, p);
+}
+
+}  // namespace psmat::iecm

@@ -1,0 +1,35 @@
+// Jacobian of the IECM forward model (thesis eq. 2.13 / App. B eq. B.23, SPEC §3).
+//
+//   T[(i,p),(j,q)] = (e_j - e_q')^T M (e_p' - e_i) = V_ip,j - V_ip,q      (p' = R+p, q' = R+q)
+//                  = A[j,p] + A[i,q] - Mrr[i,j] - Mcc[p,q]
+//   dG[i,p]/dg[j,q] = G[i,p]^2 * T[(i,p),(j,q)]^2                          (eq. 2.13; diagonal = 1)
+//
+// T is symmetric and T∘T (Hadamard square) is positive semidefinite (Schur product theorem),
+// definite where the inverse problem is well posed. The solvers work with the scaled form
+//   S = D_G (T∘T) D_G  = D_G^-1 J D_G          (similar to J: same eigenvalues, unit diagonal)
+// so that a Newton step J dg = -r becomes the SPD system S y = -r/G, dg = G∘y.
+#pragma once
+#include "psmat/iecm/laplacian.hpp"
+
+namespace psmat::iecm {
+
+// Dense dG/dg, (R*C) x (R*C), row a = (i,p), column b = (j,q), row-major cell order.
+void jacobian(const NodalInverse& net, const ConstVecRef& G, RowMatRef J);
+
+// S = D_G (T∘T) D_G (column-major, for Eigen's Cholesky). With lower_only, only the blocks
+// j >= i (the lower triangle and a little more) are written.
+void scaled_hadamard(const NodalInverse& net, const ConstVecRef& G, Eigen::MatrixXd& S,
+                     bool lower_only);
+
+// Matrix-free product out = (T∘T) v in O(n^3) instead of O((RC)^2) (SPEC §3):
+//   ((T∘T) v)[i,p] = K[i,i] + K[p',p'] - 2 K[i,p'],   K = M L_v M,
+// with L_v the Laplacian of the same graph weighted by v. `work` is resized as needed.
+struct HadamardWork {
+  Eigen::MatrixXd P;    // L_v M, n x n
+  Eigen::MatrixXd Krc;  // R x C block of K
+  Eigen::VectorXd kdiag;  // diagonal of K, n
+};
+void hadamard_product(const NodalInverse& net, const ConstVecRef& v, VecRef out,
+                      HadamardWork& work);
+
+}  // namespace psmat::iecm

@@ -1,0 +1,42 @@
+// Grounded nodal matrix of the basic circuit (thesis eq. 2.6-2.7, SPEC §3) and its inverse M.
+//
+// The R x C array is a bipartite resistor network on n = R + C nodes: rows are nodes
+// 0..R-1, columns are nodes R..R+C-1, cell (i, p) joins node i to node R+p with conductance
+// g[i,p]. Node 0 (row 0) is ground, as in the thesis ("we consider row 1 as ground").
+// `Cmat` is the Laplacian with the ground row/column removed; it is SPD when every row and
+// column touches a conducting cell. `M` is Cmat^-1 padded with a zero row and column for the
+// ground node, so that node voltages for any injected current vector I are V = M I.
+#pragma once
+#include "psmat/types.hpp"
+
+namespace psmat::iecm {
+
+class NodalInverse {
+ public:
+  explicit NodalInverse(Shape shape);
+
+  // Builds Cmat from g (length R*C, row-major), factorises it (Cholesky) and forms M.
+  // Returns false when Cmat is not positive definite (a row or column with no conducting
+  // cell, or non-finite / negative entries); M is then unusable.
+  bool compute(const ConstVecRef& g);
+
+  const Shape& shape() const { return shape_; }
+  // n x n, node order as above, zero row/column for the ground node.
+  const Eigen::MatrixXd& M() const { return m_; }
+
+  // Blocks of M used by eq. 2.5 and eq. 2.13 (valid after compute()):
+  //   A(i, p)   = M[i, R+p]       rows x cols
+  //   Mrr(i, j) = M[i, j]         rows x rows
+  //   Mcc(p, q) = M[R+p, R+q]     cols x cols
+  auto A() const { return m_.topRightCorner(shape_.rows, shape_.cols); }
+  auto Mrr() const { return m_.topLeftCorner(shape_.rows, shape_.rows); }
+  auto Mcc() const { return m_.bottomRightCorner(shape_.cols, shape_.cols); }
+
+ private:
+  Shape shape_;
+  Eigen::MatrixXd cmat_;  // (n-1) x (n-1)
+  Eigen::LLT<Eigen::MatrixXd> llt_;
+  Eigen::MatrixXd m_;     // n x n
+};
+
+}  // namespace psmat::iecm

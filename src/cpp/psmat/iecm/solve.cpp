@@ -1,0 +1,83 @@
+#include "psmat/iecm/solve.hpp"
+
+#include <cmath>
+
+#include "psmat/iecm/forward.hpp"
+#include "psmat/iecm/jacobian.hpp"
+
+namespace psmat::iecm {
+
+const char* to_string(Status s) {
+  switch (s) {
+    case Status::Converged: return "converged";
+    case Status::MaxIterations: return "max_iterations";
+    case Status::Stalled: return "stalled";
+    case Status::Singular: return "singular";
+    case Status::LeastSquares: return "least_squares";
+    case Status::Bounded: return "bounded";
+  }
+  return "unknown";
+}
+
+const char* to_string(Method m) {
+  switch (m) {
+    case Method::Newton: return "newton";
+    case Method::BoundedNewton: return "bounded_newton";
+    case Method::LM: return "lm";
+    case Method::BoundedLSQ: return "bounded_lsq";
+    case Method::FixedPoint: return "fixed_point";
+  }
+  return "unknown";
+}
+
+Solver::Solver(Shape shape, const SolveOptions& options)
+    : net(shape),
+      Gm(shape.cells()),
+      ra(shape.cells()),
+      S(shape.cells(), shape.cells()),
+      llt(shape.cells()),
+      G_ref(shape.cells()),
+      shape_(shape),
+      opts_(options) {}
+
+bool Solver::evaluate(const ConstVecRef& g, const ConstVecRef& G_exp, double& cost,
+                      double& resid) {
+  if (!forward(g, net, Gm)) return false;
+  ra = Gm - G_exp;
+  const Eigen::ArrayXd rel = ra.array() / G_exp.array();
+  cost = 0.5 * rel.square().sum();
+  resid = rel.abs().maxCoeff();
+  return std::isfinite(cost);
+}
+
+bool Solver::factorize_newton_matrix() {
+  scaled_hadamard(net, Gm, S, /*lower_only=*/true);
+  llt.compute(S);  // reads the lower triangle only
+  // S is SPD in exact arithmetic wherever the problem is well posed; a tiny shift of its unit
+  // diagonal rescues round-off indefiniteness in nearly unobservable cells.
+  for (double shift = 1e-12; llt.info() != Eigen::Success && shift <= 1e-2; shift *= 100.0) {
+    scaled_hadamard(net, Gm, S, true);
+    S.diagonal().array() += shift;
+    llt.compute(S);
+  }
+  have_factor_ = llt.info() == Eigen::Success;
+  if (have_factor_) G_ref = Gm;
+  return have_factor_;
+}
+
+SolveReport Solver::solve(const ConstVecRef& G_exp, VecRef g, bool warm) {
+  if (!warm) {
+    g = G_exp;  // g0 = G: the equivalent conductance bounds the cell conductance from above
+    reset();
+  }
+  switch (opts_.method) {
+    case Method::Newton: return solve_newton(*this, G_exp, g);
+    case Method::BoundedNewton: return solve_bounded_newton(*this, G_exp, g);
+    case Method::LM: return solve_least_squares(*this, G_exp, g, /*log_param=*/true);
+    case Method::BoundedLSQ: return solve_least_squares(*this, G_exp, g, /*log_param=*/false);
+    case Method::FixedPoint: return solve_fixed_point(*this, G_exp, g);
+  }
+  return {};
+}
+
+}  // namespace psmat::iecm

@@ -1,0 +1,59 @@
+// Options and per-frame diagnostics of the IECM inverse g = F^-1(G_exp) (eq. 2.8-2.10).
+#pragma once
+#include <string>
+
+namespace psmat::iecm {
+
+enum class Method {
+  Newton,      // damped Newton on log g with Cholesky of S = D_G (T∘T) D_G, line search, chord reuse
+  BoundedNewton,  // active-set Newton on g >= g_floor for the complementarity problem
+                  // g >= 0, F(g) >= G_exp, g (F(g) - G_exp) = 0 (noisy G; unique: J is a P-matrix)
+  LM,          // Levenberg-Marquardt least squares (eq. 2.9) on log g (positivity by construction)
+  BoundedLSQ,  // projected Gauss-Newton/LM least squares (eq. 2.9) on g with g >= g_floor
+  FixedPoint,  // thesis eq. 2.10: g <- g + beta (G_exp - F(g)), clipped at g_floor
+};
+
+enum class Status {
+  Converged = 0,     // max relative residual <= rtol (or, least squares: stationary point)
+  MaxIterations = 1, // iteration limit reached
+  Stalled = 2,       // no further decrease of the residual possible (e.g. G_exp not reachable)
+  Singular = 3,      // the network of the iterate is disconnected / not SPD
+  LeastSquares = 4,  // least-squares stationary point with a non-zero residual (noisy G_exp
+                     // that no positive g reproduces exactly); counts as converged
+  Bounded = 5,       // complementarity solution: F(g) = G_exp on the free cells, the other
+                     // cells at g_floor where even an empty cell over-predicts G_exp (noise)
+};
+
+struct SolveOptions {
+  Method method = Method::Newton;
+  int max_iter = 100;            // per frame
+  double rtol = 1e-10;           // stop when max_a |F(g)_a - G_a| / G_a <= rtol
+  double ftol = 1e-14;           // least squares: relative decrease of the cost below this
+  double beta = 0.05;            // fixed point damping (eq. 2.10)
+  double g_floor = 1e-12;        // S; lower bound that keeps conductances positive
+  double max_log_step = 2.0;     // Newton/LM trust region: |delta log g| per iteration
+  bool chord = true;             // Newton: reuse a factorisation while it contracts well
+  double chord_contraction = 0.25;  // accept a chord step only if the cost drops by this factor
+  double chord_max_residual = 0.02; // ... and only this close (max relative residual) to a solution
+  bool fallback = true;          // Newton: when it stalls (noisy G unreachable by g > 0), restart
+                                 // from g0 with the bounded (complementarity) Newton
+};
+
+struct SolveReport {
+  int iterations = 0;
+  int factorizations = 0;        // Cholesky/LDLT factorisations of the Newton/normal matrix
+  int evaluations = 0;           // forward-model evaluations F(g)
+  double residual = 0.0;         // final max_a |F(g)_a - G_a| / G_a
+  double cost = 0.0;             // final 0.5 * sum_a ((F(g)_a - G_a) / G_a)^2
+  Status status = Status::MaxIterations;
+  bool used_fallback = false;
+  bool converged() const {
+    return status == Status::Converged || status == Status::LeastSquares || status == Status::Bounded;
+  }
+  int at_bound = 0;              // cells held at g_floor (bounded methods)
+};
+
+const char* to_string(Status s);
+const char* to_string(Method m);
+
+}  // namespace psmat::iecm

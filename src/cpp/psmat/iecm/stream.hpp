@@ -1,0 +1,62 @@
+// Live crosstalk removal (thesis Fig. 2.10, SPEC §3 "streaming"): frames are pushed as they
+// arrive from the acquisition, a pool of worker threads solves them, and they come out in
+// arrival order. Each frame warm-starts from the most recent solution available when its
+// worker picks it up (the previous frame on one thread); the very first frame starts cold.
+#pragma once
+#include <condition_variable>
+#include <cstdint>
+#include <deque>
+#include <map>
+#include <mutex>
+#include <thread>
+#include <vector>
+
+#include "psmat/iecm/solve_options.hpp"
+#include "psmat/types.hpp"
+
+namespace psmat::iecm {
+
+struct StreamResult {
+  std::uint64_t seq = 0;
+  Eigen::VectorXd g;
+  SolveReport report;
+};
+
+class StreamSolver {
+ public:
+  // max_pending: frames queued or in flight before push() blocks (back-pressure).
+  StreamSolver(Shape shape, const SolveOptions& options, int n_threads, std::size_t max_pending);
+  ~StreamSolver();
+  StreamSolver(const StreamSolver&) = delete;
+  StreamSolver& operator=(const StreamSolver&) = delete;
+
+  // Queues one frame (R*C equivalent conductances, copied). Returns its sequence number.
+  // Waits while max_pending frames are pending; throws std::runtime_error once closed.
+  std::uint64_t push(const ConstVecRef& G);
+  // Next frame in order; waits up to timeout_s (negative: until available). False when no
+  // frame became ready in time, or the stream is closed and drained.
+  bool pop(StreamResult& out, double timeout_s);
+  // Frames pushed but not yet popped.
+  std::size_t pending() const;
+  // Stops accepting frames; workers finish the queued ones.
+  void close();
+  const Shape& shape() const { return shape_; }
+
+ private:
+  void worker();
+  Shape shape_;
+  SolveOptions opts_;
+  std::size_t max_pending_;
+  mutable std::mutex mu_;
+  std::condition_variable cv_in_, cv_out_, cv_space_;
+  std::deque<std::pair<std::uint64_t, Eigen::VectorXd>> queue_;
+  std::map<std::uint64_t, StreamResult> done_;
+  Eigen::VectorXd latest_g_;
+  std::uint64_t latest_seq_ = 0;
+  bool have_latest_ = false;
+  std::uint64_t next_in_ = 0, next_out_ = 0;
+  bool closed_ = false;
+  std::vector<std::thread> threads_;
+};
+
+}  // namespace psmat::iecm

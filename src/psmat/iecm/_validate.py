@@ -1,0 +1,48 @@
+"""Input checks shared by the IECM entry points: clear errors instead of garbage."""
+
+from __future__ import annotations
+
+import numpy as np
+
+__all__ = ["as_frames"]
+
+
+def as_frames(x, name: str, *, allow_zero: bool, max_ndim: int = 3) -> tuple[np.ndarray, bool]:
+    """Validate a conductance array of shape (R, C) or (T, R, C).
+
+    Returns the array as C-contiguous float64 of shape (T, R, C) and whether the input was a
+    single frame. Raises TypeError for non-real dtypes, ValueError for wrong shapes,
+    non-finite, negative or (unless ``allow_zero``) zero values.
+    """
+    a = np.asarray(x)
+    if a.dtype == object or not (np.issubdtype(a.dtype, np.floating) or np.issubdtype(a.dtype, np.integer)):
+        raise TypeError(f"{name} must be a real numeric array (conductances in S), got dtype {a.dtype}")
+    if a.ndim not in (2, 3) or a.ndim > max_ndim:
+        allowed = "(R, C)" if max_ndim == 2 else "(R, C) or (T, R, C)"
+        raise ValueError(f"{name} must have shape {allowed}, got {a.shape}")
+    if a.shape[-1] < 2 or a.shape[-2] < 2:
+        raise ValueError(f"{name}: arrays need at least 2 rows and 2 columns, got {a.shape[-2:]}")
+    single = a.ndim == 2
+    a = np.ascontiguousarray(a, dtype=np.float64)
+    if single:
+        a = a[None]
+    if a.shape[0] == 0:
+        raise ValueError(f"{name} has no frames")
+    bad = ~np.isfinite(a)
+    if bad.any():
+        idx = tuple(int(i) for i in np.argwhere(bad)[0])
+        raise ValueError(f"{name} has {int(bad.sum())} non-finite value(s) (NaN/inf), first at {_fmt(idx, single)}")
+    neg = a < 0 if allow_zero else a <= 0
+    if neg.any():
+        idx = tuple(int(i) for i in np.argwhere(neg)[0])
+        what = "negative" if allow_zero else "zero or negative"
+        raise ValueError(
+            f"{name} has {int(neg.sum())} {what} conductance(s), first at {_fmt(idx, single)} "
+            f"= {a[idx]!r}; conductances are in S and must be > 0"
+            + ("" if allow_zero else " (an open or saturated reading must be masked before IECM)")
+        )
+    return a, single
+
+
+def _fmt(idx: tuple[int, ...], single: bool) -> str:
+    return f"cell {idx[1:]}" if single else f"frame {idx[0]}, cell {idx[1:]}"

@@ -1,0 +1,261 @@
+"""IECM inverse g = F^-1(G) (thesis eq. 2.8-2.10, SPEC §3) for frames, batches and streams.
+
+The solvers run in the C++ core (``src/cpp/psmat/iecm/solve_*.cpp``) with the GIL released;
+batches are spread over all cores. Methods:
+
+``"newton"`` (default)
+    Damped Newton on log g, each step one Cholesky of the SPD matrix D_G (T∘T) D_G; chord
+    steps reuse the previous factorisation near the solution (consecutive frames of a
+    stream); backtracking line search. When noise makes G unreachable by positive g it
+    restarts with ``"bounded_newton"``.
+``"bounded_newton"``
+    The bounded problem as a complementarity problem: F(g) = G on the free cells, g at
+    g_floor (~0) on cells where even an empty cell over-predicts the measured G (noise on
+    quiet background cells). Unique solution (dG/dg is a P-matrix); active-set Newton with
+    Cholesky factorisations of principal submatrices.
+``"lm"``
+    Levenberg-Marquardt least squares (eq. 2.9) on log g, analytic Jacobian.
+``"bounded_lsq"``
+    Least squares (eq. 2.9) on g with the bound g >= g_floor (projected LM, active set).
+``"fixed_point"``
+    The thesis' iteration g <- g + beta (G - F(g)) (eq. 2.10).
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .. import _core
+from ._validate import as_frames
+
+__all__ = ["solve", "SolveInfo", "METHODS", "make_options"]
+
+METHODS = ("newton", "bounded_newton", "lm", "bounded_lsq", "fixed_point")
+_DEFAULT_MAX_ITER = {"newton": 100, "bounded_newton": 100, "lm": 200, "bounded_lsq": 200, "fixed_point": 20000}
+_STATUS_NAMES = np.array(["converged", "max_iterations", "stalled", "singular", "least_squares", "bounded"])
+
+
+@dataclass
+class SolveInfo:
+    """Per-frame diagnostics of :func:`solve` (arrays of length T, or scalars for one frame).
+
+    Attributes
+    ----------
+    iterations, factorizations, evaluations : int arrays
+        Iterations, matrix factorisations and forward-model evaluations per frame.
+    residual : float array
+        Final max_a |F(g)_a - G_a| / G_a (relative, dimensionless).
+    cost : float array
+        Final 0.5 * sum(((F(g) - G) / G)^2).
+    status : str array
+        ``converged``, ``bounded`` (noisy G: complementarity solution with ``at_bound``
+        cells at g_floor), ``least_squares`` (noisy G: least-squares point),
+        ``max_iterations``, ``stalled`` or ``singular``.
+    converged : bool array
+        True for ``converged``, ``bounded`` and ``least_squares``.
+    at_bound : int array
+        Cells held at g_floor (bounded methods).
+    used_fallback : bool array
+        Newton handed over to least squares.
+    method : str
+    wall_time : float
+        Seconds for the whole call.
+    threads : int
+    """
+
+    iterations: np.ndarray
+    factorizations: np.ndarray
+    evaluations: np.ndarray
+    residual: np.ndarray
+    cost: np.ndarray
+    status: np.ndarray
+    converged: np.ndarray
+    used_fallback: np.ndarray
+    at_bound: np.ndarray
+    method: str = "newton"
+    wall_time: float = 0.0
+    threads: int = 1
+    extra: dict = field(default_factory=dict)
+
+    @property
+    def all_converged(self) -> bool:
+        return bool(np.all(self.converged))
+
+    def summary(self) -> str:
+        n = np.size(self.converged)
+        return (
+            f"{self.method}: {int(np.sum(self.converged))}/{n} frames converged, "
+            f"iterations mean {np.mean(self.iterations):.1f} max {np.max(self.iterations)}, "
+            f"max residual {np.max(self.residual):.2e}, {self.wall_time:.3f} s on {self.threads} thread(s)"
+        )
+
+
+def make_options(
+    method: str = "newton",
+    *,
+    rtol: float = 1e-10,
+    max_iter: int | None = None,
+    beta: float = 0.05,
+    g_floor: float = 1e-12,
+    chord: bool = True,
+    fallback: bool = True,
+) -> "_core.iecm.SolveOptions":
+    """Build the C++ solver options, validating every value."""
+    if method not in METHODS:
+        raise ValueError(f"unknown method {method!r}; choose one of {METHODS}")
+    if not (np.isfinite(rtol) and rtol > 0):
+        raise ValueError(f"rtol must be a positive number, got {rtol!r}")
+    if max_iter is None:
+        max_iter = _DEFAULT_MAX_ITER[method]
+    if int(max_iter) != max_iter or max_iter < 1:
+        raise ValueError(f"max_iter must be a positive integer, got {max_iter!r}")
+    if not (np.isfinite(beta) and beta > 0):
+        raise ValueError(f"beta must be a positive number, got {beta!r}")
+    if not (np.isfinite(g_floor) and g_floor > 0):
+        raise ValueError(f"g_floor must be a positive conductance in S, got {g_floor!r}")
+    o = _core.iecm.SolveOptions()
+    o.method = getattr(_core.iecm.Method, method)
+    o.rtol = float(rtol)
+    o.max_iter = int(max_iter)
+    o.beta = float(beta)
+    o.g_floor = float(g_floor)
+    o.chord = bool(chord)
+    o.fallback = bool(fallback)
+    return o
+
+
+def solve(
+    G,
+    method: str = "newton",
+    *,
+    g0=None,
+    warm_start: bool = True,
+    threads: int | None = None,
+    rtol: float = 1e-10,
+    max_iter: int | None = None,
+    beta: float = 0.05,
+    g_floor: float = 1e-12,
+    chord: bool = True,
+    fallback: bool = True,
+    progress: bool | None = None,
+    return_info: bool = False,
+):
+    """Remove crosstalk: cell conductances g from measured equivalent conductances G.
+
+    Parameters
+    ----------
+    G : array_like, shape (R, C) or (T, R, C)
+        Equivalent conductances in S (> 0, finite), e.g. ``Circuit.conductance(counts)``.
+    method : {"newton", "lm", "bounded_lsq", "fixed_point"}
+        See the module docstring.
+    g0 : array_like, optional
+        Starting point, shape of G (S). Default: a cold start from g0 = G, or for a batch
+        with ``warm_start`` the previous frame's solution.
+    warm_start : bool
+        For (T, R, C): True treats the frames as a recording (each frame starts from the
+        previous solution; the frames are split into one contiguous chunk per thread);
+        False solves every frame independently from g0 = G.
+    threads : int, optional
+        Worker threads for a batch; default all cores.
+    rtol : float
+        Stop when max |F(g) - G| / G <= rtol.
+    max_iter : int, optional
+        Per-frame iteration limit (default 100 Newton, 200 least squares, 20000 fixed point).
+    beta : float
+        Fixed-point damping (eq. 2.10).
+    g_floor : float
+        Lower bound on g in S (positivity).
+    chord, fallback : bool
+        Newton: reuse factorisations near the solution; hand over to least squares when
+        G is not reachable by positive g.
+    progress : bool, optional
+        Progress bar for batches (default: on for >= 2000 frames when writing to a terminal).
+    return_info : bool
+        Also return a :class:`SolveInfo`.
+
+    Returns
+    -------
+    g : numpy.ndarray
+        Cell conductances in S, shape of G.
+    info : SolveInfo
+        Only with ``return_info=True``.
+
+    Warns
+    -----
+    RuntimeWarning
+        When some frame did not converge (look at ``info.status``).
+    """
+    frames, single = as_frames(G, "G", allow_zero=False)
+    opts = make_options(method, rtol=rtol, max_iter=max_iter, beta=beta, g_floor=g_floor,
+                        chord=chord, fallback=fallback)
+    init = None
+    if g0 is not None:
+        init, _ = as_frames(g0, "g0", allow_zero=False)
+        if init.shape != frames.shape:
+            raise ValueError(f"g0 must have the shape of G {np.shape(G)}, got {np.shape(g0)}")
+    T = frames.shape[0]
+    nthreads = _core.iecm.hardware_threads() if threads is None else int(threads)
+    if nthreads < 1:
+        raise ValueError(f"threads must be >= 1, got {threads!r}")
+    nthreads = min(nthreads, T)
+
+    t0 = time.perf_counter()
+    if single:
+        g, rep = _core.iecm.solve_frame(frames[0], opts, None if init is None else init[0])
+        info = SolveInfo(
+            **{k: np.asarray(rep[k]) for k in ("iterations", "factorizations", "evaluations", "residual", "cost", "converged", "used_fallback", "at_bound")},
+            status=np.asarray(rep["status"]),
+            method=method,
+            threads=1,
+        )
+        out = g
+    else:
+        job = _core.iecm.BatchJob(frames, opts, bool(warm_start), nthreads, init)
+        job.start()
+        _wait(job, T, progress)
+        out = job.g().reshape(frames.shape)
+        reps = job.reports()
+        info = SolveInfo(
+            iterations=reps["iterations"], factorizations=reps["factorizations"],
+            evaluations=reps["evaluations"], residual=reps["residual"], cost=reps["cost"],
+            status=_STATUS_NAMES[reps["status"]], converged=reps["converged"],
+            used_fallback=reps["used_fallback"], at_bound=reps["at_bound"], method=method,
+            threads=nthreads,
+        )
+    info.wall_time = time.perf_counter() - t0
+    if not info.all_converged:
+        import warnings
+
+        bad = int(np.size(info.converged) - np.sum(info.converged))
+        warnings.warn(
+            f"IECM ({method}): {bad} of {np.size(info.converged)} frame(s) did not converge "
+            f"(status: {sorted(set(np.atleast_1d(info.status)[~np.atleast_1d(info.converged)]))}); "
+            "pass return_info=True to inspect them",
+            RuntimeWarning,
+            stacklevel=2,
+        )
+    return (out, info) if return_info else out
+
+
+def _wait(job, total: int, progress: bool | None) -> None:
+    """Wait for a BatchJob, driving a progress bar and honouring Ctrl-C."""
+    from tqdm.auto import tqdm
+
+    show = progress if progress is not None else (total >= 2000)
+    bar = tqdm(total=total, unit="frame", desc="IECM", disable=None if show else True, leave=False)
+    try:
+        done = 0
+        while not job.wait(0.1):
+            c = job.completed
+            bar.update(c - done)
+            done = c
+        bar.update(job.completed - done)
+    except KeyboardInterrupt:
+        job.cancel()
+        job.wait(-1.0)
+        raise
+    finally:
+        bar.close()

@@ -1,0 +1,150 @@
+"""Inverse IECM: recovery of known arrays (noise-free G = F(g)) by every method."""
+
+from __future__ import annotations
+
+import threading
+
+import numpy as np
+import pytest
+
+import psmat
+
+TOL = {"newton": 1e-7, "bounded_newton": 1e-7, "lm": 1e-7, "bounded_lsq": 1e-7, "fixed_point": 1e-4}
+
+
+def _opts(method, g):
+    # fixed point (eq. 2.10) is stable for beta < 2/lambda_max(dG/dg) and contracts by
+    # 1 - beta*lambda_min per iteration: take beta = 1/lambda_max at the solution
+    if method != "fixed_point":
+        return {}
+    lam_max = np.linalg.eigvals(psmat.iecm.jacobian(g)).real.max()
+    return {"beta": 1.0 / lam_max, "max_iter": 100000, "rtol": 1e-9}
+
+
+@pytest.mark.parametrize("method", psmat.iecm.METHODS)
+@pytest.mark.parametrize("shape", [(4, 4), (3, 5), (2, 7), (8, 5)])
+def test_recovers_random_arrays(method, shape, rng):
+    g = np.exp(rng.uniform(np.log(1e-4), np.log(1e-2), shape))
+    G = psmat.iecm.forward(g)
+    sol, info = psmat.iecm.solve(G, method=method, return_info=True, **_opts(method, g))
+    assert info.all_converged, info.status
+    np.testing.assert_allclose(sol, g, rtol=TOL[method])
+
+
+@pytest.mark.parametrize("method", ["newton", "bounded_newton", "lm", "bounded_lsq"])
+def test_recovers_reference_cases_cold(method, iecm_reference):
+    for name, case in iecm_reference.items():
+        g, G = np.array(case["g"]), np.array(case["G"])
+        sol = psmat.iecm.solve(G, method=method)
+        big = g >= 1e-4
+        np.testing.assert_allclose(sol[big], g[big], rtol=1e-6, err_msg=name)
+        np.testing.assert_allclose(sol, g, rtol=1e-3, err_msg=name)  # even the quiet background
+
+
+def test_strong_ghost_three_loaded_corners():
+    # §2.3.3 resistor board: three corners at 100 Ohm, the fourth corner empty; the measured
+    # G of the empty corner is dominated by the path through the three loaded ones.
+    g = np.full((6, 6), 1e-5)  # 100 kOhm
+    g[0, 0] = g[0, -1] = g[-1, 0] = 1e-2
+    g[-1, -1] = 1e-6  # empty corner, 1 MOhm
+    G = psmat.iecm.forward(g)
+    assert G[-1, -1] > 100 * g[-1, -1]  # the ghost: a strong reading where nothing is
+    for method in ("newton", "bounded_newton", "lm", "bounded_lsq"):
+        sol = psmat.iecm.solve(G, method=method)
+        np.testing.assert_allclose(sol, g, rtol=1e-6, err_msg=method)
+
+
+def test_warm_start_needs_fewer_iterations(iecm_reference):
+    g = np.array(iecm_reference["16x16_feet"]["g"])
+    g2 = g * (1 + 0.01 * np.sin(np.arange(g.size)).reshape(g.shape))  # the next frame, 1% away
+    G2 = psmat.iecm.forward(g2)
+    _, cold = psmat.iecm.solve(G2, return_info=True)
+    sol, warm = psmat.iecm.solve(G2, g0=g, return_info=True)
+    assert warm.iterations < cold.iterations
+    np.testing.assert_allclose(sol, g2, rtol=1e-6)
+
+
+@pytest.mark.parametrize("warm_start", [True, False])
+def test_batch_equals_frame_by_frame(warm_start, rng):
+    base = rng.uniform(1e-4, 1e-2, (5, 6))
+    g = base * (1 + 0.02 * rng.standard_normal((12, 5, 6))).clip(0.5)
+    G = psmat.iecm.forward(g)
+    sol, info = psmat.iecm.solve(G, warm_start=warm_start, threads=2, return_info=True)
+    assert sol.shape == g.shape and info.iterations.shape == (12,)
+    assert info.all_converged
+    np.testing.assert_allclose(sol, g, rtol=1e-7)
+    for t in (0, 5, 11):
+        np.testing.assert_allclose(sol[t], psmat.iecm.solve(G[t]), rtol=1e-8)
+
+
+def test_report_fields_are_consistent(iecm_reference):
+    G = np.array(iecm_reference["16x16_random"]["G"])
+    _, info = psmat.iecm.solve(G, return_info=True, rtol=1e-10)
+    assert info.converged and info.status == "converged"
+    assert info.residual <= 1e-10
+    assert info.evaluations >= info.iterations >= 1
+    # a budget too small to converge is reported as such, with a warning
+    with pytest.warns(RuntimeWarning, match="did not converge"):
+        _, info = psmat.iecm.solve(G, method="fixed_point", max_iter=3, return_info=True)
+    assert not info.converged and info.status == "max_iterations" and info.iterations == 3
+    assert info.residual > 1e-10
+
+
+def test_fixed_point_is_slow_on_feet(iecm_reference):
+    # SPEC §3: the thesis' fixed point with beta = 0.05 needs thousands of iterations on
+    # two-feet images (Jacobian eigenvalues spread over ~0.005..15); measured, not assumed.
+    case = iecm_reference["16x16_feet"]
+    g, G = np.array(case["g"]), np.array(case["G"])
+    J = psmat.iecm.jacobian(g)
+    lam = np.linalg.eigvals(J).real
+    assert lam.min() < 0.05 and lam.max() > 5
+    with pytest.warns(RuntimeWarning):
+        sol, info = psmat.iecm.solve(G, method="fixed_point", beta=0.05, max_iter=500, return_info=True)
+    big = g >= 1e-4
+    assert np.max(np.abs(sol[big] / g[big] - 1)) > 1e-3  # far from the 1e-6 Newton reaches
+    newton = psmat.iecm.solve(G)
+    assert np.max(np.abs(newton[big] / g[big] - 1)) < 1e-6
+
+
+def test_noisy_G_gives_the_bounded_solution(rng):
+    # Noise can make G unreachable by positive g (quiet cells want g < 0). Newton hands over
+    # to the complementarity problem: free cells reproduce G exactly, cells at the bound are
+    # those that the model over-predicts even when empty.
+    g = np.full((6, 6), 1e-6)
+    g[:3, :3] = 5e-3
+    G = psmat.iecm.forward(g)
+    Gn = G * (1 + 0.02 * rng.standard_normal(G.shape))
+    for method in ("newton", "bounded_newton"):
+        sol, info = psmat.iecm.solve(Gn, method=method, return_info=True)
+        assert info.converged and info.status == "bounded" and info.at_bound > 0
+        assert np.all(sol > 0)
+        floor = sol <= 1e-12 * (1 + 1e-9)
+        assert int(floor.sum()) == info.at_bound
+        Fs = psmat.iecm.forward(sol)
+        np.testing.assert_allclose(Fs[~floor], Gn[~floor], rtol=1e-9)  # free cells: exact
+        assert np.all(Fs[floor] >= Gn[floor] * (1 - 1e-9))  # bound cells: over-predicted
+        assert np.all(np.abs(sol[:3, :3] / 5e-3 - 1) < 0.2)  # the load survives the noise
+    # least squares (eq. 2.9) lands close to it on the loaded cells
+    lsq = psmat.iecm.solve(Gn, method="bounded_lsq", max_iter=1000)
+    np.testing.assert_allclose(lsq[:3, :3], sol[:3, :3], rtol=0.02)
+
+
+def test_solve_releases_the_gil(iecm_reference):
+    G = np.array(iecm_reference["16x16_feet"]["G"])
+    frames = np.repeat(G[None], 400, axis=0)
+    state = {}
+
+    def work():
+        state["g"] = psmat.iecm.solve(frames, warm_start=False, threads=1)
+
+    t = threading.Thread(target=work)
+    t.start()
+    # If the C++ batch held the GIL, this thread could not run Python until it finished.
+    ticks = 0
+    while t.is_alive() and ticks < 1000:
+        ticks += 1
+        threading.Event().wait(0.0005)
+    alive_while_we_ran = t.is_alive()
+    t.join()
+    assert ticks >= 1000 and alive_while_we_ran
+    assert state["g"].shape == frames.shape
