@@ -33,8 +33,8 @@ struct SolveOptions {
   double g_floor = 1e-12;        // S; lower bound that keeps conductances positive
   double max_log_step = 2.0;     // Newton/LM trust region: |delta log g| per iteration
   bool chord = true;             // Newton: reuse a factorisation while it contracts well
-  double chord_contraction = 0.25;  // accept a chord step only if the cost drops by this factor
-  double chord_max_residual = 0.02; // ... and only this close (max relative residual) to a solution
+  double chord_contraction = 0.5;   // accept a chord step only if the cost drops by this factor
+  double chord_max_residual = 0.3;  // ... and only this close (max relative residual) to a solution
   bool fallback = true;          // Newton: when it stalls (noisy G unreachable by g > 0), restart
                                  // from g0 with the bounded (complementarity) Newton
 };

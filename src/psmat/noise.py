@@ -1,0 +1,168 @@
+"""Noise model of the measurement (thesis Table 2.4 and Fig. 2.12; SPEC §2 "Noise model").
+
+Two models of the noise on an equivalent conductance ``G`` (S):
+
+* ``"table"`` — Gaussian on ``G`` with the relative standard deviation of Fig. 2.12: the
+  Table 2.4 points expressed in relative terms, ``σ_G/G = σ_g R`` (``R = 1/G``),
+  interpolated linearly in ``log R`` between the points and held constant outside them
+  (thesis §2.3.2: "For intermediate values, linear interpolation has been used").
+* ``"voltage"`` — Gaussian on the ADC node voltage ``V_x`` (σ_v ≈ 1 mV, Table 2.4) pushed
+  through the circuit of :class:`psmat.circuit.Circuit` and inverted without quantisation.
+"""
+
+from __future__ import annotations
+
+from typing import Literal
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from .circuit import OPEN, Circuit
+
+__all__ = [
+    "TABLE_2_4_R_OHM",
+    "TABLE_2_4_SIGMA_V_MV",
+    "TABLE_2_4_SIGMA_G_S",
+    "TABLE_2_4_RELATIVE",
+    "relative_sigma",
+    "sigma_G",
+    "add_noise",
+]
+
+
+def _const(values: list[float]) -> NDArray[np.float64]:
+    a = np.array(values, dtype=np.float64)
+    a.setflags(write=False)
+    return a
+
+
+#: Test resistors of Table 2.4 (Ω).
+TABLE_2_4_R_OHM: NDArray[np.float64] = _const([100.0, 1e3, 10e3, 100e3, 220e3])
+#: Measured voltage noise, standard deviation (mV), Table 2.4.
+TABLE_2_4_SIGMA_V_MV: NDArray[np.float64] = _const([1.0, 0.9, 1.1, 1.1, 1.1])
+#: Associated conductance uncertainty, standard deviation (S), Table 2.4.
+TABLE_2_4_SIGMA_G_S: NDArray[np.float64] = _const([7.7e-5, 1.3e-6, 2.4e-7, 1.6e-7, 1.6e-7])
+#: Relative standard deviation σ_g/g = σ_g·R at the table points (dimensionless), Fig. 2.12.
+TABLE_2_4_RELATIVE: NDArray[np.float64] = _const(list(TABLE_2_4_SIGMA_G_S * TABLE_2_4_R_OHM))
+
+_LOG_R = np.log(TABLE_2_4_R_OHM)
+
+
+def _check_G(G: ArrayLike) -> NDArray[np.float64]:
+    g = np.asarray(G)
+    if g.dtype.kind not in "iuf":
+        raise TypeError(f"G must be a real numeric array, got dtype {g.dtype}")
+    g = g.astype(np.float64, copy=False)
+    bad = ~np.isfinite(g) | (g < 0)
+    if bad.any():
+        idx = tuple(int(k) for k in np.unravel_index(int(np.flatnonzero(bad)[0]), g.shape))
+        raise ValueError(f"G must be finite and >= 0 (S); got {g[idx]!r} at index {idx}")
+    return g
+
+
+def relative_sigma(G: ArrayLike) -> NDArray[np.float64]:
+    """Relative standard deviation ``σ_G/G`` of the Table 2.4 / Fig. 2.12 model.
+
+    Parameters
+    ----------
+    G : array_like
+        Equivalent conductances (S), finite and >= 0, any shape.
+
+    Returns
+    -------
+    ndarray of float64
+        ``σ_G/G`` (dimensionless), linear in ``log(1/G)`` between the table resistances,
+        constant below 100 Ω and above 220 kΩ (``G = 0`` takes the 220 kΩ value).
+    """
+    g = _check_G(G)
+    with np.errstate(divide="ignore"):
+        log_r = -np.log(g)  # log R; +inf for an open cell, which np.interp holds at the end value
+    return np.interp(log_r, _LOG_R, TABLE_2_4_RELATIVE)
+
+
+def sigma_G(G: ArrayLike) -> NDArray[np.float64]:
+    """Standard deviation of ``G`` (S) in the table model: ``relative_sigma(G) * G``.
+
+    Zero for an open cell (``G = 0``): the model is relative.
+    """
+    g = _check_G(G)
+    return relative_sigma(g) * g
+
+
+def add_noise(
+    G: ArrayLike,
+    rng: np.random.Generator | int | None = None,
+    model: Literal["table", "voltage"] = "table",
+    sigma_v: float = 1e-3,
+    circuit: Circuit | None = None,
+    clip_min: float | None = None,
+) -> NDArray[np.float64]:
+    """Noisy copy of equivalent conductances ``G`` (Gaussian, thesis §2.3.2 / Table 2.4).
+
+    Parameters
+    ----------
+    G : array_like
+        Noise-free equivalent conductances (S), finite and >= 0, any shape.
+    rng : numpy.random.Generator, int or None
+        Random generator or seed.
+    model : {"table", "voltage"}
+        ``"table"``: ``G + N(0, sigma_G(G))``. ``"voltage"``: ``V = circuit.voltage(G) +
+        N(0, sigma_v)``, then the exact inverse of the circuit (no quantisation).
+    sigma_v : float
+        Voltage noise standard deviation (V), ``"voltage"`` model only.
+    circuit : Circuit, optional
+        Circuit for the ``"voltage"`` model (default :class:`~psmat.circuit.Circuit` ()).
+    clip_min : float, optional
+        If given, results are raised to at least this value (S), e.g. 0 or a tiny positive
+        conductance before a logarithm. NaN stays NaN.
+
+    Returns
+    -------
+    ndarray of float64
+        Noisy ``G`` (S), shape of ``G`` (broadcast with a per-pair ``r_mux``).
+
+    Notes
+    -----
+    Nothing is clipped unless ``clip_min`` is given: the Gaussian can give negative values
+    (for ``"table"`` when ``σ_G/G`` is large, e.g. about 3.5 % at 220 kΩ, so rarely; for
+    ``"voltage"`` near an open cell, where the noisy voltage lies beyond the open-circuit
+    reading and the algebraic inverse continues smoothly to ``G < 0``). In the
+    ``"voltage"`` model a draw whose voltage reaches the reading of a zero-resistance cell
+    (or leaves ``(0, V_ref)``) has no finite conductance and is returned as NaN.
+    """
+    g = _check_G(G)
+    gen = np.random.default_rng(rng)
+    if model == "table":
+        out = g + gen.standard_normal(g.shape) * sigma_G(g)
+    elif model == "voltage":
+        if not np.isfinite(sigma_v) or sigma_v < 0:
+            raise ValueError(f"sigma_v must be finite and >= 0 (V), got {sigma_v!r}")
+        cir = Circuit() if circuit is None else circuit
+        if not isinstance(cir, Circuit):
+            raise TypeError(f"circuit must be a Circuit, got {type(cir).__name__}")
+        v = cir.voltage(g)
+        v = v + gen.standard_normal(v.shape) * sigma_v
+        out = _invert_keep_open(cir, v)
+    else:
+        raise ValueError(f"model must be 'table' or 'voltage', got {model!r}")
+    if clip_min is not None:
+        with np.errstate(invalid="ignore"):
+            out = np.where(np.isnan(out), np.nan, np.maximum(out, float(clip_min)))
+    return out
+
+
+def _invert_keep_open(cir: Circuit, v: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Algebraic inverse of the circuit without quantisation.
+
+    Like :meth:`Circuit.conductance_from_voltage`, but at or beyond the open-circuit reading
+    (flag OPEN) the formula ``G = G_path/(1 - G_path R_mux)`` is kept: it passes smoothly
+    through ``G = 0`` to negative values and has no pole on that side. Only the short side
+    (flag SHORT: no finite conductance) stays NaN.
+    """
+    g, flags = cir.conductance_from_voltage(v, return_flags=True)
+    is_open = flags == OPEN
+    if is_open.any():
+        with np.errstate(divide="ignore", invalid="ignore"):
+            gpath = (cir.v_ref / v - 1.0) / cir.r_o - 1.0 / cir.r_adc  # divider undone, R_adc removed
+            g = np.where(is_open, gpath / (1.0 - gpath * cir.r_mux), g)  # R_mux subtracted
+    return g
