@@ -43,6 +43,7 @@ py::dict report_dict(const SolveReport& r) {
   py::dict d;
   d["iterations"] = r.iterations;
   d["factorizations"] = r.factorizations;
+  d["krylov_iterations"] = r.krylov_iterations;
   d["evaluations"] = r.evaluations;
   d["residual"] = r.residual;
   d["cost"] = r.cost;
@@ -56,7 +57,7 @@ py::dict report_dict(const SolveReport& r) {
 // Per-frame diagnostics of a batch as a dict of NumPy arrays.
 py::dict reports_arrays(const std::vector<SolveReport>& reps) {
   const py::ssize_t T = static_cast<py::ssize_t>(reps.size());
-  py::array_t<int> it(T), fa(T), ev(T), ab(T);
+  py::array_t<int> it(T), fa(T), kr(T), ev(T), ab(T);
   py::array_t<double> res(T), cost(T);
   py::array_t<int8_t> status(T);
   py::array_t<bool> conv(T), fb(T);
@@ -64,6 +65,7 @@ py::dict reports_arrays(const std::vector<SolveReport>& reps) {
     const auto& r = reps[static_cast<size_t>(t)];
     it.mutable_at(t) = r.iterations;
     fa.mutable_at(t) = r.factorizations;
+    kr.mutable_at(t) = r.krylov_iterations;
     ev.mutable_at(t) = r.evaluations;
     ab.mutable_at(t) = r.at_bound;
     res.mutable_at(t) = r.residual;
@@ -75,6 +77,7 @@ py::dict reports_arrays(const std::vector<SolveReport>& reps) {
   py::dict d;
   d["iterations"] = it;
   d["factorizations"] = fa;
+  d["krylov_iterations"] = kr;
   d["evaluations"] = ev;
   d["residual"] = res;
   d["cost"] = cost;
@@ -112,9 +115,9 @@ void register_iecm(py::module_& m) {
       .def_readwrite("beta", &SolveOptions::beta)
       .def_readwrite("g_floor", &SolveOptions::g_floor)
       .def_readwrite("max_log_step", &SolveOptions::max_log_step)
-      .def_readwrite("chord", &SolveOptions::chord)
-      .def_readwrite("chord_contraction", &SolveOptions::chord_contraction)
-      .def_readwrite("chord_max_residual", &SolveOptions::chord_max_residual)
+      .def_readwrite("reuse_factorization", &SolveOptions::reuse_factorization)
+      .def_readwrite("krylov_max_iter", &SolveOptions::krylov_max_iter)
+      .def_readwrite("forcing", &SolveOptions::forcing)
       .def_readwrite("fallback", &SolveOptions::fallback);
 
   m.def(

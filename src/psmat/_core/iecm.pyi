@@ -29,9 +29,9 @@ class SolveOptions:
     beta: float
     g_floor: float
     max_log_step: float
-    chord: bool
-    chord_contraction: float
-    chord_max_residual: float
+    reuse_factorization: bool
+    krylov_max_iter: int
+    forcing: float
     fallback: bool
     def __init__(self) -> None: ...
 

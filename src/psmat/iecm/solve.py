@@ -4,9 +4,10 @@ The solvers run in the C++ core (``src/cpp/psmat/iecm/solve_*.cpp``) with the GI
 batches are spread over all cores. Methods:
 
 ``"newton"`` (default)
-    Damped Newton on log g, each step one Cholesky of the SPD matrix D_G (T∘T) D_G; chord
-    steps reuse the previous factorisation near the solution (consecutive frames of a
-    stream); backtracking line search. When noise makes G unreachable by positive g it
+    Damped Newton-Krylov on log g: each step solves the SPD system D_G (T∘T) D_G y = b by
+    preconditioned conjugate gradients with the exact O((R+C)^3) matrix-free product and a
+    float32 Cholesky preconditioner that is reused across iterations and across the frames
+    of a stream (rebuilt only when PCG slows down); backtracking line search. When noise makes G unreachable by positive g it
     restarts with ``"bounded_newton"``.
 ``"bounded_newton"``
     The bounded problem as a complementarity problem: F(g) = G on the free cells, g at
@@ -44,8 +45,9 @@ class SolveInfo:
 
     Attributes
     ----------
-    iterations, factorizations, evaluations : int arrays
-        Iterations, matrix factorisations and forward-model evaluations per frame.
+    iterations, factorizations, krylov_iterations, evaluations : int arrays
+        Newton (or method) iterations, matrix factorisations, PCG iterations and
+        forward-model evaluations per frame.
     residual : float array
         Final max_a |F(g)_a - G_a| / G_a (relative, dimensionless).
     cost : float array
@@ -68,6 +70,7 @@ class SolveInfo:
 
     iterations: np.ndarray
     factorizations: np.ndarray
+    krylov_iterations: np.ndarray
     evaluations: np.ndarray
     residual: np.ndarray
     cost: np.ndarray
@@ -100,7 +103,7 @@ def make_options(
     max_iter: int | None = None,
     beta: float = 0.05,
     g_floor: float = 1e-12,
-    chord: bool = True,
+    reuse_factorization: bool = True,
     fallback: bool = True,
 ) -> "_core.iecm.SolveOptions":
     """Build the C++ solver options, validating every value."""
@@ -122,7 +125,7 @@ def make_options(
     o.max_iter = int(max_iter)
     o.beta = float(beta)
     o.g_floor = float(g_floor)
-    o.chord = bool(chord)
+    o.reuse_factorization = bool(reuse_factorization)
     o.fallback = bool(fallback)
     return o
 
@@ -138,7 +141,7 @@ def solve(
     max_iter: int | None = None,
     beta: float = 0.05,
     g_floor: float = 1e-12,
-    chord: bool = True,
+    reuse_factorization: bool = True,
     fallback: bool = True,
     progress: bool | None = None,
     return_info: bool = False,
@@ -168,9 +171,9 @@ def solve(
         Fixed-point damping (eq. 2.10).
     g_floor : float
         Lower bound on g in S (positivity).
-    chord, fallback : bool
-        Newton: reuse factorisations near the solution; hand over to least squares when
-        G is not reachable by positive g.
+    reuse_factorization, fallback : bool
+        Newton: keep the preconditioner across iterations and frames; restart with the
+        bounded Newton when G is not reachable by positive g.
     progress : bool, optional
         Progress bar for batches (default: on for >= 2000 frames when writing to a terminal).
     return_info : bool
@@ -190,7 +193,7 @@ def solve(
     """
     frames, single = as_frames(G, "G", allow_zero=False)
     opts = make_options(method, rtol=rtol, max_iter=max_iter, beta=beta, g_floor=g_floor,
-                        chord=chord, fallback=fallback)
+                        reuse_factorization=reuse_factorization, fallback=fallback)
     init = None
     if g0 is not None:
         init, _ = as_frames(g0, "g0", allow_zero=False)
@@ -206,7 +209,7 @@ def solve(
     if single:
         g, rep = _core.iecm.solve_frame(frames[0], opts, None if init is None else init[0])
         info = SolveInfo(
-            **{k: np.asarray(rep[k]) for k in ("iterations", "factorizations", "evaluations", "residual", "cost", "converged", "used_fallback", "at_bound")},
+            **{k: np.asarray(rep[k]) for k in ("iterations", "factorizations", "krylov_iterations", "evaluations", "residual", "cost", "converged", "used_fallback", "at_bound")},
             status=np.asarray(rep["status"]),
             method=method,
             threads=1,
@@ -220,6 +223,7 @@ def solve(
         reps = job.reports()
         info = SolveInfo(
             iterations=reps["iterations"], factorizations=reps["factorizations"],
+            krylov_iterations=reps["krylov_iterations"],
             evaluations=reps["evaluations"], residual=reps["residual"], cost=reps["cost"],
             status=_STATUS_NAMES[reps["status"]], converged=reps["converged"],
             used_fallback=reps["used_fallback"], at_bound=reps["at_bound"], method=method,

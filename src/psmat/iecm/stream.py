@@ -2,7 +2,8 @@
 
 The reference design is the thesis' C thread pool (Fig. 2.10): a producer queues frames,
 worker threads solve them, a consumer takes them in order. Each frame warm-starts from the
-newest solution available, so a live recording costs chord steps, not cold solves.
+newest solution available and reuses its worker's preconditioner, so a live recording
+costs a few Krylov iterations per frame, not cold solves.
 """
 
 from __future__ import annotations
@@ -32,7 +33,8 @@ class Stream:
     max_pending : int
         Frames queued or unread before :meth:`push` blocks (back-pressure, bounded memory).
     **options
-        ``rtol``, ``max_iter``, ``beta``, ``g_floor``, ``chord``, ``fallback`` as in solve.
+        ``rtol``, ``max_iter``, ``beta``, ``g_floor``, ``reuse_factorization``, ``fallback`` as
+        in solve.
 
     Examples
     --------
@@ -112,5 +114,5 @@ class Stream:
 
 
 def _info(rep: dict, method: str) -> SolveInfo:
-    keys = ("iterations", "factorizations", "evaluations", "residual", "cost", "converged", "used_fallback", "at_bound")
+    keys = ("iterations", "factorizations", "krylov_iterations", "evaluations", "residual", "cost", "converged", "used_fallback", "at_bound")
     return SolveInfo(**{k: np.asarray(rep[k]) for k in keys}, status=np.asarray(rep["status"]), method=method)

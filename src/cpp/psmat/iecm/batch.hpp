@@ -3,7 +3,7 @@
 // A BatchJob owns a copy of its input and runs on its own threads, so the caller (Python)
 // can release the GIL, poll progress for a progress bar and cancel. Two modes:
 //  * streaming: frames are split into one contiguous chunk per thread; inside a chunk each
-//    frame warm-starts from the previous solution and its factorisation (chord steps);
+//    frame warm-starts from the previous solution and reuses its preconditioner;
 //  * independent: every frame starts cold from g0 = G_exp (what a random-access job does).
 #pragma once
 #include <atomic>

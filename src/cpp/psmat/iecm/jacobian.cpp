@@ -32,15 +32,22 @@ void jacobian(const NodalInverse& net, const ConstVecRef& G, RowMatRef J) {
   });
 }
 
-void scaled_hadamard(const NodalInverse& net, const ConstVecRef& G, Eigen::MatrixXd& S,
-                     bool lower_only) {
+template <class Matrix>
+void scaled_hadamard(const NodalInverse& net, const ConstVecRef& G, Matrix& S, bool lower_only) {
+  using Scalar = typename Matrix::Scalar;
   const Index C = net.shape().cols;
   S.resize(net.shape().cells(), net.shape().cells());
   for_each_T_segment(net, lower_only, [&](Index a, Index j, const Eigen::ArrayXd& T) {
     // column a of S (= row a, S is symmetric): G_a G_b T[a,b]^2
-    S.col(a).segment(j * C, C) = G[a] * (G.segment(j * C, C).array() * T.square()).matrix();
+    S.col(a).segment(j * C, C) =
+        (G[a] * (G.segment(j * C, C).array() * T.square())).matrix().template cast<Scalar>();
   });
 }
+
+template void scaled_hadamard<Eigen::MatrixXd>(const NodalInverse&, const ConstVecRef&,
+                                               Eigen::MatrixXd&, bool);
+template void scaled_hadamard<Eigen::MatrixXf>(const NodalInverse&, const ConstVecRef&,
+                                               Eigen::MatrixXf&, bool);
 
 void hadamard_product(const NodalInverse& net, const ConstVecRef& v, VecRef out,
                       HadamardWork& work) {

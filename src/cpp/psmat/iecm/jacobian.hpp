@@ -18,8 +18,9 @@ void jacobian(const NodalInverse& net, const ConstVecRef& G, RowMatRef J);
 
 // S = D_G (T∘T) D_G (column-major, for Eigen's Cholesky). With lower_only, only the blocks
 // j >= i (the lower triangle and a little more) are written.
-void scaled_hadamard(const NodalInverse& net, const ConstVecRef& G, Eigen::MatrixXd& S,
-                     bool lower_only);
+// Defined for Eigen::MatrixXd and Eigen::MatrixXf (a float32 preconditioner).
+template <class Matrix>
+void scaled_hadamard(const NodalInverse& net, const ConstVecRef& G, Matrix& S, bool lower_only);
 
 // Matrix-free product out = (T∘T) v in O(n^3) instead of O((RC)^2) (SPEC §3):
 //   ((T∘T) v)[i,p] = K[i,i] + K[p',p'] - 2 K[i,p'],   K = M L_v M,

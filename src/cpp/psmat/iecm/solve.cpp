@@ -34,9 +34,7 @@ Solver::Solver(Shape shape, const SolveOptions& options)
     : net(shape),
       Gm(shape.cells()),
       ra(shape.cells()),
-      S(shape.cells(), shape.cells()),
-      llt(shape.cells()),
-      G_ref(shape.cells()),
+      op(shape),
       shape_(shape),
       opts_(options) {}
 
@@ -48,21 +46,6 @@ bool Solver::evaluate(const ConstVecRef& g, const ConstVecRef& G_exp, double& co
   cost = 0.5 * rel.square().sum();
   resid = rel.abs().maxCoeff();
   return std::isfinite(cost);
-}
-
-bool Solver::factorize_newton_matrix() {
-  scaled_hadamard(net, Gm, S, /*lower_only=*/true);
-  llt.compute(S);  // reads the lower triangle only
-  // S is SPD in exact arithmetic wherever the problem is well posed; a tiny shift of its unit
-  // diagonal rescues round-off indefiniteness in nearly unobservable cells.
-  for (double shift = 1e-12; llt.info() != Eigen::Success && shift <= 1e-2; shift *= 100.0) {
-    scaled_hadamard(net, Gm, S, true);
-    S.diagonal().array() += shift;
-    llt.compute(S);
-  }
-  have_factor_ = llt.info() == Eigen::Success;
-  if (have_factor_) G_ref = Gm;
-  return have_factor_;
 }
 
 SolveReport Solver::solve(const ConstVecRef& G_exp, VecRef g, bool warm) {

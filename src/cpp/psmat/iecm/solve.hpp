@@ -1,11 +1,11 @@
 // IECM inverse g = F^-1(G_exp), g > 0 (thesis eq. 2.8-2.10, SPEC §3).
 //
-// A Solver owns the workspace of one thread: the nodal inverse, the Newton matrix and its
-// Cholesky factor. Between calls it keeps that factor, so consecutive frames of a stream
-// are solved with chord steps (the previous frame's factorisation) until they stop
-// contracting — one factorisation every few frames instead of one per iteration.
+// A Solver owns the workspace of one thread: the nodal inverse, the Newton operator and its
+// preconditioner. Between calls it keeps the preconditioner, so consecutive frames of a
+// stream reuse one factorisation for as long as PCG converges quickly with it.
 #pragma once
 #include "psmat/iecm/laplacian.hpp"
+#include "psmat/iecm/newton_operator.hpp"
 #include "psmat/iecm/solve_options.hpp"
 
 namespace psmat::iecm {
@@ -18,8 +18,8 @@ class Solver {
   // the solve starts cold from g0 = G_exp and the stored factorisation is discarded.
   SolveReport solve(const ConstVecRef& G_exp, VecRef g, bool warm);
 
-  // Forget the stored factorisation.
-  void reset() { have_factor_ = false; }
+  // Forget the stored preconditioner.
+  void reset() { op.reset(); }
 
   const SolveOptions& options() const { return opts_; }
   const Shape& shape() const { return shape_; }
@@ -28,17 +28,13 @@ class Solver {
   // Evaluates F(g) into Gm, the raw residual ra = F(g) - G_exp, the cost
   // 0.5*sum((ra/G_exp)^2) and the max relative residual. False if the network is singular.
   bool evaluate(const ConstVecRef& g, const ConstVecRef& G_exp, double& cost, double& resid);
-  // Builds S = D_G (T∘T) D_G at the last evaluated point and Cholesky-factorises it (with a
-  // small diagonal shift if round-off makes it indefinite). Stores G_ref = Gm.
-  bool factorize_newton_matrix();
 
   NodalInverse net;
   Eigen::VectorXd Gm;     // F(g) at the last evaluated point
   Eigen::VectorXd ra;     // F(g) - G_exp at the last evaluated point
-  Eigen::MatrixXd S;      // Newton matrix (or normal matrix for least squares)
+  NewtonOperator op;      // Newton: matrix-free S and its reusable preconditioner
+  Eigen::MatrixXd S;      // dense double S (bounded Newton, least squares), sized on first use
   Eigen::LLT<Eigen::MatrixXd> llt;
-  Eigen::VectorXd G_ref;  // Gm where the stored factorisation was built
-  bool have_factor_ = false;
 
  private:
   Shape shape_;

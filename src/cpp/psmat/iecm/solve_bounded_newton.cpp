@@ -19,7 +19,6 @@ SolveReport solve_bounded_newton(Solver& s, const ConstVecRef& G_exp, VecRef g) 
   const SolveOptions& o = s.options();
   const Index n = s.shape().cells();
   SolveReport rep;
-  s.have_factor_ = false;  // S is overwritten with principal submatrices below
   g = g.cwiseMax(o.g_floor);
   const double at_floor = o.g_floor * (1.0 + 1e-9);
 

@@ -18,7 +18,6 @@ SolveReport solve_least_squares(Solver& s, const ConstVecRef& G_exp, VecRef g, b
   const SolveOptions& o = s.options();
   const Index n = s.shape().cells();
   SolveReport rep;
-  s.have_factor_ = false;  // S and llt are reused for the normal matrix
   g = g.cwiseMax(o.g_floor);
 
   double cost = 0, resid = 0;

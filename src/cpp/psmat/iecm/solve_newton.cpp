@@ -1,13 +1,16 @@
-// Damped Newton on log g for F(g) = G_exp (SPEC §3, eq. 2.8 with positivity by
+// Damped Newton-Krylov on log g for F(g) = G_exp (SPEC §3; eq. 2.8 with positivity by
 // log-parameterisation, as the thesis' C/GSL implementation).
 //
-// Newton step: J dg = -(F(g) - G_exp) with J = D_G (S) D_G^-1, S = D_G (T∘T) D_G SPD
-//   => S y = -(F(g) - G_exp)/G,  dg = G∘y,  d(log g) = dg/g.
-// Globalisation: |d log g| capped (trust region in log space) and a backtracking line search
-// on the cost 0.5*sum(((F(g)-G_exp)/G_exp)^2), for which the Newton step is a descent
-// direction with slope -2*cost. Chord steps reuse the last factorisation (S at G_ref) while
-// they shrink the cost by `chord_contraction` and the iterate is close to a solution (far from
-// it, a stale linearisation can lead into regions where cells collapse); otherwise S is rebuilt.
+// Newton step: J dg = -(F(g) - G_exp) with J = D_G S D_G^-1, S = D_G (T∘T) D_G SPD
+//   => S y = -(F(g) - G_exp)/G,  dg = G∘y,  applied as g <- g exp(t dx), dx = log((g+dg)/g)
+//      projected into [-cap, cap] per cell (see projected_log_step),
+// solved by PCG with the exact matrix-free S and a reusable float32 Cholesky preconditioner
+// (newton_operator.hpp), to a relative tolerance min(forcing, 0.1*residual) (inexact Newton).
+// The preconditioner is rebuilt at the current point only when PCG needs more than
+// krylov_max_iter iterations or the step fails the line search; otherwise it is kept across
+// iterations and across the frames of a stream.
+// Globalisation: the per-cell multiplicative trust region and a backtracking line search on the cost 0.5*sum(((F(g)-G_exp)/G_exp)^2), for which the Newton step is a descent
+// direction with slope -2*cost.
 #include <algorithm>
 #include <cmath>
 #include <limits>
@@ -17,36 +20,35 @@
 namespace psmat::iecm {
 
 namespace {
-// Caps the log step so that max |dx| <= cap; returns the scale applied.
-double cap_step(Eigen::VectorXd& dx, double cap) {
-  const double m = dx.cwiseAbs().maxCoeff();
-  if (m > cap) {
-    dx *= cap / m;
-    return cap / m;
-  }
-  return 1.0;
-}
-
-void take_log_step(const ConstVecRef& g, const Eigen::VectorXd& dx, double t, double floor,
-                   Eigen::VectorXd& out) {
-  out = (g.array() * (t * dx.array()).exp()).max(floor).matrix();
+// The Newton step dg taken in g, projected cell by cell into the multiplicative trust region
+// g e^-cap <= g + dg <= g e^cap (positivity included). Taking it in g rather than as
+// d(log g) = dg/g lets a cell that starts far above its value (g0 = G >> g on quiet cells)
+// drop to it in one step instead of by a factor e per iteration; clipping per cell rather
+// than scaling the whole step keeps a few ghost-dominated cells (whose G barely depends on
+// them) from stalling all the others. Returned as the log step dx = log(g_new / g).
+void projected_log_step(const ConstVecRef& g, const Eigen::VectorXd& dg, double cap,
+                        Eigen::VectorXd& dx) {
+  const double lo = std::exp(-cap), hi = std::exp(cap);
+  dx = ((g.array() + dg.array()).max(lo * g.array()).min(hi * g.array()) / g.array()).log().matrix();
 }
 }  // namespace
 
 SolveReport solve_newton(Solver& s, const ConstVecRef& G_exp, VecRef g) {
   const SolveOptions& o = s.options();
   const Index n = s.shape().cells();
+  const int kmax = o.krylov_max_iter > 0 ? o.krylov_max_iter : 10 + static_cast<int>(n / 64);
   SolveReport rep;
-  Eigen::VectorXd dx(n), gt(n), rhs(n);
+  Eigen::VectorXd dx(n), gt(n), b(n), y(n);
   g = g.cwiseMax(o.g_floor);
   const Eigen::VectorXd g_start = g;  // the bounded fallback restarts from here
   // A warm start from a bounded solution (cells at the floor) stays on the bounded problem:
   // log g cannot move off the floor in a useful number of steps.
   if (o.fallback && (g.array() <= o.g_floor * (1.0 + 1e-9)).any()) {
-    SolveReport b = solve_bounded_newton(s, G_exp, g);
-    b.used_fallback = true;
-    return b;
+    SolveReport bd = solve_bounded_newton(s, G_exp, g);
+    bd.used_fallback = true;
+    return bd;
   }
+  if (!o.reuse_factorization) s.op.reset();
 
   double cost = 0, resid = 0;
   if (!s.evaluate(g, G_exp, cost, resid)) {
@@ -54,67 +56,71 @@ SolveReport solve_newton(Solver& s, const ConstVecRef& G_exp, VecRef g) {
     return rep;
   }
   rep.evaluations = 1;
-  bool at_g = true;  // is the Solver's evaluation state that of g?
-  int slow = 0;      // consecutive Newton iterations with little progress
+  bool at_g = true;  // does the Solver's evaluation state belong to g?
+  int slow = 0;      // consecutive iterations that did not halve the cost
 
   for (; rep.iterations < o.max_iter; ++rep.iterations) {
     if (resid <= o.rtol) {
       rep.status = Status::Converged;
       break;
     }
-    // --- chord step with the stored factorisation -------------------------------------
-    if (o.chord && s.have_factor_ && resid <= o.chord_max_residual) {
-      rhs = -(s.ra.array() / s.G_ref.array()).matrix();
-      s.llt.solveInPlace(rhs);
-      dx = (s.G_ref.array() * rhs.array() / g.array()).matrix();
-      cap_step(dx, o.max_log_step);
-      take_log_step(g, dx, 1.0, o.g_floor, gt);
-      double ct = 0, rt = 0;
-      ++rep.evaluations;
-      if (s.evaluate(gt, G_exp, ct, rt) && ct <= o.chord_contraction * cost) {
-        g = gt;
-        cost = ct;
-        resid = rt;
-        at_g = true;
-        continue;
-      }
-      // not contracting: rebuild the Newton matrix at g
-      s.have_factor_ = false;
-      ++rep.evaluations;
-      if (!s.evaluate(g, G_exp, cost, resid)) {
-        rep.status = Status::Singular;
-        return rep;
-      }
-      at_g = true;
-    }
-    // --- full Newton step with line search ----------------------------------------------
     if (!at_g) {
       ++rep.evaluations;
       s.evaluate(g, G_exp, cost, resid);
+      at_g = true;
     }
-    if (!s.factorize_newton_matrix()) {
-      rep.status = Status::Singular;
-      break;
+    b = -(s.ra.array() / s.Gm.array()).matrix();
+    const double tol = std::max(1e-8, std::min(o.forcing, 0.1 * resid));
+    bool fresh = false;  // preconditioner built at this very point?
+    if (!s.op.has_factor()) {
+      if (!s.op.factor(s.net, s.Gm)) {
+        rep.status = Status::Singular;
+        break;
+      }
+      ++rep.factorizations;
+      fresh = true;
     }
-    ++rep.factorizations;
-    rhs = -(s.ra.array() / s.Gm.array()).matrix();
-    s.llt.solveInPlace(rhs);
-    dx = (s.Gm.array() * rhs.array() / g.array()).matrix();
-    cap_step(dx, o.max_log_step);
-
+    int k = s.op.pcg(s.net, s.Gm, b, y, tol, kmax);
+    rep.krylov_iterations += k > 0 ? k : kmax;
+    if (k < 0 && !fresh) {  // a stale preconditioner: rebuild here and solve again
+      if (!s.op.factor(s.net, s.Gm)) {
+        rep.status = Status::Singular;
+        break;
+      }
+      ++rep.factorizations;
+      fresh = true;
+      k = s.op.pcg(s.net, s.Gm, b, y, tol, 4 * kmax);
+      rep.krylov_iterations += k > 0 ? k : 4 * kmax;
+    }
+    // Two candidate directions: the projected g-space step (fast far from the solution) and,
+    // if its line search fails, the plain log-Newton step scaled into the trust region
+    // (always a descent direction for the cost: slope -2*cost).
     double t = 1.0, ct = std::numeric_limits<double>::infinity(), rt = 0;
     bool accepted = false;
-    for (int k = 0; k < 40; ++k, t *= 0.5) {
-      take_log_step(g, dx, t, o.g_floor, gt);
-      ++rep.evaluations;
-      const bool ok = s.evaluate(gt, G_exp, ct, rt);
-      if (ok && ct <= (1.0 - 2e-4 * t) * cost) {  // Armijo, slope -2*cost
-        accepted = true;
-        break;
+    for (int attempt = 0; attempt < 2 && !accepted; ++attempt) {
+      if (attempt == 0) {
+        projected_log_step(g, (s.Gm.array() * y.array()).matrix(), o.max_log_step, dx);
+      } else {
+        dx = (s.Gm.array() * y.array() / g.array()).matrix();
+        const double m = dx.cwiseAbs().maxCoeff();
+        if (m > o.max_log_step) dx *= o.max_log_step / m;
+      }
+      t = 1.0;
+      for (int ls = 0; ls < (attempt == 0 ? 4 : 40); ++ls, t *= 0.5) {
+        gt = (g.array() * (t * dx.array()).exp()).max(o.g_floor).matrix();
+        ++rep.evaluations;
+        at_g = false;
+        if (s.evaluate(gt, G_exp, ct, rt) && ct <= (1.0 - 2e-4 * t) * cost) {  // Armijo
+          accepted = true;
+          break;
+        }
       }
     }
     if (!accepted) {
-      at_g = false;
+      if (!fresh) {  // maybe only the preconditioner was too stale for an accurate step
+        s.op.reset();
+        continue;
+      }
       rep.status = Status::Stalled;
       break;
     }
@@ -141,12 +147,13 @@ SolveReport solve_newton(Solver& s, const ConstVecRef& G_exp, VecRef g) {
     // G_exp not reproducible by positive g (noise): the complementarity solution, from the
     // starting point (a stalled log-Newton path may have wandered into a poor region).
     g = g_start;
-    SolveReport b = solve_bounded_newton(s, G_exp, g);
-    b.iterations += rep.iterations;
-    b.factorizations += rep.factorizations;
-    b.evaluations += rep.evaluations;
-    b.used_fallback = true;
-    return b;
+    SolveReport bd = solve_bounded_newton(s, G_exp, g);
+    bd.iterations += rep.iterations;
+    bd.factorizations += rep.factorizations;
+    bd.krylov_iterations += rep.krylov_iterations;
+    bd.evaluations += rep.evaluations;
+    bd.used_fallback = true;
+    return bd;
   }
   return rep;
 }

@@ -5,7 +5,8 @@
 namespace psmat::iecm {
 
 enum class Method {
-  Newton,      // damped Newton on log g with Cholesky of S = D_G (T∘T) D_G, line search, chord reuse
+  Newton,      // damped Newton-Krylov on log g: PCG on S = D_G (T∘T) D_G (matrix-free), reused
+               // float32 Cholesky preconditioner, line search
   BoundedNewton,  // active-set Newton on g >= g_floor for the complementarity problem
                   // g >= 0, F(g) >= G_exp, g (F(g) - G_exp) = 0 (noisy G; unique: J is a P-matrix)
   LM,          // Levenberg-Marquardt least squares (eq. 2.9) on log g (positivity by construction)
@@ -31,17 +32,18 @@ struct SolveOptions {
   double ftol = 1e-14;           // least squares: relative decrease of the cost below this
   double beta = 0.05;            // fixed point damping (eq. 2.10)
   double g_floor = 1e-12;        // S; lower bound that keeps conductances positive
-  double max_log_step = 2.0;     // Newton/LM trust region: |delta log g| per iteration
-  bool chord = true;             // Newton: reuse a factorisation while it contracts well
-  double chord_contraction = 0.5;   // accept a chord step only if the cost drops by this factor
-  double chord_max_residual = 0.3;  // ... and only this close (max relative residual) to a solution
+  double max_log_step = 3.0;     // Newton/LM trust region: |delta log g| per cell and iteration
+  bool reuse_factorization = true;  // Newton: keep the preconditioner across iterations/frames
+  int krylov_max_iter = 0;       // Newton: PCG iterations before refactorising (0: 10 + R*C/64)
+  double forcing = 1e-2;         // Newton: PCG tolerance is min(forcing, 0.1*residual), >= 1e-8
   bool fallback = true;          // Newton: when it stalls (noisy G unreachable by g > 0), restart
                                  // from g0 with the bounded (complementarity) Newton
 };
 
 struct SolveReport {
   int iterations = 0;
-  int factorizations = 0;        // Cholesky/LDLT factorisations of the Newton/normal matrix
+  int factorizations = 0;        // Cholesky factorisations (preconditioner / Newton / normal matrix)
+  int krylov_iterations = 0;     // PCG iterations (Newton)
   int evaluations = 0;           // forward-model evaluations F(g)
   double residual = 0.0;         // final max_a |F(g)_a - G_a| / G_a
   double cost = 0.0;             // final 0.5 * sum_a ((F(g)_a - G_a) / G_a)^2
