@@ -2,11 +2,10 @@
 // cell conductances from G = F(g) (round trips), including non-square arrays, the reference
 // two-feet image from a cold start, and a strong-ghost configuration; warm starts pay off;
 // the per-frame report tells the truth about the returned g.
-#include <Eigen/Eigenvalues>
 #include <algorithm>
 #include <cmath>
+#include <string>
 
-#include "psmat/iecm/jacobian.hpp"
 #include "psmat/iecm/solve.hpp"
 #include "support.hpp"
 
@@ -32,7 +31,8 @@ double lambda_max_bound(Shape s, const VectorXd& g) { return (F(s, g).array() / 
 
 // Fixed point (eq. 2.10) g <- g - beta (F(g) - G) is a contraction near the solution iff
 // 0 < beta < 2/lambda_max(J); beta = 1/(upper bound of lambda_max) is always safe. Its rate is
-// 1 - beta*lambda_min per iteration, so it needs many more iterations than Newton.
+// 1 - beta*lambda_min per iteration, so it needs many more iterations than Newton (measured:
+// ~700-2200 here vs 4-8) but reaches the same 1e-6 accuracy: no looser tolerance is needed.
 SolveOptions options_for(Method m, Shape s, const VectorXd& g_true) {
   SolveOptions o;
   o.method = m;

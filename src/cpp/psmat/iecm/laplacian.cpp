@@ -1,6 +1,40 @@
 #include "psmat/iecm/laplacian.hpp"
 
+#include <cmath>
+#include <numeric>
+#include <vector>
+
 namespace psmat::iecm {
+
+namespace {
+// True when the cells with g > 0 connect all R + C lines into one network. Cholesky alone
+// cannot tell: round-off can leave a tiny positive pivot for an isolated ground row.
+bool connected(const Shape& s, const ConstVecRef& g, std::vector<Index>& parent) {
+  const Index n = s.nodes();
+  parent.resize(static_cast<size_t>(n));
+  std::iota(parent.begin(), parent.end(), Index{0});
+  auto find = [&](Index a) {
+    while (parent[static_cast<size_t>(a)] != a) {
+      parent[static_cast<size_t>(a)] = parent[static_cast<size_t>(parent[static_cast<size_t>(a)])];
+      a = parent[static_cast<size_t>(a)];
+    }
+    return a;
+  };
+  Index components = n;
+  for (Index i = 0; i < s.rows; ++i)
+    for (Index p = 0; p < s.cols; ++p) {
+      const double gip = g[i * s.cols + p];
+      if (!(gip >= 0.0) || !std::isfinite(gip)) return false;  // negative or NaN
+      if (gip == 0.0) continue;
+      const Index a = find(i), b = find(s.rows + p);
+      if (a != b) {
+        parent[static_cast<size_t>(a)] = b;
+        --components;
+      }
+    }
+  return components == 1;
+}
+}  // namespace
 
 NodalInverse::NodalInverse(Shape shape)
     : shape_(shape),
@@ -10,6 +44,7 @@ NodalInverse::NodalInverse(Shape shape)
 
 bool NodalInverse::compute(const ConstVecRef& g) {
   const Index R = shape_.rows, C = shape_.cols, n = shape_.nodes();
+  if (!connected(shape_, g, parent_)) return false;
   // eq. 2.7: diagonal = sum of the conductances at the node, off-diagonal = -g between a
   // row node and a column node; index k-1 for node k (node 0 is ground and dropped).
   cmat_.setZero();

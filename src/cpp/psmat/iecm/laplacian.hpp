@@ -7,6 +7,8 @@
 // column touches a conducting cell. `M` is Cmat^-1 padded with a zero row and column for the
 // ground node, so that node voltages for any injected current vector I are V = M I.
 #pragma once
+#include <vector>
+
 #include "psmat/types.hpp"
 
 namespace psmat::iecm {
@@ -16,8 +18,9 @@ class NodalInverse {
   explicit NodalInverse(Shape shape);
 
   // Builds Cmat from g (length R*C, row-major), factorises it (Cholesky) and forms M.
-  // Returns false when Cmat is not positive definite (a row or column with no conducting
-  // cell, or non-finite / negative entries); M is then unusable.
+  // Returns false when the network is not one connected piece (a row or column with no
+  // conducting cell, or two blocks with no cell between them), when g has negative or
+  // non-finite entries, or when Cmat is numerically not positive definite; M is then unusable.
   bool compute(const ConstVecRef& g);
 
   const Shape& shape() const { return shape_; }
@@ -37,6 +40,7 @@ class NodalInverse {
   Eigen::MatrixXd cmat_;  // (n-1) x (n-1)
   Eigen::LLT<Eigen::MatrixXd> llt_;
   Eigen::MatrixXd m_;     // n x n
+  std::vector<Index> parent_;  // union-find workspace of the connectivity check
 };
 
 }  // namespace psmat::iecm

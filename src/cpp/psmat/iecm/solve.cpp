@@ -42,9 +42,8 @@ bool Solver::evaluate(const ConstVecRef& g, const ConstVecRef& G_exp, double& co
                       double& resid) {
   if (!forward(g, net, Gm)) return false;
   ra = Gm - G_exp;
-  const Eigen::ArrayXd rel = ra.array() / G_exp.array();
-  cost = 0.5 * rel.square().sum();
-  resid = rel.abs().maxCoeff();
+  cost = 0.5 * (ra.array() / G_exp.array()).square().sum();  // no temporaries: hot path
+  resid = (ra.array() / G_exp.array()).abs().maxCoeff();
   return std::isfinite(cost);
 }
 

@@ -114,6 +114,7 @@ SolveReport solve_least_squares(Solver& s, const ConstVecRef& G_exp, VecRef g, b
     s.evaluate(g, G_exp, cost, resid);
   }
   if (resid <= o.rtol) rep.status = Status::Converged;
+  rep.at_bound = static_cast<int>((g.array() <= o.g_floor * (1.0 + 1e-9)).count());
   rep.cost = cost;
   rep.residual = resid;
   return rep;

@@ -45,14 +45,15 @@ struct SolveReport {
   int factorizations = 0;        // Cholesky factorisations (preconditioner / Newton / normal matrix)
   int krylov_iterations = 0;     // PCG iterations (Newton)
   int evaluations = 0;           // forward-model evaluations F(g)
-  double residual = 0.0;         // final max_a |F(g)_a - G_a| / G_a
+  double residual = 0.0;         // final max_a |F(g)_a - G_a| / G_a; for status Bounded over the
+                                 // free cells only (bound cells over-predict G by construction)
   double cost = 0.0;             // final 0.5 * sum_a ((F(g)_a - G_a) / G_a)^2
   Status status = Status::MaxIterations;
   bool used_fallback = false;
   bool converged() const {
     return status == Status::Converged || status == Status::LeastSquares || status == Status::Bounded;
   }
-  int at_bound = 0;              // cells held at g_floor (bounded methods)
+  int at_bound = 0;              // cells at g_floor (bounded Newton, least squares)
 };
 
 const char* to_string(Status s);
