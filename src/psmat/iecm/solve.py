@@ -15,7 +15,9 @@ batches are spread over all cores. Methods:
     quiet background cells). Unique solution (dG/dg is a P-matrix); active-set Newton with
     Cholesky factorisations of principal submatrices.
 ``"lm"``
-    Levenberg-Marquardt least squares (eq. 2.9) on log g, analytic Jacobian.
+    Levenberg-Marquardt least squares (eq. 2.9) on log g, analytic Jacobian (the thesis'
+    GSL formulation). On noisy G it can stall: a cell driven towards 0 sits on a plateau of
+    the cost in log g. Prefer ``"bounded_newton"`` or ``"bounded_lsq"`` there.
 ``"bounded_lsq"``
     Least squares (eq. 2.9) on g with the bound g >= g_floor (projected LM, active set).
 ``"fixed_point"``
