@@ -1,0 +1,27 @@
+"""``python -m psmat.bench <benchmark> [options]`` — see ``--help``."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+
+
+def main(argv: list[str] | None = None) -> int:
+    argv = list(sys.argv[1:] if argv is None else argv)
+    benches = {"iecm": "IECM crosstalk removal: frames/s and accuracy vs the thesis' NumPy/SciPy approach"}
+    if not argv or argv[0] in ("-h", "--help"):
+        p = argparse.ArgumentParser(prog="python -m psmat.bench", description="psmat benchmarks (SPEC §10).")
+        p.add_argument("benchmark", choices=sorted(benches), help="; ".join(f"{k}: {v}" for k, v in benches.items()))
+        p.print_help()
+        return 0 if argv else 2
+    name, rest = argv[0], argv[1:]
+    if name == "iecm":
+        from .iecm import main as iecm_main
+
+        return iecm_main(rest)
+    print(f"python -m psmat.bench: unknown benchmark {name!r}; choose from {sorted(benches)}", file=sys.stderr)
+    return 2
+
+
+if __name__ == "__main__":
+    sys.exit(main())

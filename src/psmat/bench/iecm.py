@@ -1,0 +1,616 @@
+"""IECM benchmark: frames/s and accuracy of :func:`psmat.iecm.solve` beside the thesis' approach.
+
+``python -m psmat.bench iecm [--quick] [--sizes 16,32,64] [--frames N] [--threads K] [--json PATH]``
+
+What is measured (SPEC §10)
+---------------------------
+Frames are a swaying-feet recording (:func:`psmat.scenes.swaying_feet`: two feet on a
+quiet background, CoP sway ~1 cm, 100 Hz; 32 cm mat, so 2 / 1 / 0.5 cm pitch for
+16 / 32 / 64 cells). ``G`` is computed from the true ``g`` by the independent NumPy forward
+model (:func:`psmat.bench.baseline_numpy.forward_numpy`), noise-free.
+
+* **streaming** — ``solve(G, warm_start=True, threads=K)``: every frame starts from the
+  previous frame's solution; the frames are split in K contiguous chunks. The chunk starts
+  are primed, as in a recording that is already running: they start from the (untimed,
+  cold) solution of the frame just before them, passed as ``g0``.
+* **cold** — ``solve(G, warm_start=False, threads=K)``: every frame independently from
+  ``g0 = G``.
+
+Per entry: one untimed warm-up call (skipped for arrays above 32×32, where one frame is
+seconds of work), then the same call repeated until at least ``--min-time`` seconds
+(``time.perf_counter``). fps per core = total fps / threads used. Accuracy: the largest
+relative error ``|ĝ - g| / g`` over cells with ``g >= 1e-4 S`` (the SPEC's 1e-6 target)
+and over all cells. Entries above 32×32 run in a child process killed after
+``--budget`` seconds, so nothing hangs.
+
+Baselines, same process, same frames: the thesis' Python approach re-implemented in
+NumPy/SciPy (:mod:`psmat.bench.baseline_numpy`) — ``scipy.optimize.least_squares`` with a
+numerical ('2-point') Jacobian, bounds ``g >= 0`` (thesis' Python) and on ``log g``
+(thesis' C/GSL); fixed point ``g <- g + 0.05 (G - F(g))`` for 2000 iterations (batched
+over frames), and the iterations it needs to reach 1e-6 (stopped by an oracle that knows
+the true ``g``). psmat's own C++ ``fixed_point`` with the same 2000 iterations is shown
+too.
+"""
+
+from __future__ import annotations
+
+import argparse
+import datetime
+import json
+import multiprocessing as mp
+import os
+import platform
+import sys
+import time
+import traceback
+import warnings
+
+import numpy as np
+
+from .. import scenes
+from .baseline_numpy import forward_numpy, jacobian_numpy, solve_fixed_point_numpy, solve_least_squares_scipy
+
+__all__ = ["run", "format_table", "machine_info", "main", "TARGETS"]
+
+ERROR_THRESHOLD_S = 1e-4   # cells with g >= this (S) carry the accuracy target
+ACCURACY_TARGET = 1e-6     # relative error reached by "Newton accuracy"
+HEAVY_CELLS = 32 * 32      # above this, psmat entries run isolated in a child process
+
+# (size, mode) -> (frames/s, "core" | "total"); SPEC §10, 2-core machine.
+TARGETS = {
+    (16, "streaming"): (2000.0, "core"),
+    (16, "cold"): (300.0, "core"),
+    (32, "streaming"): (100.0, "total"),
+    (64, "streaming"): (10.0, "total"),
+}
+
+
+# ----------------------------------------------------------------------------- helpers
+
+def machine_info() -> dict:
+    """CPU model, cores, versions and date of this run."""
+    model = platform.processor() or platform.machine()
+    try:
+        with open("/proc/cpuinfo") as f:
+            for line in f:
+                if line.lower().startswith("model name"):
+                    model = line.split(":", 1)[1].strip()
+                    break
+    except OSError:
+        pass
+    try:
+        usable = len(os.sched_getaffinity(0))
+    except (AttributeError, OSError):
+        usable = os.cpu_count() or 1
+    try:
+        import scipy
+
+        scipy_version = scipy.__version__
+    except ImportError:  # pragma: no cover - scipy is a bench/test requirement
+        scipy_version = "not installed"
+    try:
+        from importlib.metadata import version
+
+        psmat_version = version("psmat")
+    except Exception:  # pragma: no cover
+        psmat_version = "unknown"
+    return {
+        "cpu": model,
+        "logical_cpus": os.cpu_count(),
+        "usable_cpus": usable,
+        "platform": platform.platform(),
+        "python": platform.python_version(),
+        "numpy": np.__version__,
+        "scipy": scipy_version,
+        "psmat": psmat_version,
+        "date": datetime.datetime.now().astimezone().isoformat(timespec="seconds"),
+    }
+
+
+def _scene(size: int, frames: int, seed: int) -> tuple[np.ndarray, np.ndarray]:
+    """True g and noise-free G (independent NumPy forward), both (T, size, size), in S."""
+    g = scenes.swaying_feet(frames, size, size, rng=seed)
+    return g, forward_numpy(g)
+
+
+def _errors(g_hat: np.ndarray, g: np.ndarray) -> tuple[float, float]:
+    rel = np.abs(g_hat - g) / g
+    mask = g >= ERROR_THRESHOLD_S
+    return float(rel[mask].max()) if mask.any() else float("nan"), float(rel.max())
+
+
+def _timed(call, min_time: float, max_time: float):
+    """Run ``call`` until min_time seconds are spent (at least once); (last result, calls, seconds)."""
+    total, calls = 0.0, 0
+    while True:
+        t0 = time.perf_counter()
+        out = call()
+        dt = time.perf_counter() - t0
+        total += dt
+        calls += 1
+        if total >= min_time or total + dt > max_time:
+            return out, calls, total
+
+
+def _row(**kw) -> dict:
+    base = dict(size=None, mode="", solver="", threads=1, frames=0, calls=0, seconds=float("nan"),
+                fps=float("nan"), fps_per_core=float("nan"), err_loaded=float("nan"),
+                err_all=float("nan"), iterations=float("nan"), factorizations=float("nan"),
+                note="", target="", target_met=None)
+    base.update(kw)
+    return base
+
+
+def _target(row: dict) -> None:
+    t = TARGETS.get((row["size"], row["mode"])) if row["solver"].startswith("psmat newton") else None
+    if t is None:
+        return
+    fps_req, per = t
+    fps = row["fps_per_core"] if per == "core" else row["fps"]
+    row["target"] = f">= {fps_req:g} fps{'/core' if per == 'core' else ''}, err <= {ACCURACY_TARGET:g}"
+    ok_acc = np.isfinite(row["err_loaded"]) and row["err_loaded"] <= ACCURACY_TARGET
+    row["target_met"] = bool(np.isfinite(fps) and fps >= fps_req and ok_acc)
+
+
+# ----------------------------------------------------------------------------- psmat entries
+
+def _chunk_starts(T: int, threads: int) -> list[int]:
+    nt = min(threads, T)
+    return [T * k // nt for k in range(nt)]
+
+
+def measure_psmat(size: int, mode: str, threads: int, frames: int, seed: int, min_time: float,
+                  max_time: float, warmup: bool = True, method: str = "newton",
+                  solve_options: dict | None = None, label: str | None = None,
+                  prime: str = "solve") -> dict:
+    """One psmat row: ``solve`` on swaying frames (see the module docstring).
+
+    ``frames`` is used as is for streaming; for cold starts it is an upper bound, reduced
+    after the warm-up call to about 1.5 × ``min_time`` of work. ``prime``: how streaming
+    chunk starts get the previous frame's solution — ``"solve"`` (cold psmat solve of that
+    frame, untimed) or ``"truth"`` (its true g, which is what a converged solve of
+    noise-free data returns; for arrays where a cold solve takes minutes).
+    """
+    import psmat.iecm as iecm
+
+    opts = dict(solve_options or {})
+    label = label or f"psmat {method}"
+    T = int(frames)
+    g_all, G_all = _scene(size, T + 1, seed)  # frame 0 of g_all only primes the first chunk
+    g, G = g_all[1:], G_all[1:]
+    nt = min(threads, T)
+    kwargs = dict(method=method, threads=nt, return_info=True, progress=False, **opts)
+    notes = []
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)  # non-converged frames are reported, not warned
+        if mode not in ("streaming", "cold"):
+            raise ValueError(f"mode must be 'streaming' or 'cold', got {mode!r}")
+        if warmup:
+            w = slice(0, min(T, 2 * nt))
+            t0 = time.perf_counter()
+            iecm.solve(G[w], warm_start=(mode == "streaming"), **kwargs)
+            per_frame = (time.perf_counter() - t0) / (w.stop - w.start)
+            if mode == "cold":
+                T = int(min(T, max(2 * nt, np.ceil(1.5 * min_time / max(per_frame, 1e-9)))))
+                nt = min(nt, T)
+                g, G = g[:T], G[:T]
+        else:
+            notes.append("no warm-up call (one frame is seconds of work)")
+        if mode == "streaming":
+            starts = _chunk_starts(T, nt)
+            if prime == "solve":
+                # The frame before each chunk, cold-solved (untimed), as in a running recording.
+                t0 = time.perf_counter()
+                prev = iecm.solve(G_all[starts], warm_start=False, **kwargs)[0]  # G_all[s] = frame s-1 of G
+                notes.append(f"chunk starts primed by cold solves of the frames before them: "
+                             f"{time.perf_counter() - t0:.2f} s, untimed")
+            elif prime == "truth":
+                prev = g_all[starts]
+                notes.append("chunk starts primed with the true g of the frame before them "
+                             "(what a converged solve of noise-free data returns; spares the cold solves)")
+            else:
+                raise ValueError(f"prime must be 'solve' or 'truth', got {prime!r}")
+            g0 = G.copy()
+            g0[starts] = prev
+
+            def call():
+                return iecm.solve(G, warm_start=True, g0=g0, **kwargs)
+        else:
+            def call():
+                return iecm.solve(G, warm_start=False, **kwargs)
+        (g_hat, info), calls, secs = _timed(call, min_time, max_time)
+    e_loaded, e_all = _errors(g_hat, g)
+    conv = np.atleast_1d(np.asarray(info.converged, dtype=bool))
+    if not conv.all():
+        status = sorted(set(np.atleast_1d(np.asarray(info.status))[~conv].tolist()))
+        notes.append(f"{int((~conv).sum())}/{T} frames not converged ({', '.join(map(str, status))})")
+    fps = T * calls / secs
+    return _row(size=size, mode=mode, solver=label, threads=nt, frames=T, calls=calls,
+                seconds=secs, fps=fps, fps_per_core=fps / nt, err_loaded=e_loaded, err_all=e_all,
+                iterations=float(np.mean(info.iterations)),
+                factorizations=float(np.mean(getattr(info, "factorizations", np.nan))),
+                note="; ".join(notes))
+
+
+def _child(conn, fn_name: str, kwargs: dict) -> None:  # pragma: no cover - runs in a child
+    try:
+        warnings.simplefilter("ignore")
+        conn.send(("ok", globals()[fn_name](**kwargs)))
+    except BaseException:
+        conn.send(("error", traceback.format_exc(limit=3)))
+    finally:
+        conn.close()
+
+
+def _isolated(fn_name: str, kwargs: dict, timeout: float, fallback_row: dict) -> dict:
+    """Run a module-level measurement in a spawned child; kill it after ``timeout`` s."""
+    ctx = mp.get_context("spawn")
+    recv, send = ctx.Pipe(duplex=False)
+    p = ctx.Process(target=_child, args=(send, fn_name, kwargs), daemon=True)
+    t0 = time.perf_counter()
+    p.start()
+    send.close()
+    try:
+        if recv.poll(timeout):
+            kind, payload = recv.recv()
+            p.join(10)  # let it exit cleanly (finalizers) before any terminate
+        else:
+            kind, payload = "timeout", None
+    except EOFError:
+        kind, payload = "error", f"child exited with code {p.exitcode}"
+    finally:
+        if p.is_alive():
+            p.terminate()
+        p.join(5)
+        if p.is_alive():  # pragma: no cover
+            p.kill()
+            p.join()
+        recv.close()
+    if kind == "ok":
+        return payload
+    row = dict(fallback_row)
+    if kind == "timeout":
+        row["note"] = (f"stopped after the {timeout:.0f} s budget (incl. start-up and priming) "
+                       f"before {row['frames']} frame(s) were solved: fps < {row['frames'] / timeout:.3g}")
+        row["fps"] = float("nan")
+        row["seconds"] = time.perf_counter() - t0
+    else:
+        row["note"] = "failed: " + str(payload).strip().splitlines()[-1]
+    return row
+
+
+# ----------------------------------------------------------------------------- baselines
+
+def measure_fixed_point_numpy(size: int, frames: int, seed: int, max_iter: int = 2000,
+                              beta: float = 0.05) -> dict:
+    """NumPy fixed point (eq. 2.10), cold from g0 = G, a fixed number of iterations, batched over frames."""
+    g, G = _scene(size, frames + 1, seed)
+    g, G = g[1:], G[1:]
+    t0 = time.perf_counter()
+    g_hat, info = solve_fixed_point_numpy(G, beta=beta, rtol=0.0, max_iter=max_iter)
+    secs = time.perf_counter() - t0
+    e_loaded, e_all = _errors(g_hat, g)
+    return _row(size=size, mode="cold", solver=f"numpy fixed point β={beta:g}, {max_iter} it",
+                threads=1, frames=frames, calls=1, seconds=secs, fps=frames / secs,
+                fps_per_core=frames / secs, err_loaded=e_loaded, err_all=e_all,
+                iterations=float(np.mean(info["iterations"])),
+                note="vectorised over the frames (NumPy batched Cholesky)")
+
+
+def measure_fixed_point_to_target(size: int, seed: int, time_limit: float, beta: float = 0.05,
+                                  max_iter: int = 10_000_000) -> dict:
+    """Iterations the NumPy fixed point needs to reach the 1e-6 target on frame 1 (oracle stop)."""
+    g, G = _scene(size, 2, seed)
+    g, G = g[1], G[1]
+    g_hat, info = solve_fixed_point_numpy(G, beta=beta, rtol=0.0, max_iter=max_iter, g_true=g,
+                                          target_error=ACCURACY_TARGET,
+                                          error_threshold=ERROR_THRESHOLD_S, time_limit=time_limit)
+    secs = info["wall_time"]
+    e_loaded, e_all = _errors(g_hat, g)
+    it = int(info["iterations"])
+    lo, hi = _jacobian_spread(g)
+    if info["converged"]:
+        note = f"{it} iterations to reach {ACCURACY_TARGET:g} on cells >= {ERROR_THRESHOLD_S:g} S (oracle stop)"
+    else:
+        note = f"not at {ACCURACY_TARGET:g} after {it} iterations ({time_limit:.0f} s cap)"
+        est = _extrapolate_iterations(info["error_history"], ACCURACY_TARGET)
+        if est is not None and not beta * hi > 2:
+            note += (f"; the error's decay over the last half extrapolates to ~{est:.2g} iterations "
+                     f"(~{est * secs / max(it, 1):.2g} s per frame at this speed)")
+    if np.isfinite(hi):
+        spread = f"eigenvalues {lo:.2g} ... {hi:.3g}" if np.isfinite(lo) else f"largest eigenvalue {hi:.3g}"
+        note += f"; dG/dg at the solution has {spread}, so β·λmax = {beta * hi:.2g}"
+        if beta * hi > 2:
+            note += " > 2: the iteration is unstable at this size"
+        elif np.isfinite(lo):
+            note += f" and the slowest mode contracts by 1 - β·λmin = {1 - beta * lo:.6f} per iteration"
+    return _row(size=size, mode="cold", solver=f"numpy fixed point β={beta:g}, to {ACCURACY_TARGET:g}",
+                threads=1, frames=1, calls=1, seconds=secs, fps=1.0 / secs, fps_per_core=1.0 / secs,
+                err_loaded=e_loaded, err_all=e_all, iterations=float(it), note=note)
+
+
+def _jacobian_spread(g: np.ndarray) -> tuple[float, float]:
+    """Smallest and largest eigenvalue of dG/dg at g (NaN where too costly).
+
+    ``J = D² (T∘T)`` with ``D = diag(G)`` is similar to the symmetric ``D (T∘T) D``, so its
+    eigenvalues are real and non-negative; above 32×32 only the largest (ARPACK).
+    """
+    try:
+        J = jacobian_numpy(g)
+        if J.shape[0] <= 1024:
+            ev = np.linalg.eigvals(J).real
+            return float(ev.min()), float(ev.max())
+        from scipy.sparse.linalg import eigs
+
+        hi = float(np.abs(eigs(J, k=1, which="LM", return_eigenvectors=False)[0]))
+        return float("nan"), hi
+    except Exception:  # informative only
+        return float("nan"), float("nan")
+
+
+def _extrapolate_iterations(history: np.ndarray, target: float) -> float | None:
+    """Iterations to reach ``target`` at the geometric decay rate seen over the second half."""
+    h = np.asarray(history, dtype=float)
+    k = len(h) - 1
+    if k < 20 or not np.all(np.isfinite(h[[k // 2, k]])) or h[k] <= 0:
+        return None
+    rate = (h[k] / h[k // 2]) ** (1.0 / (k - k // 2))
+    if not 0 < rate < 1:
+        return None
+    return k + np.log(target / h[k]) / np.log(rate)
+
+
+def measure_least_squares(size: int, frames: int, seed: int, param: str = "bounds") -> dict:
+    """scipy.optimize.least_squares, numerical Jacobian, cold from g0 = G, frame by frame."""
+    g, G = _scene(size, frames + 1, seed)
+    g, G = g[1:], G[1:]
+    out = np.empty_like(g)
+    nfev, njev = [], []
+    t0 = time.perf_counter()
+    for t in range(frames):
+        out[t], res = solve_least_squares_scipy(G[t], param=param)
+        nfev.append(res.nfev)
+        njev.append(res.njev if res.njev is not None else np.nan)
+    secs = time.perf_counter() - t0
+    e_loaded, e_all = _errors(out, g)
+    what = "g in (0, inf), trf" if param == "bounds" else "log g, trf"
+    return _row(size=size, mode="cold", solver=f"scipy least_squares 2-point, {what}", threads=1,
+                frames=frames, calls=1, seconds=secs, fps=frames / secs, fps_per_core=frames / secs,
+                err_loaded=e_loaded, err_all=e_all, iterations=float(np.mean(njev)),
+                note=f"{np.mean(nfev):.0f} residual evaluations + {np.mean(njev):.0f} numerical "
+                     f"Jacobians ({size * size} forward solves each) per frame; iterations = Jacobians")
+
+
+# ----------------------------------------------------------------------------- driver
+
+def _settings(size: int, quick: bool, smoke: bool) -> dict:
+    """Default frames and budgets per array size."""
+    if size <= 16:
+        s = dict(frames=2000, fp_frames=20, lsq_frames=2, fp_target_s=60.0)
+    elif size <= 32:
+        s = dict(frames=200, fp_frames=2, lsq_frames=0, fp_target_s=30.0)
+    else:
+        s = dict(frames=20, fp_frames=1, lsq_frames=0, fp_target_s=30.0)
+    s["lsq_params"] = ("bounds", "log")
+    if quick:
+        s.update(frames=max(4, s["frames"] // 4), fp_frames=max(1, s["fp_frames"] // 4),
+                 lsq_frames=min(1, s["lsq_frames"]), fp_target_s=10.0 if size <= 32 else 0.0,
+                 lsq_params=("log",))
+    if smoke:
+        s.update(fp_frames=1, lsq_frames=0, fp_target_s=0.0)
+    return s
+
+
+def run(sizes=(16, 32, 64), frames: int | None = None, threads=None, *, quick: bool = False,
+        smoke: bool = False, min_time: float | None = None, budget: float | None = None,
+        seed: int = 0, baselines: bool = True, log=print) -> dict:
+    """Run the benchmark; returns ``{"machine": ..., "settings": ..., "rows": [...], "notes": [...]}``.
+
+    ``threads``: an int or a list of ints; default all usable cores, plus 1 thread for
+    arrays up to 32×32 (per-core figures measured, not only divided).
+    """
+    info = machine_info()
+    ncpu = info["usable_cpus"]
+    if min_time is None:
+        min_time = 0.02 if smoke else (0.3 if quick else 1.0)
+    if budget is None:
+        budget = 20.0 if smoke else (60.0 if quick else 150.0)
+    rows: list[dict] = []
+    notes: list[str] = []
+
+    def emit(r: dict) -> None:
+        _target(r)
+        rows.append(r)
+        fps = "n/a" if not np.isfinite(r["fps"]) else f"{r['fps']:.4g} fps"
+        log(f"  {r['size']}x{r['size']} {r['mode']:<9} {r['solver']:<44} x{r['threads']}: {fps}"
+            f"{'  (' + r['note'] + ')' if r['note'] else ''}", flush=True)
+
+    for size in sizes:
+        st = _settings(size, quick, smoke)
+        T = int(frames) if frames is not None else st["frames"]
+        heavy = size * size > HEAVY_CELLS
+        if threads is None:
+            tlist = sorted({1, ncpu}) if not heavy else [ncpu]
+        else:
+            tlist = sorted(set([threads] if isinstance(threads, int) else threads))
+        log(f"{size}x{size}: {T} frames, threads {tlist}", flush=True)
+
+        # Cross-check of the two forward models on a few frames.
+        try:
+            import psmat.iecm as iecm
+
+            g_chk, G_chk = _scene(size, 3, seed)
+            d = float(np.max(np.abs(iecm.forward(g_chk) / G_chk - 1.0)))
+            notes.append(f"{size}x{size}: max |F_psmat/F_numpy - 1| = {d:.1e} on 3 frames")
+        except Exception as exc:  # keep benchmarking the baselines
+            notes.append(f"{size}x{size}: psmat.iecm.forward failed: {exc!r}")
+
+        for nt in tlist:
+            for mode in ("streaming", "cold"):
+                Tm = T if (mode == "streaming" or not heavy) else max(1, min(T, nt))
+                kw = dict(size=size, mode=mode, threads=nt, frames=Tm, seed=seed, min_time=min_time,
+                          max_time=budget, warmup=not heavy, prime="truth" if heavy else "solve")
+                if heavy:
+                    fb = _row(size=size, mode=mode, solver="psmat newton", threads=min(nt, Tm), frames=Tm)
+                    emit(_isolated("measure_psmat", kw, budget, fb))
+                else:
+                    try:
+                        emit(measure_psmat(**kw))
+                    except Exception as exc:
+                        emit(_row(size=size, mode=mode, solver="psmat newton", threads=nt, frames=Tm,
+                                  note=f"failed: {exc!r}"))
+        # psmat's C++ fixed point, the thesis' iteration (same 2000 iterations as the NumPy baseline).
+        if baselines:
+            fp_it = 200 if smoke else 2000
+            Tf = max(1, min(T, ncpu if heavy else max(ncpu, st["fp_frames"] * 10)))
+            kw = dict(size=size, mode="cold", threads=ncpu, frames=Tf, seed=seed, min_time=min_time,
+                      max_time=budget, warmup=not heavy, method="fixed_point",
+                      solve_options=dict(beta=0.05, max_iter=fp_it, rtol=1e-14),
+                      label=f"psmat fixed_point β=0.05, {fp_it} it")
+            fb = _row(size=size, mode="cold", solver=kw["label"], threads=min(ncpu, Tf), frames=Tf)
+            if heavy:
+                emit(_isolated("measure_psmat", kw, budget, fb))
+            else:
+                try:
+                    emit(measure_psmat(**kw))
+                except Exception as exc:
+                    fb["note"] = f"failed: {exc!r}"
+                    emit(fb)
+
+        if not baselines:
+            continue
+        # NumPy fixed point, fixed iteration count.
+        fp_it = 200 if smoke else 2000
+        emit(measure_fixed_point_numpy(size, min(T, st["fp_frames"]), seed, max_iter=fp_it))
+        if st["fp_target_s"] > 0:
+            emit(measure_fixed_point_to_target(size, seed, time_limit=st["fp_target_s"]))
+        else:
+            notes.append(f"{size}x{size}: fixed point to {ACCURACY_TARGET:g} skipped "
+                         f"({'--smoke' if smoke else '--quick: it runs to its time cap there'})")
+        # scipy least squares with a numerical Jacobian.
+        nl = min(T, st["lsq_frames"])
+        if nl > 0:
+            for param in st["lsq_params"]:
+                emit(measure_least_squares(size, nl, seed, param=param))
+            if "bounds" not in st["lsq_params"]:
+                notes.append(f"{size}x{size}: scipy least_squares with bounds (the thesis' Python "
+                             "version, ~20 s per frame) skipped (--quick)")
+        elif smoke:
+            notes.append(f"{size}x{size}: scipy least_squares skipped (--smoke)")
+        else:
+            n = size * size
+            notes.append(
+                f"{size}x{size}: scipy least_squares skipped: each numerical Jacobian is {n} forward "
+                f"solves of a {2 * size - 1}x{2 * size - 1} system and each trf step a dense "
+                f"{n}x{n} factorisation; already ~1 frame/s at 16x16, so minutes per frame here")
+    return {"machine": info,
+            "settings": dict(sizes=list(sizes), frames=frames, threads=threads, quick=quick, smoke=smoke,
+                             min_time=min_time, budget=budget, seed=seed,
+                             error_threshold_s=ERROR_THRESHOLD_S, accuracy_target=ACCURACY_TARGET),
+            "rows": rows, "notes": notes}
+
+
+def _fmt(x: float, spec: str) -> str:
+    return "—" if x is None or not np.isfinite(x) else format(x, spec)
+
+
+def format_table(result: dict) -> str:
+    """Markdown table of the rows, the machine and the notes."""
+    m = result["machine"]
+    lines = [
+        f"IECM benchmark — {m['date']}",
+        f"machine: {m['cpu']}, {m['usable_cpus']} usable of {m['logical_cpus']} logical CPUs; "
+        f"{m['platform']}; Python {m['python']}, NumPy {m['numpy']}, SciPy {m['scipy']}, psmat {m['psmat']}",
+        f"frames: two feet swaying on a quiet background (psmat.scenes.swaying_feet, seed "
+        f"{result['settings']['seed']}), noise-free; error = max |ĝ-g|/g over cells with g >= "
+        f"{ERROR_THRESHOLD_S:g} S / over all cells",
+        "",
+        "| size | mode | solver | threads | frames | fps | fps/core | err g>=1e-4 | err all | iters | fact. | target |",
+        "| --- | --- | --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | --- |",
+    ]
+    notes = []
+    for r in result["rows"]:
+        tgt = ""
+        if r["target"]:
+            tgt = ("met " if r["target_met"] else "MISSED ") + r["target"]
+        fact = r.get("factorizations", float("nan"))
+        ref = ""
+        if r["note"]:
+            notes.append(r["note"])
+            ref = f" [{len(notes)}]"
+        lines.append(
+            f"| {r['size']}x{r['size']} | {r['mode']} | {r['solver']}{ref} | {r['threads']} | {r['frames']} | "
+            f"{_fmt(r['fps'], '.4g')} | {_fmt(r['fps_per_core'], '.4g')} | {_fmt(r['err_loaded'], '.1e')} | "
+            f"{_fmt(r['err_all'], '.1e')} | {_fmt(r['iterations'], '.1f')} | {_fmt(fact, '.2f')} | {tgt} |")
+    lines.append("")
+    for k, n in enumerate(notes, 1):
+        lines.append(f"[{k}] {n}")
+    for n in result["notes"]:
+        lines.append(f"- {n}")
+    lines.append("- streaming: consecutive frames, each warm-started from the previous solution, split in "
+                 "one contiguous chunk per thread, chunk starts primed with the previous frame's solution; "
+                 "cold: every frame from g0 = G. fps/core = fps / threads.")
+    return "\n".join(lines)
+
+
+def _int_list(text: str) -> list[int]:
+    try:
+        vals = [int(v) for v in text.split(",") if v.strip()]
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected comma-separated integers, got {text!r}") from None
+    if not vals or min(vals) < 1:
+        raise argparse.ArgumentTypeError(f"expected positive integers, got {text!r}")
+    return vals
+
+
+def main(argv: list[str] | None = None) -> int:
+    p = argparse.ArgumentParser(
+        prog="python -m psmat.bench iecm",
+        description="IECM crosstalk removal: frames/s and accuracy of psmat beside the thesis' "
+                    "NumPy/SciPy approach, on swaying-feet recordings (SPEC §10).")
+    p.add_argument("--sizes", type=_int_list, default=[16, 32, 64], help="array sizes N (N x N), default 16,32,64")
+    p.add_argument("--frames", type=int, default=None,
+                   help="frames per psmat streaming entry (default 2000 / 200 / 20 for 16 / 32 / 64; "
+                        "--quick: a quarter); cold entries use at most this many")
+    p.add_argument("--threads", type=_int_list, default=None,
+                   help="thread counts to run psmat with (default: all cores, plus 1 up to 32x32)")
+    p.add_argument("--quick", action="store_true", help="short run (~1 minute for 16,32; 64x64 still costs its budget)")
+    p.add_argument("--smoke", action="store_true",
+                   help="seconds-long smoke test: minimal timing, no least squares, no fixed point to 1e-6")
+    p.add_argument("--min-time", type=float, default=None, help="seconds of timed work per entry (default 1, --quick 0.3)")
+    p.add_argument("--budget", type=float, default=None,
+                   help="wall-clock cap per entry in seconds (default 150, --quick 60)")
+    p.add_argument("--no-baselines", action="store_true", help="psmat Newton only")
+    p.add_argument("--seed", type=int, default=0, help="scene seed (default 0)")
+    p.add_argument("--json", metavar="PATH", default=None, help="also write the figures as JSON")
+    a = p.parse_args(argv)
+    if a.frames is not None and a.frames < 1:
+        p.error("--frames must be >= 1")
+    if any(s < 2 for s in a.sizes):
+        p.error("--sizes must be >= 2")
+    threads = a.threads
+    res = run(a.sizes, a.frames, threads, quick=a.quick, smoke=a.smoke, min_time=a.min_time,
+              budget=a.budget, seed=a.seed, baselines=not a.no_baselines,
+              log=lambda *x, **k: print(*x, file=sys.stderr, **k))
+    print(format_table(res))
+    if a.json:
+        with open(a.json, "w") as f:
+            json.dump(_jsonable(res), f, indent=1)
+    return 0
+
+
+def _jsonable(o):
+    """Plain JSON: NumPy scalars/arrays to Python, NaN/inf to null."""
+    if isinstance(o, dict):
+        return {str(k): _jsonable(v) for k, v in o.items()}
+    if isinstance(o, (list, tuple)):
+        return [_jsonable(v) for v in o]
+    if isinstance(o, np.ndarray):
+        return _jsonable(o.tolist())
+    if isinstance(o, np.generic):
+        o = o.item()
+    if isinstance(o, float) and not np.isfinite(o):
+        return None
+    if o is None or isinstance(o, (bool, int, float, str)):
+        return o
+    return str(o)
