@@ -55,6 +55,28 @@ def test_stream_producer_and_consumer_threads(rng):
     np.testing.assert_allclose(np.stack([x for _, x, _ in got]), g, rtol=1e-7)
 
 
+def test_process_never_deadlocks_on_a_full_stream(rng):
+    # one thread pushing and popping through a tiny queue: process() must pop before it
+    # pushes into a full stream (regression: push used to wait forever for a consumer)
+    g, G = _recording(rng, T=60, shape=(4, 5))
+    for _ in range(20):
+        with psmat.iecm.Stream(G.shape[1:], threads=2, max_pending=2) as s:
+            out = list(s.process(G))
+        assert [seq for seq, _, _ in out] == list(range(60))
+
+
+def test_push_into_a_full_stream_times_out(rng):
+    g, G = _recording(rng, T=3, shape=(4, 4))
+    s = psmat.iecm.Stream((4, 4), max_pending=2)
+    s.push(G[0])
+    s.push(G[1])
+    with pytest.raises(TimeoutError, match="full"):
+        s.push(G[2], timeout=0.05)
+    assert s.pop(None)[0] == 0  # popping frees a slot
+    assert s.push(G[2], timeout=5.0) == 2
+    s.close()
+
+
 def test_stream_rejects_bad_frames_and_push_after_close(rng):
     s = psmat.iecm.Stream((4, 4))
     with pytest.raises(ValueError, match="shape"):

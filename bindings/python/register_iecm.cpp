@@ -276,15 +276,21 @@ void register_iecm(py::module_& m) {
            py::arg("max_pending"))
       .def(
           "push",
-          [](StreamSolver& s, const CArray& G) {
+          [](StreamSolver& s, const CArray& G, double timeout) -> py::object {
             const Shape sh = shape_of_frame(G);
             if (sh.rows != s.shape().rows || sh.cols != s.shape().cols)
               throw std::invalid_argument("frame shape does not match the stream");
             const Eigen::VectorXd Gv = flat(G);
-            py::gil_scoped_release release;
-            return s.push(Gv);
+            std::uint64_t seq;
+            {
+              py::gil_scoped_release release;
+              seq = s.push(Gv, timeout);
+            }
+            if (seq == StreamSolver::kFull) return py::none();
+            return py::int_(seq);
           },
-          py::arg("G"))
+          py::arg("G"), py::arg("timeout") = -1.0,
+          "Queue a frame; None if the stream stayed full for `timeout` s (negative: wait).")
       .def(
           "pop",
           [](StreamSolver& s, double timeout) -> py::object {

@@ -54,17 +54,29 @@ class Stream:
             raise ValueError("threads and max_pending must be >= 1")
         self.shape = (rows, cols)
         self.method = method
-        self._s = _core.iecm.StreamSolver(rows, cols, make_options(method, **options), int(threads), int(max_pending))
+        self.max_pending = int(max_pending)
+        self._s = _core.iecm.StreamSolver(rows, cols, make_options(method, **options), int(threads), self.max_pending)
         self._closed = False
 
-    def push(self, G) -> int:
-        """Queue one frame of equivalent conductances (S); returns its sequence number."""
+    def push(self, G, timeout: float | None = None) -> int:
+        """Queue one frame of equivalent conductances (S); returns its sequence number.
+
+        When ``max_pending`` frames are pushed but not yet popped, waits for a consumer (in
+        another thread) to pop one - at most ``timeout`` seconds (None: no limit), then
+        raises TimeoutError. A single thread that both pushes and pops should use
+        :meth:`process`, which pops before pushing into a full stream.
+        """
         if self._closed:
             raise RuntimeError("the stream is closed")
         frames, single = as_frames(G, "G", allow_zero=False, max_ndim=2)
         if frames.shape[1:] != self.shape:
             raise ValueError(f"frame shape {frames.shape[1:]} does not match the stream's {self.shape}")
-        return int(self._s.push(frames[0]))
+        seq = self._s.push(frames[0], -1.0 if timeout is None else float(timeout))
+        if seq is None:
+            raise TimeoutError(
+                f"the stream stayed full ({self.max_pending} frames unread) for {timeout} s: pop() results"
+            )
+        return int(seq)
 
     def pop(self, timeout: float | None = None):
         """Next frame in order as ``(seq, g, info)``; None if none ready within ``timeout`` s.
@@ -102,6 +114,10 @@ class Stream:
     def process(self, frames: Iterable) -> Iterator[tuple[int, np.ndarray, SolveInfo]]:
         """Push every frame of an iterable, yielding results in order as they become ready."""
         for G in frames:
+            while self.pending >= self.max_pending:  # full: the consumer is this thread
+                r = self.pop(None)
+                if r is not None:
+                    yield r
             self.push(G)
             yield from self.ready()
         yield from self.drain()

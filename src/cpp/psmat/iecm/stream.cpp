@@ -19,9 +19,14 @@ StreamSolver::~StreamSolver() {
     if (t.joinable()) t.join();
 }
 
-std::uint64_t StreamSolver::push(const ConstVecRef& G) {
+std::uint64_t StreamSolver::push(const ConstVecRef& G, double timeout_s) {
   std::unique_lock<std::mutex> lock(mu_);
-  cv_space_.wait(lock, [&] { return closed_ || next_in_ - next_out_ < max_pending_; });
+  auto space = [&] { return closed_ || next_in_ - next_out_ < max_pending_; };
+  if (timeout_s < 0) {
+    cv_space_.wait(lock, space);
+  } else if (!cv_space_.wait_for(lock, std::chrono::duration<double>(timeout_s), space)) {
+    return kFull;
+  }
   if (closed_) throw std::runtime_error("StreamSolver: push() after close()");
   const std::uint64_t seq = next_in_++;
   queue_.emplace_back(seq, Eigen::VectorXd(G));

@@ -30,9 +30,11 @@ class StreamSolver {
   StreamSolver(const StreamSolver&) = delete;
   StreamSolver& operator=(const StreamSolver&) = delete;
 
-  // Queues one frame (R*C equivalent conductances, copied). Returns its sequence number.
-  // Waits while max_pending frames are pending; throws std::runtime_error once closed.
-  std::uint64_t push(const ConstVecRef& G);
+  // Queues one frame (R*C equivalent conductances, copied) and returns its sequence number.
+  // Waits while max_pending frames are pushed but not popped — up to timeout_s seconds
+  // (negative: without limit), then returns kFull. Throws std::runtime_error once closed.
+  static constexpr std::uint64_t kFull = ~std::uint64_t{0};
+  std::uint64_t push(const ConstVecRef& G, double timeout_s = -1.0);
   // Next frame in order; waits up to timeout_s (negative: until available). False when no
   // frame became ready in time, or the stream is closed and drained.
   bool pop(StreamResult& out, double timeout_s);
