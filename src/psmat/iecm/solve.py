@@ -85,6 +85,17 @@ class SolveInfo:
     threads: int = 1
     extra: dict = field(default_factory=dict)
 
+    _FIELDS = ("iterations", "factorizations", "krylov_iterations", "evaluations", "residual", "cost",
+               "converged", "used_fallback", "at_bound")
+
+    @classmethod
+    def from_report(cls, rep: dict, method: str, **kw) -> "SolveInfo":
+        """From the C++ core's report: a dict of scalars (one frame) or arrays (a batch)."""
+        status = rep["status"]
+        if isinstance(status, np.ndarray) and status.dtype.kind == "i":
+            status = _STATUS_NAMES[status]  # batch reports carry status codes
+        return cls(**{k: np.asarray(rep[k]) for k in cls._FIELDS}, status=np.asarray(status), method=method, **kw)
+
     @property
     def all_converged(self) -> bool:
         return bool(np.all(self.converged))
@@ -209,28 +220,14 @@ def solve(
 
     t0 = time.perf_counter()
     if single:
-        g, rep = _core.iecm.solve_frame(frames[0], opts, None if init is None else init[0])
-        info = SolveInfo(
-            **{k: np.asarray(rep[k]) for k in ("iterations", "factorizations", "krylov_iterations", "evaluations", "residual", "cost", "converged", "used_fallback", "at_bound")},
-            status=np.asarray(rep["status"]),
-            method=method,
-            threads=1,
-        )
-        out = g
+        out, rep = _core.iecm.solve_frame(frames[0], opts, None if init is None else init[0])
+        info = SolveInfo.from_report(rep, method, threads=1)
     else:
         job = _core.iecm.BatchJob(frames, opts, bool(warm_start), nthreads, init)
         job.start()
         _wait(job, T, progress)
         out = job.g().reshape(frames.shape)
-        reps = job.reports()
-        info = SolveInfo(
-            iterations=reps["iterations"], factorizations=reps["factorizations"],
-            krylov_iterations=reps["krylov_iterations"],
-            evaluations=reps["evaluations"], residual=reps["residual"], cost=reps["cost"],
-            status=_STATUS_NAMES[reps["status"]], converged=reps["converged"],
-            used_fallback=reps["used_fallback"], at_bound=reps["at_bound"], method=method,
-            threads=nthreads,
-        )
+        info = SolveInfo.from_report(job.reports(), method, threads=nthreads)
     info.wall_time = time.perf_counter() - t0
     if not info.all_converged:
         import warnings

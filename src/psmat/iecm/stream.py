@@ -88,7 +88,7 @@ class Stream:
         if r is None:
             return None
         seq, g, rep = r
-        return int(seq), g, _info(rep, self.method)
+        return int(seq), g, SolveInfo.from_report(rep, self.method)
 
     def ready(self) -> Iterator[tuple[int, np.ndarray, SolveInfo]]:
         """Frames already solved, in order, without waiting."""
@@ -128,7 +128,3 @@ class Stream:
     def __exit__(self, *exc) -> None:
         self.close()
 
-
-def _info(rep: dict, method: str) -> SolveInfo:
-    keys = ("iterations", "factorizations", "krylov_iterations", "evaluations", "residual", "cost", "converged", "used_fallback", "at_bound")
-    return SolveInfo(**{k: np.asarray(rep[k]) for k in keys}, status=np.asarray(rep["status"]), method=method)
