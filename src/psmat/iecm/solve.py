@@ -12,8 +12,9 @@ batches are spread over all cores. Methods:
 ``"bounded_newton"``
     The bounded problem as a complementarity problem: F(g) = G on the free cells, g at
     g_floor (~0) on cells where even an empty cell over-predicts the measured G (noise on
-    quiet background cells). Unique solution (dG/dg is a P-matrix); active-set Newton with
-    Cholesky factorisations of principal submatrices.
+    quiet background cells). Unique solution (dG/dg is a P-matrix); semismooth Newton on the
+    Fischer-Burmeister reformulation (SPD systems S + diag(>= 0), Cholesky), non-monotone
+    line search.
 ``"lm"``
     Levenberg-Marquardt least squares (eq. 2.9) on log g, analytic Jacobian (the thesis'
     GSL formulation). On noisy G it can stall: a cell driven towards 0 sits on a plateau of
@@ -51,7 +52,8 @@ class SolveInfo:
         Newton (or method) iterations, matrix factorisations, PCG iterations and
         forward-model evaluations per frame.
     residual : float array
-        Final max_a |F(g)_a - G_a| / G_a (relative, dimensionless).
+        Final max_a |F(g)_a - G_a| / G_a (relative, dimensionless); for the bounded Newton
+        the complementarity residual, i.e. the same over the cells not at the bound.
     cost : float array
         Final 0.5 * sum(((F(g) - G) / G)^2).
     status : str array

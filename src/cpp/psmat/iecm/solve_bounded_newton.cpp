@@ -1,11 +1,18 @@
 // Bounded IECM as a nonlinear complementarity problem (SPEC §3 "g >= 0"):
-//   g >= g_floor,   F(g) - G_exp >= 0 where g = g_floor,   F(g) = G_exp elsewhere.
-// A cell held at the bound is one that even when empty makes the model over-predict its
-// measured G (typical of quiet background cells under noise). Because dG/dg = D_G S D_G^-1
-// with S SPD, every principal submatrix of J has positive determinant (J is a P-matrix), so
-// the problem has a unique solution; the Newton step on the free cells F is
-//   S_FF y = -(F(g) - G_exp)_F / G_F,   dg_F = G_F ∘ y                (a Cholesky of S_FF)
-// with projected steps and a backtracking line search on 0.5*sum_F ((F(g)-G_exp)/G_exp)^2.
+//   g >= g_floor,   F(g) - G_exp >= 0,   (g - g_floor)(F(g) - G_exp) = 0   cell by cell.
+// A cell at the bound is one that even when empty makes the model over-predict its measured G
+// (typical of quiet background cells under noise). Because dG/dg = D_G S D_G^-1 with S SPD,
+// every principal submatrix of J has a positive determinant (J is a P-matrix), so the problem
+// has a unique solution.
+//
+// Semismooth Newton on the Fischer-Burmeister reformulation (De Luca, Facchinei & Kanzow 1996):
+//   a = (g - g_floor)/G_exp,  b = (F(g) - G_exp)/G_exp,  phi = sqrt(a^2 + b^2) - a - b = 0,
+// whose merit 0.5*|phi|^2 is continuously differentiable, so the Newton direction is a
+// descent direction (slope -|phi|^2) and a plain Armijo line search globalises it. With
+// alpha = da-part, beta = db-part of the generalised Jacobian (both in [-2, 0]) the Newton
+// system  diag(alpha) dg + diag(beta) J dg = -phi∘G_exp  becomes, with dg = G∘y,
+//   (S + diag(alpha/beta)) y = -phi∘G_exp / (beta∘G)           (SPD: alpha/beta >= 0)
+// on the cells with beta < 0; a cell with beta = 0 (g at the bound, F > G) keeps dg = 0.
 #include <cmath>
 #include <limits>
 #include <vector>
@@ -15,12 +22,35 @@
 
 namespace psmat::iecm {
 
+namespace {
+struct FB {
+  double phi, alpha, beta;
+};
+FB fischer_burmeister(double a, double b) {
+  const double r = std::hypot(a, b);
+  if (r == 0.0) return {0.0, 1.0 / std::sqrt(2.0) - 1.0, 1.0 / std::sqrt(2.0) - 1.0};
+  return {r - a - b, a / r - 1.0, b / r - 1.0};
+}
+// 0.5*|phi|^2 and max |phi| at g for the current evaluation state of s.
+double fb_merit(const Solver& s, const ConstVecRef& g, const ConstVecRef& G_exp, double fl,
+                double& worst) {
+  double m = 0;
+  worst = 0;
+  for (Index c = 0; c < g.size(); ++c) {
+    const double phi = fischer_burmeister((g[c] - fl) / G_exp[c], s.ra[c] / G_exp[c]).phi;
+    m += 0.5 * phi * phi;
+    worst = std::max(worst, std::abs(phi));
+  }
+  return m;
+}
+}  // namespace
+
 SolveReport solve_bounded_newton(Solver& s, const ConstVecRef& G_exp, VecRef g) {
   const SolveOptions& o = s.options();
   const Index n = s.shape().cells();
+  const double fl = o.g_floor;
   SolveReport rep;
-  g = g.cwiseMax(o.g_floor);
-  const double at_floor = o.g_floor * (1.0 + 1e-9);
+  g = g.cwiseMax(fl);
 
   double cost = 0, resid = 0;
   if (!s.evaluate(g, G_exp, cost, resid)) {
@@ -28,93 +58,102 @@ SolveReport solve_bounded_newton(Solver& s, const ConstVecRef& G_exp, VecRef g) 
     return rep;
   }
   rep.evaluations = 1;
-  std::vector<Index> free_idx;
-  free_idx.reserve(static_cast<size_t>(n));
-  Eigen::VectorXd gt(n), y, dg;
-  Eigen::MatrixXd Sf;
+  std::vector<Index> F;  // cells in the linear system (beta < 0)
+  F.reserve(static_cast<size_t>(n));
+  Eigen::VectorXd gt(n), dg(n), y, rhs;
+  Eigen::MatrixXd K;
   Eigen::LLT<Eigen::MatrixXd> llt;
-  // merit over the cells that are not held at the bound
-  auto merit = [&](const Eigen::VectorXd& ra, double& worst) {
-    double m = 0;
-    worst = 0;
-    for (Index a : free_idx) {
-      const double r = ra[a] / G_exp[a];
-      m += 0.5 * r * r;
-      worst = std::max(worst, std::abs(r));
-    }
-    return m;
-  };
+  std::vector<FB> fb(static_cast<size_t>(n));
+  auto S_at = [&](Index a, Index c) { return a >= c ? s.S(a, c) : s.S(c, a); };  // lower-stored
 
+  double merit = fb_merit(s, g, G_exp, fl, resid);
+  // non-monotone line search (Grippo, Lampariello & Lucidi 1986): compare with the largest
+  // merit of the last few iterations, so that full Newton steps that clamp a few cells at
+  // the bound are not cut down to a linear rate
+  double history[5];
+  int hist_n = 0;
   for (;; ++rep.iterations) {
-    // active set: cells at the floor where the model already reaches the measurement
-    free_idx.clear();
-    for (Index a = 0; a < n; ++a)
-      if (!(g[a] <= at_floor && s.ra[a] >= 0)) free_idx.push_back(a);
-    const Index nf = static_cast<Index>(free_idx.size());
-    double phi = merit(s.ra, resid);
+    history[hist_n++ % 5] = merit;
+    double ref = 0;
+    for (int k = 0; k < std::min(hist_n, 5); ++k) ref = std::max(ref, history[k]);
     if (resid <= o.rtol) {
-      rep.status = nf == n ? Status::Converged : Status::Bounded;
+      rep.status = Status::Converged;
       break;
     }
     if (rep.iterations >= o.max_iter) {
       rep.status = Status::MaxIterations;
       break;
     }
-    scaled_hadamard(s.net, s.Gm, s.S, /*lower_only=*/true);
-    Sf.resize(nf, nf);
-    for (Index c = 0; c < nf; ++c)
-      for (Index r = c; r < nf; ++r) {
-        const Index a = free_idx[r], b = free_idx[c];
-        Sf(r, c) = a >= b ? s.S(a, b) : s.S(b, a);  // lower triangle of S holds (max, min)
+    F.clear();
+    dg.setZero();
+    for (Index c = 0; c < n; ++c) {
+      fb[static_cast<size_t>(c)] = fischer_burmeister((g[c] - fl) / G_exp[c], s.ra[c] / G_exp[c]);
+      if (fb[static_cast<size_t>(c)].beta < -1e-14) {
+        F.push_back(c);
+      } else {  // alpha dg = -phi G_exp (here phi ~ 0: the cell stays at the bound)
+        dg[c] = -fb[static_cast<size_t>(c)].phi * G_exp[c] / fb[static_cast<size_t>(c)].alpha;
       }
-    llt.compute(Sf);
-    ++rep.factorizations;
-    if (llt.info() != Eigen::Success) {
-      rep.status = Status::Singular;
-      break;
     }
-    y.resize(nf);
-    for (Index k = 0; k < nf; ++k) y[k] = -s.ra[free_idx[k]] / s.Gm[free_idx[k]];
-    llt.solveInPlace(y);
-    dg.resize(nf);
-    for (Index k = 0; k < nf; ++k) dg[k] = s.Gm[free_idx[k]] * y[k];
+    const Index nf = static_cast<Index>(F.size());
+    scaled_hadamard(s.net, s.Gm, s.S, /*lower_only=*/true);
+    K.resize(nf, nf);
+    rhs.resize(nf);
+    for (Index r = 0; r < nf; ++r) {
+      const Index c = F[static_cast<size_t>(r)];
+      const FB& f = fb[static_cast<size_t>(c)];
+      double fixed = 0;  // coupling to the cells held fixed: (S D_G^-1 dg_fixed)_c
+      if (nf < n)
+        for (Index d = 0; d < n; ++d)
+          if (dg[d] != 0.0) fixed += S_at(c, d) * dg[d] / s.Gm[d];
+      rhs[r] = -f.phi * G_exp[c] / (f.beta * s.Gm[c]) - fixed;
+      for (Index q = 0; q <= r; ++q) K(r, q) = S_at(c, F[static_cast<size_t>(q)]);
+      K(r, r) += f.alpha / f.beta;
+    }
+    if (nf > 0) {
+      llt.compute(K);
+      ++rep.factorizations;
+      if (llt.info() != Eigen::Success) {
+        rep.status = Status::Singular;
+        break;
+      }
+      y = llt.solve(rhs);
+      for (Index r = 0; r < nf; ++r) {
+        const Index c = F[static_cast<size_t>(r)];
+        dg[c] = s.Gm[c] * y[r];
+      }
+    }
 
     bool accepted = false;
+    const Eigen::VectorXd g_prev = g;
     double t = 1.0;
-    Eigen::VectorXd g_prev = g;
     for (int k = 0; k < 40; ++k, t *= 0.5) {
-      gt = g_prev;
-      for (Index j = 0; j < nf; ++j) {
-        const Index a = free_idx[j];
-        gt[a] = std::max(g_prev[a] + t * dg[j], o.g_floor);  // projected step
-      }
-      double ct = 0, rt = 0, worst = 0;
+      gt = (g_prev + t * dg).cwiseMax(fl);  // the network needs g >= g_floor > 0
       ++rep.evaluations;
-      if (!s.evaluate(gt, G_exp, ct, rt)) continue;
-      const double phi_t = merit(s.ra, worst);
-      if (phi_t <= (1.0 - 2e-4 * t) * phi) {
+      if (!s.evaluate(gt, G_exp, cost, resid)) continue;
+      double worst = 0;
+      const double m = fb_merit(s, gt, G_exp, fl, worst);
+      if (m <= ref - 4e-4 * t * merit) {  // Armijo against ref, slope -2*merit
         g = gt;
+        merit = m;
+        resid = worst;
         accepted = true;
         break;
       }
     }
     if (!accepted) {
-      s.evaluate(g, G_exp, cost, resid);
       ++rep.evaluations;
+      s.evaluate(g, G_exp, cost, resid);
+      fb_merit(s, g, G_exp, fl, resid);
       rep.status = Status::Stalled;
       break;
     }
   }
-  rep.at_bound = 0;
-  for (Index a = 0; a < n; ++a) rep.at_bound += (g[a] <= at_floor) ? 1 : 0;
-  s.evaluate(g, G_exp, cost, resid);  // state and diagnostics at the final g
-  ++rep.evaluations;
-  rep.cost = cost;
-  // report the residual over the free cells (the bound cells over-predict by construction)
-  double worst = 0;
-  for (Index a = 0; a < n; ++a)
-    if (!(g[a] <= at_floor && s.ra[a] >= 0)) worst = std::max(worst, std::abs(s.ra[a] / G_exp[a]));
-  rep.residual = worst;
+  rep.at_bound = static_cast<int>((g.array() <= fl * (1.0 + 1e-9)).count());
+  if (rep.status == Status::Converged && rep.at_bound > 0) rep.status = Status::Bounded;
+  // state is that of g: report the cost of F(g) - G_exp over all cells and the
+  // complementarity residual max |phi| (relative to G_exp)
+  rep.cost = 0.5 * (s.ra.array() / G_exp.array()).square().sum();
+  rep.residual = resid;
   return rep;
 }
 

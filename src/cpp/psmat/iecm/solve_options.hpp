@@ -7,7 +7,7 @@ namespace psmat::iecm {
 enum class Method {
   Newton,      // damped Newton-Krylov on log g: PCG on S = D_G (T∘T) D_G (matrix-free), reused
                // float32 Cholesky preconditioner, line search
-  BoundedNewton,  // active-set Newton on g >= g_floor for the complementarity problem
+  BoundedNewton,  // semismooth (Fischer-Burmeister) Newton on g >= g_floor for the complementarity problem
                   // g >= 0, F(g) >= G_exp, g (F(g) - G_exp) = 0 (noisy G; unique: J is a P-matrix)
   LM,          // Levenberg-Marquardt least squares (eq. 2.9) on log g (positivity by construction)
   BoundedLSQ,  // projected Gauss-Newton/LM least squares (eq. 2.9) on g with g >= g_floor
@@ -45,8 +45,10 @@ struct SolveReport {
   int factorizations = 0;        // Cholesky factorisations (preconditioner / Newton / normal matrix)
   int krylov_iterations = 0;     // PCG iterations (Newton)
   int evaluations = 0;           // forward-model evaluations F(g)
-  double residual = 0.0;         // final max_a |F(g)_a - G_a| / G_a; for status Bounded over the
-                                 // free cells only (bound cells over-predict G by construction)
+  double residual = 0.0;         // final max_a |F(g)_a - G_a| / G_a; the bounded Newton reports
+                                 // the complementarity residual max_a |phi_a| (Fischer-Burmeister,
+                                 // relative to G_a), which at a Bounded solution is the residual
+                                 // over the free cells (bound cells over-predict G by construction)
   double cost = 0.0;             // final 0.5 * sum_a ((F(g)_a - G_a) / G_a)^2
   Status status = Status::MaxIterations;
   bool used_fallback = false;
