@@ -107,10 +107,21 @@ def machine_info() -> dict:
     }
 
 
-def _scene(size: int, frames: int, seed: int) -> tuple[np.ndarray, np.ndarray]:
-    """True g and noise-free G (independent NumPy forward), both (T, size, size), in S."""
+def _scene(size: int, frames: int, seed: int, noise_v: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
+    """True g and G (independent NumPy forward), both (T, size, size), in S.
+
+    With ``noise_v`` > 0 the G is what the mat would measure: the measurement chain of
+    SPEC §2 (psmat.Circuit, improved prototype) with that voltage noise (V) and 12-bit
+    quantisation, inverted back to G.
+    """
     g = scenes.swaying_feet(frames, size, size, rng=seed)
-    return g, forward_numpy(g)
+    G = forward_numpy(g)
+    if noise_v > 0:
+        from ..circuit import Circuit
+
+        c = Circuit()
+        G = c.conductance(c.counts(G, noise_v=noise_v, rng=seed + 1))
+    return g, G
 
 
 def _errors(g_hat: np.ndarray, g: np.ndarray) -> tuple[float, float]:
@@ -142,7 +153,7 @@ def _row(**kw) -> dict:
 
 
 def _target(row: dict) -> None:
-    t = TARGETS.get((row["size"], row["mode"])) if row["solver"].startswith("psmat newton") else None
+    t = TARGETS.get((row["size"], row["mode"])) if row["solver"] == "psmat newton" else None
     if t is None:
         return
     fps_req, per = t
@@ -162,7 +173,7 @@ def _chunk_starts(T: int, threads: int) -> list[int]:
 def measure_psmat(size: int, mode: str, threads: int, frames: int, seed: int, min_time: float,
                   max_time: float, warmup: bool = True, method: str = "newton",
                   solve_options: dict | None = None, label: str | None = None,
-                  prime: str = "solve") -> dict:
+                  prime: str = "solve", noise_v: float = 0.0) -> dict:
     """One psmat row: ``solve`` on swaying frames (see the module docstring).
 
     ``frames`` is used as is for streaming; for cold starts it is an upper bound, reduced
@@ -176,11 +187,14 @@ def measure_psmat(size: int, mode: str, threads: int, frames: int, seed: int, mi
     opts = dict(solve_options or {})
     label = label or f"psmat {method}"
     T = int(frames)
-    g_all, G_all = _scene(size, T + 1, seed)  # frame 0 of g_all only primes the first chunk
+    notes = []
+    g_all, G_all = _scene(size, T + 1, seed, noise_v)  # frame 0 of g_all only primes the first chunk
+    if noise_v > 0:
+        notes.append(f"measured G: {noise_v * 1e3:g} mV noise + 12-bit ADC; the error is the estimation "
+                     "error against the true g (noise-limited), not the solver's")
     g, G = g_all[1:], G_all[1:]
     nt = min(threads, T)
     kwargs = dict(method=method, threads=nt, return_info=True, progress=False, **opts)
-    notes = []
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", RuntimeWarning)  # non-converged frames are reported, not warned
         if mode not in ("streaming", "cold"):
@@ -459,6 +473,15 @@ def run(sizes=(16, 32, 64), frames: int | None = None, threads=None, *, quick: b
                     except Exception as exc:
                         emit(_row(size=size, mode=mode, solver="psmat newton", threads=nt, frames=Tm,
                                   note=f"failed: {exc!r}"))
+        # A real mat's data: noisy G (quiet cells end at the bound g = 0, bounded Newton).
+        if not heavy:
+            try:
+                emit(measure_psmat(size=size, mode="streaming", threads=ncpu, frames=T, seed=seed,
+                                   min_time=min_time, max_time=budget, noise_v=1e-3,
+                                   label="psmat newton, noisy G (1 mV, 12 bit)"))
+            except Exception as exc:
+                emit(_row(size=size, mode="streaming", solver="psmat newton, noisy G", threads=ncpu,
+                          frames=T, note=f"failed: {exc!r}"))
         # psmat's C++ fixed point, the thesis' iteration (same 2000 iterations as the NumPy baseline).
         if baselines:
             fp_it = 200 if smoke else 2000
