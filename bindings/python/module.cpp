@@ -4,9 +4,12 @@
 namespace py = pybind11;
 
 void register_iecm(py::module_& m);
+void register_sensor(py::module_& m);
 
 PYBIND11_MODULE(_core, m) {
   m.doc() = "psmat compiled core (private: use the psmat package API)";
   auto iecm = m.def_submodule("iecm", "IECM crosstalk removal (thesis §2.1.4, §2.3, App. B)");
   register_iecm(iecm);
+  auto sensor = m.def_submodule("sensor", "Velostat MPI hysteresis + creep model (thesis §2.5)");
+  register_sensor(sensor);
 }

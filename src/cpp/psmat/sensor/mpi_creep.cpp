@@ -1,0 +1,199 @@
+#include "psmat/sensor/mpi_creep.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <sstream>
+#include <stdexcept>
+
+namespace psmat::sensor {
+
+namespace {
+inline double osp(double x, double r, double y) { return std::max(x - r, std::min(x, y)); }  // eq. 2.16
+
+bool finite(double v) { return std::isfinite(v); }
+}  // namespace
+
+MPICreep::MPICreep(const MPICreepParams& params) : p_(params) {
+  if (p_.n_ops < 1) throw std::invalid_argument("n_ops must be >= 1");
+  if (!(p_.p_max > 0) || !finite(p_.p_max)) throw std::invalid_argument("p_max must be > 0 (psi)");
+  if (p_.l.size() != p_.w.size())
+    throw std::invalid_argument("creep rates l and weights w must have the same length");
+  for (double v : {p_.rho, p_.tau, p_.a1, p_.a2, p_.a3})
+    if (!finite(v)) throw std::invalid_argument("model parameters must be finite");
+  for (size_t j = 0; j < p_.l.size(); ++j) {
+    if (!finite(p_.l[j]) || p_.l[j] < 0) throw std::invalid_argument("creep rates l must be finite and >= 0 (1/s)");
+    if (!finite(p_.w[j])) throw std::invalid_argument("creep weights w must be finite");
+  }
+  const int N = p_.n_ops;
+  r_.resize(N);
+  b_.resize(N);
+  for (int i = 0; i < N; ++i) {
+    r_[i] = static_cast<double>(i) / N * p_.p_max;  // r_i = (i-1)/N p_max, i = 1..N
+    b_[i] = p_.rho * std::exp(-p_.tau * r_[i]);    // eq. 2.18
+  }
+}
+
+MPICreepState MPICreep::rest_state(Index cells) const {
+  MPICreepState s;
+  s.y = Eigen::MatrixXd::Zero(p_.n_ops, cells);
+  s.yc = Eigen::MatrixXd::Zero(static_cast<Index>(p_.l.size()), cells);
+  s.p_prev = Eigen::VectorXd::Zero(cells);
+  return s;
+}
+
+void MPICreep::direct(const ConstRowMatRef& p, double dt, MPICreepState& st, RowMatRef g) const {
+  const Index T = p.rows(), n = p.cols(), N = p_.n_ops, Nc = static_cast<Index>(p_.l.size());
+  std::vector<double> decay(static_cast<size_t>(Nc));
+  for (Index j = 0; j < Nc; ++j) decay[static_cast<size_t>(j)] = std::exp(-p_.l[static_cast<size_t>(j)] * dt);
+  for (Index t = 0; t < T; ++t) {
+    for (Index c = 0; c < n; ++c) {
+      const double x = p(t, c);
+      if (std::isnan(x)) {
+        g(t, c) = std::numeric_limits<double>::quiet_NaN();
+        continue;
+      }
+      double out = x * (p_.a1 + x * (p_.a2 + x * p_.a3));
+      for (Index i = 0; i < N; ++i) {
+        const double y = osp(x, r_[i], st.y(i, c));
+        st.y(i, c) = y;
+        out += b_[i] * y;
+      }
+      for (Index j = 0; j < Nc; ++j) {  // eq. 2.23 with the previous sample, then eq. 2.24
+        const double e = decay[static_cast<size_t>(j)];
+        st.yc(j, c) = e * st.yc(j, c) + (1.0 - e) * st.p_prev[c];
+        out += p_.w[static_cast<size_t>(j)] * st.yc(j, c);
+      }
+      st.p_prev[c] = x;
+      g(t, c) = out;
+    }
+  }
+}
+
+void MPICreep::inverse(const ConstRowMatRef& g, double dt, MPICreepState& st, RowMatRef p,
+                       Index* clipped) const {
+  const Index T = g.rows(), n = g.cols(), N = p_.n_ops, Nc = static_cast<Index>(p_.l.size());
+  std::vector<double> decay(static_cast<size_t>(Nc));
+  for (Index j = 0; j < Nc; ++j) decay[static_cast<size_t>(j)] = std::exp(-p_.l[static_cast<size_t>(j)] * dt);
+  Index n_clipped = 0;
+  std::vector<double> ycn(static_cast<size_t>(Nc));
+  for (Index t = 0; t < T; ++t) {
+    for (Index c = 0; c < n; ++c) {
+      const double gv = g(t, c);
+      if (std::isnan(gv)) {
+        p(t, c) = std::numeric_limits<double>::quiet_NaN();
+        continue;
+      }
+      // creep at t_k depends only on the past (eq. 2.23): known before solving for p_k
+      double creep = 0;
+      for (Index j = 0; j < Nc; ++j) {
+        const double e = decay[static_cast<size_t>(j)];
+        ycn[static_cast<size_t>(j)] = e * st.yc(j, c) + (1.0 - e) * st.p_prev[c];
+        creep += p_.w[static_cast<size_t>(j)] * ycn[static_cast<size_t>(j)];
+      }
+      const double target = gv - creep;  // = P[p_k] + F[p_k], eq. 2.25
+      // h(x) = a1 x + a2 x^2 + a3 x^3 + sum b_i osp(x, r_i, y_i): h(0) = 0, increasing
+      auto h = [&](double x, double& slope) {
+        double v = x * (p_.a1 + x * (p_.a2 + x * p_.a3));
+        slope = p_.a1 + x * (2.0 * p_.a2 + 3.0 * x * p_.a3);
+        for (Index i = 0; i < N; ++i) {
+          const double y = st.y(i, c), r = r_[i];
+          if (x <= y) {
+            v += b_[i] * x;
+            slope += b_[i];
+          } else if (x >= y + r) {
+            v += b_[i] * (x - r);
+            slope += b_[i];
+          } else {
+            v += b_[i] * y;  // inside the play: flat
+          }
+        }
+        return v;
+      };
+      double x;
+      if (target <= 0) {
+        x = 0.0;
+        ++n_clipped;
+      } else {
+        // bracket [lo, hi] with h(lo) <= target <= h(hi), then safeguarded Newton
+        double lo = 0.0, hi = std::max(st.p_prev[c], 1.0), s = 0;
+        while (h(hi, s) < target && hi < 1e6) {
+          lo = hi;
+          hi *= 2.0;
+        }
+        x = std::min(std::max(st.p_prev[c], lo), hi);
+        for (int it = 0; it < 100; ++it) {
+          const double f = h(x, s) - target;
+          if (std::abs(f) <= 1e-15 * std::max(target, 1e-300) + 1e-300) break;
+          if (f > 0) hi = x; else lo = x;
+          double xn = (s > 0) ? x - f / s : 0.5 * (lo + hi);
+          if (!(xn > lo && xn < hi)) xn = 0.5 * (lo + hi);  // keep Newton inside the bracket
+          if (hi - lo <= 1e-15 * hi) { x = xn; break; }
+          x = xn;
+        }
+      }
+      for (Index i = 0; i < N; ++i) st.y(i, c) = osp(x, r_[i], st.y(i, c));
+      for (Index j = 0; j < Nc; ++j) st.yc(j, c) = ycn[static_cast<size_t>(j)];
+      st.p_prev[c] = x;
+      p(t, c) = x;
+    }
+  }
+  if (clipped) *clipped = n_clipped;
+}
+
+std::string MPICreep::check_invertible() const {
+  std::ostringstream why;
+  double cum = p_.a1;
+  for (int j = 0; j < p_.n_ops; ++j) {
+    cum += b_[j];
+    if (!(cum > 0)) {
+      why << "play-part slope a1 + sum_{i<=" << j + 1 << "} b_i = " << cum << " S/psi is not positive";
+      return why.str();
+    }
+  }
+  // total slope: the smallest play slope plus the polynomial's slope, on [0, p_max]
+  double min_play = p_.a1 + b_[0];  // r_1 = 0: that operator always follows p
+  cum = p_.a1;
+  for (int j = 0; j < p_.n_ops; ++j) min_play = std::min(min_play, cum += b_[j]);
+  const int samples = 2000;
+  for (int k = 0; k <= samples; ++k) {
+    const double x = p_.p_max * k / samples;
+    const double slope = min_play + x * (2.0 * p_.a2 + 3.0 * x * p_.a3);
+    if (!(slope > 0)) {
+      why << "total slope " << slope << " S/psi at p = " << x
+          << " psi is not positive (the polynomial's negative slope outweighs the play part)";
+      return why.str();
+    }
+  }
+  return {};
+}
+
+PlayInverse play_inverse(double a1, const Eigen::VectorXd& b, const Eigen::VectorXd& r) {
+  const Index N = b.size();
+  PlayInverse inv;
+  inv.a1_hat = 1.0 / a1;  // eq. 2.21
+  inv.b_hat.resize(N);
+  inv.r_hat.resize(N);
+  double before = a1;  // a1 + sum_{i<j} b_i
+  for (Index j = 0; j < N; ++j) {
+    const double after = before + b[j];
+    inv.b_hat[j] = -b[j] / (before * after);
+    double rh = a1 * r[j];
+    for (Index i = 0; i < j; ++i) rh += b[i] * (r[j] - r[i]);
+    inv.r_hat[j] = rh;
+    before = after;
+  }
+  return inv;
+}
+
+Eigen::VectorXd apply_play(double a1, const Eigen::VectorXd& b, const Eigen::VectorXd& r,
+                           const Eigen::VectorXd& u) {
+  Eigen::VectorXd y = Eigen::VectorXd::Zero(b.size()), out(u.size());
+  for (Index t = 0; t < u.size(); ++t) {
+    double v = a1 * u[t];
+    for (Index i = 0; i < b.size(); ++i) v += b[i] * (y[i] = osp(u[t], r[i], y[i]));
+    out[t] = v;
+  }
+  return out;
+}
+
+}  // namespace psmat::sensor
