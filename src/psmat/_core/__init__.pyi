@@ -5,3 +5,4 @@ This folder holds stubs only (no __init__.py): the compiled extension module
 """
 
 from . import iecm as iecm
+from . import sensor as sensor
