@@ -6,6 +6,7 @@
 
 #include <stdexcept>
 
+#include "psmat/sensor/fit.hpp"
 #include "psmat/sensor/mpi_creep.hpp"
 
 namespace py = pybind11;
@@ -18,6 +19,20 @@ using CArray = py::array_t<double, py::array::c_style | py::array::forcecast>;
 Eigen::Map<const RowMatrixXd> as_stream(const CArray& a) {
   if (a.ndim() != 2) throw std::invalid_argument("expected a (T, cells) array");
   return Eigen::Map<const RowMatrixXd>(a.data(), a.shape(0), a.shape(1));
+}
+
+std::vector<Experiment> experiments(const std::vector<Eigen::VectorXd>& p,
+                                    const std::vector<Eigen::VectorXd>& g,
+                                    const std::vector<double>& dt) {
+  if (p.size() != g.size() || p.size() != dt.size() || p.empty())
+    throw std::invalid_argument("one p, g and dt per experiment");
+  std::vector<Experiment> ex(p.size());
+  for (size_t e = 0; e < p.size(); ++e) {
+    if (p[e].size() != g[e].size() || p[e].size() == 0)
+      throw std::invalid_argument("p and g of an experiment must have the same, non-zero length");
+    ex[e] = Experiment{p[e], g[e], dt[e]};
+  }
+  return ex;
 }
 
 void check_state(const MPICreep& m, const MPICreepState& s, Index cells) {
@@ -95,4 +110,62 @@ void register_sensor(py::module_& m) {
       py::arg("a1"), py::arg("b"), py::arg("r"), "Analytic inverse of the play part (eq. 2.21).");
   m.def("apply_play", &apply_play, py::arg("a1"), py::arg("b"), py::arg("r"), py::arg("u"),
         "a1 u + sum_j b_j F_{r_j}[u] from rest (eq. 2.17 without the polynomial).");
+
+  m.def(
+      "sse_n_each",
+      [](const Eigen::VectorXd& theta, const std::vector<Eigen::VectorXd>& p,
+         const std::vector<Eigen::VectorXd>& g, const std::vector<double>& dt, int n_ops,
+         double p_max) {
+        const auto ex = experiments(p, g, dt);
+        const MPICreep model(params_from_theta(theta, n_ops, p_max));
+        py::gil_scoped_release release;
+        return Eigen::VectorXd(sse_n_each(model, ex));
+      },
+      py::arg("theta"), py::arg("p"), py::arg("g"), py::arg("dt"), py::arg("n_ops"), py::arg("p_max"),
+      "SSE_N (eq. 2.26) of each experiment, each simulated from rest; theta = (rho, tau, a1, a2, a3, l.., w..).");
+  m.def(
+      "play_basis",
+      [](const Eigen::VectorXd& p, const Eigen::VectorXd& r) {
+        RowMatrixXd Y(p.size(), r.size());
+        play_basis(p, r, Y);
+        return Y;
+      },
+      py::arg("p"), py::arg("r"), "OSP outputs (T, N) of p from rest (eq. 2.15-2.16).");
+  m.def(
+      "creep_basis",
+      [](const Eigen::VectorXd& p, const Eigen::VectorXd& l, double dt) {
+        RowMatrixXd Y(p.size(), l.size());
+        creep_basis(p, l, dt, Y);
+        return Y;
+      },
+      py::arg("p"), py::arg("l"), py::arg("dt"), "Creep operator outputs (T, Nc) from rest (eq. 2.23).");
+  m.def(
+      "anneal_fit",
+      [](const std::vector<Eigen::VectorXd>& p, const std::vector<Eigen::VectorXd>& g,
+         const std::vector<double>& dt, int n_ops, double p_max, const Eigen::VectorXd& x0,
+         const Eigen::VectorXd& lo, const Eigen::VectorXd& hi, const Eigen::VectorXd& scale,
+         const std::vector<bool>& log10, int max_evals, double t0, double t_end, std::uint64_t seed) {
+        const auto ex = experiments(p, g, dt);
+        AnnealOptions o;
+        o.max_evals = max_evals;
+        o.t0 = t0;
+        o.t_end = t_end;
+        o.seed = seed;
+        AnnealResult r;
+        {
+          py::gil_scoped_release release;
+          r = anneal_fit(ex, n_ops, p_max, x0, lo, hi, scale, log10, o);
+        }
+        py::dict d;
+        d["x"] = r.x;
+        d["theta"] = theta_from_x(r.x, scale, log10);
+        d["sse_n"] = r.sse_n;
+        d["evaluations"] = r.evaluations;
+        d["accepted"] = r.accepted;
+        return d;
+      },
+      py::arg("p"), py::arg("g"), py::arg("dt"), py::arg("n_ops"), py::arg("p_max"), py::arg("x0"),
+      py::arg("lo"), py::arg("hi"), py::arg("scale"), py::arg("log10"), py::arg("max_evals"),
+      py::arg("t0"), py::arg("t_end"), py::arg("seed"),
+      "Simulated annealing of the model parameters on log(mean SSE_N) (thesis §2.5.1).");
 }

@@ -1,5 +1,7 @@
 #include "psmat/sensor/mpi_creep.hpp"
 
+#include "psmat/sensor/operators.hpp"
+
 #include <algorithm>
 #include <cmath>
 #include <sstream>
@@ -8,8 +10,6 @@
 namespace psmat::sensor {
 
 namespace {
-inline double osp(double x, double r, double y) { return std::max(x - r, std::min(x, y)); }  // eq. 2.16
-
 bool finite(double v) { return std::isfinite(v); }
 }  // namespace
 
@@ -54,13 +54,12 @@ void MPICreep::direct(const ConstRowMatRef& p, double dt, MPICreepState& st, Row
       }
       double out = x * (p_.a1 + x * (p_.a2 + x * p_.a3));
       for (Index i = 0; i < N; ++i) {
-        const double y = osp(x, r_[i], st.y(i, c));
+        const double y = osp_step(x, r_[i], st.y(i, c));
         st.y(i, c) = y;
         out += b_[i] * y;
       }
       for (Index j = 0; j < Nc; ++j) {  // eq. 2.23 with the previous sample, then eq. 2.24
-        const double e = decay[static_cast<size_t>(j)];
-        st.yc(j, c) = e * st.yc(j, c) + (1.0 - e) * st.p_prev[c];
+        st.yc(j, c) = creep_step(decay[static_cast<size_t>(j)], st.yc(j, c), st.p_prev[c]);
         out += p_.w[static_cast<size_t>(j)] * st.yc(j, c);
       }
       st.p_prev[c] = x;
@@ -86,8 +85,7 @@ void MPICreep::inverse(const ConstRowMatRef& g, double dt, MPICreepState& st, Ro
       // creep at t_k depends only on the past (eq. 2.23): known before solving for p_k
       double creep = 0;
       for (Index j = 0; j < Nc; ++j) {
-        const double e = decay[static_cast<size_t>(j)];
-        ycn[static_cast<size_t>(j)] = e * st.yc(j, c) + (1.0 - e) * st.p_prev[c];
+        ycn[static_cast<size_t>(j)] = creep_step(decay[static_cast<size_t>(j)], st.yc(j, c), st.p_prev[c]);
         creep += p_.w[static_cast<size_t>(j)] * ycn[static_cast<size_t>(j)];
       }
       const double target = gv - creep;  // = P[p_k] + F[p_k], eq. 2.25
@@ -131,7 +129,7 @@ void MPICreep::inverse(const ConstRowMatRef& g, double dt, MPICreepState& st, Ro
           x = xn;
         }
       }
-      for (Index i = 0; i < N; ++i) st.y(i, c) = osp(x, r_[i], st.y(i, c));
+      for (Index i = 0; i < N; ++i) st.y(i, c) = osp_step(x, r_[i], st.y(i, c));
       for (Index j = 0; j < Nc; ++j) st.yc(j, c) = ycn[static_cast<size_t>(j)];
       st.p_prev[c] = x;
       p(t, c) = x;
@@ -190,7 +188,7 @@ Eigen::VectorXd apply_play(double a1, const Eigen::VectorXd& b, const Eigen::Vec
   Eigen::VectorXd y = Eigen::VectorXd::Zero(b.size()), out(u.size());
   for (Index t = 0; t < u.size(); ++t) {
     double v = a1 * u[t];
-    for (Index i = 0; i < b.size(); ++i) v += b[i] * (y[i] = osp(u[t], r[i], y[i]));
+    for (Index i = 0; i < b.size(); ++i) v += b[i] * (y[i] = osp_step(u[t], r[i], y[i]));
     out[t] = v;
   }
   return out;

@@ -1,0 +1,129 @@
+#include "psmat/sensor/fit.hpp"
+
+#include <cmath>
+#include <limits>
+#include <random>
+#include <stdexcept>
+
+#include "psmat/sensor/operators.hpp"
+
+namespace psmat::sensor {
+
+MPICreepParams params_from_theta(const Eigen::VectorXd& theta, int n_ops, double p_max) {
+  if (theta.size() < 5 || (theta.size() - 5) % 2 != 0)
+    throw std::invalid_argument("theta = (rho, tau, a1, a2, a3, l_1..l_Nc, w_1..w_Nc)");
+  const Index nc = (theta.size() - 5) / 2;
+  MPICreepParams p;
+  p.rho = theta[0];
+  p.tau = theta[1];
+  p.a1 = theta[2];
+  p.a2 = theta[3];
+  p.a3 = theta[4];
+  for (Index j = 0; j < nc; ++j) {
+    p.l.push_back(theta[5 + j]);
+    p.w.push_back(theta[5 + nc + j]);
+  }
+  p.n_ops = n_ops;
+  p.p_max = p_max;
+  return p;
+}
+
+Eigen::VectorXd sse_n_each(const MPICreep& model, const std::vector<Experiment>& experiments) {
+  Eigen::VectorXd out(static_cast<Index>(experiments.size()));
+  for (size_t e = 0; e < experiments.size(); ++e) {
+    const Experiment& ex = experiments[e];
+    const Index T = ex.p.size();
+    MPICreepState st = model.rest_state(1);  // independent experiments start at rest
+    RowMatrixXd g(T, 1);
+    model.direct(Eigen::Map<const RowMatrixXd>(ex.p.data(), T, 1), ex.dt, st, g);
+    out[static_cast<Index>(e)] = (g.col(0) - ex.g).squaredNorm() / static_cast<double>(T);  // eq. 2.26
+  }
+  return out;
+}
+
+double mean_sse_n(const MPICreep& model, const std::vector<Experiment>& experiments) {
+  return sse_n_each(model, experiments).mean();
+}
+
+void play_basis(const Eigen::VectorXd& p, const Eigen::VectorXd& r, RowMatRef Y) {
+  Eigen::VectorXd y = Eigen::VectorXd::Zero(r.size());
+  for (Index t = 0; t < p.size(); ++t)
+    for (Index i = 0; i < r.size(); ++i) Y(t, i) = y[i] = osp_step(p[t], r[i], y[i]);
+}
+
+void creep_basis(const Eigen::VectorXd& p, const Eigen::VectorXd& l, double dt, RowMatRef Yc) {
+  for (Index j = 0; j < l.size(); ++j) {
+    const double decay = std::exp(-l[j] * dt);
+    double y = 0, p_prev = 0;  // rest
+    for (Index t = 0; t < p.size(); ++t) {
+      Yc(t, j) = y = creep_step(decay, y, p_prev);
+      p_prev = p[t];
+    }
+  }
+}
+
+Eigen::VectorXd theta_from_x(const Eigen::VectorXd& x, const Eigen::VectorXd& scale,
+                             const std::vector<bool>& log10) {
+  Eigen::VectorXd th(x.size());
+  for (Index k = 0; k < x.size(); ++k)
+    th[k] = log10[static_cast<size_t>(k)] ? std::pow(10.0, x[k]) : scale[k] * x[k];
+  return th;
+}
+
+AnnealResult anneal_fit(const std::vector<Experiment>& experiments, int n_ops, double p_max,
+                        const Eigen::VectorXd& x0, const Eigen::VectorXd& lo,
+                        const Eigen::VectorXd& hi, const Eigen::VectorXd& scale,
+                        const std::vector<bool>& log10, const AnnealOptions& o) {
+  const Index d = x0.size();
+  if (lo.size() != d || hi.size() != d || scale.size() != d || static_cast<Index>(log10.size()) != d)
+    throw std::invalid_argument("x0, lo, hi, scale and log10 must have the same length");
+  std::mt19937_64 rng(o.seed);
+  std::normal_distribution<double> normal(0.0, 1.0);
+  std::uniform_real_distribution<double> unif(0.0, 1.0);
+  std::uniform_int_distribution<Index> pick(0, d - 1);
+
+  AnnealResult res;
+  auto energy = [&](const Eigen::VectorXd& x) {
+    ++res.evaluations;
+    const MPICreep m(params_from_theta(theta_from_x(x, scale, log10), n_ops, p_max));
+    if (!m.check_invertible().empty()) return std::numeric_limits<double>::infinity();
+    const double s = mean_sse_n(m, experiments);
+    return std::isfinite(s) ? std::log(s + 1e-300) : std::numeric_limits<double>::infinity();
+  };
+  Eigen::VectorXd x = x0.cwiseMax(lo).cwiseMin(hi), best = x;
+  double e = energy(x), e_best = e;
+  Eigen::VectorXd width = 0.1 * (hi - lo);
+  Eigen::VectorXi tried = Eigen::VectorXi::Zero(d), ok = Eigen::VectorXi::Zero(d);
+  const double cool = std::pow(o.t_end / o.t0, 1.0 / std::max(1, o.max_evals));
+  double temp = o.t0;
+  Eigen::VectorXd xn;
+  while (res.evaluations < o.max_evals) {
+    const Index k = pick(rng);  // one coordinate at a time: widths adapt per coordinate
+    xn = x;
+    xn[k] = std::min(hi[k], std::max(lo[k], x[k] + width[k] * normal(rng)));
+    const double en = energy(xn);
+    ++tried[k];
+    if (en <= e || unif(rng) < std::exp(-(en - e) / temp)) {  // Metropolis
+      x = xn;
+      e = en;
+      ++ok[k];
+      ++res.accepted;
+      if (e < e_best) {
+        e_best = e;
+        best = x;
+      }
+    }
+    if (tried[k] == 20) {  // adapt the move width towards ~40 % acceptance
+      const double rate = ok[k] / 20.0;
+      width[k] *= rate > 0.4 ? 1.5 : 0.7;
+      width[k] = std::min(width[k], hi[k] - lo[k]);
+      tried[k] = ok[k] = 0;
+    }
+    temp *= cool;
+  }
+  res.x = best;
+  res.sse_n = std::exp(e_best);
+  return res;
+}
+
+}  // namespace psmat::sensor

@@ -1,0 +1,60 @@
+// Identification of the sensor model from pneumatic experiments (thesis §2.5.1, SPEC §4).
+//
+//   SSE_N = sum_t (g_exp,t - g_m,t)^2 / N_t                                   (eq. 2.26)
+// averaged over independent experiments (each simulated from rest: the sensor rests between
+// them). Parameter vector theta = (rho, tau, a1, a2, a3, l_1..l_Nc, w_1..w_Nc).
+#pragma once
+#include <cstdint>
+#include <functional>
+#include <vector>
+
+#include "psmat/sensor/mpi_creep.hpp"
+
+namespace psmat::sensor {
+
+struct Experiment {
+  Eigen::VectorXd p;  // applied pressure, psi
+  Eigen::VectorXd g;  // measured conductance, S
+  double dt = 0.5;    // sampling period, s
+};
+
+MPICreepParams params_from_theta(const Eigen::VectorXd& theta, int n_ops, double p_max);
+
+// Mean over experiments of SSE_N (eq. 2.26), S^2.
+double mean_sse_n(const MPICreep& model, const std::vector<Experiment>& experiments);
+// SSE_N of each experiment.
+Eigen::VectorXd sse_n_each(const MPICreep& model, const std::vector<Experiment>& experiments);
+
+// Regression basis for separable least squares: OSP outputs y_i(t) for thresholds r
+// (T x N) and creep outputs y_c,j(t) for rates l (T x Nc), from rest.
+void play_basis(const Eigen::VectorXd& p, const Eigen::VectorXd& r, RowMatRef Y);
+void creep_basis(const Eigen::VectorXd& p, const Eigen::VectorXd& l, double dt, RowMatRef Yc);
+
+// Simulated annealing (thesis §2.5.1) on E(theta) = log(mean SSE_N) over a box in a scaled
+// space x: theta_k = scale_k * x_k, or 10^x_k where log10_k. Gaussian moves whose per-
+// coordinate width adapts towards ~40 % acceptance, geometric cooling from t0 to t_end
+// over max_evals evaluations, seeded (std::mt19937_64) and so reproducible. Parameters that
+// make the model non-invertible are rejected (SPEC §4: the fit must stay usable for
+// compensation).
+struct AnnealOptions {
+  int max_evals = 20000;
+  double t0 = 1.0;      // initial temperature in units of log(SSE_N)
+  double t_end = 1e-3;  // final temperature
+  std::uint64_t seed = 0;
+};
+struct AnnealResult {
+  Eigen::VectorXd x;  // best point in the scaled space
+  double sse_n = 0;   // its mean SSE_N
+  int evaluations = 0;
+  int accepted = 0;
+};
+AnnealResult anneal_fit(const std::vector<Experiment>& experiments, int n_ops, double p_max,
+                        const Eigen::VectorXd& x0, const Eigen::VectorXd& lo,
+                        const Eigen::VectorXd& hi, const Eigen::VectorXd& scale,
+                        const std::vector<bool>& log10, const AnnealOptions& options);
+
+// theta from x (see AnnealOptions' comment)
+Eigen::VectorXd theta_from_x(const Eigen::VectorXd& x, const Eigen::VectorXd& scale,
+                             const std::vector<bool>& log10);
+
+}  // namespace psmat::sensor
