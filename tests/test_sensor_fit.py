@@ -53,11 +53,12 @@ def test_varpro_noise_free_is_exact(rng):
 def test_anneal_is_reproducible_and_reaches_varpro(rng):
     sigma = 5e-5
     ps, gs, _ = _experiments(rng, sigma)
-    a = fit(ps, gs, 0.5, method="anneal", seed=3, max_evals=4000, refine=False)
-    b = fit(ps, gs, 0.5, method="anneal", seed=3, max_evals=4000, refine=False)
-    assert a.sse_n == b.sse_n and a.model.params == b.model.params  # seeded
-    c = fit(ps, gs, 0.5, method="anneal", seed=4, max_evals=4000, refine=False)
+    a = fit(ps, gs, 0.5, method="anneal", seed=3, max_evals=4000, refine=False, chains=2)
+    b = fit(ps, gs, 0.5, method="anneal", seed=3, max_evals=4000, refine=False, chains=2)
+    assert a.sse_n == b.sse_n and a.model.params == b.model.params  # seeded, even with threads
+    c = fit(ps, gs, 0.5, method="anneal", seed=5, max_evals=4000, refine=False, chains=2)
     assert c.model.params != a.model.params  # the seed matters
+    assert len(a.details["chain_sse_n"]) == 2 and a.sse_n == pytest.approx(min(a.details["chain_sse_n"]))
     full = fit(ps, gs, 0.5, method="anneal", seed=3)
     best = fit(ps, gs, 0.5, method="varpro").sse_n
     assert full.sse_n <= 1.01 * best

@@ -94,7 +94,8 @@ def _rate_bounds(p, dt):
 
 
 def fit(p, g, dt, method: str = "varpro", seed: int = 0, *, n_ops: int = 6, p_max: float = 32.0,
-        n_creep: int = 2, max_evals: int = 60000, refine: bool = True) -> FitResult:
+        n_creep: int = 2, max_evals: int = 60000, refine: bool = True,
+        chains: int | None = None) -> FitResult:
     """Identify the MPI + creep model from one or several pneumatic experiments.
 
     Parameters
@@ -110,7 +111,10 @@ def fit(p, g, dt, method: str = "varpro", seed: int = 0, *, n_ops: int = 6, p_ma
     n_ops, p_max, n_creep
         Model structure (thesis: 6 operators, 32 psi, 2 creep operators).
     max_evals : int
-        Annealing budget (objective evaluations).
+        Annealing budget per chain (objective evaluations).
+    chains : int, optional
+        Independent annealing chains run in parallel (seeds seed, seed+1, ...); the best is
+        kept. Default: one per core.
     refine : bool
         Finish with NLopt (BOBYQA) from the best point found.
     """
@@ -123,7 +127,11 @@ def fit(p, g, dt, method: str = "varpro", seed: int = 0, *, n_ops: int = 6, p_ma
     if method == "varpro":
         theta, evals, details = _varpro(ps, gs, dts, n_ops, p_max, n_creep, refine)
     else:
-        theta, evals, details = _anneal(ps, gs, dts, n_ops, p_max, n_creep, max_evals, seed, refine)
+        if chains is None:
+            chains = _core.iecm.hardware_threads()
+        if int(chains) != chains or chains < 1:
+            raise ValueError("chains must be a positive integer")
+        theta, evals, details = _anneal(ps, gs, dts, n_ops, p_max, n_creep, max_evals, seed, refine, int(chains))
     each = np.asarray(_core.sensor.sse_n_each(theta, ps, gs, dts, n_ops, p_max))
     nc = n_creep
     model = MPICreep(*theta[:5], l=theta[5:5 + nc], w=theta[5 + nc:], n_ops=n_ops, p_max=p_max)
@@ -209,14 +217,24 @@ def _space(ps, dts, n_creep):
     return x0, lo, hi, scale, log10
 
 
-def _anneal(ps, gs, dts, n_ops, p_max, n_creep, max_evals, seed, refine):
+def _anneal(ps, gs, dts, n_ops, p_max, n_creep, max_evals, seed, refine, chains):
+    from concurrent.futures import ThreadPoolExecutor
+
     import nlopt
 
     x0, lo, hi, scale, log10 = _space(ps, dts, n_creep)
-    res = _core.sensor.anneal_fit(ps, gs, dts, n_ops, p_max, x0, lo, hi, scale, log10,
-                                  int(max_evals), 1.0, 1e-3, int(seed))
-    x_best, evals = np.asarray(res["x"]), int(res["evaluations"])
-    details = {"anneal_sse_n": float(res["sse_n"]), "acceptance": res["accepted"] / max(1, evals)}
+
+    def chain(k):  # the C++ annealing releases the GIL: chains run on separate cores
+        return _core.sensor.anneal_fit(ps, gs, dts, n_ops, p_max, x0, lo, hi, scale, log10,
+                                       int(max_evals), 1.0, 1e-3, int(seed) + k)
+
+    with ThreadPoolExecutor(max_workers=chains) as pool:
+        results = list(pool.map(chain, range(chains)))
+    res = min(results, key=lambda r: r["sse_n"])
+    x_best, evals = np.asarray(res["x"]), sum(int(r["evaluations"]) for r in results)
+    details = {"anneal_sse_n": float(res["sse_n"]), "chains": chains,
+               "chain_sse_n": [float(r["sse_n"]) for r in results],
+               "acceptance": res["accepted"] / max(1, int(res["evaluations"]))}
     if refine:
         count = 0
 
