@@ -1,6 +1,22 @@
-"""Sensor model of the Velostat cells: hysteresis and creep (thesis §2.4-2.5, SPEC §4)."""
+"""Sensor model of the Velostat cells: hysteresis and creep (thesis §2.4-2.5, SPEC §4).
 
+* :class:`MPICreep` - the direct model and its exact inverse (eq. 2.15-2.25);
+* :func:`fit` - identification from pneumatic experiments (eq. 2.26);
+* :mod:`psmat.sensor.protocols` - the four pneumatic protocols (§2.4.2);
+* :mod:`psmat.sensor.pneumatic` - simulated runs and the material DAQ's log loader;
+* :mod:`psmat.sensor.metrics` - variability, drift, creep, hysteresis (eq. 2.1-2.4), tables
+  and the radar chart (Fig. 2.34).
+"""
+
+from . import metrics, pneumatic, protocols
 from .fit import FitResult, fit
 from .mpi_creep import THESIS_TABLE_2_11, MPICreep, SensorState
+from .pneumatic import PneumaticRun, load_daq_log, simulate_run
+from .protocols import Protocol, ascending_hysteresis, descending_hysteresis, fast_cyclic, long_staircase
 
-__all__ = ["MPICreep", "SensorState", "THESIS_TABLE_2_11", "fit", "FitResult"]
+__all__ = [
+    "MPICreep", "SensorState", "THESIS_TABLE_2_11", "fit", "FitResult",
+    "protocols", "pneumatic", "metrics",
+    "Protocol", "fast_cyclic", "long_staircase", "descending_hysteresis", "ascending_hysteresis",
+    "PneumaticRun", "simulate_run", "load_daq_log",
+]
