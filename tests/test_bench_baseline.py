@@ -212,3 +212,16 @@ def test_bench_cli_smoke(tmp_path):
     for r in data["rows"]:
         if r["solver"] == "psmat newton":
             assert r["fps"] > 0 and r["err_loaded"] <= 1e-6
+
+
+def test_sensor_bench_numpy_baseline_agrees_with_the_core():
+    # the benchmark's NumPy direct/inverse models are independent implementations: they must
+    # agree with the C++ model, so the throughput comparison compares like with like
+    from psmat.bench.sensor import _numpy_direct, _numpy_inverse
+    from psmat.sensor import MPICreep
+
+    m = MPICreep.thesis()
+    p = np.repeat(np.random.default_rng(0).uniform(0, 32, (20, 5)), 6, axis=0)
+    g = m.direct(p, 0.5)
+    np.testing.assert_allclose(_numpy_direct(m, p, 0.5), g, rtol=1e-12, atol=1e-18)
+    np.testing.assert_allclose(_numpy_inverse(m, g, 0.5), p, atol=1e-9)

@@ -8,7 +8,10 @@ import sys
 
 def main(argv: list[str] | None = None) -> int:
     argv = list(sys.argv[1:] if argv is None else argv)
-    benches = {"iecm": "IECM crosstalk removal: frames/s and accuracy vs the thesis' NumPy/SciPy approach"}
+    benches = {
+        "iecm": "IECM crosstalk removal: frames/s and accuracy vs the thesis' NumPy/SciPy approach",
+        "sensor": "sensor model: direct/inverse throughput and identification vs NumPy and scipy dual_annealing",
+    }
     if not argv or argv[0] in ("-h", "--help"):
         p = argparse.ArgumentParser(prog="python -m psmat.bench", description="psmat benchmarks (SPEC §10).")
         p.add_argument("benchmark", choices=sorted(benches), help="; ".join(f"{k}: {v}" for k, v in benches.items()))
@@ -19,6 +22,10 @@ def main(argv: list[str] | None = None) -> int:
         from .iecm import main as iecm_main
 
         return iecm_main(rest)
+    if name == "sensor":
+        from .sensor import main as sensor_main
+
+        return sensor_main(rest)
     print(f"python -m psmat.bench: unknown benchmark {name!r}; choose from {sorted(benches)}", file=sys.stderr)
     return 2
 

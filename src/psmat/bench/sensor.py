@@ -1,0 +1,170 @@
+"""Sensor-model benchmark (SPEC §10, issue 3): ``python -m psmat.bench sensor [--quick]``.
+
+1. Throughput of the C++ direct and inverse MPI + creep model on 256 cells, beside a NumPy
+   implementation vectorised over cells (a Python loop over samples) run in the same process.
+2. Identification on the full descending + ascending hysteresis protocols (SPEC §4, 10
+   repetitions each, 2 Hz) of a simulated cell (thesis model + 0.5 % noise): variable
+   projection, simulated annealing (C++, one chain per core) + NLopt, and
+   ``scipy.optimize.dual_annealing`` on the same objective and search box, each with its wall
+   time and SSE_N relative to the best SSE_N found in the run.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import time
+
+import numpy as np
+
+from .iecm import machine_info
+
+__all__ = ["main", "run"]
+
+
+def _numpy_direct(model, p: np.ndarray, dt: float) -> np.ndarray:
+    """Independent NumPy direct model (eq. 2.15-2.24), vectorised over cells, loop over samples."""
+    prm = model.params
+    r, b = model.thresholds, model.weights
+    l, w = np.asarray(prm["l"]), np.asarray(prm["w"])
+    decay = np.exp(-l * dt)
+    y = np.zeros((len(r), p.shape[1]))
+    yc = np.zeros((len(l), p.shape[1]))
+    p_prev = np.zeros(p.shape[1])
+    out = np.empty_like(p)
+    for t in range(p.shape[0]):
+        x = p[t]
+        y = np.maximum(x - r[:, None], np.minimum(x, y))
+        yc = decay[:, None] * yc + (1 - decay[:, None]) * p_prev
+        out[t] = prm["a1"] * x + prm["a2"] * x**2 + prm["a3"] * x**3 + b @ y + w @ yc
+        p_prev = x
+    return out
+
+
+def _numpy_inverse(model, g: np.ndarray, dt: float, iters: int = 60) -> np.ndarray:
+    """NumPy inverse: per sample, bisection of the algebraic loop for all cells at once."""
+    prm = model.params
+    r, b = model.thresholds, model.weights
+    l, w = np.asarray(prm["l"]), np.asarray(prm["w"])
+    decay = np.exp(-l * dt)
+    y = np.zeros((len(r), g.shape[1]))
+    yc = np.zeros((len(l), g.shape[1]))
+    p_prev = np.zeros(g.shape[1])
+    out = np.empty_like(g)
+    for t in range(g.shape[0]):
+        yc = decay[:, None] * yc + (1 - decay[:, None]) * p_prev
+        target = g[t] - w @ yc
+        lo, hi = np.zeros(g.shape[1]), np.full(g.shape[1], 64.0)
+        for _ in range(iters):
+            mid = 0.5 * (lo + hi)
+            h = prm["a1"] * mid + prm["a2"] * mid**2 + prm["a3"] * mid**3 + b @ np.maximum(mid - r[:, None], np.minimum(mid, y))
+            below = h < target
+            lo = np.where(below, mid, lo)
+            hi = np.where(below, hi, mid)
+        x = 0.5 * (lo + hi)
+        y = np.maximum(x - r[:, None], np.minimum(x, y))
+        out[t] = p_prev = x
+    return out
+
+
+def _throughput(quick: bool, log) -> list[dict]:
+    from ..sensor import MPICreep
+
+    m = MPICreep.thesis()
+    rng = np.random.default_rng(0)
+    T = 400 if quick else 4000
+    p = np.repeat(rng.uniform(0, 32, (T // 10, 256)), 10, axis=0)
+    rows = []
+
+    def timed(fn, *a):
+        t0 = time.perf_counter()
+        out = fn(*a)
+        return out, time.perf_counter() - t0
+
+    g, t_d = timed(m.direct, p, 0.5)
+    p_back, t_i = timed(m.inverse, g, 0.5)
+    n = min(T, 200 if quick else 1000)
+    g_np, t_dn = timed(_numpy_direct, m, p[:n], 0.5)
+    p_np, t_in = timed(_numpy_inverse, m, g[:n], 0.5)
+    rows.append(dict(kernel="direct", impl="psmat C++ (1 thread)", cell_samples_per_s=p.size / t_d,
+                     check=f"|g - g_numpy| max {np.max(np.abs(g[:n] - g_np)):.1e} S"))
+    rows.append(dict(kernel="direct", impl="NumPy, vectorised over cells", cell_samples_per_s=p[:n].size / t_dn, check=""))
+    rows.append(dict(kernel="inverse", impl="psmat C++ (1 thread)", cell_samples_per_s=p.size / t_i,
+                     check=f"|p - inverse(direct(p))| max {np.max(np.abs(p_back - p)):.1e} psi"))
+    rows.append(dict(kernel="inverse", impl="NumPy bisection, vectorised over cells", cell_samples_per_s=p[:n].size / t_in,
+                     check=f"|p - p_numpy| max {np.max(np.abs(p_np - p[:n])):.1e} psi"))
+    for r_ in rows:
+        log(f"  {r_['kernel']:<8} {r_['impl']:<42} {r_['cell_samples_per_s']:.3g} cell-samples/s  {r_['check']}")
+    return rows
+
+
+def _identification(quick: bool, log) -> tuple[list[dict], dict]:
+    from scipy.optimize import dual_annealing
+
+    from .. import _core
+    from ..sensor import MPICreep, fit, protocols
+    from ..sensor.fit import _space
+
+    reps = 2 if quick else 10
+    true = MPICreep.thesis()
+    rng = np.random.default_rng(1)
+    ps = [protocols.descending_hysteresis(repetitions=reps).p_psi, protocols.ascending_hysteresis(repetitions=reps).p_psi]
+    gs = [(g := true.direct(p, 0.5)) * (1 + 0.005 * rng.standard_normal(g.shape)) for p in ps]
+    data = dict(samples=[len(p) for p in ps], hours=sum(len(p) for p in ps) * 0.5 / 3600)
+    log(f"  data: descending + ascending x{reps} at 2 Hz: {data['samples']} samples ({data['hours']:.2f} h), 0.5 % noise")
+    rows = []
+    evals = 6000 if quick else 30000
+
+    res = fit(ps, gs, 0.5, method="varpro")
+    rows.append(dict(method="varpro (grid + NLopt BOBYQA)", sse_n=res.sse_n, seconds=res.wall_time, evaluations=res.evaluations))
+    res = fit(ps, gs, 0.5, method="anneal", seed=0, max_evals=evals)
+    rows.append(dict(method=f"anneal C++ ({res.details['chains']} chains x {evals}) + BOBYQA", sse_n=res.sse_n,
+                     seconds=res.wall_time, evaluations=res.evaluations))
+
+    x0, lo, hi, scale, log10 = _space(ps, [0.5, 0.5], 2)
+    log10 = np.asarray(log10)
+    count = 0
+
+    def objective(x):
+        nonlocal count
+        count += 1
+        th = np.where(log10, 10.0 ** x, scale * x)
+        m = MPICreep(*th[:5], l=th[5:7], w=th[7:])
+        if m.invertibility_problem():
+            return 1e3
+        return float(np.log(np.mean(_core.sensor.sse_n_each(th, ps, gs, [0.5, 0.5], 6, 32.0))))
+
+    t0 = time.perf_counter()
+    da = dual_annealing(objective, list(zip(lo, hi)), x0=x0, maxfun=2 * evals, seed=0)
+    rows.append(dict(method=f"scipy dual_annealing (maxfun {2 * evals}, same objective)", sse_n=float(np.exp(da.fun)),
+                     seconds=time.perf_counter() - t0, evaluations=count))
+    best = min(r_["sse_n"] for r_ in rows)
+    for r_ in rows:
+        r_["vs_best"] = r_["sse_n"] / best - 1
+        log(f"  {r_['method']:<58} SSE_N {r_['sse_n']:.5g} S^2 (+{100 * r_['vs_best']:.2f} % vs best)  "
+            f"{r_['seconds']:.1f} s, {r_['evaluations']} evaluations")
+    data["noise_floor_sse_n"] = float(np.mean([np.mean((0.005 * true.direct(p, 0.5)) ** 2) for p in ps]))
+    log(f"  noise floor (mean of (0.5 % g)^2): {data['noise_floor_sse_n']:.5g} S^2")
+    return rows, data
+
+
+def run(quick: bool = False, log=print) -> dict:
+    info = machine_info()
+    log(f"sensor model benchmark - machine: {info.get('cpu', '?')}, {info.get('usable_cpus', '?')} cores")
+    log("throughput (256 cells):")
+    thr = _throughput(quick, log)
+    log("identification:")
+    ident, data = _identification(quick, log)
+    return {"machine": info, "throughput": thr, "identification": ident, "data": data}
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(prog="python -m psmat.bench sensor", description=__doc__.split("\n\n")[0])
+    ap.add_argument("--quick", action="store_true", help="small data and budgets (about a minute)")
+    ap.add_argument("--json", help="write the figures to this file")
+    args = ap.parse_args(argv)
+    res = run(quick=args.quick)
+    if args.json:
+        with open(args.json, "w") as f:
+            json.dump(res, f, indent=1, default=float)
+    return 0
