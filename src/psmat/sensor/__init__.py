@@ -4,11 +4,13 @@
 * :func:`fit` - identification from pneumatic experiments (eq. 2.26);
 * :mod:`psmat.sensor.protocols` - the four pneumatic protocols (§2.4.2);
 * :mod:`psmat.sensor.pneumatic` - simulated runs and the material DAQ's log loader;
+* :func:`fit_cells` - shared, shared + per-cell gain, or per-cell models (cell variability);
 * :mod:`psmat.sensor.metrics` - variability, drift, creep, hysteresis (eq. 2.1-2.4), tables
   and the radar chart (Fig. 2.34).
 """
 
 from . import metrics, pneumatic, protocols
+from .cells import CellModels, fit_cells
 from .fit import FitResult, fit
 from .mpi_creep import THESIS_TABLE_2_11, MPICreep, SensorState
 from .pneumatic import PneumaticRun, load_daq_log, simulate_run
@@ -18,5 +20,5 @@ __all__ = [
     "MPICreep", "SensorState", "THESIS_TABLE_2_11", "fit", "FitResult",
     "protocols", "pneumatic", "metrics",
     "Protocol", "fast_cyclic", "long_staircase", "descending_hysteresis", "ascending_hysteresis",
-    "PneumaticRun", "simulate_run", "load_daq_log",
+    "PneumaticRun", "simulate_run", "load_daq_log", "CellModels", "fit_cells",
 ]
