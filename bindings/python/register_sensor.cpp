@@ -139,6 +139,8 @@ void register_sensor(py::module_& m) {
         return Y;
       },
       py::arg("p"), py::arg("l"), py::arg("dt"), "Creep operator outputs (T, Nc) from rest (eq. 2.23).");
+  m.def("theta_from_x", &theta_from_x, py::arg("x"), py::arg("scale"), py::arg("log10"),
+        "Model parameters from the annealing space (x_2 is the initial slope a1 + rho).");
   m.def(
       "anneal_fit",
       [](const std::vector<Eigen::VectorXd>& p, const std::vector<Eigen::VectorXd>& g,

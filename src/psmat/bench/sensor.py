@@ -122,13 +122,12 @@ def _identification(quick: bool, log) -> tuple[list[dict], dict]:
                      seconds=res.wall_time, evaluations=res.evaluations))
 
     x0, lo, hi, scale, log10 = _space(ps, [0.5, 0.5], 2)
-    log10 = np.asarray(log10)
     count = 0
 
     def objective(x):
         nonlocal count
         count += 1
-        th = np.where(log10, 10.0 ** x, scale * x)
+        th = np.asarray(_core.sensor.theta_from_x(np.asarray(x), scale, log10))
         m = MPICreep(*th[:5], l=th[5:7], w=th[7:])
         if m.invertibility_problem():
             return 1e3

@@ -207,13 +207,18 @@ def _varpro(ps, gs, dts, n_ops, p_max, n_creep, refine):
 # ------------------------------------------------------------------------ simulated annealing
 
 def _space(ps, dts, n_creep):
-    """Scaled search space: rho, a1 in 1e-4 S/psi, a2 in 1e-6, a3 in 1e-8, w in 1e-6, l in log10."""
+    """Scaled search space x = (rho, tau, s = a1 + rho, a2, a3, log10 l_j, w_j).
+
+    rho and s in 1e-4 S/psi, a2 in 1e-6, a3 in 1e-8, w in 1e-6. The initial slope s replaces
+    a1 because y_{r_1} = p (r_1 = 0) makes a1 and rho collinear (see fit.hpp); s > 0 is also
+    the first invertibility condition.
+    """
     lo_l, hi_l = _rate_bounds(ps, dts)
     scale = np.array([1e-4, 1.0, 1e-4, 1e-6, 1e-8] + [1.0] * n_creep + [1e-6] * n_creep)
     log10 = [False] * 5 + [True] * n_creep + [False] * n_creep
-    lo = np.array([0.0, 0.0, -10.0, -50.0, -100.0] + [lo_l] * n_creep + [-50.0] * n_creep)
-    hi = np.array([20.0, 2.0, 10.0, 50.0, 100.0] + [hi_l] * n_creep + [50.0] * n_creep)
-    x0 = np.array([1.0, 0.3, 1.0, 0.0, 0.0] + list(np.linspace(hi_l - 1, lo_l + 1, n_creep)) + [1.0] * n_creep)
+    lo = np.array([0.0, 0.0, 0.0, -50.0, -100.0] + [lo_l] * n_creep + [-50.0] * n_creep)
+    hi = np.array([20.0, 2.0, 20.0, 50.0, 100.0] + [hi_l] * n_creep + [50.0] * n_creep)
+    x0 = np.array([1.0, 0.3, 2.0, 0.0, 0.0] + list(np.linspace(hi_l - 1, lo_l + 1, n_creep)) + [1.0] * n_creep)
     return x0, lo, hi, scale, log10
 
 
@@ -241,7 +246,7 @@ def _anneal(ps, gs, dts, n_ops, p_max, n_creep, max_evals, seed, refine, chains)
         def objective(x, grad):
             nonlocal count
             count += 1
-            th = np.where(log10, 10.0 ** np.asarray(x), scale * np.asarray(x))
+            th = np.asarray(_core.sensor.theta_from_x(np.asarray(x), scale, log10))
             m = MPICreep(*th[:5], l=th[5:5 + n_creep], w=th[5 + n_creep:], n_ops=n_ops, p_max=p_max)
             if m.invertibility_problem():
                 return 1e3
@@ -258,5 +263,5 @@ def _anneal(ps, gs, dts, n_ops, p_max, n_creep, max_evals, seed, refine, chains)
             x_best = np.asarray(x)
         evals += count
         details["nlopt_result"] = int(opt.last_optimize_result())
-    theta = np.where(log10, 10.0 ** x_best, scale * x_best)
+    theta = np.asarray(_core.sensor.theta_from_x(x_best, scale, log10))
     return theta, evals, details

@@ -67,6 +67,7 @@ Eigen::VectorXd theta_from_x(const Eigen::VectorXd& x, const Eigen::VectorXd& sc
   Eigen::VectorXd th(x.size());
   for (Index k = 0; k < x.size(); ++k)
     th[k] = log10[static_cast<size_t>(k)] ? std::pow(10.0, x[k]) : scale[k] * x[k];
+  if (th.size() > 2) th[2] -= th[0];  // x_2 is the initial slope a1 + rho
   return th;
 }
 

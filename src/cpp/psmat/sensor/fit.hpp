@@ -31,7 +31,9 @@ void play_basis(const Eigen::VectorXd& p, const Eigen::VectorXd& r, RowMatRef Y)
 void creep_basis(const Eigen::VectorXd& p, const Eigen::VectorXd& l, double dt, RowMatRef Yc);
 
 // Simulated annealing (thesis §2.5.1) on E(theta) = log(mean SSE_N) over a box in a scaled
-// space x: theta_k = scale_k * x_k, or 10^x_k where log10_k. Gaussian moves whose per-
+// space x: theta_k = scale_k * x_k, or 10^x_k where log10_k, except that x_2 is the initial
+// slope a1 + rho (so a1 = scale_2 x_2 - rho): the first operator has r_1 = 0, so y_{r_1} = p
+// and a1, rho are collinear; searching over their sum and rho decorrelates the valley. Gaussian moves whose per-
 // coordinate width adapts towards ~40 % acceptance, geometric cooling from t0 to t_end
 // over max_evals evaluations, seeded (std::mt19937_64) and so reproducible. Parameters that
 // make the model non-invertible are rejected (SPEC §4: the fit must stay usable for
@@ -53,7 +55,7 @@ AnnealResult anneal_fit(const std::vector<Experiment>& experiments, int n_ops, d
                         const Eigen::VectorXd& hi, const Eigen::VectorXd& scale,
                         const std::vector<bool>& log10, const AnnealOptions& options);
 
-// theta from x (see AnnealOptions' comment)
+// theta from x (see the comment above AnnealOptions)
 Eigen::VectorXd theta_from_x(const Eigen::VectorXd& x, const Eigen::VectorXd& scale,
                              const std::vector<bool>& log10);
 
