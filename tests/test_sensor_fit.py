@@ -83,3 +83,13 @@ def test_fit_rejects_bad_input(rng):
         fit(p, g, 0.5, method="magic")
     with pytest.raises(ValueError, match="one p and one g"):
         fit([p, p], [g], 0.5)
+
+
+def test_fit_figures(tmp_path, rng):
+    from psmat.sensor.plots import plot_fit, plot_pressure_recovery
+
+    ps, gs, true = _experiments(rng, 5e-5)
+    a = plot_fit(true, ps[0], gs[0], 0.5, tmp_path / "fit.png", title="thesis model")
+    b = plot_pressure_recovery(true, ps[0], gs[0], 0.5, tmp_path / "pressure.png")
+    for f in (a, b):
+        assert f.stat().st_size > 10_000 and f.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"

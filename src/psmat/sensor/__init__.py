@@ -5,11 +5,12 @@
 * :mod:`psmat.sensor.protocols` - the four pneumatic protocols (§2.4.2);
 * :mod:`psmat.sensor.pneumatic` - simulated runs and the material DAQ's log loader;
 * :func:`fit_cells` - shared, shared + per-cell gain, or per-cell models (cell variability);
+* :mod:`psmat.sensor.plots` - fitted vs measured output, recovered vs applied pressure (Fig. 2.37-2.39);
 * :mod:`psmat.sensor.metrics` - variability, drift, creep, hysteresis (eq. 2.1-2.4), tables
   and the radar chart (Fig. 2.34).
 """
 
-from . import metrics, pneumatic, protocols
+from . import metrics, plots, pneumatic, protocols
 from .cells import CellModels, fit_cells
 from .fit import FitResult, fit
 from .mpi_creep import THESIS_TABLE_2_11, MPICreep, SensorState
@@ -18,7 +19,7 @@ from .protocols import Protocol, ascending_hysteresis, descending_hysteresis, fa
 
 __all__ = [
     "MPICreep", "SensorState", "THESIS_TABLE_2_11", "fit", "FitResult",
-    "protocols", "pneumatic", "metrics",
+    "protocols", "pneumatic", "metrics", "plots",
     "Protocol", "fast_cyclic", "long_staircase", "descending_hysteresis", "ascending_hysteresis",
     "PneumaticRun", "simulate_run", "load_daq_log", "CellModels", "fit_cells",
 ]
