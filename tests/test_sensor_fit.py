@@ -93,3 +93,13 @@ def test_fit_figures(tmp_path, rng):
     b = plot_pressure_recovery(true, ps[0], gs[0], 0.5, tmp_path / "pressure.png")
     for f in (a, b):
         assert f.stat().st_size > 10_000 and f.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def test_anneal_shows_progress(capsys):
+    p = np.repeat(np.r_[0, 8, 16, 8, 0, 24, 0], 12).astype(float)
+    g = MPICreep.thesis().direct(p, 0.5)
+    fit(p, g, 0.5, method="anneal", max_evals=500, refine=False, chains=1, progress=True)
+    err = capsys.readouterr().err
+    assert "annealing" in err and "500" in err  # the bar counted the evaluations
+    fit(p, g, 0.5, method="anneal", max_evals=500, refine=False, chains=1, progress=False)
+    assert "annealing" not in capsys.readouterr().err

@@ -139,6 +139,10 @@ void register_sensor(py::module_& m) {
         return Y;
       },
       py::arg("p"), py::arg("l"), py::arg("dt"), "Creep operator outputs (T, Nc) from rest (eq. 2.23).");
+  py::class_<std::atomic<int>>(m, "Counter", "A counter the C++ core increments (progress bars)")
+      .def(py::init([]() { return new std::atomic<int>(0); }))
+      .def_property_readonly("value", [](const std::atomic<int>& c) { return c.load(); });
+
   m.def("theta_from_x", &theta_from_x, py::arg("x"), py::arg("scale"), py::arg("log10"),
         "Model parameters from the annealing space (x_2 is the initial slope a1 + rho).");
   m.def(
@@ -146,13 +150,15 @@ void register_sensor(py::module_& m) {
       [](const std::vector<Eigen::VectorXd>& p, const std::vector<Eigen::VectorXd>& g,
          const std::vector<double>& dt, int n_ops, double p_max, const Eigen::VectorXd& x0,
          const Eigen::VectorXd& lo, const Eigen::VectorXd& hi, const Eigen::VectorXd& scale,
-         const std::vector<bool>& log10, int max_evals, double t0, double t_end, std::uint64_t seed) {
+         const std::vector<bool>& log10, int max_evals, double t0, double t_end, std::uint64_t seed,
+         std::atomic<int>* progress) {
         const auto ex = experiments(p, g, dt);
         AnnealOptions o;
         o.max_evals = max_evals;
         o.t0 = t0;
         o.t_end = t_end;
         o.seed = seed;
+        o.progress = progress;
         AnnealResult r;
         {
           py::gil_scoped_release release;
@@ -168,6 +174,6 @@ void register_sensor(py::module_& m) {
       },
       py::arg("p"), py::arg("g"), py::arg("dt"), py::arg("n_ops"), py::arg("p_max"), py::arg("x0"),
       py::arg("lo"), py::arg("hi"), py::arg("scale"), py::arg("log10"), py::arg("max_evals"),
-      py::arg("t0"), py::arg("t_end"), py::arg("seed"),
+      py::arg("t0"), py::arg("t_end"), py::arg("seed"), py::arg("progress") = nullptr,
       "Simulated annealing of the model parameters on log(mean SSE_N) (thesis §2.5.1).");
 }

@@ -95,7 +95,7 @@ def _rate_bounds(p, dt):
 
 def fit(p, g, dt, method: str = "varpro", seed: int = 0, *, n_ops: int = 6, p_max: float = 32.0,
         n_creep: int = 2, max_evals: int = 60000, refine: bool = True,
-        chains: int | None = None) -> FitResult:
+        chains: int | None = None, progress: bool | None = None) -> FitResult:
     """Identify the MPI + creep model from one or several pneumatic experiments.
 
     Parameters
@@ -115,6 +115,8 @@ def fit(p, g, dt, method: str = "varpro", seed: int = 0, *, n_ops: int = 6, p_ma
     chains : int, optional
         Independent annealing chains run in parallel (seeds seed, seed+1, ...); the best is
         kept. Default: one per core.
+    progress : bool, optional
+        Progress bar of the annealing (default: when writing to a terminal).
     refine : bool
         Finish with NLopt (BOBYQA) from the best point found.
     """
@@ -131,7 +133,8 @@ def fit(p, g, dt, method: str = "varpro", seed: int = 0, *, n_ops: int = 6, p_ma
             chains = _core.iecm.hardware_threads()
         if int(chains) != chains or chains < 1:
             raise ValueError("chains must be a positive integer")
-        theta, evals, details = _anneal(ps, gs, dts, n_ops, p_max, n_creep, max_evals, seed, refine, int(chains))
+        theta, evals, details = _anneal(ps, gs, dts, n_ops, p_max, n_creep, max_evals, seed, refine, int(chains),
+                                        progress)
     each = np.asarray(_core.sensor.sse_n_each(theta, ps, gs, dts, n_ops, p_max))
     nc = n_creep
     model = MPICreep(*theta[:5], l=theta[5:5 + nc], w=theta[5 + nc:], n_ops=n_ops, p_max=p_max)
@@ -222,19 +225,28 @@ def _space(ps, dts, n_creep):
     return x0, lo, hi, scale, log10
 
 
-def _anneal(ps, gs, dts, n_ops, p_max, n_creep, max_evals, seed, refine, chains):
-    from concurrent.futures import ThreadPoolExecutor
+def _anneal(ps, gs, dts, n_ops, p_max, n_creep, max_evals, seed, refine, chains, progress=None):
+    from concurrent.futures import ThreadPoolExecutor, wait
 
     import nlopt
+    from tqdm.auto import tqdm
 
     x0, lo, hi, scale, log10 = _space(ps, dts, n_creep)
+    counters = [_core.sensor.Counter() for _ in range(chains)]
 
     def chain(k):  # the C++ annealing releases the GIL: chains run on separate cores
         return _core.sensor.anneal_fit(ps, gs, dts, n_ops, p_max, x0, lo, hi, scale, log10,
-                                       int(max_evals), 1.0, 1e-3, int(seed) + k)
+                                       int(max_evals), 1.0, 1e-3, int(seed) + k, counters[k])
 
-    with ThreadPoolExecutor(max_workers=chains) as pool:
-        results = list(pool.map(chain, range(chains)))
+    total = chains * int(max_evals)
+    with ThreadPoolExecutor(max_workers=chains) as pool, tqdm(
+        total=total, unit="eval", desc="annealing", leave=False, disable=None if progress is None else not progress
+    ) as bar:
+        futures = [pool.submit(chain, k) for k in range(chains)]
+        while wait(futures, timeout=0.2).not_done:
+            bar.update(sum(c.value for c in counters) - bar.n)
+        bar.update(total - bar.n)
+        results = [f.result() for f in futures]
     res = min(results, key=lambda r: r["sse_n"])
     x_best, evals = np.asarray(res["x"]), sum(int(r["evaluations"]) for r in results)
     details = {"anneal_sse_n": float(res["sse_n"]), "chains": chains,

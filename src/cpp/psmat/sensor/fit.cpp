@@ -86,6 +86,7 @@ AnnealResult anneal_fit(const std::vector<Experiment>& experiments, int n_ops, d
   AnnealResult res;
   auto energy = [&](const Eigen::VectorXd& x) {
     ++res.evaluations;
+    if (o.progress) o.progress->fetch_add(1, std::memory_order_relaxed);
     const MPICreep m(params_from_theta(theta_from_x(x, scale, log10), n_ops, p_max));
     if (!m.check_invertible().empty()) return std::numeric_limits<double>::infinity();
     const double s = mean_sse_n(m, experiments);

@@ -4,6 +4,7 @@
 // averaged over independent experiments (each simulated from rest: the sensor rests between
 // them). Parameter vector theta = (rho, tau, a1, a2, a3, l_1..l_Nc, w_1..w_Nc).
 #pragma once
+#include <atomic>
 #include <cstdint>
 #include <functional>
 #include <vector>
@@ -43,6 +44,7 @@ struct AnnealOptions {
   double t0 = 1.0;      // initial temperature in units of log(SSE_N)
   double t_end = 1e-3;  // final temperature
   std::uint64_t seed = 0;
+  std::atomic<int>* progress = nullptr;  // if set, incremented at every evaluation (progress bars)
 };
 struct AnnealResult {
   Eigen::VectorXd x;  // best point in the scaled space
