@@ -199,10 +199,18 @@ def _check_divider(r_o: float, v_ref: float, bits: int, sensor_side: str) -> Non
         raise ValueError(f"r_o must be finite and > 0 Ω, got {r_o!r}")
     if not (math.isfinite(v_ref) and v_ref > 0):
         raise ValueError(f"v_ref must be finite and > 0 V, got {v_ref!r}")
-    if isinstance(bits, bool) or int(bits) != bits or not 1 <= int(bits) <= 24:
-        raise ValueError(f"bits must be an integer in 1..24, got {bits!r}")
+    if isinstance(bits, bool) or int(bits) != bits or not 1 <= int(bits) <= 16:
+        raise ValueError(f"bits must be an integer in 1..16, got {bits!r}")
     if sensor_side not in ("low", "high"):
         raise ValueError(f"sensor_side must be 'low' or 'high', got {sensor_side!r}")
+
+
+def _low_side(r_o: float, bits: int = 16):
+    """The material DAQ's low-side divider as the measurement chain of :class:`psmat.Circuit`
+    (V_ref normalised to 1, no multiplexer, ideal ADC): one home for the divider equations."""
+    from ..circuit import Circuit
+
+    return Circuit(r_o=float(r_o), r_mux=0.0, r_adc=np.inf, v_ref=1.0, bits=int(bits))
 
 
 def divider_conductance(x: NDArray[np.float64], r_o: float = DAQ_R_O,
@@ -234,6 +242,9 @@ def divider_conductance(x: NDArray[np.float64], r_o: float = DAQ_R_O,
     """
     _check_divider(float(r_o), 1.0, 1, sensor_side)
     x = np.asarray(x, dtype=np.float64)
+    if sensor_side == "low":  # the mat's divider (SPEC §2) with no mux and an ideal ADC
+        g, flags = _low_side(r_o).conductance_from_voltage(x, return_flags=True)
+        return np.where(flags == OPEN, float(open_value), g), flags
     lo, hi = x <= 0.0, x >= 1.0
     short, open_ = (lo, hi) if sensor_side == "low" else (hi, lo)
     xc = np.clip(x, 1e-300, 1.0 - 1e-16)
@@ -253,7 +264,9 @@ def divider_counts(g: NDArray[np.float64], r_o: float = DAQ_R_O, bits: int = DAQ
     g = np.asarray(g, dtype=np.float64)
     if np.any(~np.isfinite(g) | (g < 0)):
         raise ValueError("g must be finite and >= 0 S")
-    x = 1.0 / (1.0 + r_o * g) if sensor_side == "low" else r_o * g / (1.0 + r_o * g)
+    if sensor_side == "low":
+        return _low_side(r_o, bits).counts(g).astype(np.int64)
+    x = r_o * g / (1.0 + r_o * g)
     fs = 2 ** int(bits) - 1
     return np.clip(np.round(x * fs), 0, fs).astype(np.int64)
 
