@@ -22,15 +22,18 @@ from .iecm import machine_info
 __all__ = ["main", "run"]
 
 
+def _numpy_setup(model, dt: float, cells: int):
+    """Parameters and rest state of the NumPy baseline: (params, r, b, w, e^{-l dt}, y, y_c, p_prev)."""
+    prm = model.params
+    l, w = np.asarray(prm["l"]), np.asarray(prm["w"])
+    zeros = np.zeros
+    return (prm, model.thresholds, model.weights, w, np.exp(-l * dt), zeros((len(model.thresholds), cells)),
+            zeros((len(l), cells)), zeros(cells))
+
+
 def _numpy_direct(model, p: np.ndarray, dt: float) -> np.ndarray:
     """Independent NumPy direct model (eq. 2.15-2.24), vectorised over cells, loop over samples."""
-    prm = model.params
-    r, b = model.thresholds, model.weights
-    l, w = np.asarray(prm["l"]), np.asarray(prm["w"])
-    decay = np.exp(-l * dt)
-    y = np.zeros((len(r), p.shape[1]))
-    yc = np.zeros((len(l), p.shape[1]))
-    p_prev = np.zeros(p.shape[1])
+    prm, r, b, w, decay, y, yc, p_prev = _numpy_setup(model, dt, p.shape[1])
     out = np.empty_like(p)
     for t in range(p.shape[0]):
         x = p[t]
@@ -43,13 +46,7 @@ def _numpy_direct(model, p: np.ndarray, dt: float) -> np.ndarray:
 
 def _numpy_inverse(model, g: np.ndarray, dt: float, iters: int = 60) -> np.ndarray:
     """NumPy inverse: per sample, bisection of the algebraic loop for all cells at once."""
-    prm = model.params
-    r, b = model.thresholds, model.weights
-    l, w = np.asarray(prm["l"]), np.asarray(prm["w"])
-    decay = np.exp(-l * dt)
-    y = np.zeros((len(r), g.shape[1]))
-    yc = np.zeros((len(l), g.shape[1]))
-    p_prev = np.zeros(g.shape[1])
+    prm, r, b, w, decay, y, yc, p_prev = _numpy_setup(model, dt, g.shape[1])
     out = np.empty_like(g)
     for t in range(g.shape[0]):
         yc = decay[:, None] * yc + (1 - decay[:, None]) * p_prev

@@ -204,6 +204,16 @@ def _loaded(segments: Sequence[Segment], min_level_psi: float) -> list[tuple[int
     return [(k + 1, s) for k, s in enumerate(segments) if s.level > min_level_psi]
 
 
+def _loaded_steps(r: Any, discard_fraction: float, min_level_psi: float) -> list[tuple[int, Segment]]:
+    """Loaded steps of a long test (drift, creep), with the arguments they share checked."""
+    if not (0.0 <= discard_fraction < 1.0):
+        raise ValueError(f"discard_fraction must be in [0, 1), got {discard_fraction!r}")
+    steps = _loaded(r.segments, min_level_psi)
+    if not steps:
+        raise ValueError(f"run {r.name!r}: no loaded step (plateau above {min_level_psi} psi)")
+    return steps
+
+
 def _kept_part(s: Segment, discard_fraction: float) -> tuple[int, int]:
     """Sample range of a step with its first ``discard_fraction`` discarded."""
     n = s.stop - s.start
@@ -329,11 +339,7 @@ def drift_by_step(run: Any, window_s: float = 30.0, discard_fraction: float = 0.
     """
     r = _as_run(run)
     n = _n_window(window_s, r.dt)
-    if not (0.0 <= discard_fraction < 1.0):
-        raise ValueError(f"discard_fraction must be in [0, 1), got {discard_fraction!r}")
-    steps = _loaded(r.segments, min_level_psi)
-    if not steps:
-        raise ValueError(f"run {r.name!r}: no loaded step (plateau above {min_level_psi} psi)")
+    steps = _loaded_steps(r, discard_fraction, min_level_psi)
     out = []
     for pos, s in steps:
         a, b = _kept_part(s, discard_fraction)
@@ -383,11 +389,7 @@ def creep_by_step(run: Any, discard_fraction: float = 0.5, min_level_psi: float 
         Creep per step (1/s).
     """
     r = _as_run(run)
-    if not (0.0 <= discard_fraction < 1.0):
-        raise ValueError(f"discard_fraction must be in [0, 1), got {discard_fraction!r}")
-    steps = _loaded(r.segments, min_level_psi)
-    if not steps:
-        raise ValueError(f"run {r.name!r}: no loaded step (plateau above {min_level_psi} psi)")
+    steps = _loaded_steps(r, discard_fraction, min_level_psi)
     out = []
     for pos, s in steps:
         a, b = _kept_part(s, discard_fraction)
