@@ -60,7 +60,7 @@ SolveReport solve_bounded_newton(Solver& s, const ConstVecRef& G_exp, VecRef g) 
   rep.evaluations = 1;
   std::vector<Index> F;  // cells in the linear system (beta < 0)
   F.reserve(static_cast<size_t>(n));
-  Eigen::VectorXd gt(n), dg(n), y, rhs;
+  Eigen::VectorXd gt(n), dg(n), g_prev(n), y, rhs;
   Eigen::MatrixXd K;
   Eigen::LLT<Eigen::MatrixXd> llt;
   std::vector<FB> fb(static_cast<size_t>(n));
@@ -124,7 +124,7 @@ SolveReport solve_bounded_newton(Solver& s, const ConstVecRef& G_exp, VecRef g) 
     }
 
     bool accepted = false;
-    const Eigen::VectorXd g_prev = g;
+    g_prev = g;  // workspace: no allocation per iteration
     double t = 1.0;
     for (int k = 0; k < 40; ++k, t *= 0.5) {
       gt = (g_prev + t * dg).cwiseMax(fl);  // the network needs g >= g_floor > 0
