@@ -1,49 +1,48 @@
-"""Command line: ``psmat <command>`` (also ``python -m psmat``)."""
+"""Command line: ``psmat <command>`` (also ``python -m psmat``).
+
+Commands live one per module in :mod:`psmat.commands` and are discovered here, so adding a
+command is adding a file.
+"""
 
 from __future__ import annotations
 
 import argparse
+import importlib
+import pkgutil
 import sys
 
-
-def _demo(args: argparse.Namespace) -> int:
-    from .demo import run_crosstalk_demo
-
-    res = run_crosstalk_demo(args.out, rows=args.rows, cols=args.cols, noise_v=args.noise_mv * 1e-3,
-                             seed=args.seed, show=args.show)
-    print(f"psmat demo: simulated {args.rows}x{args.cols} mat, two feet, {args.noise_mv:g} mV noise, 12-bit ADC")
-    print(f"  ghost (conductance outside the feet): {100 * res['ghost_fraction_raw']:.1f} % raw -> "
-          f"{100 * res['ghost_fraction_iecm']:.2f} % after IECM")
-    print(f"  centre-of-pressure error: {res['cop_error_raw_cm']:.3f} cm raw -> {res['cop_error_iecm_cm']:.4f} cm after IECM")
-    print(f"  loaded cells: median relative error {res['loaded_cells_median_rel_error']:.2e}, "
-          f"median propagated uncertainty {res['loaded_cells_median_rel_uncertainty']:.2e}")
-    print(f"  IECM: {res['iterations']} iterations, status {res['status']}")
-    print(f"  figure: {res['figure']}")
-    return 0
+from . import commands as _commands
 
 
-def _bench(args: argparse.Namespace) -> int:
-    from .bench.__main__ import main as bench_main
+def _command_modules() -> list:
+    mods = []
+    for info in sorted(pkgutil.iter_modules(_commands.__path__), key=lambda m: m.name):
+        if info.name.startswith("_"):
+            continue
+        mod = importlib.import_module(f"{_commands.__name__}.{info.name}")
+        if hasattr(mod, "NAME") and hasattr(mod, "run"):
+            mods.append(mod)
+    return mods
 
-    return bench_main(args.rest)
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(prog="psmat", description="Low-cost pressure-sensitive mats")
+    sub = parser.add_subparsers(dest="command", required=True)
+    for mod in _command_modules():
+        p = sub.add_parser(mod.NAME, help=mod.HELP, description=mod.__doc__,
+                           add_help=getattr(mod, "ADD_HELP", True))
+        mod.add_arguments(p)
+        p.set_defaults(func=mod.run)
+    return parser
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog="psmat", description="Low-cost pressure-sensitive mats")
-    sub = parser.add_subparsers(dest="command", required=True)
-    d = sub.add_parser("demo", help="crosstalk removal on a simulated mat; writes a figure")
-    d.add_argument("--out", default="psmat_demo.png", help="figure path (PNG)")
-    d.add_argument("--rows", type=int, default=16)
-    d.add_argument("--cols", type=int, default=16)
-    d.add_argument("--noise-mv", type=float, default=1.0, help="ADC-node voltage noise SD in mV")
-    d.add_argument("--seed", type=int, default=0)
-    d.add_argument("--show", action="store_true", help="also open a window")
-    d.set_defaults(func=_demo)
-    b = sub.add_parser("bench", help="benchmarks (python -m psmat.bench --help)", add_help=False)
-    b.add_argument("rest", nargs=argparse.REMAINDER)
-    b.set_defaults(func=_bench)
-    args = parser.parse_args(argv)
-    return int(args.func(args))
+    args = build_parser().parse_args(argv)
+    try:
+        return int(args.func(args))
+    except KeyboardInterrupt:
+        print("interrupted", file=sys.stderr)
+        return 130
 
 
 if __name__ == "__main__":
