@@ -53,19 +53,94 @@ def test_varpro_noise_free_is_exact(rng):
 def test_anneal_is_reproducible_and_reaches_varpro(rng):
     sigma = 5e-5
     ps, gs, _ = _experiments(rng, sigma)
-    a = fit(ps, gs, 0.5, method="anneal", seed=3, max_evals=4000, refine=False, chains=2)
-    b = fit(ps, gs, 0.5, method="anneal", seed=3, max_evals=4000, refine=False, chains=2)
+    a = fit(ps, gs, 0.5, method="anneal", seed=3, max_evals=600, refine=False, chains=2)
+    b = fit(ps, gs, 0.5, method="anneal", seed=3, max_evals=600, refine=False, chains=2)
     assert a.sse_n == b.sse_n and a.model.params == b.model.params  # seeded, even with threads
-    c = fit(ps, gs, 0.5, method="anneal", seed=5, max_evals=4000, refine=False, chains=2)
+    c = fit(ps, gs, 0.5, method="anneal", seed=5, max_evals=600, refine=False, chains=2)
     assert c.model.params != a.model.params  # the seed matters
     assert len(a.details["chain_sse_n"]) == 2 and a.sse_n == pytest.approx(min(a.details["chain_sse_n"]))
-    full = fit(ps, gs, 0.5, method="anneal", seed=3)
     best = fit(ps, gs, 0.5, method="varpro").sse_n
-    # annealing over all 9 parameters is the thesis' method, not the best one: within a few
-    # per cent of variable projection on this small problem (the benchmark reports it on the
-    # full protocols); SSE_N here is dominated by the noise floor sigma^2
+    # annealing over (tau, creep rates) with the linear part exact: the benchmark's target,
+    # within 1 % of the best SSE_N (SPEC §10)
+    reduced = fit(ps, gs, 0.5, method="anneal", seed=3)
+    assert reduced.sse_n <= 1.01 * best
+    assert reduced.model.invertibility_problem() == ""
+    # annealing over all 9 parameters is the thesis' literal method, not the best one:
+    # within a few per cent on this small problem (the benchmark reports it on the full
+    # protocols); SSE_N here is dominated by the noise floor sigma^2
+    full = fit(ps, gs, 0.5, method="anneal_full", seed=3, max_evals=20000)
     assert full.sse_n <= 1.05 * best
     assert full.model.invertibility_problem() == ""
+
+
+def test_separable_cost_is_eq_2_26(rng):
+    # the C++ variable-projection cost at z equals SSE_N of the model it returns, recomputed
+    # with the direct model, averaged over the experiments
+    ps, gs, true = _experiments(rng, 5e-5)
+    sp = psmat._core.sensor.SeparableProblem(ps, gs, [0.5, 0.5], 6, 32.0, 2)
+    for z in ([0.27, -3.1, -5.0], [0.8, -1.0, -2.5]):
+        cost, theta, why = sp.solve(z)
+        m = MPICreep(*theta[:5], l=theta[5:7], w=theta[7:])
+        each = [np.mean((m.direct(p, 0.5) - g) ** 2) for p, g in zip(ps, gs)]
+        assert cost == pytest.approx(np.mean(each), rel=1e-9)
+        assert theta[1] == z[0] and np.allclose(np.log10(theta[5:7]), z[1:])
+        assert why == m.invertibility_problem()
+
+
+def _non_invertible_data(rng):
+    # a response whose polynomial part bends down between ~15 and ~28 psi faster than the
+    # play part rises: no invertible model of this family fits it exactly
+    m = MPICreep(rho=1e-5, tau=0.3, a1=2e-5, a2=3e-6, a3=-1.2e-7, l=(1e-3,), w=(1e-6,))
+    assert "not positive" in m.invertibility_problem()
+    up_down = np.concatenate([np.r_[np.arange(0, top + 1, 2), np.arange(top, -1, -2)] for top in (32, 24, 16, 8)])
+    p = np.repeat(np.tile(up_down, 2), 12).astype(float)
+    return p, m.direct(p, 0.5) + 1e-7 * rng.standard_normal(p.shape)
+
+
+def test_linear_parameters_are_solved_under_the_invertibility_constraints(rng):
+    from scipy.optimize import minimize
+
+    from psmat.sensor.invertible_lsq import constrained_coefficients, slope_constraints
+
+    p, g = _non_invertible_data(rng)
+    sp = psmat._core.sensor.SeparableProblem([p], [g], [0.5], 6, 32.0, 1)
+    z = np.array([0.3, -3.0])
+    cost_free, _, why = sp.solve(z)
+    assert why  # the unconstrained optimum cannot be inverted
+    A, b = sp.design(z)
+    margin = 1e-4 * np.ptp(g) / 32.0
+    c = constrained_coefficients(A, b, 0.3, 6, 32.0, margin,
+                                 lambda c: not MPICreep(*sp.theta(z, c)[:5], l=sp.theta(z, c)[5:6],
+                                                        w=sp.theta(z, c)[6:]).invertibility_problem())
+    cost = float(np.sum((A @ c - b) ** 2))
+    # an independent solver (scipy SLSQP, not NLopt's) on the same QP with a finer grid
+    n = np.linalg.norm(A, axis=0)
+    As, M = A / n, slope_constraints(0.3, 6, 32.0, A.shape[1], 257) / n
+    H, f, bb = As.T @ As, As.T @ b, b @ b
+    x0 = np.zeros(A.shape[1])
+    x0[0] = 10 * margin * n[0]
+    ref = minimize(lambda x: (x @ H @ x - 2 * f @ x + bb) / bb, x0, jac=lambda x: 2 * (H @ x - f) / bb,
+                   method="SLSQP", constraints=[dict(type="ineq", fun=lambda x: (M @ x - margin) / margin,
+                                                     jac=lambda x: M / margin)],
+                   options=dict(ftol=1e-15, maxiter=1000))
+    assert (M @ ref.x).min() >= margin * (1 - 1e-6)
+    cost_ref = float(np.sum((A @ (ref.x / n) - b) ** 2))
+    assert cost_free < cost <= cost_ref * (1 + 1e-3)
+    # the fitted model is usable for compensation: its slope bound is >= margin on the
+    # constraint grid and positive everywhere between
+    th = sp.theta(z, c)
+    assert (slope_constraints(0.3, 6, 32.0, A.shape[1], 65) @ c).min() >= margin * (1 - 1e-6)
+    assert (slope_constraints(0.3, 6, 32.0, A.shape[1], 8001) @ c).min() > 0
+    assert MPICreep(*th[:5], l=th[5:6], w=th[6:]).invertibility_problem() == ""
+
+
+def test_fit_of_non_invertible_data_returns_an_invertible_model(rng):
+    p, g = _non_invertible_data(rng)
+    res = fit(p, g, 0.5, method="varpro", n_creep=1)
+    assert res.model.invertibility_problem() == ""
+    assert res.details["constrained_solves"] > 0
+    p_hat = res.model.inverse(res.model.direct(p, 0.5), 0.5)  # and the inverse runs
+    np.testing.assert_allclose(p_hat, p, atol=1e-6)
 
 
 def test_fit_rejects_bad_input(rng):
@@ -81,6 +156,8 @@ def test_fit_rejects_bad_input(rng):
         fit(p, g, 0.0)
     with pytest.raises(ValueError, match="method"):
         fit(p, g, 0.5, method="magic")
+    with pytest.raises(ValueError, match="max_evals"):
+        fit(p, g, 0.5, method="anneal", max_evals=0)
     with pytest.raises(ValueError, match="one p and one g"):
         fit([p, p], [g], 0.5)
 

@@ -67,9 +67,41 @@ def test_inverse_of_measured_like_conductance(thesis, rng):
     g = thesis.direct(_random_pressure(rng, 300, (6,)), dt) * (1 + 0.01 * rng.standard_normal((300, 6)))
     g = np.abs(g)
     p, clipped = thesis.inverse(g, dt, return_clipped=True)
-    ok = p > 0
+    ok = (p > 0) & (p < thesis.p_max)
     np.testing.assert_allclose(thesis.direct(p, dt)[ok], g[ok], rtol=1e-9)
     assert clipped == int((~ok).sum())
+
+
+def test_inverse_stays_in_the_identified_range():
+    # a model that is invertible on [0, p_max] but whose cubic turns down above it (a3 < 0):
+    # the inverse must find the root inside [0, p_max], never one out on the cubic
+    m = MPICreep(rho=1.64e-4, tau=0.269, a1=1e-4, a2=2e-6, a3=-6e-8, l=(8.25e-4, 5.26e-6), w=(8.42e-6, 1.9e-6))
+    assert m.invertibility_problem() == ""
+    ramp = m.direct(np.arange(0.0, 81.0), 0.5)
+    assert ramp.argmax() < 80  # it does turn down above p_max
+    p = np.repeat(np.r_[0, 8, 16, 22, 24, 30, 32, 24, 8, 0.0], 5)
+    g = m.direct(p, 0.5)
+    # (the slope near p_max is small, so round-off in g is worth ~1e-5 psi there)
+    np.testing.assert_allclose(m.inverse(g, 0.5), p, atol=1e-4)
+    # a conductance above what p_max gives is returned as p_max and counted
+    p_hat, clipped = m.inverse(np.r_[g[:10], 10 * g.max()], 0.5, return_clipped=True)
+    assert p_hat[-1] == m.p_max and clipped >= 1
+
+
+def test_creep_stronger_than_the_slope_is_rejected():
+    # invertible sample by sample, but the inverse feeds its estimate of p back through the
+    # creep state: with sum |w| above the smallest slope a rounding error grows every sample
+    m = MPICreep(rho=2.15e-4, tau=0.58, a1=-6.4e-5, a2=9.7e-7, a3=-6.9e-8, l=(2.0,), w=(-1.1e-4,))
+    assert "creep" in m.invertibility_problem()
+    with pytest.raises(ValueError, match="creep"):
+        m.inverse(np.full(5, 1e-4), 0.5)
+    # and the reason is real: run the exact inverse anyway (the core, below the check) on
+    # the model's own output; round-off alone takes it away from the truth
+    up_down = np.concatenate([np.r_[np.arange(0, top + 1, 2), np.arange(top, -1, -2)] for top in (32, 24, 16)])
+    p = np.repeat(up_down, 12).astype(float)
+    g = m.direct(p, 0.5)
+    p_hat, _ = m._m.inverse(g.reshape(-1, 1), 0.5, m.rest_state(1)._s)
+    assert np.max(np.abs(np.asarray(p_hat).ravel() - p)) > 1.0  # psi
 
 
 def test_streaming_in_chunks_equals_one_pass(thesis, rng):

@@ -8,6 +8,7 @@
 
 #include "psmat/sensor/fit.hpp"
 #include "psmat/sensor/mpi_creep.hpp"
+#include "psmat/sensor/separable.hpp"
 
 namespace py = pybind11;
 using namespace psmat;
@@ -176,4 +177,66 @@ void register_sensor(py::module_& m) {
       py::arg("lo"), py::arg("hi"), py::arg("scale"), py::arg("log10"), py::arg("max_evals"),
       py::arg("t0"), py::arg("t_end"), py::arg("seed"), py::arg("progress") = nullptr,
       "Simulated annealing of the model parameters on log(mean SSE_N) (thesis §2.5.1).");
+
+  py::class_<SeparableProblem>(m, "SeparableProblem",
+                               "Variable projection of the MPI + creep fit: for z = (tau, log10 l_j) "
+                               "the parameters (a1, a2, a3, rho, w_j) are an exact linear solve.")
+      .def(py::init([](const std::vector<Eigen::VectorXd>& p, const std::vector<Eigen::VectorXd>& g,
+                       const std::vector<double>& dt, int n_ops, double p_max, int n_creep) {
+             return SeparableProblem(experiments(p, g, dt), n_ops, p_max, n_creep);
+           }),
+           py::arg("p"), py::arg("g"), py::arg("dt"), py::arg("n_ops"), py::arg("p_max"), py::arg("n_creep"))
+      .def_property_readonly("n_nonlinear", &SeparableProblem::n_nonlinear)
+      .def_property_readonly("n_linear", &SeparableProblem::n_linear)
+      .def(
+          "design",
+          [](const SeparableProblem& s, const Eigen::VectorXd& z) {
+            Eigen::MatrixXd A;
+            Eigen::VectorXd b;
+            {
+              py::gil_scoped_release release;
+              s.design(z, A, b);
+            }
+            return py::make_tuple(A, b);
+          },
+          py::arg("z"), "Weighted design matrix A (rows, n_linear) and b: ||A c - b||^2 = mean SSE_N.")
+      .def(
+          "solve",
+          [](const SeparableProblem& s, const Eigen::VectorXd& z) {
+            SeparableProblem::Solution sol;
+            {
+              py::gil_scoped_release release;
+              sol = s.solve(z);
+            }
+            return py::make_tuple(sol.cost, sol.theta, sol.invertibility_problem);
+          },
+          py::arg("z"), "Unconstrained solve at z: (mean SSE_N, theta, invertibility problem or '').")
+      .def("theta", &SeparableProblem::theta, py::arg("z"), py::arg("c"),
+           "theta = (rho, tau, a1, a2, a3, l.., w..) from z and c = (a1, a2, a3, rho, w..).");
+  m.def(
+      "anneal_separable",
+      [](const SeparableProblem& s, const Eigen::VectorXd& z0, const Eigen::VectorXd& lo,
+         const Eigen::VectorXd& hi, int max_evals, double t0, double t_end, std::uint64_t seed,
+         std::atomic<int>* progress) {
+        AnnealOptions o;
+        o.max_evals = max_evals;
+        o.t0 = t0;
+        o.t_end = t_end;
+        o.seed = seed;
+        o.progress = progress;
+        AnnealResult r;
+        {
+          py::gil_scoped_release release;
+          r = anneal_separable(s, z0, lo, hi, o);
+        }
+        py::dict d;
+        d["x"] = r.x;
+        d["sse_n"] = r.sse_n;
+        d["evaluations"] = r.evaluations;
+        d["accepted"] = r.accepted;
+        return d;
+      },
+      py::arg("problem"), py::arg("z0"), py::arg("lo"), py::arg("hi"), py::arg("max_evals"), py::arg("t0"),
+      py::arg("t_end"), py::arg("seed"), py::arg("progress") = nullptr,
+      "Simulated annealing over z = (tau, log10 l_j) of the variable-projection cost (thesis §2.5.1).");
 }

@@ -55,3 +55,36 @@ def play_inverse(
 def apply_play(
     a1: float, b: npt.ArrayLike, r: npt.ArrayLike, u: npt.ArrayLike
 ) -> npt.NDArray[np.float64]: ...
+
+class SeparableProblem:
+    """Variable projection of the MPI + creep fit (SPEC §4): z = (tau, log10 l_j) searched,
+    c = (a1, a2, a3, rho, w_j) an exact linear solve."""
+
+    def __init__(
+        self,
+        p: list[npt.ArrayLike],
+        g: list[npt.ArrayLike],
+        dt: list[float],
+        n_ops: int,
+        p_max: float,
+        n_creep: int,
+    ) -> None: ...
+    @property
+    def n_nonlinear(self) -> int: ...
+    @property
+    def n_linear(self) -> int: ...
+    def design(self, z: npt.ArrayLike) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]: ...
+    def solve(self, z: npt.ArrayLike) -> tuple[float, npt.NDArray[np.float64], str]: ...
+    def theta(self, z: npt.ArrayLike, c: npt.ArrayLike) -> npt.NDArray[np.float64]: ...
+
+def anneal_separable(
+    problem: SeparableProblem,
+    z0: npt.ArrayLike,
+    lo: npt.ArrayLike,
+    hi: npt.ArrayLike,
+    max_evals: int,
+    t0: float,
+    t_end: float,
+    seed: int,
+    progress: Counter | None = None,
+) -> dict[str, object]: ...

@@ -93,6 +93,11 @@ class MPICreep:
         return "MPICreep(" + ", ".join(f"{k}={v!r}" for k, v in self.params.items()) + ")"
 
     @property
+    def p_max(self) -> float:
+        """Upper end of the model's range, psi (the largest threshold is below it)."""
+        return float(self.params["p_max"])
+
+    @property
     def thresholds(self) -> np.ndarray:
         """r_i in psi."""
         return np.asarray(self._m.thresholds)
@@ -154,7 +159,9 @@ class MPICreep:
 
         The polynomial term uses the current pressure (an algebraic loop), solved per sample,
         so ``direct(inverse(g)) == g`` to round-off. A conductance below what zero pressure
-        gives (more creep than signal) returns p = 0; their number with ``return_clipped``.
+        gives (more creep than signal) returns p = 0, one above what ``p_max`` gives returns
+        ``p_max`` (the model is identified and checked monotone on [0, p_max] only, SPEC §4);
+        their number with ``return_clipped``.
 
         Raises
         ------

@@ -2,7 +2,6 @@
 
 #include <cmath>
 #include <limits>
-#include <random>
 #include <stdexcept>
 
 #include "psmat/sensor/operators.hpp"
@@ -78,54 +77,13 @@ AnnealResult anneal_fit(const std::vector<Experiment>& experiments, int n_ops, d
   const Index d = x0.size();
   if (lo.size() != d || hi.size() != d || scale.size() != d || static_cast<Index>(log10.size()) != d)
     throw std::invalid_argument("x0, lo, hi, scale and log10 must have the same length");
-  std::mt19937_64 rng(o.seed);
-  std::normal_distribution<double> normal(0.0, 1.0);
-  std::uniform_real_distribution<double> unif(0.0, 1.0);
-  std::uniform_int_distribution<Index> pick(0, d - 1);
-
-  AnnealResult res;
   auto energy = [&](const Eigen::VectorXd& x) {
-    ++res.evaluations;
-    if (o.progress) o.progress->fetch_add(1, std::memory_order_relaxed);
     const MPICreep m(params_from_theta(theta_from_x(x, scale, log10), n_ops, p_max));
     if (!m.check_invertible().empty()) return std::numeric_limits<double>::infinity();
     const double s = mean_sse_n(m, experiments);
     return std::isfinite(s) ? std::log(s + 1e-300) : std::numeric_limits<double>::infinity();
   };
-  Eigen::VectorXd x = x0.cwiseMax(lo).cwiseMin(hi), best = x;
-  double e = energy(x), e_best = e;
-  Eigen::VectorXd width = 0.1 * (hi - lo);
-  Eigen::VectorXi tried = Eigen::VectorXi::Zero(d), ok = Eigen::VectorXi::Zero(d);
-  const double cool = std::pow(o.t_end / o.t0, 1.0 / std::max(1, o.max_evals));
-  double temp = o.t0;
-  Eigen::VectorXd xn;
-  while (res.evaluations < o.max_evals) {
-    const Index k = pick(rng);  // one coordinate at a time: widths adapt per coordinate
-    xn = x;
-    xn[k] = std::min(hi[k], std::max(lo[k], x[k] + width[k] * normal(rng)));
-    const double en = energy(xn);
-    ++tried[k];
-    if (en <= e || unif(rng) < std::exp(-(en - e) / temp)) {  // Metropolis
-      x = xn;
-      e = en;
-      ++ok[k];
-      ++res.accepted;
-      if (e < e_best) {
-        e_best = e;
-        best = x;
-      }
-    }
-    if (tried[k] == 20) {  // adapt the move width towards ~40 % acceptance
-      const double rate = ok[k] / 20.0;
-      width[k] *= rate > 0.4 ? 1.5 : 0.7;
-      width[k] = std::min(width[k], hi[k] - lo[k]);
-      tried[k] = ok[k] = 0;
-    }
-    temp *= cool;
-  }
-  res.x = best;
-  res.sse_n = std::exp(e_best);
-  return res;
+  return anneal(energy, x0, lo, hi, o);
 }
 
 }  // namespace psmat::sensor

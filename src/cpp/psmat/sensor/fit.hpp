@@ -9,6 +9,7 @@
 #include <functional>
 #include <vector>
 
+#include "psmat/sensor/anneal.hpp"
 #include "psmat/sensor/mpi_creep.hpp"
 
 namespace psmat::sensor {
@@ -31,27 +32,12 @@ Eigen::VectorXd sse_n_each(const MPICreep& model, const std::vector<Experiment>&
 void play_basis(const Eigen::VectorXd& p, const Eigen::VectorXd& r, RowMatRef Y);
 void creep_basis(const Eigen::VectorXd& p, const Eigen::VectorXd& l, double dt, RowMatRef Yc);
 
-// Simulated annealing (thesis §2.5.1) on E(theta) = log(mean SSE_N) over a box in a scaled
-// space x: theta_k = scale_k * x_k, or 10^x_k where log10_k, except that x_2 is the initial
-// slope a1 + rho (so a1 = scale_2 x_2 - rho): the first operator has r_1 = 0, so y_{r_1} = p
-// and a1, rho are collinear; searching over their sum and rho decorrelates the valley. Gaussian moves whose per-
-// coordinate width adapts towards ~40 % acceptance, geometric cooling from t0 to t_end
-// over max_evals evaluations, seeded (std::mt19937_64) and so reproducible. Parameters that
-// make the model non-invertible are rejected (SPEC §4: the fit must stay usable for
-// compensation).
-struct AnnealOptions {
-  int max_evals = 20000;
-  double t0 = 1.0;      // initial temperature in units of log(SSE_N)
-  double t_end = 1e-3;  // final temperature
-  std::uint64_t seed = 0;
-  std::atomic<int>* progress = nullptr;  // if set, incremented at every evaluation (progress bars)
-};
-struct AnnealResult {
-  Eigen::VectorXd x;  // best point in the scaled space
-  double sse_n = 0;   // its mean SSE_N
-  int evaluations = 0;
-  int accepted = 0;
-};
+// Simulated annealing (thesis §2.5.1, sensor/anneal.hpp) over all parameters on
+// E = log(mean SSE_N) in a scaled space x: theta_k = scale_k * x_k, or 10^x_k where log10_k,
+// except that x_2 is the initial slope a1 + rho (so a1 = scale_2 x_2 - rho): the first
+// operator has r_1 = 0, so y_{r_1} = p and a1, rho are collinear; searching over their sum
+// and rho decorrelates the valley. Parameters that make the model non-invertible are
+// rejected (SPEC §4: the fit must stay usable for compensation).
 AnnealResult anneal_fit(const std::vector<Experiment>& experiments, int n_ops, double p_max,
                         const Eigen::VectorXd& x0, const Eigen::VectorXd& lo,
                         const Eigen::VectorXd& hi, const Eigen::VectorXd& scale,

@@ -107,16 +107,22 @@ void MPICreep::inverse(const ConstRowMatRef& g, double dt, MPICreepState& st, Ro
         }
         return v;
       };
-      double x;
+      double x, s = 0;
+      const double p_max = p_.p_max;
       if (target <= 0) {
         x = 0.0;
         ++n_clipped;
+      } else if (h(p_max, s) < target) {
+        // above the model's range: it is identified and checked monotone on [0, p_max] only
+        // (SPEC §4); beyond, the polynomial may turn down, so no root is sought there
+        x = p_max;
+        ++n_clipped;
       } else {
-        // bracket [lo, hi] with h(lo) <= target <= h(hi), then safeguarded Newton
-        double lo = 0.0, hi = std::max(st.p_prev[c], 1.0), s = 0;
-        while (h(hi, s) < target && hi < 1e6) {
+        // bracket [lo, hi] in [0, p_max] with h(lo) <= target <= h(hi), then safeguarded Newton
+        double lo = 0.0, hi = std::min(std::max(st.p_prev[c], 1.0), p_max);
+        while (h(hi, s) < target) {
           lo = hi;
-          hi *= 2.0;
+          hi = std::min(2.0 * hi, p_max);
         }
         x = std::min(std::max(st.p_prev[c], lo), hi);
         for (int it = 0; it < 100; ++it) {
@@ -153,6 +159,7 @@ std::string MPICreep::check_invertible() const {
   cum = p_.a1;
   for (int j = 0; j < p_.n_ops; ++j) min_play = std::min(min_play, cum += b_[j]);
   const int samples = 2000;
+  double min_slope = HUGE_VAL;
   for (int k = 0; k <= samples; ++k) {
     const double x = p_.p_max * k / samples;
     const double slope = min_play + x * (2.0 * p_.a2 + 3.0 * x * p_.a3);
@@ -161,6 +168,14 @@ std::string MPICreep::check_invertible() const {
           << " psi is not positive (the polynomial's negative slope outweighs the play part)";
       return why.str();
     }
+    min_slope = std::min(min_slope, slope);
+  }
+  double creep_gain = 0;
+  for (const double w : p_.w) creep_gain += std::abs(w);
+  if (!(creep_gain < min_slope)) {
+    why << "creep weights sum |w_j| = " << creep_gain << " S/psi reach the smallest slope "
+        << min_slope << " S/psi: the inverse would amplify its own errors through the creep state";
+    return why.str();
   }
   return {};
 }

@@ -53,13 +53,18 @@ class MPICreep {
 
   // Exact inverse: pressure from a (T, cells) conductance stream. NaN in, NaN out, state of
   // that cell untouched. A conductance below what zero pressure gives (g - creep < 0) is
-  // returned as p = 0 and counted in `clipped` (if given).
+  // returned as p = 0, one above what p_max gives as p = p_max (the model is identified and
+  // checked monotone on [0, p_max] only); both are counted in `clipped` (if given).
   void inverse(const ConstRowMatRef& g, double dt, MPICreepState& state, RowMatRef p,
                Index* clipped = nullptr) const;
 
   // Invertibility (SPEC §4): every slope the play part can take, a1 + sum_{i<=j} b_i, must
-  // be positive, and so must the total slope with the polynomial, on [0, p_max]. Returns an
-  // empty string when invertible, otherwise why not.
+  // be positive, and so must the total slope with the polynomial, on [0, p_max]. And the
+  // inverse must be stable: it feeds its own estimate of p back through the creep state
+  // (eq. 2.23), an error e in p_{k-1} moving the creep at k by at most sum_j |w_j| e while
+  // the current sample divides by the slope, so sum_j |w_j| must stay below the smallest
+  // slope (small-gain condition; the thesis' Table 2.11 model has a ratio of ~0.1). Returns
+  // an empty string when invertible, otherwise why not.
   std::string check_invertible() const;
 
  private:
