@@ -1,0 +1,206 @@
+"""Material DAQ text protocol (thesis §2.4.1, docs/protocol.md).
+
+While running, the DAQ sends one line every 500 ms: the 10 sensors' 10-bit ADC counts in
+decimal, separated by commas, ending ``\\r\\n``::
+
+    512,498,1023,0,77,301,290,288,1001,12\\r\\n
+
+Host commands are single characters: ``s`` starts, ``f`` stops. :class:`DaqLineDecoder`
+splits an arbitrary byte stream into lines (keeping a partial line for the next chunk) and
+reports malformed lines instead of raising. Logs on disk are read by
+:func:`psmat.sensor.load_daq_log`.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Literal, Union
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from ._checks import as_bytes
+
+__all__ = [
+    "DAQ_SENSORS", "DAQ_MAX_COUNT", "DAQ_PERIOD_S", "DAQ_START", "DAQ_STOP",
+    "encode_daq_line", "parse_daq_line", "encode_daq_command",
+    "DaqSample", "DaqMalformed", "DaqLineDecoder",
+]
+
+#: Sensors per line.
+DAQ_SENSORS: int = 10
+#: Largest reading (10-bit ADC).
+DAQ_MAX_COUNT: int = 1023
+#: Line period while running (s).
+DAQ_PERIOD_S: float = 0.5
+#: Command byte that starts the acquisition.
+DAQ_START: bytes = b"s"
+#: Command byte that stops it.
+DAQ_STOP: bytes = b"f"
+
+
+def encode_daq_line(counts: ArrayLike, *, n_sensors: int = DAQ_SENSORS) -> bytes:
+    """Format one DAQ line (what the DAQ sends).
+
+    Parameters
+    ----------
+    counts : array_like of int, shape (n_sensors,)
+        ADC counts in ``[0, 1023]``.
+
+    Returns
+    -------
+    bytes
+        e.g. ``b"512,498,1023,0,77,301,290,288,1001,12\\r\\n"``.
+    """
+    arr = np.asarray(counts)
+    if arr.dtype == np.bool_ or not np.issubdtype(arr.dtype, np.integer):
+        raise TypeError(f"counts must be integers, got dtype {arr.dtype}")
+    if arr.shape != (n_sensors,):
+        raise ValueError(f"counts must have shape ({n_sensors},), got {arr.shape}")
+    if arr.size and (int(arr.min()) < 0 or int(arr.max()) > DAQ_MAX_COUNT):
+        raise ValueError(f"counts must lie in [0, {DAQ_MAX_COUNT}], got range [{int(arr.min())}, {int(arr.max())}]")
+    return (",".join(str(int(v)) for v in arr) + "\r\n").encode("ascii")
+
+
+def parse_daq_line(line: str | bytes, *, n_sensors: int = DAQ_SENSORS) -> NDArray[np.int16]:
+    """Parse one DAQ line (with or without its ``\\r\\n``).
+
+    Returns
+    -------
+    ndarray of int16, shape (n_sensors,)
+        The counts.
+
+    Raises
+    ------
+    ValueError
+        Not exactly ``n_sensors`` comma-separated decimal fields (spaces around a field
+        are tolerated), or a value outside ``[0, 1023]``.
+    """
+    if isinstance(line, (bytes, bytearray, memoryview)):
+        try:
+            text = bytes(line).decode("ascii")
+        except UnicodeDecodeError:
+            raise ValueError("DAQ line is not ASCII") from None
+    elif isinstance(line, str):
+        text = line
+    else:
+        raise TypeError(f"line must be str or bytes, got {type(line).__name__}")
+    text = text.rstrip("\r\n")
+    fields = text.split(",")
+    if len(fields) != n_sensors:
+        raise ValueError(f"DAQ line has {len(fields)} fields, expected {n_sensors}: {text[:80]!r}")
+    out = np.empty(n_sensors, dtype=np.int16)
+    for i, f in enumerate(fields):
+        f = f.strip(" \t")
+        if not (f.isascii() and f.isdigit()) or len(f) > 4:
+            raise ValueError(f"DAQ field {i} is not a decimal count: {f[:20]!r}")
+        v = int(f)
+        if v > DAQ_MAX_COUNT:
+            raise ValueError(f"DAQ field {i} = {v} exceeds {DAQ_MAX_COUNT}")
+        out[i] = v
+    return out
+
+
+def encode_daq_command(command: Literal["start", "stop"]) -> bytes:
+    """The byte to send: ``b"s"`` for ``"start"``, ``b"f"`` for ``"stop"``."""
+    if command == "start":
+        return DAQ_START
+    if command == "stop":
+        return DAQ_STOP
+    raise ValueError(f"command must be 'start' or 'stop', got {command!r}")
+
+
+@dataclass(frozen=True, slots=True, eq=False)
+class DaqSample:
+    """One well-formed line: ``counts`` (int16, shape (n_sensors,)), its 0-based ``line`` number."""
+
+    counts: NDArray[np.int16]
+    line: int
+
+
+@dataclass(frozen=True, slots=True)
+class DaqMalformed:
+    """A line that could not be parsed: the ``raw`` bytes (without ``\\r\\n``), why, and its number."""
+
+    raw: bytes
+    reason: str
+    line: int
+
+
+DaqEvent = Union[DaqSample, DaqMalformed]
+
+
+class DaqLineDecoder:
+    """Incremental DAQ line splitter and parser.
+
+    Parameters
+    ----------
+    n_sensors : int
+        Fields per line (10).
+    max_line : int
+        A partial line longer than this (bytes) without a newline is reported as malformed
+        and discarded (guards against a stream of garbage).
+
+    Notes
+    -----
+    Lines end at ``\\n`` (a preceding ``\\r`` is removed). Blank lines are ignored (counted
+    in ``blank``). Counters: ``bytes_in``, ``lines`` (non-blank lines seen), ``samples``,
+    ``malformed``, ``blank``.
+    """
+
+    def __init__(self, n_sensors: int = DAQ_SENSORS, max_line: int = 256) -> None:
+        self.n_sensors = int(n_sensors)
+        self.max_line = int(max_line)
+        self._partial = bytearray()
+        self.bytes_in = 0
+        self.lines = 0
+        self.samples = 0
+        self.malformed = 0
+        self.blank = 0
+
+    @property
+    def stats(self) -> dict[str, int]:
+        """The counters as a dict."""
+        return {k: getattr(self, k) for k in ("bytes_in", "lines", "samples", "malformed", "blank")}
+
+    def _line(self, raw: bytes, events: list[DaqEvent]) -> None:
+        raw = raw.rstrip(b"\r")
+        if not raw.strip():
+            self.blank += 1
+            return
+        number = self.lines
+        self.lines += 1
+        try:
+            counts = parse_daq_line(raw, n_sensors=self.n_sensors)
+        except ValueError as exc:
+            self.malformed += 1
+            events.append(DaqMalformed(bytes(raw), str(exc), number))
+            return
+        self.samples += 1
+        events.append(DaqSample(counts, number))
+
+    def feed(self, data: bytes | bytearray | memoryview) -> list[DaqEvent]:
+        """Add a chunk; return the :class:`DaqSample` / :class:`DaqMalformed` of the lines it completed."""
+        chunk = as_bytes(data)
+        self.bytes_in += len(chunk)
+        self._partial += chunk
+        events: list[DaqEvent] = []
+        parts = self._partial.split(b"\n")
+        self._partial = parts.pop()
+        for raw in parts:
+            self._line(bytes(raw), events)
+        if len(self._partial) > self.max_line:
+            self.lines += 1
+            self.malformed += 1
+            events.append(DaqMalformed(bytes(self._partial[:80]), f"line longer than {self.max_line} bytes",
+                                       self.lines - 1))
+            self._partial = bytearray()
+        return events
+
+    def finish(self) -> list[DaqEvent]:
+        """End of stream: a pending partial line is parsed if complete, else reported malformed."""
+        events: list[DaqEvent] = []
+        if self._partial:
+            raw, self._partial = bytes(self._partial), bytearray()
+            self._line(raw, events)
+        return events

@@ -1,0 +1,541 @@
+"""Incremental stream decoders: feed them whatever the serial port delivers.
+
+:class:`V1Decoder` (PSM v1), :class:`ImuV1Decoder` (spine IMU v1) and :class:`V2Decoder`
+(every v2 packet) take arbitrary chunks through :meth:`~_Decoder.feed`, keep the bytes of an
+incomplete packet for the next call, and return the events completed so far:
+
+* :class:`Frame` - one row of the time series; ``valid=False`` for a frame that failed
+  its check, kept at the position it occupied so the time base is preserved;
+* :class:`Reply` - a device's answer to a command (v2 framing, recognised by all three
+  decoders since devices reply in v2 even while streaming v1);
+* :class:`Gap` - (v2) frames the sequence numbers say were lost, emitted just before the
+  frame that revealed the gap.
+
+Resynchronisation is byte by byte: after garbage or a failed check the decoder looks for
+the next marker (``0xFF 0xFF`` for v1, ``0xA5 0x5A`` for v2) after the failed one's first
+byte. In v1 a failed candidate is an invalid row, except (a) a false start: directly followed by
+another marker byte (``FF FF FF``), its first byte is garbage; (b) a candidate that starts
+inside the span of the previous invalid row is a row of its own only if a marker follows
+right after its span (else it is a marker-like pair inside the corrupted frame: one
+corrupted frame gives one invalid row, not several). In v2 every frame with a plausible
+header and a bad CRC is an invalid row.
+
+Counters (attributes, also :attr:`~_Decoder.stats`): ``bytes_in``, ``frames`` (valid
+frames), ``invalid`` (invalid rows), ``skipped`` (garbage bytes that belong to no reported
+row or reply), ``dropped`` (v2: frames missing from the ``seq`` sequence, wrap-aware, net of
+the invalid rows reported in their place), ``replies``, ``restarts`` (v2: ``seq`` went
+backwards, i.e. the device restarted; no drop is counted).
+
+v2 ``t_us`` is unwrapped into a monotonic 64-bit device clock (microseconds since the
+device's counter origin, first frame's raw value as the starting point): each frame adds
+``(t_us - previous t_us) mod 2**32``.
+"""
+
+from __future__ import annotations
+
+import re
+import struct
+from dataclasses import dataclass
+from typing import Any, Literal, Union
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ._checks import as_bytes, shape2
+from .crc import crc16
+from .v1 import IMU_SHAPE, V1_MAX_COUNT
+from .v2 import CRC_SIZE, HEADER_SIZE, MAX_PAYLOAD, SYNC, VERSION, Opcode, PacketType, Status
+
+__all__ = ["Frame", "Reply", "Gap", "Event", "V1Decoder", "ImuV1Decoder", "V2Decoder", "decode_v2"]
+
+_WRAP = 1 << 32
+_HALF = 1 << 31
+_HDR = struct.Struct("<BBIIBBH")  # version, type, seq, t_us, rows, cols, n (from offset 2)
+_MARKERS = re.compile(rb"\xff\xff|\xa5\x5a")
+_NEED_MORE = -1
+_BAD = -2
+
+
+@dataclass(frozen=True, slots=True, eq=False)
+class Frame:
+    """One decoded frame (one row of the time series).
+
+    Attributes
+    ----------
+    kind : {"psm", "imu"}
+        PSM counts or IMU angles.
+    data : ndarray
+        ``psm``: uint16 counts, shape (R, C), zeros when invalid. ``imu``: float32 Euler
+        angles in degrees, shape (R, C) ((5, 3) for the spine DAQ), NaN when invalid.
+    valid : bool
+        False when the frame failed its check (its contents are unknown).
+    seq : int or None
+        v2 sequence number (raw uint32); None for v1 and for invalid rows.
+    t_us : int or None
+        v2 device time of the scan, unwrapped (microseconds, monotonic); None for v1 and
+        invalid rows.
+    offset : int
+        Stream offset of the frame's first byte (bytes since the decoder's start).
+    """
+
+    kind: str
+    data: NDArray[Any]
+    valid: bool
+    seq: int | None
+    t_us: int | None
+    offset: int
+
+
+@dataclass(frozen=True, slots=True)
+class Reply:
+    """A device reply (v2 type 0x11).
+
+    Attributes
+    ----------
+    opcode : int or None
+        The opcode answered, an :class:`~psmat.protocol.Opcode` when known (None for an
+        empty payload).
+    status : int or None
+        :class:`~psmat.protocol.Status` value when known (None if the payload is shorter).
+    text : str
+        The reply text (ASCII; undecodable bytes replaced).
+    seq : int
+        Raw ``seq`` field.
+    t_us : int
+        Device time, unwrapped against the frames' clock (microseconds).
+    offset : int
+        Stream offset of the packet's first byte.
+    """
+
+    opcode: int | None
+    status: int | None
+    text: str
+    seq: int
+    t_us: int
+    offset: int
+
+
+@dataclass(frozen=True, slots=True)
+class Gap:
+    """``count`` frames lost just before the frame with sequence number ``seq`` (v2)."""
+
+    count: int
+    seq: int
+
+
+Event = Union[Frame, Reply, Gap]
+
+
+def _known(enum_type: Any, value: int) -> int:
+    try:
+        return enum_type(value)
+    except ValueError:
+        return value
+
+
+class _Decoder:
+    """Buffer handling, counters and the reply parser shared by the decoders."""
+
+    #: Largest number of bytes waited for before a candidate can be judged.
+    _max_packet = HEADER_SIZE + MAX_PAYLOAD + CRC_SIZE
+
+    def __init__(self) -> None:
+        self._buf = bytearray()
+        self._base = 0          # stream offset of _buf[0]
+        self._pos = 0           # next index of _buf to examine
+        self._owned_end = 0     # stream offset where the last reported row/reply ends
+        self._last_t: int | None = None
+        self._clock = 0
+        self.bytes_in = 0
+        self.frames = 0
+        self.invalid = 0
+        self.skipped = 0
+        self.dropped = 0
+        self.replies = 0
+        self.restarts = 0
+
+    # -- public -------------------------------------------------------------------------
+    @property
+    def stats(self) -> dict[str, int]:
+        """The counters as a dict."""
+        return {k: getattr(self, k) for k in
+                ("bytes_in", "frames", "invalid", "skipped", "dropped", "replies", "restarts")}
+
+    @property
+    def pending(self) -> int:
+        """Bytes held for the next :meth:`feed` (an incomplete packet or a marker byte)."""
+        return len(self._buf) - self._pos
+
+    def feed(self, data: bytes | bytearray | memoryview) -> list[Event]:
+        """Add a chunk of the stream and return the events it completed.
+
+        Parameters
+        ----------
+        data : bytes-like
+            Any number of bytes (chunk boundaries need not align with packets).
+
+        Returns
+        -------
+        list of Frame, Reply, Gap
+            In stream order. Never raises on malformed input.
+        """
+        chunk = as_bytes(data)
+        self.bytes_in += len(chunk)
+        self._buf += chunk
+        events: list[Event] = []
+        self._process(events, final=False)
+        self._compact()
+        return events
+
+    def finish(self) -> list[Event]:
+        """End of stream: judge what is held without waiting for more bytes.
+
+        Incomplete packets are counted as skipped bytes; complete packets behind a
+        candidate that was still waiting for its bytes are decoded. The decoder is then
+        empty (its counters and clocks are kept) and may be fed again.
+        """
+        events: list[Event] = []
+        self._process(events, final=True)
+        self._skip(self._pos, len(self._buf))
+        self._pos = len(self._buf)
+        self._compact()
+        return events
+
+    # -- helpers ------------------------------------------------------------------------
+    def _compact(self) -> None:
+        if self._pos:
+            del self._buf[:self._pos]
+            self._base += self._pos
+            self._pos = 0
+
+    def _skip(self, a: int, b: int) -> None:
+        """Count buffer bytes [a, b) as garbage, except those inside the last reported span."""
+        if b > a:
+            start = max(self._base + a, self._owned_end)
+            end = self._base + b
+            if end > start:
+                self.skipped += end - start
+
+    def _unwrap(self, t_raw: int, *, frame: bool) -> int:
+        if self._last_t is None:
+            self._last_t, self._clock = t_raw, t_raw
+            return t_raw
+        delta = (t_raw - self._last_t) % _WRAP
+        if frame or delta < _HALF:
+            self._last_t = t_raw
+            self._clock += delta
+            return self._clock
+        return self._clock - (_WRAP - delta)  # a reply stamped slightly before the last frame
+
+    def _reply(self, payload: bytes, seq: int, t_raw: int, k: int) -> Reply:
+        self.replies += 1
+        opcode = _known(Opcode, payload[0]) if len(payload) >= 1 else None
+        status = _known(Status, payload[1]) if len(payload) >= 2 else None
+        text = payload[2:].decode("ascii", errors="replace")
+        return Reply(opcode, status, text, seq, self._unwrap(t_raw, frame=False), self._base + k)
+
+    def _v2_packet(self, buf: bytearray, k: int, final: bool, accept: frozenset[int]) -> tuple[int, Any]:
+        """Judge the v2 candidate at ``buf[k]`` (sync already matched).
+
+        Returns ``(_NEED_MORE, None)``, ``(_BAD, None)`` for an implausible header, or
+        ``(end, (crc_ok, type, seq, t_us, rows, cols, payload))``.
+        """
+        n_buf = len(buf)
+        if n_buf - k < HEADER_SIZE:
+            return (_BAD, None) if final else (_NEED_MORE, None)
+        ver, typ, seq, t_raw, rows, cols, n = _HDR.unpack_from(buf, k + 2)
+        if ver != VERSION or typ not in accept or n > MAX_PAYLOAD:
+            return _BAD, None
+        if typ == PacketType.PSM:
+            if rows < 1 or cols < 1 or n != 2 * rows * cols:
+                return _BAD, None
+        elif typ == PacketType.IMU:
+            if rows < 1 or cols < 1 or n != 4 * rows * cols:
+                return _BAD, None
+        end = k + HEADER_SIZE + n + CRC_SIZE
+        if end > n_buf:
+            return (_BAD, None) if final else (_NEED_MORE, None)
+        body = bytes(buf[k + 2:end - 2])
+        crc_ok = crc16(body) == (buf[end - 2] | (buf[end - 1] << 8))
+        return end, (crc_ok, typ, seq, t_raw, rows, cols, body[HEADER_SIZE - 2:])
+
+    def _process(self, events: list[Event], final: bool) -> None:  # pragma: no cover - abstract
+        raise NotImplementedError
+
+
+_REPLY_ONLY = frozenset({PacketType.REPLY})
+
+
+class _V1Base(_Decoder):
+    """v1 framing: ``FF FF | payload | check``, plus interleaved v2 replies."""
+
+    _kind: str = "psm"
+
+    def __init__(self, shape: tuple[int, int], payload_size: int) -> None:
+        super().__init__()
+        self.shape = shape
+        self._payload_size = payload_size
+        self._frame_size = 2 + payload_size + 2
+
+    def _check(self, payload: bytes, check: int) -> NDArray[Any] | None:  # pragma: no cover
+        raise NotImplementedError
+
+    def _invalid_data(self) -> NDArray[Any]:  # pragma: no cover
+        raise NotImplementedError
+
+    def _process(self, events: list[Event], final: bool) -> None:
+        buf = self._buf
+        pos = self._pos
+        size = self._frame_size
+        search = _MARKERS.search
+        while True:
+            n_buf = len(buf)
+            m = search(buf, pos)
+            if m is None:
+                keep = 1 if (not final and n_buf > pos and buf[-1] in (0xFF, 0xA5)) else 0
+                self._skip(pos, n_buf - keep)
+                pos = n_buf - keep
+                break
+            k = m.start()
+            self._skip(pos, k)
+            pos = k
+            if buf[k] == 0xFF:
+                end = k + size
+                if end > n_buf:
+                    if not final:
+                        break
+                    self._skip(k, k + 1)
+                    pos = k + 1
+                    continue
+                payload = bytes(buf[k + 2:end - 2])
+                data = self._check(payload, buf[end - 2] | (buf[end - 1] << 8))
+                if data is not None:
+                    self.frames += 1
+                    events.append(Frame(self._kind, data, True, None, None, self._base + k))
+                    self._owned_end = self._base + end
+                    pos = end
+                    continue
+                if buf[k + 2] == 0xFF:          # FF FF FF: false start, resync one byte on
+                    self._skip(k, k + 1)
+                    pos = k + 1
+                    continue
+                row = self._base + k >= self._owned_end
+                if not row:
+                    # Overlaps the previous invalid row: a frame of its own only if the next
+                    # marker follows right after its span (else a marker-like pair inside the
+                    # corrupted frame).
+                    if end + 2 > n_buf and not final:
+                        break
+                    row = bytes(buf[end:end + 2]) in (b"\xff\xff", SYNC)
+                if row:
+                    self.invalid += 1
+                    events.append(Frame(self._kind, self._invalid_data(), False, None, None, self._base + k))
+                    self._owned_end = self._base + end
+                else:
+                    self._skip(k, k + 2)
+                pos = k + 2
+            else:
+                end, info = self._v2_packet(buf, k, final, _REPLY_ONLY)
+                if end == _NEED_MORE:
+                    break
+                if end == _BAD or not info[0]:
+                    self._skip(k, k + 1)
+                    pos = k + 1
+                    continue
+                _, _, seq, t_raw, _, _, payload = info
+                events.append(self._reply(payload, seq, t_raw, k))
+                self._owned_end = self._base + end
+                pos = end
+        self._pos = pos
+
+
+class V1Decoder(_V1Base):
+    """Incremental decoder of a PSM v1 stream.
+
+    Parameters
+    ----------
+    shape : (int, int)
+        The mat's ``(R, C)`` (not on the wire).
+
+    Notes
+    -----
+    A candidate at ``FF FF`` is valid when every cell is <= 4095, the check is <= 4095 and
+    equals the cell sum mod 4096. Events are :class:`Frame` (``kind="psm"``, uint16
+    ``(R, C)``) and :class:`Reply`. Typical throughput: some 10^5 frames of 16x16 per second.
+    """
+
+    _kind = "psm"
+
+    def __init__(self, shape: tuple[int, int]) -> None:
+        r, c = shape2(shape)
+        super().__init__((r, c), 2 * r * c)
+        self._zeros = np.zeros((r, c), dtype=np.uint16)
+        self._zeros.setflags(write=False)
+
+    def _check(self, payload: bytes, check: int) -> NDArray[np.uint16] | None:
+        if check > V1_MAX_COUNT:
+            return None
+        cells = np.frombuffer(payload, dtype="<u2")
+        if int(cells.max()) > V1_MAX_COUNT or (int(cells.sum()) & 0xFFF) != check:
+            return None
+        return cells.astype(np.uint16).reshape(self.shape)
+
+    def _invalid_data(self) -> NDArray[np.uint16]:
+        return self._zeros
+
+
+class ImuV1Decoder(_V1Base):
+    """Incremental decoder of a spine-IMU v1 stream (15 float32 angles per frame).
+
+    Float bytes may contain ``FF FF``, so resynchronisation relies on the check (sum of the
+    30 payload uint16 words mod 4096, and <= 4095). Events are :class:`Frame`
+    (``kind="imu"``, float32 degrees, shape (5, 3), NaN when invalid) and :class:`Reply`.
+
+    Limitation of the thesis framing, not of this reader: the check cannot see an error in
+    bits 12-15 of a payload word (floats do not forbid them, unlike 12-bit counts), nor a
+    shifted candidate that happens to sum right (about 1 in 65536); such a sample decodes
+    as valid with wrong angles. Use v2 (CRC-16) where that matters.
+    """
+
+    _kind = "imu"
+
+    def __init__(self) -> None:
+        super().__init__(IMU_SHAPE, 4 * IMU_SHAPE[0] * IMU_SHAPE[1])
+        self._nan = np.full(IMU_SHAPE, np.nan, dtype=np.float32)
+        self._nan.setflags(write=False)
+
+    def _check(self, payload: bytes, check: int) -> NDArray[np.float32] | None:
+        if check > V1_MAX_COUNT or (int(np.frombuffer(payload, dtype="<u2").sum()) & 0xFFF) != check:
+            return None
+        return np.frombuffer(payload, dtype="<f4").astype(np.float32).reshape(IMU_SHAPE)
+
+    def _invalid_data(self) -> NDArray[np.float32]:
+        return self._nan
+
+
+_V2_TYPES = frozenset({PacketType.PSM, PacketType.IMU, PacketType.REPLY})
+
+
+class V2Decoder(_Decoder):
+    """Incremental decoder of a v2 stream (PSM and IMU frames, replies).
+
+    A header is trusted only within the limits of docs/protocol.md (version 2, type 0x01,
+    0x02 or 0x11, ``n <= 8192``, ``n == 2*R*C`` / ``4*R*C`` with ``R, C >= 1`` for frames);
+    otherwise its first byte is garbage. A frame with a plausible header and a bad CRC is
+    an invalid :class:`Frame` (shape from its header; ``seq``/``t_us`` None); a gap in
+    ``seq`` not filled by such rows emits a :class:`Gap` and adds to ``dropped``.
+    """
+
+    def __init__(self) -> None:
+        super().__init__()
+        self._last_seq: int | None = None
+        self._invalid_since = 0
+
+    def _process(self, events: list[Event], final: bool) -> None:
+        buf = self._buf
+        pos = self._pos
+        while True:
+            n_buf = len(buf)
+            k = buf.find(SYNC, pos)
+            if k < 0:
+                keep = 1 if (not final and n_buf > pos and buf[-1] == 0xA5) else 0
+                self._skip(pos, n_buf - keep)
+                pos = n_buf - keep
+                break
+            self._skip(pos, k)
+            pos = k
+            end, info = self._v2_packet(buf, k, final, _V2_TYPES)
+            if end == _NEED_MORE:
+                break
+            if end == _BAD:
+                self._skip(k, k + 1)
+                pos = k + 1
+                continue
+            crc_ok, typ, seq, t_raw, rows, cols, payload = info
+            if not crc_ok:
+                if typ != PacketType.REPLY:
+                    self.invalid += 1
+                    self._invalid_since += 1
+                    if typ == PacketType.PSM:
+                        data = np.zeros((rows, cols), dtype=np.uint16)
+                        kind = "psm"
+                    else:
+                        data = np.full((rows, cols), np.nan, dtype=np.float32)
+                        kind = "imu"
+                    events.append(Frame(kind, data, False, None, None, self._base + k))
+                    self._owned_end = self._base + end
+                else:
+                    self._skip(k, k + 1)
+                pos = k + 1
+                continue
+            self._owned_end = self._base + end
+            pos = end
+            if typ == PacketType.REPLY:
+                events.append(self._reply(payload, seq, t_raw, k))
+                continue
+            if self._last_seq is not None:
+                gap = (seq - self._last_seq - 1) % _WRAP
+                if gap < _HALF:
+                    lost = gap - self._invalid_since
+                    if lost > 0:
+                        self.dropped += lost
+                        events.append(Gap(lost, seq))
+                else:
+                    self.restarts += 1
+            self._last_seq = seq
+            self._invalid_since = 0
+            if typ == PacketType.PSM:
+                data = np.frombuffer(payload, dtype="<u2").astype(np.uint16).reshape(rows, cols)
+                kind = "psm"
+            else:
+                data = np.frombuffer(payload, dtype="<f4").astype(np.float32).reshape(rows, cols)
+                kind = "imu"
+            self.frames += 1
+            events.append(Frame(kind, data, True, seq, self._unwrap(t_raw, frame=True), self._base + k))
+        self._pos = pos
+
+
+def decode_v2(data: bytes | bytearray | memoryview, kind: Literal["psm", "imu"] = "psm") -> dict[str, Any]:
+    """Decode a whole v2 recording of one frame shape into arrays.
+
+    Parameters
+    ----------
+    data : bytes-like
+        The stream.
+    kind : {"psm", "imu"}
+        Which frames to keep (the other kind, and replies, are ignored).
+
+    Returns
+    -------
+    dict
+        ``frames`` (N, R, C) uint16 counts or float32 degrees (0 / NaN in invalid rows),
+        ``valid`` (N,) bool, ``seq`` (N,) int64 (-1 when invalid), ``t_us`` (N,) int64
+        unwrapped device time in microseconds (-1 when invalid), and ``dropped`` (int, from
+        the seq gaps). The shape is the first frame's; N = 0 gives shape (0, 0, 0).
+
+    Raises
+    ------
+    ValueError
+        Frames of that kind with different shapes.
+    """
+    if kind not in ("psm", "imu"):
+        raise ValueError(f"kind must be 'psm' or 'imu', got {kind!r}")
+    dec = V2Decoder()
+    events = dec.feed(data)
+    events += dec.finish()
+    rows = [e for e in events if isinstance(e, Frame) and e.kind == kind]
+    shape = rows[0].data.shape if rows else (0, 0)
+    if any(e.data.shape != shape for e in rows):
+        raise ValueError("the recording holds frames of different shapes")
+    dtype = np.uint16 if kind == "psm" else np.float32
+    frames = np.empty((len(rows), *shape), dtype=dtype)
+    valid = np.empty(len(rows), dtype=bool)
+    seq = np.full(len(rows), -1, dtype=np.int64)
+    t_us = np.full(len(rows), -1, dtype=np.int64)
+    for i, e in enumerate(rows):
+        frames[i] = e.data
+        valid[i] = e.valid
+        if e.valid:
+            seq[i] = e.seq
+            t_us[i] = e.t_us
+    return {"frames": frames, "valid": valid, "seq": seq, "t_us": t_us, "dropped": dec.dropped}
