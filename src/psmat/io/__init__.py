@@ -1,0 +1,55 @@
+"""Recorded sessions and external data files (SPEC §6).
+
+* :mod:`psmat.io.session` — a recording as one HDF5 file (raw frames, timing, validity,
+  device, calibration, metadata, processed products), crash-safe while it is written.
+* :mod:`psmat.io.forceplate` — force-platform centre-of-pressure files (generic CSV and
+  the BDS public data set).
+"""
+
+from .forceplate import (
+    ForcePlateRecording,
+    bds_dir,
+    bds_files,
+    bds_trial,
+    bds_trials_table,
+    load_bds,
+    load_forceplate_csv,
+)
+from .session import (
+    COUNTER_NAMES,
+    FORMAT_NAME,
+    FORMAT_VERSION,
+    Product,
+    Session,
+    SessionFormatError,
+    SessionWriter,
+    export_csv,
+    info,
+    journal_path,
+    load_session,
+    repair_session,
+    save_product,
+)
+
+__all__ = [
+    "COUNTER_NAMES",
+    "FORMAT_NAME",
+    "FORMAT_VERSION",
+    "ForcePlateRecording",
+    "Product",
+    "Session",
+    "SessionFormatError",
+    "SessionWriter",
+    "bds_dir",
+    "bds_files",
+    "bds_trial",
+    "bds_trials_table",
+    "export_csv",
+    "info",
+    "journal_path",
+    "load_bds",
+    "load_forceplate_csv",
+    "load_session",
+    "repair_session",
+    "save_product",
+]

@@ -1,0 +1,115 @@
+"""psmat.io.forceplate: generic CoP CSV files and the BDS data set (one real file)."""
+
+from __future__ import annotations
+
+import csv
+import shutil
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from psmat.io import ForcePlateRecording, bds_dir, bds_files, bds_trial, bds_trials_table, load_bds, load_forceplate_csv
+
+BDS = Path(__file__).resolve().parents[2] / "shared" / "data" / "bds"
+needs_bds = pytest.mark.skipif(not (BDS / "BDS00001.txt").is_file(), reason="../shared/data/bds not present")
+
+
+def parse_bds(path: Path) -> dict[str, np.ndarray]:
+    with open(path, newline="") as fh:
+        rows = list(csv.reader(fh, delimiter="\t"))
+    head = rows[0]
+    data = np.array([[float(x) for x in r] for r in rows[1:] if r], dtype=float)
+    return {h.strip(): data[:, k] for k, h in enumerate(head)}
+
+
+@needs_bds
+def test_bds_trial_matches_file(monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.delenv("PSMAT_BDS_DIR", raising=False)
+    assert bds_dir().resolve() == BDS.resolve()  # found from the repository layout
+    files = bds_files()
+    assert BDS / "BDS00001.txt" in files and all(f.suffix == ".txt" for f in files)
+    r = bds_trial(1)
+    ref = parse_bds(BDS / "BDS00001.txt")
+    assert isinstance(r, ForcePlateRecording) and r.n == ref["Time[s]"].size == 6000
+    np.testing.assert_array_equal(r.t, ref["Time[s]"])
+    np.testing.assert_array_equal(r.cop_ap_cm, ref["COPx[cm]"])  # COPx is anterior-posterior
+    np.testing.assert_array_equal(r.cop_ml_cm, ref["COPy[cm]"])  # COPy is medial-lateral
+    np.testing.assert_array_equal(r.fz_n, ref["Fz[N]"])
+    np.testing.assert_array_equal(r.meta["channels"]["Mx[Nm]"], ref["Mx[Nm]"])
+    assert abs(r.rate_hz - 100.0) < 1e-9
+    assert r.meta["trial"] == "BDS00001" and r.meta["trial_info"]["Vision"] in ("Open", "Closed")
+    np.testing.assert_array_equal(r.cop_cm, np.column_stack([ref["COPy[cm]"], ref["COPx[cm]"]]))
+    assert bds_trial("BDS00001").n == r.n
+    table = bds_trials_table()
+    assert any(row["Trial"] == "BDS00001" and row["Subject"] == 1 for row in table)
+    with pytest.raises(FileNotFoundError, match="BDS99999"):
+        bds_trial(99999)
+
+
+@needs_bds
+def test_bds_dir_from_env(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    shutil.copy(BDS / "BDS00002.txt", tmp_path / "BDS00002.txt")
+    monkeypatch.setenv("PSMAT_BDS_DIR", str(tmp_path))
+    assert bds_dir() == tmp_path
+    assert bds_files() == [tmp_path / "BDS00002.txt"]
+    r = bds_trial(2)
+    assert "trial_info" not in r.meta  # no trials.tsv beside the copy
+    np.testing.assert_array_equal(r.cop_ml_cm, parse_bds(BDS / "BDS00002.txt")["COPy[cm]"])
+    monkeypatch.setenv("PSMAT_BDS_DIR", str(tmp_path / "nope"))
+    with pytest.raises(FileNotFoundError, match="PSMAT_BDS_DIR"):
+        bds_dir()
+
+
+def test_load_bds_rejects_other_files(tmp_path: Path) -> None:
+    p = tmp_path / "x.txt"
+    p.write_text("a\tb\n1\t2\n")
+    with pytest.raises(ValueError, match="not a BDS file"):
+        load_bds(p)
+
+
+def test_forceplate_csv_with_header(tmp_path: Path) -> None:
+    t = np.arange(50) * 0.01
+    x = np.sin(t) * 1.234567
+    y = np.cos(t) * 0.5
+    fz = 700 + t
+    p = tmp_path / "fp.csv"
+    with open(p, "w", newline="") as fh:
+        w = csv.writer(fh)
+        w.writerow(["Time (s)", "COP_x [mm]", "COP_y [mm]", "Fz [N]", "Mx"])
+        for row in zip(t, x * 10, y * 10, fz, -t):
+            w.writerow([repr(float(v)) for v in row])
+    r = load_forceplate_csv(p)
+    np.testing.assert_array_equal(r.t, t)
+    np.testing.assert_allclose(r.cop_ml_cm, x, rtol=1e-15, atol=0)  # mm -> cm from the header
+    np.testing.assert_allclose(r.cop_ap_cm, y, rtol=1e-15, atol=0)
+    np.testing.assert_array_equal(r.fz_n, fz)
+    assert r.meta["unit"] == "mm" and "Mx" in r.meta["channels"]
+    rs = load_forceplate_csv(p, swap_axes=True)
+    np.testing.assert_array_equal(rs.cop_ml_cm, r.cop_ap_cm)
+
+
+def test_forceplate_csv_without_header_and_tabs(tmp_path: Path) -> None:
+    p = tmp_path / "fp.tsv"
+    p.write_text("# exported\n0.0\t1.5\t-2.0\n0.1\t1.25\t-2.5\n0.2\t1.0\t-3.0\n")
+    r = load_forceplate_csv(p)
+    np.testing.assert_array_equal(r.t, [0.0, 0.1, 0.2])
+    np.testing.assert_array_equal(r.cop_ml_cm, [1.5, 1.25, 1.0])
+    np.testing.assert_array_equal(r.cop_ap_cm, [-2.0, -2.5, -3.0])
+    assert r.fz_n is None
+    r2 = load_forceplate_csv(p, unit="m")
+    np.testing.assert_array_equal(r2.cop_ml_cm, [150.0, 125.0, 100.0])
+
+
+def test_forceplate_csv_errors(tmp_path: Path) -> None:
+    with pytest.raises(FileNotFoundError):
+        load_forceplate_csv(tmp_path / "missing.csv")
+    p = tmp_path / "bad.csv"
+    p.write_text("when,a,b\n1,2,3\n")
+    with pytest.raises(ValueError, match="no time column"):
+        load_forceplate_csv(p)
+    r = load_forceplate_csv(p, time="when", x="a", y="b")
+    assert r.t.tolist() == [1.0] and r.cop_ml_cm.tolist() == [2.0]
+    p.write_text("t,x,y\n1,2,3\n4,5\n")
+    with pytest.raises(ValueError, match="row 3"):
+        load_forceplate_csv(p)
