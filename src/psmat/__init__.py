@@ -2,13 +2,15 @@
 
 Submodules: :mod:`psmat.iecm` (crosstalk removal), :class:`psmat.Circuit` (measurement
 chain counts <-> conductance), :mod:`psmat.noise` (Table 2.4 noise model),
-:mod:`psmat.scenes` (synthetic pressure images).
+:mod:`psmat.scenes` (synthetic conductance images), :mod:`psmat.sensor` (Velostat hysteresis +
+creep), :mod:`psmat.protocol` (wire formats), :mod:`psmat.io` (session files, force
+platforms), :mod:`psmat.twin` (the simulated mat).
 """
 
-from . import iecm, noise, scenes, sensor
+from . import iecm, io, noise, protocol, scenes, sensor, twin
 from .calibration import Calibration
 from .circuit import Circuit
 
 
 __version__ = "0.1.0"
-__all__ = ["iecm", "noise", "scenes", "sensor", "Circuit", "Calibration", "__version__"]
+__all__ = ["iecm", "io", "noise", "protocol", "scenes", "sensor", "twin", "Circuit", "Calibration", "__version__"]
