@@ -5,6 +5,7 @@ namespace py = pybind11;
 
 void register_iecm(py::module_& m);
 void register_sensor(py::module_& m);
+void register_firmware(py::module_& m);
 
 PYBIND11_MODULE(_core, m) {
   m.doc() = "psmat compiled core (private: use the psmat package API)";
@@ -12,4 +13,6 @@ PYBIND11_MODULE(_core, m) {
   register_iecm(iecm);
   auto sensor = m.def_submodule("sensor", "Velostat MPI hysteresis + creep model (thesis §2.5)");
   register_sensor(sensor);
+  auto fw = m.def_submodule("firmware", "The portable firmware cores (firmware/core) on host HALs: the digital twin");
+  register_firmware(fw);
 }

@@ -7,10 +7,10 @@ creep), :mod:`psmat.protocol` (wire formats), :mod:`psmat.io` (session files, fo
 platforms), :mod:`psmat.twin` (the simulated mat).
 """
 
-from . import iecm, io, noise, protocol, scenes, sensor, twin
+from . import balance, iecm, io, noise, protocol, scenes, sensor, twin
 from .calibration import Calibration
 from .circuit import Circuit
 
 
 __version__ = "0.1.0"
-__all__ = ["iecm", "io", "noise", "protocol", "scenes", "sensor", "twin", "Circuit", "Calibration", "__version__"]
+__all__ = ["balance", "iecm", "io", "noise", "protocol", "scenes", "sensor", "twin", "Circuit", "Calibration", "__version__"]

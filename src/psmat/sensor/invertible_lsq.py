@@ -109,7 +109,9 @@ def constrained_coefficients(A: np.ndarray, b: np.ndarray, tau: float, n_ops: in
         x0[0] = 10.0 * margin * norms[0]  # a1 alone: a feasible start
         try:
             x = np.asarray(opt.optimize(x0))
-        except nlopt.RoundoffLimited:  # SLSQP stopped on round-off: keep its best feasible point
+        except (nlopt.RoundoffLimited, nlopt.runtime_error, RuntimeError):
+            # SLSQP stopped on round-off or failed (far corners of the search box): keep its
+            # best feasible point, else the feasible start (a1 alone)
             x = best["x"] if best["x"] is not None else x0
         c = x / norms
         if is_invertible(c):

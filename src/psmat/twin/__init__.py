@@ -1,8 +1,13 @@
-"""Digital twin of the mat (SPEC §5): simulated pressure fields on the mat.
+"""Digital twin of the mat (SPEC §5).
 
-:mod:`psmat.twin.pressure` — feet and seats as smooth pressure fields (psi), integrated
-over each cell, and seeded scene generators (quiet standing, single-leg sway, a recorded
-force-platform trajectory, sitting) returning :class:`PressureScene`.
+* :mod:`psmat.twin.pressure` — feet and seats as smooth pressure fields (psi), integrated
+  over each cell, and seeded scene generators (quiet standing, single-leg sway, a recorded
+  force-platform trajectory, sitting) returning :class:`PressureScene`.
+* :mod:`psmat.twin.mat` — :class:`MatPhysics`: pressure → sensor model with cell-to-cell
+  variability → crosstalk F(g) → measurement chain → ADC counts.
+* :mod:`psmat.twin.sources` — what each simulated device measures, tick by tick.
+* :mod:`psmat.twin.serial_twin` — :class:`SerialTwin`: the firmware core on the host,
+  served on a real pseudo-terminal, with fault injection.
 """
 
 from .pressure import (
@@ -20,7 +25,21 @@ from .pressure import (
     trajectory_sway,
 )
 
+from .mat import MatPhysics, MatTruth
+from .serial_twin import Faults, SerialTwin, TwinStats
+from .sources import SCENES, DaqSource, ImuSource, PsmSource, make_scene
+
 __all__ = [
+    "MatPhysics",
+    "MatTruth",
+    "Faults",
+    "SerialTwin",
+    "TwinStats",
+    "SCENES",
+    "DaqSource",
+    "ImuSource",
+    "PsmSource",
+    "make_scene",
     "PSI_PA",
     "Lobes",
     "PressureScene",

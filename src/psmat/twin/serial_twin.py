@@ -1,0 +1,296 @@
+"""The digital twin on a real pseudo-terminal (SPEC §5).
+
+:class:`SerialTwin` runs a device's firmware core (``firmware/core``, compiled into
+``psmat._core.firmware``) on the host, feeds its "ADC" from a source
+(:mod:`psmat.twin.sources`) and serves its bytes on a pseudo-terminal, paced by the
+firmware's own timer rate — what a reader sees is what it would see from the mat over USB:
+the same frames, the same replies to commands, at the configured rate.
+
+A pty buffers unread data, unlike a USB CDC device; the twin therefore writes without
+blocking and, when the host does not read, drops whole frames (counted in ``stats``) the
+way a device whose USB endpoint is not polled does.
+
+Fault injection (:class:`Faults`) for robustness tests: bit flips and dropped bytes at a
+given rate per byte, stalls (the link goes silent for a while, frames scanned meanwhile
+are lost, as on a device whose USB stalls), and a disconnect (the pty goes away, as when
+the cable is pulled).
+"""
+
+from __future__ import annotations
+
+import errno
+import os
+import select
+import threading
+import time
+import tty
+from dataclasses import dataclass, field
+
+import numpy as np
+
+__all__ = ["Faults", "SerialTwin", "TwinStats"]
+
+
+@dataclass
+class Faults:
+    """Corruption of the byte stream (all off by default).
+
+    Parameters
+    ----------
+    bit_flip : float
+        Probability that a byte has one bit flipped.
+    drop_byte : float
+        Probability that a byte is lost.
+    stall_every_s, stall_s : float
+        Every ``stall_every_s`` seconds the link is silent for ``stall_s`` (0 = never).
+    disconnect_after_s : float or None
+        Close the port after this many seconds of serving.
+    seed : int
+    """
+
+    bit_flip: float = 0.0
+    drop_byte: float = 0.0
+    stall_every_s: float = 0.0
+    stall_s: float = 0.0
+    disconnect_after_s: float | None = None
+    seed: int = 0
+
+    def __post_init__(self) -> None:
+        if not (0 <= self.bit_flip <= 1 and 0 <= self.drop_byte <= 1):
+            raise ValueError("bit_flip and drop_byte are probabilities per byte, in [0, 1]")
+        if self.stall_every_s < 0 or self.stall_s < 0:
+            raise ValueError("stall_every_s and stall_s must be >= 0 s")
+        self._rng = np.random.default_rng(self.seed)
+
+    @classmethod
+    def parse(cls, text: str) -> "Faults":
+        """From ``"bit_flip=1e-5,drop_byte=1e-6,stall_every_s=5,stall_s=0.2,disconnect_after_s=30"``."""
+        kwargs: dict[str, float] = {}
+        for item in filter(None, (s.strip() for s in text.split(","))):
+            key, _, value = item.partition("=")
+            if key not in cls.__dataclass_fields__ or key.startswith("_"):
+                raise ValueError(f"unknown fault {key!r}; known: bit_flip, drop_byte, stall_every_s, "
+                                 "stall_s, disconnect_after_s, seed")
+            kwargs[key] = int(value) if key == "seed" else float(value)
+        return cls(**kwargs)
+
+    @property
+    def corrupts(self) -> bool:
+        return self.bit_flip > 0 or self.drop_byte > 0
+
+    def apply(self, data: bytes) -> tuple[bytes, int, int]:
+        """Corrupted ``data``, bits flipped, bytes dropped."""
+        if not self.corrupts or not data:
+            return data, 0, 0
+        a = np.frombuffer(data, np.uint8).copy()
+        flips = np.flatnonzero(self._rng.random(a.size) < self.bit_flip)
+        a[flips] ^= (1 << self._rng.integers(0, 8, flips.size)).astype(np.uint8)
+        keep = self._rng.random(a.size) >= self.drop_byte
+        return a[keep].tobytes(), int(flips.size), int(a.size - keep.sum())
+
+    def stalled(self, t: float) -> bool:
+        return self.stall_every_s > 0 and self.stall_s > 0 and (t % self.stall_every_s) < self.stall_s
+
+
+@dataclass
+class TwinStats:
+    ticks: int = 0  # timer interrupts
+    frames_sent: int = 0  # frames written to the pty
+    frames_unsent: int = 0  # frames the host did not take (buffer full, stall)
+    bytes_sent: int = 0
+    commands_bytes: int = 0
+    bits_flipped: int = 0
+    bytes_dropped: int = 0
+    late_ticks: int = 0  # ticks more than one period behind schedule
+    errors: list[str] = field(default_factory=list)
+
+
+class SerialTwin:
+    """A simulated device served on a pseudo-terminal.
+
+    Parameters
+    ----------
+    kind : {"psm", "imu", "daq"}
+    rate_hz : float, optional
+        Frame rate (the firmware's timer); default 100 Hz (PSM), 10 Hz (IMU), 2 Hz (DAQ).
+        A SET_RATE command from the host changes it live.
+    protocol : {"v1", "v2"}
+        Framing of the PSM and IMU.
+    source : optional
+        Where the firmware's ADC readings come from (``.next()``); default: the ``"sway"``
+        scene for the PSM (:class:`~psmat.twin.sources.PsmSource`), the spine model for the
+        IMU, the descending protocol for the DAQ.
+    shape : (R, C)
+        PSM array size.
+    faults : Faults, optional
+    serial : str
+        The serial number the device reports to IDENTIFY.
+    """
+
+    def __init__(self, kind: str = "psm", rate_hz: float | None = None, protocol: str = "v2", *,
+                 source=None, shape: tuple[int, int] = (16, 16), faults: Faults | None = None,
+                 serial: str = "TWIN0001", scene: str = "sway", seed: int = 0) -> None:
+        from .._core import firmware as fw
+        from .sources import DaqSource, ImuSource, PsmSource
+
+        if kind not in ("psm", "imu", "daq"):
+            raise ValueError(f"kind must be 'psm', 'imu' or 'daq', got {kind!r}")
+        if protocol not in ("v1", "v2"):
+            raise ValueError(f"protocol must be 'v1' or 'v2', got {protocol!r}")
+        self.kind = kind
+        proto = 1 if protocol == "v1" else 2
+        default_rate = {"psm": 100.0, "imu": 10.0, "daq": 2.0}[kind]
+        rate = float(rate_hz or default_rate)
+        if not (0 < rate <= 1000):
+            raise ValueError(f"rate must be in (0, 1000] Hz, got {rate}")
+        if kind == "psm":
+            self.firmware = fw.PsmFirmware(shape[0], shape[1], proto, serial)
+            if int(rate) != rate:
+                raise ValueError("the PSM's timer takes a whole number of frames per second")
+            self.firmware.receive(_command_bytes(0x03, int(rate)))  # SET_RATE, as a host would
+            self.source = source or PsmSource.named(scene, rate, shape, seed=seed)
+        elif kind == "imu":
+            self.firmware = fw.ImuFirmware(proto, serial)
+            if rate != 10.0:
+                self.firmware.receive(_command_bytes(0x03, int(rate)))
+            self.source = source or ImuSource(rate, seed)
+        else:
+            self.firmware = fw.DaqFirmware()
+            self.source = source or DaqSource(seed=seed)
+        self._fixed_rate = rate if kind == "daq" else None
+        self.faults = faults or Faults()
+        self.stats = TwinStats()
+        self._master, self._slave = os.openpty()
+        tty.setraw(self._slave)  # no echo, no line discipline: bytes pass untouched
+        os.set_blocking(self._master, False)
+        self.port = os.ttyname(self._slave)
+        self._stop = threading.Event()
+        self._thread: threading.Thread | None = None
+        self._t0 = 0.0
+        self.disconnected = False
+
+    # -------------------------------------------------------------------- lifecycle
+    def start(self) -> "SerialTwin":
+        if self._thread is None:
+            self._thread = threading.Thread(target=self._serve, name=f"psmat-twin-{self.kind}", daemon=True)
+            self._thread.start()
+        return self
+
+    def stop(self, timeout: float = 2.0) -> None:
+        self._stop.set()
+        if self._thread is not None:
+            self._thread.join(timeout)
+        self._close_fds()
+
+    def __enter__(self) -> "SerialTwin":
+        return self.start()
+
+    def __exit__(self, *exc) -> None:
+        self.stop()
+
+    def serve_forever(self) -> None:
+        """Serve in the calling thread until :meth:`stop` (from another thread) or Ctrl-C."""
+        try:
+            self._serve()
+        finally:
+            self._close_fds()
+
+    def disconnect(self) -> None:
+        """Pull the cable: the pty disappears; the host's reads fail."""
+        self.disconnected = True
+        self._stop.set()
+        self._close_fds()
+
+    def _close_fds(self) -> None:
+        for name in ("_master", "_slave"):
+            fd = getattr(self, name)
+            if fd is not None:
+                try:
+                    os.close(fd)
+                except OSError:
+                    pass
+                setattr(self, name, None)
+
+    # -------------------------------------------------------------------- the device
+    @property
+    def rate_hz(self) -> float:
+        return self._fixed_rate or float(self.firmware.rate_hz)
+
+    def _tick(self, t_us: int) -> bytes:
+        reading = self.source.next()
+        if self.kind == "daq":
+            return self.firmware.tick(reading)
+        return self.firmware.tick(reading, t_us & 0xFFFFFFFF)
+
+    def _receive(self, data: bytes, t_us: int) -> bytes:
+        self.stats.commands_bytes += len(data)
+        if self.kind == "daq":
+            return self.firmware.receive(data)
+        return self.firmware.receive(data, t_us & 0xFFFFFFFF)
+
+    def _send(self, data: bytes, t: float, is_frame: bool) -> None:
+        if not data:
+            return
+        if self.faults.stalled(t):
+            self.stats.frames_unsent += is_frame
+            return
+        data, flipped, dropped = self.faults.apply(data)
+        self.stats.bits_flipped += flipped
+        self.stats.bytes_dropped += dropped
+        try:
+            n = os.write(self._master, data)
+        except BlockingIOError:
+            n = 0
+        if n < len(data):
+            # the host is not reading: the rest of this packet is lost (a partial frame is
+            # garbage that the host's decoder resyncs past)
+            self.stats.frames_unsent += is_frame
+        else:
+            self.stats.frames_sent += is_frame
+        self.stats.bytes_sent += n
+
+    def _serve(self) -> None:
+        self._t0 = time.monotonic()
+        next_t = self._t0
+        try:
+            while not self._stop.is_set():
+                now = time.monotonic()
+                elapsed = now - self._t0
+                if self.faults.disconnect_after_s is not None and elapsed >= self.faults.disconnect_after_s:
+                    self.disconnect()
+                    return
+                wait = next_t - now
+                if wait > 0:
+                    r, _, _ = select.select([self._master], [], [], min(wait, 0.05))
+                    if r:
+                        try:
+                            data = os.read(self._master, 4096)
+                        except BlockingIOError:
+                            data = b""
+                        except OSError as exc:  # EIO: no host has the port open; keep serving
+                            if exc.errno != errno.EIO:
+                                raise
+                            data = b""
+                        if data:
+                            t_us = int((time.monotonic() - self._t0) * 1e6)
+                            self._send(self._receive(data, t_us), elapsed, is_frame=False)
+                    continue
+                t_us = int((now - self._t0) * 1e6)
+                self.stats.ticks += 1
+                self._send(self._tick(t_us), elapsed, is_frame=True)
+                period = 1.0 / self.rate_hz
+                next_t += period
+                if now - next_t > period:  # fell behind by more than a period: resync the timer
+                    self.stats.late_ticks += 1
+                    next_t = now + period
+        except Exception as exc:  # reported, never silent
+            if self._stop.is_set():  # the port was closed under us by stop()/disconnect()
+                return
+            self.stats.errors.append(f"{type(exc).__name__}: {exc}")
+            raise
+
+
+def _command_bytes(opcode: int, arg: int) -> bytes:
+    from ..protocol import encode_command
+
+    return encode_command(opcode, arg)

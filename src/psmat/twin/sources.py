@@ -1,0 +1,134 @@
+"""What the simulated devices measure, one tick at a time (SPEC §5).
+
+* :class:`PsmSource` — a pressure scene (:mod:`psmat.twin.pressure`) played through the mat's
+  physics (:class:`psmat.twin.mat.MatPhysics`): ADC counts per frame. Scenes: ``"sway"`` (a
+  person whose CoP follows a recorded force-platform trajectory from the BDS data set, or
+  quiet standing when the data set is not found), ``"quiet"``, ``"single-leg"``, ``"sitting"``.
+  The scene loops when it ends; the sensor state carries on.
+* :class:`ImuSource` — five pitch angles of a slowly flexing spine (degrees).
+* :class:`DaqSource` — the material DAQ's ten sensors on the pneumatic platform (counts).
+
+Sources are computed in blocks (one ``forward`` batch per block), so a tick costs a copy.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from . import pressure as _pressure
+from .mat import MatPhysics
+
+__all__ = ["PsmSource", "ImuSource", "DaqSource", "SCENES", "make_scene"]
+
+SCENES = ("sway", "quiet", "single-leg", "sitting")
+
+
+def make_scene(name: str, duration_s: float, rate_hz: float, shape: tuple[int, int] = (16, 16), *,
+               bds_trial: int = 1, seed: int = 0) -> _pressure.PressureScene:
+    """A named pressure scene (psi) of ``duration_s`` at ``rate_hz`` (see the module docstring)."""
+    if name == "sway":
+        try:
+            from ..io.forceplate import bds_trial as _bds
+
+            rec = _bds(bds_trial)
+        except (FileNotFoundError, OSError, ValueError):
+            rec = None
+        if rec is not None:
+            keep = rec.t <= rec.t[0] + duration_s
+            scene = _pressure.trajectory_sway(rec.t[keep], rec.cop_ml_cm[keep], rec.cop_ap_cm[keep],
+                                              rec.fz_n[keep], rate_hz, shape)
+            scene.meta["source"] = f"BDS{bds_trial:05d}"
+            return scene
+        name = "quiet"
+    makers = {"quiet": _pressure.quiet_standing, "single-leg": _pressure.single_leg_sway,
+              "sitting": _pressure.sitting}
+    if name not in makers:
+        raise ValueError(f"unknown scene {name!r}; choose one of {', '.join(SCENES)}")
+    return makers[name](duration_s, rate_hz, shape, seed=seed)
+
+
+@dataclass
+class PsmSource:
+    """Counts (R, C) uint16 per tick of a scene played through the mat's physics."""
+
+    scene: _pressure.PressureScene
+    physics: MatPhysics
+    block: int = 64
+
+    def __post_init__(self) -> None:
+        if self.scene.pressure.shape[1:] != self.physics.shape:
+            raise ValueError("the scene and the mat physics have different shapes")
+        self._k = 0  # frame index into the scene (wraps)
+        self._buf = np.empty((0, *self.physics.shape), np.uint16)
+        self._pos = 0
+        self.frames = 0  # frames produced
+
+    @classmethod
+    def named(cls, scene: str = "sway", rate_hz: float = 100.0, shape: tuple[int, int] = (16, 16), *,
+              duration_s: float = 60.0, bds_trial: int = 1, seed: int = 0, **physics) -> "PsmSource":
+        sc = make_scene(scene, duration_s, rate_hz, shape, bds_trial=bds_trial, seed=seed)
+        return cls(sc, MatPhysics(shape=shape, dt=1.0 / rate_hz, seed=seed, **physics))
+
+    def _refill(self) -> None:
+        T = self.scene.pressure.shape[0]
+        idx = (self._k + np.arange(self.block)) % T
+        self._k = int((self._k + self.block) % T)
+        self._buf = self.physics.counts(self.scene.pressure[idx])
+        self._pos = 0
+
+    def next(self) -> NDArray[np.uint16]:
+        """The counts of the next frame."""
+        if self._pos >= len(self._buf):
+            self._refill()
+        c = self._buf[self._pos]
+        self._pos += 1
+        self.frames += 1
+        return c
+
+
+@dataclass
+class ImuSource:
+    """Euler angles (5, 3) degrees per tick: a spine flexing slowly (pitch), little roll."""
+
+    rate_hz: float = 10.0
+    seed: int = 0
+
+    def __post_init__(self) -> None:
+        rng = np.random.default_rng(self.seed)
+        self._phase = rng.uniform(0, 2 * np.pi, 5)
+        self._k = 0
+
+    def next(self) -> NDArray[np.float32]:
+        t = self._k / self.rate_hz
+        self._k += 1
+        pitch = 5.0 * np.arange(1, 6) / 5 * np.sin(2 * np.pi * t / 8.0) + 0.5 * np.sin(0.7 * t + self._phase)
+        roll = 0.5 * np.sin(2 * np.pi * t / 13.0 + self._phase)
+        heading = np.full(5, 90.0)
+        return np.stack([heading, roll, pitch], axis=1).astype(np.float32)
+
+
+@dataclass
+class DaqSource:
+    """Ten sensors' 10-bit counts per 500 ms tick on the pneumatic platform (SPEC §4 protocols)."""
+
+    protocol: str = "descending"
+    seed: int = 0
+
+    def __post_init__(self) -> None:
+        from ..sensor import protocols
+        from ..sensor.pneumatic import divider_counts, simulate_run
+
+        make = {"descending": protocols.descending_hysteresis, "ascending": protocols.ascending_hysteresis}
+        if self.protocol not in make:
+            raise ValueError(f"unknown protocol {self.protocol!r}; choose one of {', '.join(make)}")
+        run = simulate_run(make[self.protocol](), cells=10, rng=self.seed)
+        self._counts = np.asarray(divider_counts(run.g), dtype=np.uint16)
+        self._k = 0
+
+    def next(self) -> NDArray[np.uint16]:
+        c = self._counts[self._k % len(self._counts)]
+        self._k += 1
+        return c
