@@ -5,4 +5,5 @@ This folder holds stubs only (no __init__.py): the compiled extension module
 """
 
 from . import iecm as iecm
+from . import firmware as firmware
 from . import sensor as sensor
