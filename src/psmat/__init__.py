@@ -4,13 +4,14 @@ Submodules: :mod:`psmat.iecm` (crosstalk removal), :class:`psmat.Circuit` (measu
 chain counts <-> conductance), :mod:`psmat.noise` (Table 2.4 noise model),
 :mod:`psmat.scenes` (synthetic conductance images), :mod:`psmat.sensor` (Velostat hysteresis +
 creep), :mod:`psmat.protocol` (wire formats), :mod:`psmat.io` (session files, force
-platforms), :mod:`psmat.twin` (the simulated mat).
+platforms), :mod:`psmat.twin` (the simulated mat), :mod:`psmat.acquire` (reading
+devices over serial), :mod:`psmat.process` (counts → pressure → CoP).
 """
 
-from . import balance, iecm, io, noise, protocol, scenes, sensor, twin
+from . import acquire, balance, iecm, io, noise, protocol, scenes, sensor, twin
 from .calibration import Calibration
 from .circuit import Circuit
 
 
 __version__ = "0.1.0"
-__all__ = ["balance", "iecm", "io", "noise", "protocol", "scenes", "sensor", "twin", "Circuit", "Calibration", "__version__"]
+__all__ = ["acquire", "balance", "iecm", "io", "noise", "protocol", "scenes", "sensor", "twin", "Circuit", "Calibration", "__version__"]

@@ -1,15 +1,26 @@
-"""``psmat demo``: crosstalk removal on a simulated mat; writes a figure."""
+"""``psmat demo``: the main job on the simulated mat (or a real one with ``--port``).
+
+Records a person swaying from the digital twin through the serial link, removes crosstalk,
+compensates the sensor, computes the CoP and compares it with the force platform's; writes
+a figure and the session file. ``--crosstalk`` runs the single-frame crosstalk demo instead.
+"""
 
 from __future__ import annotations
 
 import argparse
 
 NAME = "demo"
-HELP = "crosstalk removal on a simulated mat; writes a figure"
+HELP = "record, process and plot a swaying person on the simulated mat (or --port PORT)"
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--out", default="psmat_demo.png", help="figure path (PNG)")
+    p.add_argument("--port", default=None, help="a real mat's serial port (default: the digital twin)")
+    p.add_argument("--seconds", type=float, default=8.0, help="recording length (s)")
+    p.add_argument("--rate", type=int, default=100, help="frames per second")
+    p.add_argument("--session", default="psmat_demo.h5", help="session file to write (HDF5)")
+    p.add_argument("--bds-trial", type=int, default=1, help="force-platform trial driving the twin")
+    p.add_argument("--crosstalk", action="store_true", help="run the single-frame crosstalk demo instead")
     p.add_argument("--rows", type=int, default=16)
     p.add_argument("--cols", type=int, default=16)
     p.add_argument("--noise-mv", type=float, default=1.0, help="ADC-node voltage noise SD in mV")
@@ -18,6 +29,13 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    if not args.crosstalk:
+        from ..demo_sway import run_sway_demo
+
+        print(f"psmat demo: {args.seconds:g} s of a person swaying, {args.rows}x{args.cols} at {args.rate} Hz")
+        run_sway_demo(args.out, seconds=args.seconds, rate_hz=args.rate, session=args.session,
+                      bds_trial=args.bds_trial, port=args.port, shape=(args.rows, args.cols), seed=args.seed)
+        return 0
     from ..demo import run_crosstalk_demo
 
     res = run_crosstalk_demo(args.out, rows=args.rows, cols=args.cols, noise_v=args.noise_mv * 1e-3,
