@@ -71,10 +71,11 @@ def run_sway_demo(out: str | Path = "psmat_demo.png", *, seconds: float = 8.0, r
                 dev.stop()
                 dev.stop_recording()
                 stats = dev.stats
+                n_recorded = writer.n_frames
     finally:
         if twin is not None:
             twin.stop()
-    log(f"recorded {session}: {stats.frames} frames, {stats.invalid} invalid, {stats.dropped_wire} lost on the wire")
+    log(f"recorded {session}: {n_recorded} frames, {stats.invalid} invalid, {stats.dropped_wire} lost on the wire")
 
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", RuntimeWarning)

@@ -103,8 +103,10 @@ def process_counts(counts: NDArray[Any], dt: float, *, valid: NDArray[np.bool_] 
     g = np.full_like(G, np.nan)
     info = None
     if usable.any():
+        # noisy frames end in the bounded Newton, whose Fischer-Burmeister iteration converges
+        # only linearly: a few frames in a thousand need several hundred iterations
         g[usable], info = iecm.solve(G[usable], method=method, threads=threads, progress=progress,
-                                     return_info=True)
+                                     max_iter=1000, return_info=True)
     u = np.maximum(g - g_rest, 0.0)  # NaN stays NaN: the sensor model skips those samples
     p_psi = sensor.inverse(u, dt)
     pressure = p_psi * PSI_KPA
@@ -115,6 +117,19 @@ def process_counts(counts: NDArray[Any], dt: float, *, valid: NDArray[np.bool_] 
         return Processed(G=G, g=g, pressure_kpa=pressure, cop_cm=_cop(np.nan_to_num(pressure), pitch_cm),
                          cop_raw_cm=_cop(np.nan_to_num(G), pitch_cm), usable=usable, params=params,
                          solve_info=info)
+
+
+def _circuit_of(cal: dict | None) -> Circuit:
+    """The circuit a session was recorded with: its calibration file (``psmat calibrate``),
+    a stored ``Circuit.as_dict()``, or the default circuit."""
+    from .calibration import Calibration
+
+    if not cal:
+        return Circuit()
+    if cal.get("format") == "psmat-calibration":
+        return Calibration.from_dict(cal).circuit()
+    keys = {"r_o_ohm": "r_o", "r_mux_ohm": "r_mux", "r_adc_ohm": "r_adc", "v_ref_volt": "v_ref", "bits": "bits"}
+    return Circuit(**{arg: cal[k] for k, arg in keys.items() if k in cal})
 
 
 def process_session(path: str | os.PathLike[str], *, circuit: Circuit | None = None,
@@ -135,9 +150,7 @@ def process_session(path: str | os.PathLike[str], *, circuit: Circuit | None = N
     clock = s.device_time_us * 1e-6 if s.device_time_us is not None else s.host_time_s
     dt = float(np.median(np.diff(clock)))
     if circuit is None:
-        cal = s.calibration or {}
-        kw = {k: cal[k] for k in ("r_o", "r_mux", "r_adc", "v_ref", "bits") if k in cal}
-        circuit = Circuit(**kw)
+        circuit = _circuit_of(s.calibration)
     out = process_counts(s.counts, dt, valid=s.valid, circuit=circuit, sensor=sensor, g_rest=g_rest,
                          pitch_cm=pitch_cm, progress=progress)
     if save:

@@ -27,7 +27,7 @@ from .pressure import (
 
 from .mat import MatPhysics, MatTruth
 from .serial_twin import Faults, SerialTwin, TwinStats
-from .sources import SCENES, DaqSource, ImuSource, PsmSource, make_scene
+from .sources import SCENES, CalibrationFixture, DaqSource, ImuSource, PsmSource, make_scene
 
 __all__ = [
     "MatPhysics",
@@ -36,6 +36,7 @@ __all__ = [
     "SerialTwin",
     "TwinStats",
     "SCENES",
+    "CalibrationFixture",
     "DaqSource",
     "ImuSource",
     "PsmSource",

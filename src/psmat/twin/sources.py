@@ -21,7 +21,7 @@ from numpy.typing import NDArray
 from . import pressure as _pressure
 from .mat import MatPhysics
 
-__all__ = ["PsmSource", "ImuSource", "DaqSource", "SCENES", "make_scene"]
+__all__ = ["PsmSource", "ImuSource", "DaqSource", "CalibrationFixture", "SCENES", "make_scene"]
 
 SCENES = ("sway", "quiet", "single-leg", "sitting")
 
@@ -132,3 +132,30 @@ class DaqSource:
         c = self._counts[self._k % len(self._counts)]
         self._k += 1
         return c
+
+
+@dataclass
+class CalibrationFixture:
+    """The calibration set-ups of SPEC §2 on the twin: what the box reads with the mat
+    unplugged (every cell open) or with one row wired to one column (a short), through the
+    same measurement chain; ``mode = "mat"`` passes the mat's own frames through.
+
+    Set ``mode`` to ``"mat"``, ``"open"`` or ``("short", row, col)`` while the twin runs.
+    """
+
+    mat: PsmSource
+    mode: object = "mat"
+    wire_s: float = 1e6  # a wire: 1 µΩ
+
+    def next(self) -> NDArray[np.uint16]:
+        frame = self.mat.next()  # the mat's time goes on (and its sensor state) whatever is plugged
+        if self.mode == "mat":
+            return frame
+        phys = self.mat.physics
+        G = np.zeros(phys.shape)
+        if self.mode != "open":
+            kind, i, p = self.mode  # type: ignore[misc]
+            if kind != "short":
+                raise ValueError(f"mode must be 'mat', 'open' or ('short', row, col), got {self.mode!r}")
+            G[i, p] = self.wire_s
+        return phys.circuit.counts(G, noise_v=phys.noise_v, rng=phys._rng)
