@@ -11,6 +11,7 @@ def main(argv: list[str] | None = None) -> int:
     benches = {
         "iecm": "IECM crosstalk removal: frames/s and accuracy vs the thesis' NumPy/SciPy approach",
         "sensor": "sensor model: direct/inverse throughput and identification vs NumPy and scipy dual_annealing",
+        "acquire": "acquisition through the pty twin: 165 Hz for 10 min, and a corrupted link vs a thesis-style reader",
     }
     if not argv or argv[0] in ("-h", "--help"):
         p = argparse.ArgumentParser(prog="python -m psmat.bench", description="psmat benchmarks (SPEC §10).")
@@ -26,6 +27,10 @@ def main(argv: list[str] | None = None) -> int:
         from .sensor import main as sensor_main
 
         return sensor_main(rest)
+    if name == "acquire":
+        from .acquire import main as acquire_main
+
+        return acquire_main(rest)
     print(f"python -m psmat.bench: unknown benchmark {name!r}; choose from {sorted(benches)}", file=sys.stderr)
     return 2
 
