@@ -1,0 +1,169 @@
+"""``psmat view``: a live window on a mat - raw image, pressure, centre-of-pressure trace.
+
+``psmat view PORT`` reads a mat on a serial port; ``psmat view --simulate`` serves the
+digital twin on a pseudo-terminal and reads that. The window shows the equivalent
+conductance G (mS, crosstalk included), the pressure (kPa) after IECM and the inverse sensor
+model, and the last 10 s of the CoP (M-L and A-P, cm); the title line shows the port, the
+frames/s received, invalid and lost frames, the processing rate and the display rate.
+
+Closing the window (or Ctrl-C) stops and closes the device; a port that vanishes ends the
+view with a message and exit status 3. Without a display, ``--seconds S --save out.png``
+renders headless (MPLBACKEND=Agg) and writes a screenshot (without ``--seconds`` it runs
+until Ctrl-C).
+"""
+
+from __future__ import annotations
+
+import argparse
+
+NAME = "view"
+HELP = "live window on a mat (PORT) or the digital twin (--simulate): raw image, pressure, CoP"
+
+#: exit status when the port vanished
+EXIT_DISCONNECTED = 3
+
+
+def _shape(text: str) -> tuple[int, int]:
+    try:
+        r, c = (int(v) for v in text.lower().split("x"))
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"shape must be RxC, e.g. 16x16, got {text!r}") from None
+    if not (2 <= r <= 255 and 2 <= c <= 255):
+        raise argparse.ArgumentTypeError(f"rows and columns must be 2 ... 255, got {text!r}")
+    return r, c
+
+
+def _positive_int(text: str) -> int:
+    v = int(text)
+    if v < 1:
+        raise argparse.ArgumentTypeError(f"must be >= 1, got {text}")
+    return v
+
+
+def add_arguments(p: argparse.ArgumentParser) -> None:
+    p.add_argument("port", nargs="?", default=None, help="the mat's serial port (/dev/ttyACM0, COM4, a pty)")
+    p.add_argument("--simulate", action="store_true", help="view the digital twin instead of a mat")
+    p.add_argument("--rate", type=int, default=100, help="twin frame rate, frames/s (with --simulate)")
+    p.add_argument("--protocol", choices=("v1", "v2"), default="v2", help="frame format")
+    p.add_argument("--scene", default="sway", help="twin scene (with --simulate): sway, quiet, single-leg, sitting")
+    p.add_argument("--shape", type=_shape, default=None,
+                   help="mat rows x cols, e.g. 16x16 (default: what the mat reports, else 16x16)")
+    p.add_argument("--decimate", type=_positive_int, default=1, help="process and draw every Nth frame")
+    p.add_argument("--seconds", type=float, default=None, help="close after this many seconds")
+    p.add_argument("--save", default=None, metavar="PNG", help="write a screenshot of the figure at the end")
+    p.add_argument("--no-iecm", action="store_true", help="raw image and raw CoP only (for slow machines)")
+    p.add_argument("--g-rest", type=float, default=1e-7,
+                   help="conductance of an unloaded cell (S), subtracted before the sensor model")
+    p.add_argument("--interval", type=float, default=0.05, help="pause between redraws (s)")
+
+
+def _pick_backend(args: argparse.Namespace) -> tuple[bool, str | None]:
+    """Choose a matplotlib backend: (interactive, error message or None)."""
+    import os
+    import sys
+
+    import matplotlib
+
+    from ..live.view import NON_INTERACTIVE
+
+    if os.environ.get("MPLBACKEND"):
+        interactive = matplotlib.get_backend().lower() not in NON_INTERACTIVE
+    else:
+        display = sys.platform in ("win32", "darwin") or bool(os.environ.get("DISPLAY")
+                                                             or os.environ.get("WAYLAND_DISPLAY"))
+        interactive = False
+        if display:
+            for name in ("TkAgg", "QtAgg"):
+                try:
+                    matplotlib.use(name, force=True)
+                    import matplotlib.pyplot as plt
+
+                    plt.figure().clear()
+                    plt.close("all")
+                    interactive = True
+                    break
+                except Exception:  # noqa: BLE001 - backend or toolkit unavailable
+                    continue
+        if not interactive:
+            matplotlib.use("Agg", force=True)  # headless: only useful with --save
+    if not interactive and not args.save:
+        why = "no display" if not os.environ.get("MPLBACKEND") else f"backend {matplotlib.get_backend()!r}"
+        return False, (f"cannot open a window ({why}; TkAgg or QtAgg is needed). Render headless instead: "
+                       "MPLBACKEND=Agg psmat view ... --seconds 5 --save view.png")
+    return interactive, None
+
+
+def run(args: argparse.Namespace) -> int:
+    import sys
+
+    import serial
+
+    from ..acquire import AcquireError, open_device
+
+    def err(msg: str) -> None:
+        print(f"psmat view: {msg}", file=sys.stderr, flush=True)
+
+    if (args.port is None) == (not args.simulate):
+        err("give a PORT or --simulate (not both)")
+        return 2
+    if args.seconds is not None and args.seconds <= 0:
+        err("--seconds must be > 0")
+        return 2
+    interactive, problem = _pick_backend(args)
+    if problem:
+        err(problem)
+        return 2
+
+    twin = None
+    port = args.port
+    if args.simulate:
+        from ..twin import SerialTwin
+
+        try:
+            twin = SerialTwin("psm", args.rate, args.protocol, shape=args.shape or (16, 16), scene=args.scene).start()
+        except ValueError as exc:
+            err(str(exc))
+            return 2
+        port = twin.port
+        print(f"simulated mat ({args.scene}, {args.protocol}, {twin.rate_hz:g} Hz) on {port}", flush=True)
+    dev = None
+    try:
+        try:
+            dev = open_device(port, "psm", args.protocol, args.shape or (16, 16))
+            d = dev.description
+            if args.shape is None and "rows" in d and "cols" in d and (d["rows"], d["cols"]) != dev.shape:
+                dev.close()
+                dev = open_device(port, "psm", args.protocol, (int(d["rows"]), int(d["cols"])))
+            dev.start()
+        except (serial.SerialException, OSError, AcquireError) as exc:
+            err(f"cannot read a mat on {port}: {exc}")
+            return EXIT_DISCONNECTED if isinstance(exc, AcquireError) else 2
+
+        from ..live import LiveView, run_view
+
+        view = LiveView(dev, iecm=not args.no_iecm, decimate=args.decimate, g_rest=args.g_rest,
+                        port=f"{port}{' (twin)' if twin else ''}")
+
+        def stop_device() -> None:
+            dev.close()
+
+        result = run_view(view, seconds=args.seconds, interval_s=args.interval, save=args.save,
+                          interactive=interactive, on_close=stop_device)
+    except KeyboardInterrupt:
+        err("interrupted")
+        return 0
+    finally:
+        if dev is not None:
+            dev.close()
+        if twin is not None:
+            twin.stop()
+    s = dev.stats
+    summary = (f"{result.message}; {view.received} frames received, {view.processed} processed, "
+               f"{s.invalid} invalid, {s.dropped_wire + s.dropped_buffer} lost")
+    if result.saved:
+        summary += f"; screenshot {result.saved}"
+    if result.status:
+        err(summary)
+    else:
+        print(f"psmat view: {summary}", flush=True)
+    return result.status
