@@ -31,11 +31,10 @@ from . import iecm
 from .balance import cop as _cop
 from .circuit import OPEN, SHORT, Circuit
 from .sensor import MPICreep
+from .units import PSI_KPA
 
-__all__ = ["Processed", "process_counts", "process_session", "PSI_KPA"]
+__all__ = ["Processed", "process_counts", "process_session", "open_floor", "PSI_KPA"]
 
-#: kPa per psi (1 psi = 6894.757 Pa).
-PSI_KPA = 6.894757
 
 
 @dataclass
@@ -52,7 +51,8 @@ class Processed:
     solve_info: Any = None
 
 
-def _open_floor(circuit: Circuit) -> float:
+def open_floor(circuit: Circuit) -> float:
+    """Smallest conductance (S) the circuit resolves: what an open reading is taken as for IECM."""
     G = circuit.conductance(np.arange(circuit.full_scale + 1))
     G = G[np.isfinite(G) & (G > 0)]
     if G.size == 0:
@@ -97,7 +97,7 @@ def process_counts(counts: NDArray[Any], dt: float, *, valid: NDArray[np.bool_] 
     circuit = circuit or Circuit()
     sensor = sensor or MPICreep.thesis()
     G, flags = circuit.conductance(c, return_flags=True)
-    G = np.where(flags == OPEN, _open_floor(circuit), G)
+    G = np.where(flags == OPEN, open_floor(circuit), G)
     usable = valid & ~np.any(flags == SHORT, axis=(1, 2))
     G[~usable] = np.nan
     g = np.full_like(G, np.nan)

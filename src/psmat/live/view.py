@@ -37,12 +37,11 @@ from numpy.typing import NDArray
 from ..acquire.errors import DeviceDisconnected
 from ..balance import cop as _cop
 from ..circuit import OPEN, SHORT, Circuit
+from ..process import PSI_KPA, open_floor
 from ..sensor import MPICreep
 
-__all__ = ["LiveView", "ViewResult", "run_view", "FrameSource", "PSI_KPA"]
+__all__ = ["LiveView", "ViewResult", "run_view", "FrameSource"]
 
-#: kPa per psi (1 psi = 6894.757 Pa).
-PSI_KPA = 6.894757
 
 #: matplotlib backends that draw no window.
 NON_INTERACTIVE = frozenset({"agg", "pdf", "ps", "svg", "pgf", "cairo", "template"})
@@ -57,15 +56,6 @@ class FrameSource(Protocol):
 
     @property
     def stats(self) -> Any: ...
-
-
-def _open_floor(circuit: Circuit) -> float:
-    """Smallest conductance (S) the circuit resolves: what an open reading is taken as for IECM."""
-    G = circuit.conductance(np.arange(circuit.full_scale + 1))
-    G = G[np.isfinite(G) & (G > 0)]
-    if G.size == 0:
-        raise ValueError("this circuit resolves no conductance at any count")
-    return float(G.min())
 
 
 class _Rate:
@@ -189,7 +179,7 @@ class LiveView:
         self.pitch_cm = float(pitch_cm)
         self.budget_s = float(budget_s)
         self.port = str(port if port is not None else getattr(device, "port", "?"))
-        self._floor = _open_floor(self.circuit)
+        self._floor = open_floor(self.circuit)
         self._stream: Any = None
         self._state = self.sensor.rest_state(self.shape) if self.use_iecm else None
         self._t_prev: float | None = None     # frame time of the previous processed frame (s)

@@ -87,8 +87,7 @@ __all__ = [
     "sitting",
 ]
 
-PSI_PA = 6894.757
-"""One psi in Pa."""
+from ..units import PSI_PA  # noqa: E402  (one psi in Pa; one home for the constant)
 
 _N_PER_CM2_TO_PSI = 1.0e4 / PSI_PA  # 1 N/cm² = 1e4 Pa
 _BUMP_EXPONENT = 3
