@@ -51,3 +51,19 @@ def test_a_vanishing_port_is_reported_not_hung_on():
                     dev.read(timeout=0.2)
             assert time.monotonic() - t0 < 3  # hang guard
             assert not dev.connected
+
+
+def test_the_imu_and_material_daq_twins_through_the_same_api():
+    # spine IMUs: five sensors' Euler angles (degrees), v2 framing
+    with SerialTwin("imu", 20, "v2") as twin, open_device(twin.port, "imu", "v2") as dev:
+        assert dev.description.get("device") == "imu"
+        batch = dev.read(n=10, timeout=3)
+    assert len(batch) >= 10 and batch.frames.shape[1:] == (5, 3) and batch.valid.all()
+    assert np.all(np.diff(batch.seq) == 1)
+    # heading 90 deg, pitch bending most at the lowest sensor (the twin's spine model)
+    assert np.allclose(batch.frames[:, :, 0], 90.0)
+    # material DAQ: text lines of 10 counts, started by 's'
+    with SerialTwin("daq", 20) as twin, open_device(twin.port, "daq") as dev:
+        batch = dev.read(n=5, timeout=3)
+    assert len(batch) >= 5 and batch.frames.shape[1:] == (10,) and batch.valid.all()
+    assert batch.frames.max() <= 1023
