@@ -14,6 +14,9 @@ import pytest
 FIRMWARE = Path(__file__).resolve().parents[1] / "firmware"
 CORE_SOURCES = sorted(str(p) for p in (FIRMWARE / "core").glob("*.c"))
 HOST_TESTS = ["crc16", "frame", "command", "psm_core", "daq_core", "imu_core"]
+# register-free parts of the BluePill USB CDC-ACM device and the rings (stm32/common)
+STM32_COMMON = FIRMWARE / "stm32" / "common"
+STM32_HOST_TESTS = {"usb": ["usb_ctrl.c", "usb_desc.c"], "ring": ["ring.c"]}
 CC = next((c for c in ("cc", "gcc", "clang") if shutil.which(c)), None)
 # `size` (Berkeley format): text data bss dec hex filename
 SIZE_ROW = re.compile(r"^\s*(\d+)\s+(\d+)\s+(\d+)\s+\d+\s+[0-9a-f]+\s+(\S+)$", re.M)
@@ -36,6 +39,21 @@ def test_core_unit(name: str, tmp_path: Path) -> None:
     assert f"test_{name}: ok" in result.stdout
 
 
+@pytest.mark.parametrize("name", sorted(STM32_HOST_TESTS))
+def test_stm32_host_unit(name: str, tmp_path: Path) -> None:
+    """Descriptors, EP0 dispatcher, packetisers and rings, without the registers."""
+    if CC is None:
+        pytest.skip("no C compiler (cc, gcc or clang) on PATH")
+    exe = tmp_path / f"test_{name}"
+    sources = [str(STM32_COMMON / f) for f in STM32_HOST_TESTS[name]]
+    build = run([CC, "-std=c99", "-Wall", "-Wextra", "-Werror", "-O2", f"-I{STM32_COMMON}",
+                 "-o", str(exe), str(FIRMWARE / "tests" / f"test_{name}.c"), *sources])
+    assert build.returncode == 0, build.stderr
+    result = run([str(exe)])
+    assert result.returncode == 0, result.stdout + result.stderr
+    assert f"test_{name}: ok" in result.stdout
+
+
 def test_core_cmake_library(tmp_path: Path) -> None:
     """The static PIC library the main project add_subdirectory()s, warning-free."""
     if CC is None or shutil.which("cmake") is None:
@@ -48,23 +66,31 @@ def test_core_cmake_library(tmp_path: Path) -> None:
     assert list(tmp_path.glob("*psmat_firmware_core.a"))
 
 
-def make_target(target: str, build: Path) -> dict[str, tuple[int, int]]:
+def make_target(target: str, build: Path, *args: str) -> dict[str, tuple[int, int]]:
     """Builds one cross target; returns {elf name: (flash bytes, RAM bytes)} from `size`."""
-    result = run(["make", "-C", str(FIRMWARE), "-j2", f"BUILD={build}", target])
+    result = run(["make", "-C", str(FIRMWARE), "-j2", f"BUILD={build}", *args, target])
     assert result.returncode == 0, result.stdout + result.stderr
     assert "SKIP" not in result.stdout, result.stdout
     return {Path(f).stem: (int(t) + int(d), int(d) + int(b))
             for t, d, b, f in SIZE_ROW.findall(result.stdout)}
 
 
-def test_stm32_targets(tmp_path: Path) -> None:
+@pytest.mark.parametrize("link", ["usb", "uart"])
+def test_stm32_targets(link: str, tmp_path: Path) -> None:
+    """USB CDC-ACM is the default link (build/stm32/); LINK=uart keeps USART1
+    (build/stm32-uart/). Each image holds only its own link's interrupt handler."""
     if shutil.which("arm-none-eabi-gcc") is None or shutil.which("make") is None:
         pytest.skip("arm-none-eabi-gcc (Debian gcc-arm-none-eabi) or make not on PATH")
-    sizes = make_target("stm32", tmp_path)
+    sizes = make_target("stm32", tmp_path, f"LINK={link}")
+    out = tmp_path / ("stm32" if link == "usb" else "stm32-uart")
     assert set(sizes) == {"psm", "imu"}
     for name, (flash, ram) in sizes.items():
-        assert (tmp_path / "stm32" / f"{name}.elf").is_file()
-        assert (tmp_path / "stm32" / f"{name}.bin").stat().st_size > 0
+        assert (out / f"{name}.elf").is_file()
+        assert (out / f"{name}.bin").stat().st_size > 0
+        symbols = (out / f"{name}.map").read_text()
+        # a handler's own section is linked only from its driver (else the weak alias)
+        assert (".text.USB_LP_CAN1_RX0_IRQHandler" in symbols) == (link == "usb")
+        assert (".text.USART1_IRQHandler" in symbols) == (link == "uart")
         assert 0 < flash <= 64 * 1024, (name, flash)
         assert 0 < ram <= 20 * 1024, (name, ram)
 

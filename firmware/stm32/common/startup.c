@@ -9,6 +9,7 @@ void Reset_Handler(void);
 void Default_Handler(void);
 void TIM2_IRQHandler(void) __attribute__((weak, alias("Default_Handler")));
 void USART1_IRQHandler(void) __attribute__((weak, alias("Default_Handler")));
+void USB_LP_CAN1_RX0_IRQHandler(void) __attribute__((weak, alias("Default_Handler")));
 
 void Default_Handler(void)
 {
@@ -31,11 +32,12 @@ void Reset_Handler(void)
 typedef void (*vector)(void);
 #define D Default_Handler
 
-/* 16 core exceptions, then IRQ 0..42; TIM2 is IRQ 28, USART1 IRQ 37. */
+/* 16 core exceptions, then IRQ 0..42; USB_LP_CAN1_RX0 is IRQ 20, TIM2 IRQ 28, USART1
+ * IRQ 37. */
 __attribute__((section(".isr_vector"), used)) static const vector vectors[16 + 43] = {
     (vector)&_estack, Reset_Handler, D, D, D, D, D, 0, 0, 0, 0, D, D, 0, D, D,
     D, D, D, D, D, D, D, D, D, D,             /* IRQ 0-9 */
     D, D, D, D, D, D, D, D, D, D,             /* IRQ 10-19 */
-    D, D, D, D, D, D, D, D, TIM2_IRQHandler, D, /* IRQ 20-29 */
+    USB_LP_CAN1_RX0_IRQHandler, D, D, D, D, D, D, D, TIM2_IRQHandler, D, /* IRQ 20-29 */
     D, D, D, D, D, D, D, USART1_IRQHandler, D, D, /* IRQ 30-39 */
     D, D, D};                                 /* IRQ 40-42 */

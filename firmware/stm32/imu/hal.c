@@ -4,7 +4,7 @@
 #include "bno055.h"
 #include "micros.h"
 #include "tick.h"
-#include "uart.h"
+#include "link.h"
 
 static const i2c_bus buses[3] = {
     {GPIOB, 6, 7},   /* bus 0: PB6 SCL, PB7 SDA (I2C1 pins) */
@@ -38,7 +38,7 @@ static void read_euler(void *ctx, uint8_t s, float hrp[3])
         hrp[0] = hrp[1] = hrp[2] = nan.f;
 }
 
-static void send(void *ctx, const uint8_t *d, size_t n) { (void)ctx; uart_write(d, n); }
+static void send(void *ctx, const uint8_t *d, size_t n) { (void)ctx; link_write(d, n); }
 static uint32_t now_us(void *ctx) { (void)ctx; return micros(); }
 static void set_rate(void *ctx, uint32_t hz) { (void)ctx; tick_set_rate(hz); }
 

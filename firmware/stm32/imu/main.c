@@ -3,9 +3,9 @@
 #include "clock.h"
 #include "hal.h"
 #include "imu_core.h"
+#include "link.h"
 #include "micros.h"
 #include "tick.h"
-#include "uart.h"
 #include "uid.h"
 
 #define TICK_IRQ_PRIORITY 0x80u
@@ -21,14 +21,14 @@ int main(void)
     char serial[9];
     clock_init();
     micros_init();
-    uart_init(UART_BAUD);
-    hal_sensors_init();
     uid_serial(serial);
+    link_init("psmat IMU 5xBNO055", serial);
+    hal_sensors_init();
     imu_init(&core, &bluepill_imu_hal, PM_PROTO_V2, serial);
     tick_init(IMU_DEFAULT_RATE_HZ, TICK_IRQ_PRIORITY);
 
     for (;;) {
-        size_t n = uart_read(rx, sizeof rx);
+        size_t n = link_read(rx, sizeof rx);
         if (n)
             imu_on_rx(&core, rx, n);
         if (tick_due) {
@@ -37,7 +37,7 @@ int main(void)
         }
         /* sleep unless work arrived meanwhile (PRIMASK closes the window, WFI still wakes) */
         __asm volatile("cpsid i" ::: "memory");
-        if (!uart_rx_pending() && !tick_due)
+        if (!link_rx_pending() && !tick_due)
             __asm volatile("wfi");
         __asm volatile("cpsie i" ::: "memory");
     }

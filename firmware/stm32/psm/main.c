@@ -3,15 +3,18 @@
 #include "adc.h"
 #include "clock.h"
 #include "hal.h"
+#include "link.h"
 #include "micros.h"
 #include "mux.h"
 #include "psm_core.h"
 #include "regs.h"
 #include "tick.h"
-#include "uart.h"
 #include "uid.h"
 
-#define TICK_IRQ_PRIORITY 0x80u /* below the UART (0x40), so bytes keep flowing mid-scan */
+/* The scan timer sits between the two links (README "Pins and links"): below the USART
+ * (0x40), whose 1-byte data register must be served every 10 us even mid-scan, and above
+ * the USB (0xC0), whose endpoints NAK the host until served, so USB never stretches a scan. */
+#define TICK_IRQ_PRIORITY 0x80u
 #define LED_PIN 13u             /* PC13, toggled per scan as in Code 2.4 */
 
 static psm_core core;
@@ -22,12 +25,12 @@ void tick_irq(void)
     psm_on_tick(&core);
 }
 
-/* Sleeps unless a byte arrived after uart_read looked (PRIMASK closes that window; WFI
+/* Sleeps unless a byte arrived after link_read looked (PRIMASK closes that window; WFI
  * still wakes on the pending interrupt). */
 static void sleep_until_rx(void)
 {
     __asm volatile("cpsid i" ::: "memory");
-    if (!uart_rx_pending())
+    if (!link_rx_pending())
         __asm volatile("wfi");
     __asm volatile("cpsie i" ::: "memory");
 }
@@ -43,18 +46,19 @@ int main(void)
     gpio_config(GPIOC, LED_PIN, GPIO_OUT_PP_2MHZ);
     mux_init();
     adc_init();
-    uart_init(UART_BAUD);
     uid_serial(serial);
+    link_init("psmat PSM 16x16", serial);
     psm_init(&core, &bluepill_psm_hal, 16, 16, PM_PROTO_V2, serial);
     tick_init(PSM_DEFAULT_RATE_HZ, TICK_IRQ_PRIORITY);
 
     for (;;) {
-        size_t n = uart_read(rx, sizeof rx);
+        size_t n = link_read(rx, sizeof rx);
         if (!n) {
             sleep_until_rx();
             continue;
         }
-        /* keep the scan IRQ out while a command changes the core's state */
+        /* keep the scan IRQ out while a command changes the core's state (this also holds
+         * off the USB interrupt, which is below it; a command takes microseconds) */
         set_basepri(TICK_IRQ_PRIORITY);
         psm_on_rx(&core, rx, n);
         set_basepri(0);
