@@ -67,3 +67,15 @@ def test_the_imu_and_material_daq_twins_through_the_same_api():
         batch = dev.read(n=5, timeout=3)
     assert len(batch) >= 5 and batch.frames.shape[1:] == (10,) and batch.valid.all()
     assert batch.frames.max() <= 1023
+
+
+def test_psmat_boxes_are_recognised_by_their_usb_identity():
+    from psmat.acquire import find_devices
+    from psmat.acquire.discover import is_psmat_port
+
+    assert is_psmat_port(0x1209, 0x0001)  # the firmware's descriptors (firmware/stm32/common/usb_desc.c)
+    assert is_psmat_port(0x0483, 0x5740, manufacturer="psmat")
+    assert not is_psmat_port(0x0403, 0x6001, product="FT232R USB UART", manufacturer="FTDI")
+    assert not is_psmat_port(None, None)
+    # a pseudo-terminal twin is not a USB box: the demo falls back to starting its own
+    assert all(not f.port.startswith("/dev/pts/") for f in find_devices())

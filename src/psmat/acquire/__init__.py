@@ -14,12 +14,13 @@
 
 from .clock import HostClock
 from .device import Device, DeviceStats, open_device
+from .discover import FoundPort, find_devices
 from .errors import AcquireError, CommandRejected, CommandTimeout, DeviceDisconnected
 from .recording import SessionRecorder
 from .ring_buffer import FrameBatch, FrameRing
 from .stream import StreamDecoder
 
 __all__ = [
-    "open_device", "Device", "DeviceStats", "FrameBatch", "FrameRing", "StreamDecoder", "HostClock",
+    "open_device", "find_devices", "FoundPort", "Device", "DeviceStats", "FrameBatch", "FrameRing", "StreamDecoder", "HostClock",
     "SessionRecorder", "AcquireError", "DeviceDisconnected", "CommandTimeout", "CommandRejected",
 ]

@@ -15,7 +15,9 @@ HELP = "record, process and plot a swaying person on the simulated mat (or --por
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--out", default="psmat_demo.png", help="figure path (PNG)")
-    p.add_argument("--port", default=None, help="a real mat's serial port (default: the digital twin)")
+    p.add_argument("--port", default=None, help="a real mat's serial port (default: a psmat box found on USB, "
+                   "else the digital twin)")
+    p.add_argument("--twin", action="store_true", help="use the digital twin even if a mat is plugged in")
     p.add_argument("--seconds", type=float, default=8.0, help="recording length (s)")
     p.add_argument("--rate", type=int, default=100, help="frames per second")
     p.add_argument("--session", default="psmat_demo.h5", help="session file to write (HDF5)")
@@ -30,7 +32,14 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     if not args.crosstalk:
+        from ..acquire import find_devices
         from ..demo_sway import run_sway_demo
+
+        if args.port is None and not args.twin:
+            found = find_devices()
+            if found:
+                args.port = found[0].port
+                print(f"psmat demo: using the mat on {args.port} ({found[0].description}); --twin for the simulation")
 
         print(f"psmat demo: {args.seconds:g} s of a person swaying, {args.rows}x{args.cols} at {args.rate} Hz")
         run_sway_demo(args.out, seconds=args.seconds, rate_hz=args.rate, session=args.session,
