@@ -6,9 +6,10 @@
 firmware's own timer rate — what a reader sees is what it would see from the mat over USB:
 the same frames, the same replies to commands, at the configured rate.
 
-A pty buffers unread data, unlike a USB CDC device; the twin therefore writes without
-blocking and, when the host does not read, drops whole frames (counted in ``stats``) the
-way a device whose USB endpoint is not polled does.
+A pty buffers unread data (about 20 KB); the twin writes without blocking, keeps up to
+``buffer_bytes`` more queued for a host that is briefly slow (as the device's and the host
+driver's buffers do on a real USB link), and beyond that drops whole frames (counted in
+``stats``) the way a device whose USB endpoint is not polled does.
 
 Fault injection (:class:`Faults`) for robustness tests: bit flips and dropped bytes at a
 given rate per byte, stalls (the link goes silent for a while, frames scanned meanwhile
@@ -95,7 +96,7 @@ class Faults:
 @dataclass
 class TwinStats:
     ticks: int = 0  # timer interrupts
-    frames_sent: int = 0  # frames written to the pty
+    frames_sent: int = 0  # frames queued for the pty (whole)
     frames_unsent: int = 0  # frames the host did not take (buffer full, stall)
     bytes_sent: int = 0
     commands_bytes: int = 0
@@ -125,11 +126,16 @@ class SerialTwin:
     faults : Faults, optional
     serial : str
         The serial number the device reports to IDENTIFY.
+    buffer_bytes : int
+        Bytes queued for a host that is slow to read, beyond the pty's own ~20 KB (what the
+        device's and the host driver's buffers hold on a real link; Linux's tty layer keeps
+        up to 64 KiB). When it is full, packets are dropped whole and counted.
     """
 
     def __init__(self, kind: str = "psm", rate_hz: float | None = None, protocol: str = "v2", *,
                  source=None, shape: tuple[int, int] = (16, 16), faults: Faults | None = None,
-                 serial: str = "TWIN0001", scene: str = "sway", seed: int = 0) -> None:
+                 serial: str = "TWIN0001", scene: str = "sway", seed: int = 0,
+                 buffer_bytes: int = 65536) -> None:
         from .._core import firmware as fw
         from .sources import DaqSource, ImuSource, PsmSource
 
@@ -160,6 +166,10 @@ class SerialTwin:
         self._fixed_rate = rate if kind == "daq" else None
         self.faults = faults or Faults()
         self.stats = TwinStats()
+        if buffer_bytes < 1:
+            raise ValueError("buffer_bytes must be positive")
+        self.buffer_bytes = int(buffer_bytes)
+        self._pending = bytearray()
         self._master, self._slave = os.openpty()
         tty.setraw(self._slave)  # no echo, no line discipline: bytes pass untouched
         os.set_blocking(self._master, False)
@@ -229,6 +239,7 @@ class SerialTwin:
         return self.firmware.receive(data, t_us & 0xFFFFFFFF)
 
     def _send(self, data: bytes, t: float, is_frame: bool) -> None:
+        """Queue a packet for the host: whole, or (queue full, link stalled) not at all."""
         if not data:
             return
         if self.faults.stalled(t):
@@ -237,16 +248,22 @@ class SerialTwin:
         data, flipped, dropped = self.faults.apply(data)
         self.stats.bits_flipped += flipped
         self.stats.bytes_dropped += dropped
+        if len(self._pending) + len(data) > self.buffer_bytes:
+            self.stats.frames_unsent += is_frame  # the host is not reading: drop the packet whole
+            return
+        self._pending += data
+        self.stats.frames_sent += is_frame
+        self._flush()
+
+    def _flush(self) -> None:
+        """Move queued bytes into the pty as far as it takes them (never blocks)."""
+        if not self._pending:
+            return
         try:
-            n = os.write(self._master, data)
+            n = os.write(self._master, self._pending)
         except BlockingIOError:
-            n = 0
-        if n < len(data):
-            # the host is not reading: the rest of this packet is lost (a partial frame is
-            # garbage that the host's decoder resyncs past)
-            self.stats.frames_unsent += is_frame
-        else:
-            self.stats.frames_sent += is_frame
+            return
+        del self._pending[:n]
         self.stats.bytes_sent += n
 
     def _serve(self) -> None:
@@ -261,7 +278,10 @@ class SerialTwin:
                     return
                 wait = next_t - now
                 if wait > 0:
-                    r, _, _ = select.select([self._master], [], [], min(wait, 0.05))
+                    r, w, _ = select.select([self._master], [self._master] if self._pending else [], [],
+                                            min(wait, 0.05))
+                    if w:
+                        self._flush()
                     if r:
                         try:
                             data = os.read(self._master, 4096)
