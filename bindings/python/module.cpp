@@ -6,11 +6,14 @@ namespace py = pybind11;
 void register_iecm(py::module_& m);
 void register_sensor(py::module_& m);
 void register_firmware(py::module_& m);
+void register_qzpm(py::module_& m);
 
 PYBIND11_MODULE(_core, m) {
   m.doc() = "psmat compiled core (private: use the psmat package API)";
   auto iecm = m.def_submodule("iecm", "IECM crosstalk removal (thesis §2.1.4, §2.3, App. B)");
   register_iecm(iecm);
+  auto qzpm = m.def_submodule("qzpm", "IECM adapted to the QZPM readout: cells and switches (thesis App. C)");
+  register_qzpm(qzpm);
   auto sensor = m.def_submodule("sensor", "Velostat MPI hysteresis + creep model (thesis §2.5)");
   register_sensor(sensor);
   auto fw = m.def_submodule("firmware", "The portable firmware cores (firmware/core) on host HALs: the digital twin");

@@ -5,5 +5,6 @@ This folder holds stubs only (no __init__.py): the compiled extension module
 """
 
 from . import iecm as iecm
+from . import qzpm as qzpm
 from . import firmware as firmware
 from . import sensor as sensor

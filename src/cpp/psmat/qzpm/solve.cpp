@@ -1,0 +1,312 @@
+#include "psmat/qzpm/solve.hpp"
+
+#include <algorithm>
+#include <atomic>
+#include <cmath>
+#include <thread>
+#include <vector>
+
+#include "psmat/qzpm/closed_form.hpp"
+
+namespace psmat::qzpm {
+
+void cold_start(Shape s, const Readings& G, double r0, VecRef g, VecRef sw) {
+  g = closed_form(s, G, r0);
+  std::vector<double> ok;
+  for (Index a = 0; a < g.size(); ++a)
+    if (std::isfinite(g[a]) && g[a] > 0.0) ok.push_back(g[a]);
+  double fill = 1e-3 * G.pairs.minCoeff();
+  if (!ok.empty()) {
+    std::nth_element(ok.begin(), ok.begin() + static_cast<long>(ok.size() / 2), ok.end());
+    fill = std::min(fill, 1e-2 * ok[ok.size() / 2]);
+  }
+  for (Index a = 0; a < g.size(); ++a)
+    if (!(std::isfinite(g[a]) && g[a] > 0.0)) g[a] = fill;
+  sw.setConstant(1.0 / r0);
+}
+
+namespace {
+
+// Levenberg-Marquardt on x = log(theta) for one switch mode. theta = (cells, switches) with
+// switches of length 1 (shared) or R + C (separate).
+class Lsq {
+ public:
+  Lsq(Shape s, const Eigen::VectorXd& G, const SolveOptions& o, Switches mode)
+      : s_(s), G_(G), o_(o), mode_(mode), net_(s),
+        np_(s.cells() + (mode == Switches::Shared ? 1 : s.nodes())),
+        F_(G.size()), r_(G.size()), Jfull_(G.size(), n_parameters(s)) {}
+
+  Index parameters() const { return np_; }
+
+  void expand(const Eigen::VectorXd& theta, Eigen::VectorXd& g, Eigen::VectorXd& sw) const {
+    g = theta.head(s_.cells());
+    if (mode_ == Switches::Shared)
+      sw.setConstant(s_.nodes(), theta[s_.cells()]);
+    else
+      sw = theta.tail(s_.nodes());
+  }
+
+  bool evaluate(const Eigen::VectorXd& theta, double& cost, double& resid) {
+    Eigen::VectorXd g, sw;
+    expand(theta, g, sw);
+    if (!net_.compute(g, sw)) return false;
+    readings(net_, F_);
+    r_ = (F_.array() / G_.array() - 1.0).matrix();
+    if (!r_.allFinite()) return false;
+    cost = 0.5 * r_.squaredNorm();
+    resid = r_.cwiseAbs().maxCoeff();
+    return true;
+  }
+
+  // Weighted Jacobian d r / d log theta at the last evaluated point.
+  void jacobian_log(const Eigen::VectorXd& theta, Eigen::MatrixXd& Jw) {
+    jacobian(net_, Jfull_);
+    const Index m = G_.size(), nc = s_.cells();
+    Jw.resize(m, np_);
+    const Eigen::ArrayXd w = G_.array().inverse();
+    for (Index a = 0; a < nc; ++a) Jw.col(a) = (Jfull_.col(a).array() * w * theta[a]).matrix();
+    if (mode_ == Switches::Shared) {
+      Jw.col(nc) = (Jfull_.rightCols(s_.nodes()).rowwise().sum().array() * w * theta[nc]).matrix();
+    } else {
+      for (Index k = 0; k < s_.nodes(); ++k)
+        Jw.col(nc + k) = (Jfull_.col(nc + k).array() * w * theta[nc + k]).matrix();
+    }
+  }
+
+  const Eigen::VectorXd& residual() const { return r_; }
+
+  void run(Eigen::VectorXd& theta, SolveReport& rep) {
+    double cost = 0, resid = 0;
+    if (!evaluate(theta, cost, resid)) {
+      rep.status = Status::Singular;
+      return;
+    }
+    ++rep.evaluations;
+    const Index n = np_;
+    Eigen::MatrixXd Jw, A(n, n), S(n, n);
+    Eigen::VectorXd grad(n), d(n), tt(n), Jd;
+    Eigen::LLT<Eigen::MatrixXd> llt(n);
+    double lambda = 1e-4;
+    bool need_jacobian = true, at_theta = true;
+    rep.status = Status::MaxIterations;
+    int it = 0;
+    for (; it < o_.max_iter; ++it) {
+      if (resid <= o_.rtol) {
+        rep.status = Status::Converged;
+        break;
+      }
+      if (need_jacobian) {
+        jacobian_log(theta, Jw);
+        A.setZero();
+        A.selfadjointView<Eigen::Lower>().rankUpdate(Jw.transpose());
+        A.triangularView<Eigen::StrictlyUpper>() = A.transpose();
+        grad.noalias() = Jw.transpose() * r_;
+        need_jacobian = false;
+        if (grad.cwiseAbs().maxCoeff() <= 1e-14 * std::sqrt(2.0 * cost)) {
+          rep.status = Status::LeastSquares;
+          break;
+        }
+      }
+      // Marquardt damping (normal equations, as iecm/solve_lsq.cpp)
+      S = A;
+      S.diagonal().array() += lambda * A.diagonal().array().max(1e-300);
+      llt.compute(S);
+      ++rep.factorizations;
+      if (llt.info() != Eigen::Success) {
+        lambda *= 10.0;
+        if (lambda > 1e16) {
+          rep.status = Status::Stalled;
+          break;
+        }
+        continue;
+      }
+      d = llt.solve(-grad);
+      const double mx = d.cwiseAbs().maxCoeff();
+      if (mx > o_.max_log_step) d *= o_.max_log_step / mx;
+      tt = (theta.array() * d.array().exp()).matrix();
+      tt.head(s_.cells()) = tt.head(s_.cells()).cwiseMax(o_.g_floor);
+      Jd.noalias() = Jw * d;
+      const double predicted = -(grad.dot(d) + 0.5 * Jd.squaredNorm());
+      double ct = 0, rt = 0;
+      ++rep.evaluations;
+      const bool ok = evaluate(tt, ct, rt);
+      at_theta = false;
+      if (ok && predicted > 0 && (cost - ct) > 1e-4 * predicted) {
+        const double rel = (cost - ct) / cost;
+        theta = tt;
+        cost = ct;
+        resid = rt;
+        at_theta = true;
+        need_jacobian = true;
+        lambda = std::max(lambda / 5.0, 1e-14);
+        if (rel < o_.ftol && resid > o_.rtol) {
+          rep.status = Status::LeastSquares;
+          ++it;
+          break;
+        }
+      } else {
+        lambda *= 4.0;
+        if (lambda > 1e16) {
+          rep.status = Status::LeastSquares;
+          break;
+        }
+      }
+    }
+    rep.iterations += it;
+    if (!at_theta) {
+      ++rep.evaluations;
+      evaluate(theta, cost, resid);
+    }
+    if (resid <= o_.rtol) rep.status = Status::Converged;
+    rep.cost = cost;
+    rep.residual = resid;
+  }
+
+ private:
+  Shape s_;
+  const Eigen::VectorXd& G_;
+  SolveOptions o_;
+  Switches mode_;
+  Network net_;
+  Index np_;
+  Eigen::VectorXd F_, r_;
+  RowMatrixXd Jfull_;
+};
+
+}  // namespace
+
+Solution solve(Shape s, const Readings& Gr, const SolveOptions& o, const Eigen::VectorXd& g0,
+               const Eigen::VectorXd& sw0) {
+  Solution sol;
+  const Index nc = s.cells(), nn = s.nodes();
+  const Eigen::VectorXd G = Gr.flat();
+  Eigen::VectorXd g(nc), sw(nn);
+  cold_start(s, Gr, o.r_switch0, g, sw);
+  const bool warm = g0.size() == nc;
+  if (warm) g = g0.cwiseMax(o.g_floor);
+  if (sw0.size() == nn) sw = sw0;
+  SolveReport& rep = sol.report;
+  if (!G.allFinite() || (G.array() <= 0.0).any()) {
+    rep.status = Status::Singular;
+    sol.g = Eigen::VectorXd::Constant(nc, std::nan(""));
+    sol.g_row = Eigen::VectorXd::Constant(s.rows, std::nan(""));
+    sol.g_col = Eigen::VectorXd::Constant(s.cols, std::nan(""));
+    return sol;
+  }
+
+  // stage 1: one shared switch conductance (the only stage in shared mode; in separate mode
+  // a well-posed start for stage 2 unless the caller gave separate switches)
+  const bool separate_start = sw0.size() == nn && (sw0.array() != sw0[0]).any();
+  Eigen::VectorXd theta;
+  if (o.switches == Switches::Shared || !separate_start) {
+    SolveOptions o1 = o;
+    if (o.switches == Switches::Separate) o1.ftol = std::max(o.ftol, 1e-10);  // a start only
+    Lsq shared(s, G, o1, Switches::Shared);
+    theta.resize(nc + 1);
+    theta << g, sw.mean();
+    shared.run(theta, rep);
+    g = theta.head(nc);
+    sw.setConstant(theta[nc]);
+  }
+  if (o.switches == Switches::Separate) {
+    // Homotopy in the readings from those of the start (exactly matched at t = 0) to G:
+    // log G(t) = (1 - t) log F(start) + t log G, each step warm-started from the last, the step
+    // halved when LM does not converge. Plain LM from the shared-switch solution often ends in
+    // a spurious minimum (a switch running to 0 or infinity); the path avoids most of them.
+    // When it still fails, restart from cold starts with other switch resistances; keep the best.
+    auto homotopy = [&](Eigen::VectorXd th, SolveReport& acc) {
+      Network net(s);
+      Eigen::VectorXd F0(G.size());
+      if (net.compute(th.head(nc), th.tail(nn))) {
+        readings(net, F0);
+        const Eigen::ArrayXd l0 = F0.array().log(), l1 = G.array().log();
+        SolveOptions ot = o;
+        ot.rtol = std::max(o.rtol, 1e-7);
+        ot.max_iter = 30;
+        double t = 0.0, dt = 0.25;
+        Eigen::VectorXd Gt(G.size()), keep;
+        while (t < 1.0 && dt > 1e-4) {
+          const double t1 = std::min(1.0, t + dt);
+          Gt = ((1.0 - t1) * l0 + t1 * l1).exp().matrix();
+          keep = th;
+          Lsq step(s, Gt, ot, Switches::Separate);
+          SolveReport rs;
+          step.run(th, rs);
+          acc.iterations += rs.iterations;
+          acc.evaluations += rs.evaluations;
+          acc.factorizations += rs.factorizations;
+          if (rs.status == Status::Converged) {
+            t = t1;
+            dt = std::min(1.0, dt * 2.0);
+          } else {
+            th = keep;
+            dt /= 2.0;
+          }
+        }
+      }
+      Lsq sep(s, G, o, Switches::Separate);
+      SolveReport rf;
+      sep.run(th, rf);
+      acc.iterations += rf.iterations;
+      acc.evaluations += rf.evaluations;
+      acc.factorizations += rf.factorizations;
+      acc.status = rf.status;
+      acc.residual = rf.residual;
+      acc.cost = rf.cost;
+      return th;
+    };
+    SolveReport acc = rep;
+    theta.resize(nc + nn);
+    theta << g, sw;
+    Eigen::VectorXd best = homotopy(theta, acc);
+    SolveReport best_rep = acc;
+    const double factors[] = {1.0, 0.5, 2.0, 0.7, 1.4};
+    for (double f : factors) {
+      if (best_rep.status == Status::Converged) break;
+      Eigen::VectorXd gc(nc), swc(nn);
+      cold_start(s, Gr, o.r_switch0 * f, gc, swc);
+      theta << gc, swc;
+      SolveReport r = acc;
+      r.status = Status::MaxIterations;
+      Eigen::VectorXd th = homotopy(theta, r);
+      acc.iterations = r.iterations;
+      acc.evaluations = r.evaluations;
+      acc.factorizations = r.factorizations;
+      if (r.cost < best_rep.cost || r.status == Status::Converged) {
+        best = th;
+        best_rep = r;
+      }
+    }
+    best_rep.iterations = acc.iterations;
+    best_rep.evaluations = acc.evaluations;
+    best_rep.factorizations = acc.factorizations;
+    rep = best_rep;
+    g = best.head(nc);
+    sw = best.tail(nn);
+  }
+  sol.g = g;
+  sol.g_row = sw.head(s.rows);
+  sol.g_col = sw.tail(s.cols);
+  return sol;
+}
+
+std::vector<Solution> solve_batch(Shape s, const RowMatrixXd& G, const SolveOptions& o,
+                                  int n_threads) {
+  const Index T = G.rows();
+  std::vector<Solution> out(static_cast<size_t>(T));
+  std::atomic<Index> next{0};
+  auto work = [&] {
+    for (Index t; (t = next.fetch_add(1)) < T;) {
+      const Eigen::VectorXd row = G.row(t).transpose();
+      out[static_cast<size_t>(t)] = solve(s, Readings::from_flat(s, row), o);
+    }
+  };
+  const int nt = static_cast<int>(std::min<Index>(std::max(1, n_threads), std::max<Index>(T, 1)));
+  std::vector<std::thread> threads;
+  for (int k = 1; k < nt; ++k) threads.emplace_back(work);
+  work();
+  for (auto& th : threads) th.join();
+  return out;
+}
+
+}  // namespace psmat::qzpm
