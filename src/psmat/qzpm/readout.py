@@ -234,9 +234,11 @@ def solve(
     Minimises sum(((F(theta) - G) / G)^2) over theta = (cells, switches) > 0 by
     Levenberg-Marquardt in log-parameters with the analytic Jacobian. ``switches="shared"``:
     one unknown switch conductance for all lines (R*C + 1 unknowns); ``"separate"``: R + C
-    unknown switches (as many unknowns as readings). The separate problem is started from the
-    shared solution and follows a homotopy in the readings (see docs/qzpm.md): plain LM from a
-    cold start often ends in a spurious minimum.
+    unknown switches (as many unknowns as readings). The separate problem is solved by variable
+    projection (cells eliminated for given switches; LM with geodesic acceleration on the log
+    switch conductances) from the closed-form cold start, then polished by the full LM; plain
+    LM often ends in a spurious minimum. The former path (shared solution, homotopy in the
+    readings, restarts; docs/qzpm.md) remains as a fallback when that does not converge.
 
     Parameters
     ----------

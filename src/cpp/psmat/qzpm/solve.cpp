@@ -3,8 +3,13 @@
 #include <algorithm>
 #include <atomic>
 #include <cmath>
+#include <limits>
 #include <thread>
+#include <utility>
 #include <vector>
+
+#include <Eigen/Cholesky>
+#include <Eigen/QR>
 
 #include "psmat/qzpm/closed_form.hpp"
 
@@ -31,16 +36,22 @@ namespace {
 // switches of length 1 (shared) or R + C (separate).
 class Lsq {
  public:
-  Lsq(Shape s, const Eigen::VectorXd& G, const SolveOptions& o, Switches mode)
+  // fixed_sw (R + C, optional): cells-only problem with these switches (theta = cells).
+  Lsq(Shape s, const Eigen::VectorXd& G, const SolveOptions& o, Switches mode,
+      const Eigen::VectorXd* fixed_sw = nullptr)
       : s_(s), G_(G), o_(o), mode_(mode), net_(s),
-        np_(s.cells() + (mode == Switches::Shared ? 1 : s.nodes())),
-        F_(G.size()), r_(G.size()), Jfull_(G.size(), n_parameters(s)) {}
+        np_(s.cells() + (fixed_sw ? 0 : (mode == Switches::Shared ? 1 : s.nodes()))),
+        F_(G.size()), r_(G.size()), Jfull_(G.size(), n_parameters(s)) {
+    if (fixed_sw) fixed_sw_ = *fixed_sw;
+  }
 
   Index parameters() const { return np_; }
 
   void expand(const Eigen::VectorXd& theta, Eigen::VectorXd& g, Eigen::VectorXd& sw) const {
     g = theta.head(s_.cells());
-    if (mode_ == Switches::Shared)
+    if (fixed_sw_.size() > 0)
+      sw = fixed_sw_;
+    else if (mode_ == Switches::Shared)
       sw.setConstant(s_.nodes(), theta[s_.cells()]);
     else
       sw = theta.tail(s_.nodes());
@@ -65,6 +76,7 @@ class Lsq {
     Jw.resize(m, np_);
     const Eigen::ArrayXd w = G_.array().inverse();
     for (Index a = 0; a < nc; ++a) Jw.col(a) = (Jfull_.col(a).array() * w * theta[a]).matrix();
+    if (fixed_sw_.size() > 0) return;
     if (mode_ == Switches::Shared) {
       Jw.col(nc) = (Jfull_.rightCols(s_.nodes()).rowwise().sum().array() * w * theta[nc]).matrix();
     } else {
@@ -169,10 +181,131 @@ class Lsq {
   Switches mode_;
   Network net_;
   Index np_;
+  Eigen::VectorXd fixed_sw_;
   Eigen::VectorXd F_, r_;
   RowMatrixXd Jfull_;
 };
 
+
+// Inner problem of the variable projection: cells for fixed switches sw (R*C unknowns,
+// R*C + R + C readings: over-determined and well conditioned), LM on log cells from g.
+// Returns the cost; r = residual at the end.
+double solve_cells(Shape s, const Eigen::VectorXd& G, const SolveOptions& o,
+                   const Eigen::VectorXd& sw, Eigen::VectorXd& g, Eigen::VectorXd& r,
+                   SolveReport& acc) {
+  SolveOptions oi = o;
+  oi.max_iter = 100;
+  oi.ftol = 1e-15;
+  Lsq cells(s, G, oi, Switches::Separate, &sw);
+  SolveReport ri;
+  cells.run(g, ri);
+  acc.iterations += ri.iterations;
+  acc.evaluations += ri.evaluations;
+  acc.factorizations += ri.factorizations;
+  if (ri.status == Status::Singular || !std::isfinite(ri.cost))
+    return std::numeric_limits<double>::infinity();
+  r = cells.residual();
+  return ri.cost;
+}
+
+// Variable projection for the separate-switch problem (docs/qzpm.md §3): the cells are
+// eliminated (solve_cells), Levenberg-Marquardt runs on the R + C log switch conductances with
+// the reduced Jacobian J_r = (I - J_c J_c^+) J_s (Kaufman) and geodesic acceleration (the
+// valleys of the reduced cost are narrow and curved). Returns theta = (cells, switches) at
+// the end; the caller polishes with the full LM.
+Eigen::VectorXd varpro(Shape s, const Eigen::VectorXd& G, const SolveOptions& o,
+                       Eigen::VectorXd g, Eigen::VectorXd sw, SolveReport& acc, bool accel) {
+  const Index nc = s.cells(), nn = s.nodes(), m = G.size();
+  Eigen::VectorXd r(m), rt(m), rh(m), theta(nc + nn);
+  double cost = solve_cells(s, G, o, sw, g, r, acc);
+  theta << g, sw;
+  if (!std::isfinite(cost)) return theta;
+  Lsq full(s, G, o, Switches::Separate);
+  Eigen::MatrixXd Jw, Jc, Js, QtJs, Jr, A(nn, nn), M(nn, nn);
+  Eigen::VectorXd b(nn), D(nn), d1(nn), d2(nn), d(nn), gt(nc), gh(nc), swt(nn), swh(nn);
+  Eigen::LDLT<Eigen::MatrixXd> ldlt(nn);
+  double lambda = 1e-3;
+  const double stop = std::max(o.rtol, 1e-12);
+  // first-order change of the (eliminated) cells for a switch step e: -J_c^+ J_s e
+  auto cells_for = [&](const Eigen::HouseholderQR<Eigen::MatrixXd>& qr, const Eigen::VectorXd& e,
+                       Eigen::VectorXd& out) {
+    Eigen::VectorXd y = QtJs.topRows(nc) * e;
+    Eigen::VectorXd dx = -qr.matrixQR().topLeftCorner(nc, nc).triangularView<Eigen::Upper>().solve(y);
+    if (!dx.allFinite()) dx.setZero();
+    out = (g.array() * dx.array().max(-2.0).min(2.0).exp()).matrix().cwiseMax(o.g_floor);
+  };
+  for (int it = 0; it < 200; ++it) {
+    if (r.cwiseAbs().maxCoeff() <= stop) break;
+    double c0 = 0, r0 = 0;
+    theta << g, sw;
+    if (!full.evaluate(theta, c0, r0)) break;
+    full.jacobian_log(theta, Jw);
+    Jc = Jw.leftCols(nc);
+    Js = Jw.rightCols(nn);
+    Eigen::HouseholderQR<Eigen::MatrixXd> qr(Jc);
+    QtJs = qr.householderQ().transpose() * Js;
+    Eigen::MatrixXd P = QtJs;
+    P.topRows(nc).setZero();
+    Jr = qr.householderQ() * P;
+    A.setZero();
+    A.selfadjointView<Eigen::Lower>().rankUpdate(Jr.transpose());
+    A.triangularView<Eigen::StrictlyUpper>() = A.transpose();
+    b.noalias() = Jr.transpose() * r;
+    D = A.diagonal().cwiseMax(1e-300);
+    bool accepted = false;
+    while (lambda < 1e12) {
+      M = A;
+      M.diagonal() += lambda * D;
+      ldlt.compute(M);
+      ++acc.factorizations;
+      d1 = ldlt.solve(-b);
+      if (!d1.allFinite()) {
+        lambda *= 4.0;
+        continue;
+      }
+      // geodesic acceleration: second directional derivative of the reduced residual
+      const double h = 0.1;
+      double ch = std::numeric_limits<double>::infinity();
+      if (accel) {
+        swh = (sw.array() * (h * d1).array().exp()).matrix();
+        cells_for(qr, h * d1, gh);
+        ch = solve_cells(s, G, o, swh, gh, rh, acc);
+      }
+      d2.setZero();
+      if (accel && std::isfinite(ch)) {
+        const Eigen::VectorXd rpp = (2.0 / h) * ((rh - r) / h - Jr * d1);
+        d2 = ldlt.solve(-0.5 * (Jr.transpose() * rpp));
+        if (!d2.allFinite()) d2.setZero();
+        const double n1 = (D.cwiseSqrt().array() * d1.array()).matrix().norm();
+        const double n2 = (D.cwiseSqrt().array() * d2.array()).matrix().norm();
+        if (n2 > 0.75 * n1) {
+          lambda *= 4.0;
+          continue;
+        }
+      }
+      d = d1 + d2;
+      const double mx = d.cwiseAbs().maxCoeff();
+      if (mx > 1.0) d /= mx;
+      swt = (sw.array() * d.array().exp()).matrix();
+      cells_for(qr, d, gt);
+      const double ct = solve_cells(s, G, o, swt, gt, rt, acc);
+      if (std::isfinite(ct) && ct < cost) {
+        accepted = true;
+        break;
+      }
+      lambda *= 4.0;
+    }
+    ++acc.iterations;
+    if (!accepted) break;
+    g = gt;
+    sw = swt;
+    r = rt;
+    cost = 0.5 * r.squaredNorm();
+    lambda = std::max(lambda / 5.0, 1e-14);
+  }
+  theta << g, sw;
+  return theta;
+}
 }  // namespace
 
 Solution solve(Shape s, const Readings& Gr, const SolveOptions& o, const Eigen::VectorXd& g0,
@@ -192,6 +325,58 @@ Solution solve(Shape s, const Readings& Gr, const SolveOptions& o, const Eigen::
     sol.g_row = Eigen::VectorXd::Constant(s.rows, std::nan(""));
     sol.g_col = Eigen::VectorXd::Constant(s.cols, std::nan(""));
     return sol;
+  }
+
+  // Separate switches: variable projection (cells eliminated, LM with geodesic acceleration
+  // on the switches) from the start / cold starts, polished by the full LM; the older path
+  // (shared solution, homotopy, restarts) below only when none of these converges.
+  Eigen::VectorXd vp_best;
+  SolveReport vp_rep;
+  vp_rep.cost = std::numeric_limits<double>::infinity();
+  if (o.switches == Switches::Separate) {
+    SolveReport acc;
+    std::vector<std::pair<Eigen::VectorXd, Eigen::VectorXd>> starts;
+    if (warm || sw0.size() == nn) starts.emplace_back(g, sw);
+    for (double f : {1.0, 0.5, 2.0}) {
+      Eigen::VectorXd gc(nc), swc(nn);
+      cold_start(s, Gr, o.r_switch0 * f, gc, swc);
+      starts.emplace_back(gc, swc);
+    }
+    // each start with geodesic acceleration (faster in the curved valleys), then without
+    // (it stalls less on some draws)
+    std::vector<std::pair<size_t, bool>> runs;
+    for (size_t k = 0; k < starts.size(); ++k) runs.emplace_back(k, true);
+    for (size_t k = 0; k < starts.size(); ++k) runs.emplace_back(k, false);
+    for (auto& run : runs) {
+      const auto& st = starts[run.first];
+      Eigen::VectorXd th = varpro(s, G, o, st.first, st.second, acc, run.second);
+      Lsq sep(s, G, o, Switches::Separate);
+      SolveReport rf;
+      sep.run(th, rf);
+      acc.iterations += rf.iterations;
+      acc.evaluations += rf.evaluations;
+      acc.factorizations += rf.factorizations;
+      if (rf.cost < vp_rep.cost || vp_best.size() == 0) {
+        vp_best = th;
+        vp_rep.status = rf.status;
+        vp_rep.cost = rf.cost;
+        vp_rep.residual = rf.residual;
+      }
+      if (rf.status == Status::Converged) break;
+    }
+    vp_rep.iterations = acc.iterations;
+    vp_rep.evaluations = acc.evaluations;
+    vp_rep.factorizations = acc.factorizations;
+    if (vp_rep.status == Status::Converged) {
+      rep = vp_rep;
+      sol.g = vp_best.head(nc);
+      sol.g_row = vp_best.segment(nc, s.rows);
+      sol.g_col = vp_best.tail(s.cols);
+      return sol;
+    }
+    rep.iterations = acc.iterations;
+    rep.evaluations = acc.evaluations;
+    rep.factorizations = acc.factorizations;
   }
 
   // stage 1: one shared switch conductance (the only stage in shared mode; in separate mode
@@ -280,6 +465,12 @@ Solution solve(Shape s, const Readings& Gr, const SolveOptions& o, const Eigen::
     best_rep.iterations = acc.iterations;
     best_rep.evaluations = acc.evaluations;
     best_rep.factorizations = acc.factorizations;
+    if (vp_best.size() > 0 && vp_rep.cost <= best_rep.cost) {
+      best = vp_best;
+      best_rep.status = vp_rep.status;
+      best_rep.cost = vp_rep.cost;
+      best_rep.residual = vp_rep.residual;
+    }
     rep = best_rep;
     g = best.head(nc);
     sw = best.tail(nn);

@@ -5,8 +5,11 @@
 // Jacobian of forward.hpp, in the style of IECM's least squares (iecm/solve_lsq.cpp; the same
 // Status / SolveReport). Switches are one shared conductance g_s (R*C + 1 unknowns) or R + C
 // separate ones (R*C + R + C unknowns: as many as readings). Cold start from the closed form
-// (closed_form.hpp) with an assumed switch resistance; the separate-switch solve first
-// converges the shared-switch problem and refines from there.
+// (closed_form.hpp) with an assumed switch resistance. The separate-switch solve uses variable
+// projection (cells eliminated for given switches by LM; LM with geodesic acceleration on the
+// R + C log switches, reduced Jacobian (I - J_c J_c^+) J_s) from the start / cold starts with
+// r_switch0 x {1, 0.5, 2} (each with, then without, geodesic acceleration), then the full LM; only if none converges, the former path (shared
+// solution, homotopy in the readings, restarts), keeping the lowest cost.
 #pragma once
 #include <vector>
 
