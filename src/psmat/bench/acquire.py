@@ -50,7 +50,7 @@ def _psmat_run(seconds: float, rate: int, protocol: str, faults: str) -> dict:
     s = load_session(path)
     span = int(s.seq[-1] - s.seq[0] + 1) if s.seq is not None else s.n_frames
     return dict(frames=int(s.valid.sum()), invalid=int((~s.valid).sum()), lost=span - s.n_frames, span=span,
-                sent=sent, wall=wall, cpu=cpu, buffer_drops=st.dropped_buffer, skipped=st.skipped_bytes)
+                sent=sent, wall=wall, cpu=cpu, buffer_drops=st.dropped_buffer)
 
 
 def _thesis_reader(port: str, shape: tuple[int, int], stop: threading.Event, out: dict) -> None:
@@ -115,10 +115,10 @@ def main(argv: list[str] | None = None) -> int:
     print(f"corrupted link ({args.faults}), {args.fault_seconds:.0f} s each:", flush=True)
     r = _psmat_run(args.fault_seconds, args.rate, "v2", args.faults)
     print(f"  psmat.acquire, v2      : {r['frames']} valid, {r['invalid']} invalid rows, {r['lost']} lost, "
-          f"{r['skipped']} bytes skipped in resync, of {r['sent']} sent", flush=True)
+          f"of {r['sent']} sent", flush=True)
     r = _psmat_run(args.fault_seconds, args.rate, "v1", args.faults)
     print(f"  psmat.acquire, v1      : {r['frames']} valid, {r['invalid']} invalid rows, "
-          f"{r['skipped']} bytes skipped in resync, of {r['sent']} sent (v1 cannot count losses)", flush=True)
+          f"of {r['sent']} sent (v1 cannot count losses)", flush=True)
     b = _thesis_run(args.fault_seconds, args.rate, args.faults)
     print(f"  thesis-style v1 reader : {b.get('frames', 0)} valid, {b.get('invalid', 0)} invalid rows, "
           f"of {b.get('sent', 0)} sent (no resync after the first lost byte)", flush=True)
