@@ -103,10 +103,8 @@ def process_counts(counts: NDArray[Any], dt: float, *, valid: NDArray[np.bool_] 
     g = np.full_like(G, np.nan)
     info = None
     if usable.any():
-        # noisy frames end in the bounded Newton, whose Fischer-Burmeister iteration converges
-        # only linearly: a few frames in a thousand need several hundred iterations
         g[usable], info = iecm.solve(G[usable], method=method, threads=threads, progress=progress,
-                                     max_iter=1000, return_info=True)
+                                     return_info=True)
     u = np.maximum(g - g_rest, 0.0)  # NaN stays NaN: the sensor model skips those samples
     p_psi = sensor.inverse(u, dt)
     pressure = p_psi * PSI_KPA
