@@ -23,8 +23,6 @@ import pytest
 
 from psmat.io import journal_path, load_session, repair_session
 
-SRC = Path(__file__).resolve().parents[1] / "src"
-
 WRITER = textwrap.dedent(
     """
     import os, sys
@@ -86,7 +84,7 @@ def run_writer(tmp_path: Path, kind: str, mode: str, kill_after: float | None) -
     progress = tmp_path / f"progress_{kind}.txt"
     script = tmp_path / "writer.py"
     script.write_text(WRITER)
-    env = dict(os.environ, PYTHONPATH=str(SRC) + os.pathsep + os.environ.get("PYTHONPATH", ""))
+    env = dict(os.environ)  # the writer imports the installed package, like the tests
     errlog = tmp_path / f"stderr_{kind}.txt"
     with open(errlog, "wb") as err:
         proc = subprocess.Popen([sys.executable, str(script), str(path), str(progress), kind, mode], env=env,
