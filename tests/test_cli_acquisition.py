@@ -69,3 +69,13 @@ def test_demo_improves_the_cop_against_the_force_platform(tmp_path):
     assert res["cop_rms_cm"] < res["cop_rms_raw_cm"]
     assert res["cop_rms_after_offset_cm"] < 0.5 * res["cop_rms_raw_after_offset_cm"]
     json.dumps(res)  # everything it reports is plain data
+
+
+@pytest.mark.parametrize("command", [["record", "{port}", "-o", "{out}", "--seconds", "1"], ["calibrate", "{port}"],
+                                     ["demo", "--port", "{port}", "--session", "{out}"]])
+def test_a_port_that_does_not_exist_is_one_clear_line(command, tmp_path, capsys):
+    port = str(tmp_path / "ttyNOPE")
+    argv = [a.format(port=port, out=tmp_path / "x.h5") for a in command]
+    assert main(argv) == 1
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "ttyNOPE" in err[0] and err[0].startswith(f"psmat {command[0]}:")

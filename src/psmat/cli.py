@@ -43,6 +43,23 @@ def main(argv: list[str] | None = None) -> int:
     except KeyboardInterrupt:
         print("interrupted", file=sys.stderr)
         return 130
+    except Exception as exc:
+        # a device that cannot be opened or vanishes is the person's problem to fix, not a
+        # bug: one clear line instead of a traceback (anything else still raises)
+        if not _is_device_error(exc):
+            raise
+        print(f"psmat {args.command}: {exc}", file=sys.stderr)
+        return 1
+
+
+def _is_device_error(exc: BaseException) -> bool:
+    from .acquire import AcquireError
+
+    try:
+        from serial import SerialException
+    except ImportError:  # pragma: no cover - pyserial is a dependency
+        return isinstance(exc, AcquireError)
+    return isinstance(exc, (AcquireError, SerialException))
 
 
 if __name__ == "__main__":
