@@ -83,3 +83,27 @@ def timed() -> Iterator[list]:
 
 def as_rng(seed) -> np.random.Generator:
     return seed if isinstance(seed, np.random.Generator) else np.random.default_rng(seed)
+
+
+class UncertaintyComparison:
+    """Per-cell views shared by the uncertainty studies: needs ``g``, ``sigma_prop`` (eq. 2.11)
+    and ``sigma_mc`` (Monte Carlo) attributes, all in S."""
+
+    g: np.ndarray
+    sigma_prop: np.ndarray
+    sigma_mc: np.ndarray
+
+    @property
+    def rel_prop(self) -> np.ndarray:
+        """σ_g/g from eq. 2.11."""
+        return self.sigma_prop / self.g
+
+    @property
+    def rel_mc(self) -> np.ndarray:
+        """σ'_g/g from the simulation."""
+        return self.sigma_mc / self.g
+
+    @property
+    def ratio(self) -> np.ndarray:
+        """eq. 2.11 / Monte Carlo per cell."""
+        return self.sigma_prop / self.sigma_mc

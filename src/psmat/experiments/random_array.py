@@ -23,13 +23,13 @@ import numpy as np
 from .. import iecm
 from ..noise import sigma_G as table_sigma_G
 from ..scenes import random_array
-from ._common import fmt, format_table, plt, timed
+from ._common import UncertaintyComparison, fmt, format_table, plt, timed
 
 __all__ = ["RandomArrayUncertainty", "uncertainty_random", "compare_uncertainty"]
 
 
 @dataclass
-class RandomArrayUncertainty:
+class RandomArrayUncertainty(UncertaintyComparison):
     """Per-cell results (all ``shape``): true g, eq. 2.11 and Monte-Carlo SDs (S)."""
 
     g: np.ndarray
@@ -41,21 +41,6 @@ class RandomArrayUncertainty:
     seed: int | None
     seconds: float
     params: dict = field(default_factory=dict)
-
-    @property
-    def rel_prop(self) -> np.ndarray:
-        """σ_g/g from eq. 2.11."""
-        return self.sigma_prop / self.g
-
-    @property
-    def rel_mc(self) -> np.ndarray:
-        """σ'_g/g from the simulation."""
-        return self.sigma_mc / self.g
-
-    @property
-    def ratio(self) -> np.ndarray:
-        """eq. 2.11 / Monte Carlo per cell."""
-        return self.sigma_prop / self.sigma_mc
 
     def summary(self, edges=(1e-5, 1e-4, 1e-3, 1e-2)) -> list[dict]:
         """Per conductance decade: cells, median relative σ (both), median and range of the ratio."""

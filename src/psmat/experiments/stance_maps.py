@@ -25,7 +25,7 @@ import numpy as np
 
 from ..sensor import MPICreep
 from ..twin.pressure import cell_pressure_psi, foot
-from ._common import as_rng, fmt, format_table, plt, timed
+from ._common import UncertaintyComparison, as_rng, fmt, format_table, plt, timed
 from .random_array import compare_uncertainty, plot_relative
 
 __all__ = ["StanceUncertainty", "uncertainty_maps", "stance_pressure", "stance_conductance", "STANCES"]
@@ -81,7 +81,7 @@ def stance_conductance(
 
 
 @dataclass
-class StanceUncertainty:
+class StanceUncertainty(UncertaintyComparison):
     """Conductance map and per-cell uncertainties (S) of a simulated stance."""
 
     stance: str
@@ -95,17 +95,6 @@ class StanceUncertainty:
     seconds: float
     params: dict = field(default_factory=dict)
 
-    @property
-    def rel_prop(self) -> np.ndarray:
-        return self.sigma_prop / self.g
-
-    @property
-    def rel_mc(self) -> np.ndarray:
-        return self.sigma_mc / self.g
-
-    @property
-    def ratio(self) -> np.ndarray:
-        return self.sigma_prop / self.sigma_mc
 
     def threshold_10pct(self, which: str = "mc") -> float:
         """Smallest g (S) such that every cell at or above it has relative σ < 10 %."""
