@@ -79,3 +79,30 @@ def test_a_port_that_does_not_exist_is_one_clear_line(command, tmp_path, capsys)
     assert main(argv) == 1
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "ttyNOPE" in err[0] and err[0].startswith(f"psmat {command[0]}:")
+
+
+def test_a_recorded_material_daq_session_becomes_a_pneumatic_run(tmp_path):
+    from psmat.protocol import DAQ_MAX_COUNT
+    from psmat.sensor import load_daq_session
+    from psmat.sensor.pneumatic import DAQ_R_O
+
+    path = tmp_path / "daq.h5"
+    assert main(["record", "--simulate", "--device", "daq", "--rate", "20", "-o", str(path), "--seconds", "1"]) == 0
+    s = load_session(path)
+    run = load_daq_session(path)
+    assert run.g.shape == (int(s.valid.sum()), 10)
+    # the divider by hand (sensor on the low side, R_o to V_ref): g = (1 - x) / (R_o x)
+    x = s.counts[s.valid] / DAQ_MAX_COUNT
+    with np.errstate(divide="ignore"):
+        expected = np.where(x > 0, (1 - x) / (DAQ_R_O * x), np.nan)
+    ok = np.isfinite(expected) & (x < 1)
+    np.testing.assert_allclose(run.g[ok], expected[ok], rtol=1e-12)
+    assert np.all(np.diff(run.t) > 0)
+    with pytest.raises(ValueError, match="daq"):
+        load_daq_session(_psm_session(tmp_path))
+
+
+def _psm_session(tmp_path):
+    path = tmp_path / "psm.h5"
+    assert main(["record", "--simulate", "-o", str(path), "--seconds", "0.3"]) == 0
+    return path

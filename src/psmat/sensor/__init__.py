@@ -3,7 +3,7 @@
 * :class:`MPICreep` - the direct model and its exact inverse (eq. 2.15-2.25);
 * :func:`fit` - identification from pneumatic experiments (eq. 2.26);
 * :mod:`psmat.sensor.protocols` - the four pneumatic protocols (§2.4.2);
-* :mod:`psmat.sensor.pneumatic` - simulated runs and the material DAQ's log loader;
+* :mod:`psmat.sensor.pneumatic` - simulated runs, the material DAQ's log and session loaders;
 * :func:`fit_cells` - shared, shared + per-cell gain, or per-cell models (cell variability);
 * :mod:`psmat.sensor.plots` - fitted vs measured output, recovered vs applied pressure (Fig. 2.37-2.39);
 * :mod:`psmat.sensor.metrics` - variability, drift, creep, hysteresis (eq. 2.1-2.4), tables
@@ -14,12 +14,12 @@ from . import metrics, plots, pneumatic, protocols
 from .cells import CellModels, fit_cells
 from .fit import FitResult, fit
 from .mpi_creep import THESIS_TABLE_2_11, MPICreep, SensorState
-from .pneumatic import PneumaticRun, load_daq_log, simulate_run
+from .pneumatic import PneumaticRun, load_daq_log, load_daq_session, simulate_run
 from .protocols import Protocol, ascending_hysteresis, descending_hysteresis, fast_cyclic, long_staircase
 
 __all__ = [
     "MPICreep", "SensorState", "THESIS_TABLE_2_11", "fit", "FitResult",
     "protocols", "pneumatic", "metrics", "plots",
     "Protocol", "fast_cyclic", "long_staircase", "descending_hysteresis", "ascending_hysteresis",
-    "PneumaticRun", "simulate_run", "load_daq_log", "CellModels", "fit_cells",
+    "PneumaticRun", "simulate_run", "load_daq_log", "load_daq_session", "CellModels", "fit_cells",
 ]

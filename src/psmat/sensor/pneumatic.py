@@ -51,6 +51,7 @@ __all__ = [
     "SkippedLine",
     "simulate_run",
     "load_daq_log",
+    "load_daq_session",
     "load_schedule_csv",
     "divider_conductance",
     "divider_counts",
@@ -541,3 +542,27 @@ def load_daq_log(path_or_lines: PathOrLines, schedule: Protocol | PathOrLines | 
     period = float(np.median(np.diff(t_log))) if (time_column and t_log.size > 1) else float(dt)
     return PneumaticRun(name=run_name or "daq_log", t=t_log, p=p, g=g, dt=period, segments=segments,
                         flags=flags, skipped=skipped, meta=meta)
+
+
+def load_daq_session(path: str | os.PathLike[str], schedule: Protocol | PathOrLines | None = None,
+                     **kwargs: Any) -> PneumaticRun:
+    """A material-DAQ session recorded by ``psmat record --device daq`` (:mod:`psmat.io`) as a
+    :class:`PneumaticRun`, aligned with the applied-pressure ``schedule``.
+
+    The session's valid rows become the DAQ's text lines with the host's arrival time (ms)
+    as the time column, then go through :func:`load_daq_log` (same divider conversion,
+    alignment and checks; keyword arguments are passed on). Rows that failed on the wire are
+    left out; their time slots stay empty rather than shifting later samples.
+    """
+    from ..io import load_session
+
+    s = load_session(path)
+    if s.kind != "daq":
+        raise ValueError(f"{path}: a {s.kind!r} session; load_daq_session reads material-DAQ (daq) sessions")
+    if not s.valid.any():
+        raise ValueError(f"{path}: no valid DAQ rows")
+    t_ms = (s.host_time_s - s.host_time_s[s.valid][0]) * 1e3
+    lines = [f"{t:.3f}," + ",".join(str(int(c)) for c in row)
+             for t, row, ok in zip(t_ms, s.counts, s.valid) if ok]
+    kwargs.setdefault("name", Path(path).stem)
+    return load_daq_log(lines, schedule, n_sensors=s.counts.shape[1], time_column=True, **kwargs)
