@@ -9,20 +9,10 @@ unselected lines sit at a few mV, not 0 V, behind their 10 Ω grounding switches
 
 from __future__ import annotations
 
-
 import numpy as np
 import pytest
 
-try:
-    import psmat.qzpm  # noqa: F401
-
-    HAVE_QZPM = True
-except ImportError:  # being written alongside
-    HAVE_QZPM = False
-
-pytestmark = pytest.mark.skipif(not HAVE_QZPM, reason="psmat.qzpm not built yet")
-
-from psmat import experiments as ex  # noqa: E402
+from psmat import experiments as ex
 
 
 @pytest.mark.parametrize("switches", ["shared", "separate"])

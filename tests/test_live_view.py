@@ -92,9 +92,6 @@ class _FakeDevice:
         self.stats.frames += len(f)
         return FrameBatch(f, np.full(len(f), time.time()), np.ones(len(f), bool), seq, seq * 10_000)
 
-    def latest(self, n: int = 1) -> FrameBatch:  # pragma: no cover - not used by the view
-        raise NotImplementedError
-
 
 def test_decimate_and_no_iecm() -> None:
     dev = _FakeDevice((16, 16), batches=4, per_batch=20)

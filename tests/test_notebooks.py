@@ -17,15 +17,6 @@ nbclient = pytest.importorskip("nbclient")
 
 ROOT = Path(__file__).resolve().parents[1]
 NOTEBOOKS = sorted((ROOT / "notebooks").glob("*.ipynb"))
-NEEDS_QZPM = {"qzpm_tables.ipynb"}
-
-
-def _have_qzpm() -> bool:
-    try:
-        import psmat.qzpm  # noqa: F401
-    except ImportError:
-        return False
-    return True
 
 
 def test_notebooks_exist():
@@ -46,8 +37,6 @@ def test_notebook_is_clean(path):
 @pytest.mark.slow
 @pytest.mark.parametrize("path", NOTEBOOKS, ids=[p.stem for p in NOTEBOOKS])
 def test_notebook_runs(path, tmp_path):
-    if path.name in NEEDS_QZPM and not _have_qzpm():
-        pytest.skip("psmat.qzpm not built yet")
     nb = nbformat.read(path, as_version=4)
     figures = tmp_path / "figures"
     env = dict(os.environ)

@@ -52,8 +52,6 @@ class FrameSource(Protocol):
 
     def read(self, n: int | None = None, timeout: float | None = None) -> Any: ...
 
-    def latest(self, n: int = 1) -> Any: ...
-
     @property
     def stats(self) -> Any: ...
 
@@ -110,7 +108,7 @@ class LiveView:
     ----------
     device : FrameSource
         A started :class:`psmat.acquire.Device`, or anything with ``read(n, timeout)``
-        returning a :class:`~psmat.acquire.FrameBatch`, ``latest(n)`` and ``stats``
+        returning a :class:`~psmat.acquire.FrameBatch`, and ``stats``
         (``frames``, ``invalid``, ``dropped_wire``, ``dropped_buffer``).
     shape : (int, int), optional
         Mat shape (R, C); default ``device.shape``, else (16, 16).

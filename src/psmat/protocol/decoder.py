@@ -35,6 +35,7 @@ from __future__ import annotations
 
 import re
 import struct
+from abc import ABC, abstractmethod
 from dataclasses import dataclass
 from typing import Any, Literal, Union
 
@@ -133,7 +134,7 @@ def _known(enum_type: Any, value: int) -> int:
         return value
 
 
-class _Decoder:
+class _Decoder(ABC):
     """Buffer handling, counters and the reply parser shared by the decoders."""
 
     #: Largest number of bytes waited for before a candidate can be judged.
@@ -259,8 +260,9 @@ class _Decoder:
         crc_ok = crc16(body) == (buf[end - 2] | (buf[end - 1] << 8))
         return end, (crc_ok, typ, seq, t_raw, rows, cols, body[HEADER_SIZE - 2:])
 
-    def _process(self, events: list[Event], final: bool) -> None:  # pragma: no cover - abstract
-        raise NotImplementedError
+    @abstractmethod
+    def _process(self, events: list[Event], final: bool) -> None:
+        """Decode what the buffer holds into ``events`` (each framing its own)."""
 
 
 _REPLY_ONLY = frozenset({PacketType.REPLY})
@@ -277,11 +279,13 @@ class _V1Base(_Decoder):
         self._payload_size = payload_size
         self._frame_size = 2 + payload_size + 2
 
-    def _check(self, payload: bytes, check: int) -> NDArray[Any] | None:  # pragma: no cover
-        raise NotImplementedError
+    @abstractmethod
+    def _check(self, payload: bytes, check: int) -> NDArray[Any] | None:
+        """The frame's data if ``payload`` passes its check, else None."""
 
-    def _invalid_data(self) -> NDArray[Any]:  # pragma: no cover
-        raise NotImplementedError
+    @abstractmethod
+    def _invalid_data(self) -> NDArray[Any]:
+        """The data of an invalid row (zeros / NaN)."""
 
     def _process(self, events: list[Event], final: bool) -> None:
         buf = self._buf
