@@ -14,18 +14,10 @@ from pathlib import Path
 import numpy as np
 
 from . import iecm, scenes
+from .balance import cop
 from .circuit import Circuit
 
-__all__ = ["run_crosstalk_demo", "cop_cm"]
-
-
-def cop_cm(image: np.ndarray, pitch_cm: float) -> np.ndarray:
-    """Centre of the image's mass in cm (x along columns, y along rows, cell centres)."""
-    R, C = image.shape
-    w = image / image.sum()
-    x = (np.arange(C) + 0.5) * pitch_cm
-    y = (np.arange(R) + 0.5) * pitch_cm
-    return np.array([(w.sum(axis=0) * x).sum(), (w.sum(axis=1) * y).sum()])
+__all__ = ["run_crosstalk_demo"]
 
 
 def run_crosstalk_demo(out: str | Path = "psmat_demo.png", *, rows: int = 16, cols: int = 16,
@@ -45,9 +37,9 @@ def run_crosstalk_demo(out: str | Path = "psmat_demo.png", *, rows: int = 16, co
     loaded = g_true >= 1e-4
     ghost_before = G_meas[~loaded].sum() / G_meas.sum()
     ghost_after = g_hat[~loaded].sum() / g_hat.sum()
-    cop_true = cop_cm(g_true, pitch)
-    err_raw = np.linalg.norm(cop_cm(G_meas, pitch) - cop_true)
-    err_iecm = np.linalg.norm(cop_cm(g_hat, pitch) - cop_true)
+    cop_true = cop(g_true, pitch)
+    err_raw = np.linalg.norm(cop(G_meas, pitch) - cop_true)
+    err_iecm = np.linalg.norm(cop(g_hat, pitch) - cop_true)
     rel_err = np.abs(g_hat[loaded] / g_true[loaded] - 1)
     res = {
         "ghost_fraction_raw": float(ghost_before),
@@ -88,7 +80,7 @@ def _figure(g_true, G_meas, g_hat, sigma, pitch, out, res, show):
     ax[0].set_ylabel("y, anterior-posterior (cm)")
     fig.colorbar(im, ax=ax[:3], label="conductance (S)", shrink=0.9)
     for img, mk, lab in ((g_true, "o", "true"), (G_meas, "x", "raw"), (g_hat, "+", "IECM")):
-        cx, cy = cop_cm(img, pitch)
+        cx, cy = cop(img, pitch) + pitch / 2  # the images' extent starts at the mat's corner
         ax[0].plot(cx, cy, mk, color={"true": "w", "raw": "r", "IECM": "m"}[lab], ms=9, mew=2, label=f"CoP {lab}")
     ax[0].legend(loc="lower right", fontsize=7)
     free = g_hat > 1e-9  # cells held at the bound g ~ 0 (noise) have no meaningful eq. 2.11

@@ -24,32 +24,29 @@ def cop(pressure: ArrayLike, pitch_cm: float = 2.0) -> NDArray[np.float64]:
 
     Parameters
     ----------
-    pressure : array_like, (T, R, C) or (R, C)
-        Pressure (any unit: the CoP does not depend on it), >= 0; NaN cells (missing
-        readings) are left out of both sums.
+    pressure : array_like, (..., R, C)
+        Pressure images (any unit: the CoP does not depend on it), >= 0, e.g. (T, R, C) or
+        one (R, C) frame; NaN cells (missing readings) are left out of both sums.
     pitch_cm : float
         Cell pitch (thesis mat: 2 cm).
 
     Returns
     -------
-    ndarray, (T, 2) or (2,)
+    ndarray, (..., 2)
         (x, y) = (M-L, A-P) in cm; NaN for a frame with no pressure on it.
     """
     p = np.asarray(pressure, dtype=np.float64)
-    single = p.ndim == 2
-    if single:
-        p = p[None]
-    if p.ndim != 3:
-        raise ValueError(f"pressure must be (T, R, C) or (R, C), got shape {p.shape}")
+    if p.ndim < 2:
+        raise ValueError(f"pressure must be (..., R, C), got shape {p.shape}")
     if not (np.isfinite(pitch_cm) and pitch_cm > 0):
         raise ValueError(f"pitch_cm must be positive, got {pitch_cm}")
     if np.any(p < 0):
-        t, i, c = np.argwhere(p < 0)[0]
-        raise ValueError(f"pressure must be >= 0 (frame {t}, cell ({i}, {c}) is {p[t, i, c]:g})")
+        idx = tuple(int(v) for v in np.argwhere(p < 0)[0])
+        raise ValueError(f"pressure must be >= 0 (index {idx} is {p[idx]:g})")
     p = np.where(np.isfinite(p), p, 0.0)
-    x, y = cell_centres_cm(p.shape[1:], pitch_cm)
-    total = p.sum(axis=(1, 2))
+    x, y = cell_centres_cm(p.shape[-2:], pitch_cm)
+    total = p.sum(axis=(-2, -1))
     with np.errstate(invalid="ignore", divide="ignore"):
-        out = np.stack([(p.sum(axis=1) * x).sum(axis=1) / total, (p.sum(axis=2) * y).sum(axis=1) / total], axis=1)
+        out = np.stack([p.sum(axis=-2) @ x / total, p.sum(axis=-1) @ y / total], axis=-1)
     out[total <= 0] = np.nan
-    return out[0] if single else out
+    return out

@@ -137,6 +137,7 @@ class SerialTwin:
                  serial: str = "TWIN0001", scene: str = "sway", seed: int = 0,
                  buffer_bytes: int = 65536) -> None:
         from .._core import firmware as fw
+        from ..protocol import Opcode, encode_command
         from .sources import DaqSource, ImuSource, PsmSource
 
         if kind not in ("psm", "imu", "daq"):
@@ -153,12 +154,12 @@ class SerialTwin:
             self.firmware = fw.PsmFirmware(shape[0], shape[1], proto, serial)
             if int(rate) != rate:
                 raise ValueError("the PSM's timer takes a whole number of frames per second")
-            self.firmware.receive(_command_bytes(0x03, int(rate)))  # SET_RATE, as a host would
+            self.firmware.receive(encode_command(Opcode.SET_RATE, int(rate)))  # SET_RATE, as a host would
             self.source = source or PsmSource.named(scene, rate, shape, seed=seed)
         elif kind == "imu":
             self.firmware = fw.ImuFirmware(proto, serial)
             if rate != 10.0:
-                self.firmware.receive(_command_bytes(0x03, int(rate)))
+                self.firmware.receive(encode_command(Opcode.SET_RATE, int(rate)))
             self.source = source or ImuSource(rate, seed)
         else:
             self.firmware = fw.DaqFirmware()
@@ -308,9 +309,3 @@ class SerialTwin:
                 return
             self.stats.errors.append(f"{type(exc).__name__}: {exc}")
             raise
-
-
-def _command_bytes(opcode: int, arg: int) -> bytes:
-    from ..protocol import encode_command
-
-    return encode_command(opcode, arg)
