@@ -4,22 +4,13 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from crc_reference import crc_bitwise
 
 from psmat.protocol import (CAL_RESUME, Gap, Opcode, Reply, Status, V2Decoder, cal_hold_arg, decode_command,
                             decode_v2, encode_command, encode_reply, encode_v2, format_identify, parse_identify,
                             v2_frame_size)
 
 
-def crc_bitwise(data: bytes) -> int:
-    """Independent bit-serial CRC-16/CCITT-FALSE."""
-    reg = 0xFFFF
-    for byte in data:
-        for i in range(7, -1, -1):
-            feedback = ((reg >> 15) & 1) ^ ((byte >> i) & 1)
-            reg = (reg << 1) & 0xFFFF
-            if feedback:
-                reg ^= 0x1021
-    return reg
 
 
 def with_crc(packet_without_crc: bytes, start: int = 2) -> bytes:
