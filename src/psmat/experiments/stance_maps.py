@@ -5,7 +5,7 @@ The thesis took ``g`` from IECM-processed images of its first prototype with a p
 (Table 2.4 noise model, 1000 draws). We have no recordings of those images, so the stances
 are simulated:
 
-* pressure: two feet from :func:`psmat.twin.pressure.foot` (smooth plantar lobes, 24 cm ×
+* pressure: two feet from :func:`psmat.twin.pressure.two_feet` (smooth plantar lobes, 24 cm ×
   9 cm, 60 % of each foot's load on the rearfoot), 700 N shared equally, averaged over the
   2 cm cells of the 16×16, 32 cm mat. *Standing*: feet side by side, 15 cm between their
   axes, toes out 7°. *Semi-tandem*: feet parallel and touching along their medial borders
@@ -24,7 +24,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..sensor import MPICreep
-from ..twin.pressure import cell_pressure_psi, foot
+from ..twin.pressure import cell_pressure_psi, two_feet
 from ._common import UncertaintyComparison, as_rng, fmt, format_table, plt, timed
 from .random_array import compare_uncertainty, plot_relative
 
@@ -49,16 +49,12 @@ def stance_pressure(
         raise ValueError(f"stance must be one of {STANCES}, got {stance!r}")
     R, C = shape
     cx, cy = (C - 1) / 2 * pitch_cm, (R - 1) / 2 * pitch_cm
-    half = weight_n / 2.0
     kw = dict(length_cm=foot_length_cm, width_cm=foot_width_cm)
     if stance == "standing":
-        left = foot(cx - stance_cm / 2, cy, half, side="left", toe_out_deg=toe_out_deg, **kw)
-        right = foot(cx + stance_cm / 2, cy, half, side="right", toe_out_deg=toe_out_deg, **kw)
-    else:
-        dy = foot_length_cm / 2.0
-        left = foot(cx - foot_width_cm / 2, cy - dy / 2, half, side="left", **kw)
-        right = foot(cx + foot_width_cm / 2, cy + dy / 2, half, side="right", **kw)
-    return cell_pressure_psi(left + right, (R, C), pitch_cm)
+        feet = two_feet(cx, cy, weight_n, stance_cm=stance_cm, toe_out_deg=toe_out_deg, **kw)
+    else:  # medial borders touching, the right foot half a foot length ahead
+        feet = two_feet(cx, cy, weight_n, stance_cm=foot_width_cm, stagger_cm=foot_length_cm / 2.0, **kw)
+    return cell_pressure_psi(feet, (R, C), pitch_cm)
 
 
 def stance_conductance(

@@ -23,6 +23,7 @@ from .pressure import (
     single_leg_sway,
     sitting,
     trajectory_sway,
+    two_feet,
 )
 
 from .mat import MatPhysics, MatTruth
@@ -53,4 +54,5 @@ __all__ = [
     "single_leg_sway",
     "sitting",
     "trajectory_sway",
+    "two_feet",
 ]

@@ -77,6 +77,7 @@ __all__ = [
     "Lobes",
     "PressureScene",
     "foot",
+    "two_feet",
     "cell_centres_cm",
     "cell_pressure_psi",
     "cell_force_n",
@@ -87,6 +88,7 @@ __all__ = [
     "sitting",
 ]
 
+from ..balance import cop as _cop  # noqa: E402  (one home for the CoP, SPEC §7)
 from ..units import PSI_PA  # noqa: E402  (one psi in Pa; one home for the constant)
 
 _N_PER_CM2_TO_PSI = 1.0e4 / PSI_PA  # 1 N/cm² = 1e4 Pa
@@ -393,19 +395,7 @@ def cell_cop_cm(pressure_psi: ArrayLike, pitch_cm: float = 2.0) -> NDArray[np.fl
     ndarray, shape (..., 2)
         (x, y) in cm; NaN for an empty frame.
     """
-    p = np.asarray(pressure_psi, dtype=np.float64)
-    if p.ndim < 2:
-        raise ValueError(f"pressure_psi must be (..., R, C), got shape {p.shape}")
-    pitch = _positive("pitch_cm", pitch_cm)
-    r, c = p.shape[-2:]
-    tot = p.sum(axis=(-2, -1))
-    mx = (p.sum(axis=-2) * (np.arange(c) * pitch)).sum(axis=-1)
-    my = (p.sum(axis=-1) * (np.arange(r) * pitch)).sum(axis=-1)
-    out = np.full(tot.shape + (2,), np.nan)
-    ok = tot > 0
-    out[ok, 0] = mx[ok] / tot[ok]
-    out[ok, 1] = my[ok] / tot[ok]
-    return out
+    return _cop(pressure_psi, _positive("pitch_cm", pitch_cm))
 
 
 # ------------------------------------------------------------------------------ foot
@@ -520,6 +510,54 @@ def foot(
     rear = _foot_part_lobes(_REAR, x, y, side, length, width, toe)
     fore = _foot_part_lobes(_FORE, x, y, side, length, width, toe)
     return rear.scaled(h * load) + fore.scaled((1.0 - h) * load)
+
+
+def two_feet(
+    x_cm: float,
+    y_cm: float,
+    load_n: float = 1.0,
+    *,
+    stance_cm: float = 15.0,
+    stagger_cm: float = 0.0,
+    length_cm: float = 24.0,
+    width_cm: float = 9.0,
+    toe_out_deg: float = 0.0,
+    heel_fraction: float = 0.6,
+) -> Lobes:
+    """Plantar pressure field of two feet (:func:`foot`) sharing ``load_n`` equally.
+
+    Parameters
+    ----------
+    x_cm, y_cm : float
+        Midpoint between the two feet's centres, mat coordinates in cm.
+    load_n : float
+        Total force in N (>= 0), half on each foot.
+    stance_cm : float
+        Distance (M-L) between the feet's centres in cm: the left foot is centred at
+        ``x − stance/2``, the right at ``x + stance/2``.
+    stagger_cm : float
+        How far (A-P, cm) the right foot stands ahead of the left: the left foot is centred
+        at ``y − stagger/2``, the right at ``y + stagger/2`` (0: side by side).
+    length_cm, width_cm, toe_out_deg, heel_fraction
+        As :func:`foot`, the same for both feet.
+
+    Returns
+    -------
+    Lobes
+        The left foot's lobes followed by the right foot's.
+    """
+    x = _finite("x_cm", x_cm)
+    y = _finite("y_cm", y_cm)
+    stance = _finite("stance_cm", stance_cm)
+    stagger = _finite("stagger_cm", stagger_cm)
+    load = _finite("load_n", load_n)
+    if load < 0:
+        raise ValueError(f"load_n must be >= 0 N, got {load_n!r}")
+    half = load / 2.0
+    kw = dict(length_cm=length_cm, width_cm=width_cm, toe_out_deg=toe_out_deg, heel_fraction=heel_fraction)
+    left = foot(x - stance / 2, y - stagger / 2, half, side="left", **kw)
+    right = foot(x + stance / 2, y + stagger / 2, half, side="right", **kw)
+    return left + right
 
 
 # ------------------------------------------------------------------------------ scenes
@@ -776,6 +814,102 @@ def _sway(n: int, rate: float, sway_cm: tuple[float, float], band: tuple[float, 
     )
 
 
+
+def _mat_args(shape: Any, pitch_cm: Any, min_fraction: Any, supersample: Any) -> tuple[tuple[int, int], float, float, int]:
+    """Checked ``(shape, pitch, min_fraction, supersample)`` shared by every scene generator."""
+    return (
+        _shape2(shape),
+        _positive("pitch_cm", pitch_cm),
+        _fraction("min_fraction", min_fraction, 0.0, 0.25),
+        _supersample(supersample),
+    )
+
+
+@dataclass(frozen=True)
+class _SceneArgs:
+    """Checked arguments common to the seeded scene generators (see :func:`_scene_args`)."""
+
+    shape: tuple[int, int]
+    pitch: float
+    weight: float
+    seed: int
+    t: NDArray[np.float64]
+    rate: float
+    sway: tuple[float, float]
+    band: tuple[float, float]
+    min_fraction: float
+    supersample: int
+
+    @property
+    def centre(self) -> NDArray[np.float64]:
+        """The mat centre (x, y) in cm."""
+        return _mat_centre(self.shape, self.pitch)
+
+    def rng(self) -> np.random.Generator:
+        """A fresh generator seeded with ``seed``."""
+        return np.random.default_rng(self.seed)
+
+    def sway_noise(self, rng: np.random.Generator) -> NDArray[np.float64]:
+        """Band-limited sway (T, 2) in cm with SDs ``sway`` (M-L, A-P), drawn from ``rng``."""
+        return _sway(self.t.size, self.rate, self.sway, self.band, rng)
+
+    def render(
+        self,
+        scene: str,
+        groups: Sequence[tuple[str, Lobes]],
+        nominal: Sequence[float],
+        target_cm: NDArray[np.float64],
+        extra: dict[str, Any],
+        load_n: float | None = None,
+    ) -> PressureScene:
+        """:func:`_render` with a constant total force ``load_n`` (default: the weight)."""
+        load = self.weight if load_n is None else load_n
+        meta = {"rate_hz": self.rate, "seed": self.seed, "weight_n": self.weight,
+                "sway_cm": self.sway, "band_hz": self.band}
+        meta.update(extra)
+        return _render(scene, groups, nominal, self.t, target_cm, np.full(self.t.size, load),
+                       self.shape, self.pitch, self.supersample, self.min_fraction, meta)
+
+
+def _scene_args(
+    duration_s: Any,
+    rate_hz: Any,
+    shape: Any,
+    pitch_cm: Any,
+    weight_n: Any,
+    seed: Any,
+    sway_cm: Any,
+    band_hz: Any,
+    min_fraction: Any,
+    supersample: Any,
+) -> _SceneArgs:
+    """Check the arguments shared by :func:`quiet_standing`, :func:`single_leg_sway`, :func:`sitting`."""
+    shape_, pitch, lo, s = _mat_args(shape, pitch_cm, min_fraction, supersample)
+    weight = _positive("weight_n", weight_n)
+    seed_ = _seed(seed)
+    t, rate = _time_base(duration_s, rate_hz)
+    return _SceneArgs(shape_, pitch, weight, seed_, t, rate, _pair("sway_cm", sway_cm), _band(band_hz), lo, s)
+
+
+def _two_feet_args(
+    shape: tuple[int, int],
+    pitch: float,
+    foot_length_cm: Any,
+    foot_width_cm: Any,
+    stance_cm: Any,
+    toe_out_deg: Any,
+    heel_fraction: Any,
+) -> tuple[list[tuple[str, Lobes]], NDArray[np.float64], dict[str, Any]]:
+    """Checked two-feet stance: ``(groups, nominal fractions, meta)`` (see :func:`_two_feet_groups`)."""
+    length, width, toe = _check_foot_size(foot_length_cm, foot_width_cm, toe_out_deg)
+    stance = _positive("stance_cm", stance_cm)
+    h = _fraction("heel_fraction", heel_fraction)
+    nominal = np.array([h, 1.0 - h, h, 1.0 - h]) / 2.0
+    groups = _two_feet_groups(shape, pitch, length, width, stance, toe, nominal)
+    meta = {"foot_length_cm": length, "foot_width_cm": width, "stance_cm": stance, "toe_out_deg": toe}
+    return groups, nominal, meta
+
+
 def quiet_standing(
     duration_s: float,
     rate_hz: float,
@@ -835,27 +969,12 @@ def quiet_standing(
     -------
     PressureScene
     """
-    shape = _shape2(shape)
-    pitch = _positive("pitch_cm", pitch_cm)
-    weight = _positive("weight_n", weight_n)
-    seed = _seed(seed)
-    t, rate = _time_base(duration_s, rate_hz)
-    sway = _pair("sway_cm", sway_cm)
-    band = _band(band_hz)
-    length, width, toe = _check_foot_size(foot_length_cm, foot_width_cm, toe_out_deg)
-    stance = _positive("stance_cm", stance_cm)
-    h = _fraction("heel_fraction", heel_fraction)
-    lo = _fraction("min_fraction", min_fraction, 0.0, 0.25)
-    s = _supersample(supersample)
-    nominal = np.array([h, 1.0 - h, h, 1.0 - h]) / 2.0
-    groups = _two_feet_groups(shape, pitch, length, width, stance, toe, nominal)
-    rng = np.random.default_rng(seed)
-    target = _mat_centre(shape, pitch) + _sway(t.size, rate, sway, band, rng)
-    return _render(
-        "quiet_standing", groups, nominal, t, target, np.full(t.size, weight), shape, pitch, s, lo,
-        {"rate_hz": rate, "seed": seed, "weight_n": weight, "sway_cm": sway, "band_hz": band,
-         "foot_length_cm": length, "foot_width_cm": width, "stance_cm": stance, "toe_out_deg": toe},
+    a = _scene_args(duration_s, rate_hz, shape, pitch_cm, weight_n, seed, sway_cm, band_hz, min_fraction, supersample)
+    groups, nominal, feet = _two_feet_args(
+        a.shape, a.pitch, foot_length_cm, foot_width_cm, stance_cm, toe_out_deg, heel_fraction
     )
+    target = a.centre + a.sway_noise(a.rng())
+    return a.render("quiet_standing", groups, nominal, target, feet)
 
 
 def single_leg_sway(
@@ -906,19 +1025,11 @@ def single_leg_sway(
     -------
     PressureScene
     """
-    shape = _shape2(shape)
-    pitch = _positive("pitch_cm", pitch_cm)
-    weight = _positive("weight_n", weight_n)
-    seed = _seed(seed)
-    t, rate = _time_base(duration_s, rate_hz)
+    a = _scene_args(duration_s, rate_hz, shape, pitch_cm, weight_n, seed, sway_cm, band_hz, min_fraction, supersample)
     side = _check_side(side)
-    sway = _pair("sway_cm", sway_cm)
-    band = _band(band_hz)
     length, width, _ = _check_foot_size(foot_length_cm, foot_width_cm, 0.0)
     h = _fraction("heel_fraction", heel_fraction)
-    lo = _fraction("min_fraction", min_fraction, 0.0, 0.25)
-    s = _supersample(supersample)
-    centre = _mat_centre(shape, pitch)
+    centre = a.centre
     parts = [
         ("rear_medial", _REAR_MEDIAL),
         ("rear_lateral", _REAR_LATERAL),
@@ -930,12 +1041,10 @@ def single_leg_sway(
     cop0 = (nominal[:, None] * np.array([l.cop_cm for l in lobes])).sum(axis=0)
     lobes = [l.shifted(*(centre - cop0)) for l in lobes]
     groups = [(n, l) for (n, _), l in zip(parts, lobes)]
-    rng = np.random.default_rng(seed)
-    target = centre + _sway(t.size, rate, sway, band, rng)
-    return _render(
-        "single_leg_sway", groups, nominal, t, target, np.full(t.size, weight), shape, pitch, s, lo,
-        {"rate_hz": rate, "seed": seed, "weight_n": weight, "side": side, "sway_cm": sway,
-         "band_hz": band, "foot_length_cm": length, "foot_width_cm": width},
+    target = centre + a.sway_noise(a.rng())
+    return a.render(
+        "single_leg_sway", groups, nominal, target,
+        {"side": side, "foot_length_cm": length, "foot_width_cm": width},
     )
 
 
@@ -1013,13 +1122,10 @@ def trajectory_sway(
     if np.any(fz <= 0):
         raise ValueError(f"fz_n must be > 0 N (someone standing on the mat), min is {fz.min()!r}")
     rate = _positive("rate_hz", rate_hz)
-    shape = _shape2(shape)
-    pitch = _positive("pitch_cm", pitch_cm)
-    length, width, toe = _check_foot_size(foot_length_cm, foot_width_cm, toe_out_deg)
-    stance = _positive("stance_cm", stance_cm)
-    h = _fraction("heel_fraction", heel_fraction)
-    lo = _fraction("min_fraction", min_fraction, 0.0, 0.25)
-    s = _supersample(supersample)
+    shape, pitch, lo, s = _mat_args(shape, pitch_cm, min_fraction, supersample)
+    groups, nominal, feet = _two_feet_args(
+        shape, pitch, foot_length_cm, foot_width_cm, stance_cm, toe_out_deg, heel_fraction
+    )
 
     n = int(math.floor((tt[-1] - tt[0]) * rate + 1e-9)) + 1
     t_out = tt[0] + np.arange(n) / rate
@@ -1028,13 +1134,10 @@ def trajectory_sway(
     mid = _mat_centre(shape, pitch)
     offset = mid - (np.array([ml.mean(), ap.mean()]) if centre else 0.0)
     target = np.column_stack([ml_o, ap_o]) + offset
-
-    nominal = np.array([h, 1.0 - h, h, 1.0 - h]) / 2.0
-    groups = _two_feet_groups(shape, pitch, length, width, stance, toe, nominal)
     return _render(
         "trajectory_sway", groups, nominal, t_out, target, fz_o, shape, pitch, s, lo,
         {"rate_hz": rate, "seed": None, "offset_cm": offset, "input_rate_hz": float((tt.size - 1) / (tt[-1] - tt[0])),
-         "foot_length_cm": length, "foot_width_cm": width, "stance_cm": stance, "toe_out_deg": toe},
+         **feet},
     )
 
 
@@ -1088,22 +1191,15 @@ def sitting(
     -------
     PressureScene
     """
-    shape = _shape2(shape)
-    pitch = _positive("pitch_cm", pitch_cm)
-    weight = _positive("weight_n", weight_n)
-    seed = _seed(seed)
-    t, rate = _time_base(duration_s, rate_hz)
+    a = _scene_args(duration_s, rate_hz, shape, pitch_cm, weight_n, seed, sway_cm, band_hz, min_fraction, supersample)
     frac = _fraction("seat_fraction", seat_fraction)
     if frac == 0:
         raise ValueError("seat_fraction must be > 0")
     lean = _pair("lean_cm", lean_cm)
     period = _positive("lean_period_s", lean_period_s)
-    sway = _pair("sway_cm", sway_cm)
-    band = _band(band_hz)
     dist = _positive("tuberosity_distance_cm", tuberosity_distance_cm)
-    lo = _fraction("min_fraction", min_fraction, 0.0, 0.25)
-    s = _supersample(supersample)
-    c = _mat_centre(shape, pitch)
+    t = a.t
+    c = a.centre
     xl = c[0] - dist / 2.0
     y_it = c[1] - 4.0
     # Left ischial tuberosity: sharp bony lobe (60 %) in a broad buttock lobe (40 %).
@@ -1119,16 +1215,15 @@ def sitting(
     ]
     nominal = np.array([0.32, 0.18, 0.32, 0.18])
     cop0 = (nominal[:, None] * np.array([l.cop_cm for _, l in groups])).sum(axis=0)
-    rng = np.random.default_rng(seed)
+    rng = a.rng()
     phase = rng.uniform(0.0, 2.0 * np.pi, size=2)
     w = 2.0 * np.pi / period
     target = cop0 + np.column_stack(
         [lean[0] * np.sin(w * t + phase[0]), lean[1] * np.sin(w * t + phase[1])]
-    ) + _sway(t.size, rate, sway, band, rng)
-    load = frac * weight
-    return _render(
-        "sitting", groups, nominal, t, target, np.full(t.size, load), shape, pitch, s, lo,
-        {"rate_hz": rate, "seed": seed, "weight_n": weight, "seat_fraction": frac, "lean_cm": lean,
-         "lean_period_s": period, "lean_phase_rad": phase, "sway_cm": sway, "band_hz": band,
+    ) + a.sway_noise(rng)
+    return a.render(
+        "sitting", groups, nominal, target,
+        {"seat_fraction": frac, "lean_cm": lean, "lean_period_s": period, "lean_phase_rad": phase,
          "tuberosity_distance_cm": dist},
+        load_n=frac * a.weight,
     )
