@@ -56,7 +56,7 @@ class PsmFirmware {
     hal.set_rate = [](void* c, uint32_t hz) { static_cast<PsmFirmware*>(c)->timer_hz_ = hz; };
     psm_init(core_.get(), &hal, static_cast<uint8_t>(rows), static_cast<uint8_t>(cols),
              static_cast<uint8_t>(protocol), serial.c_str());
-    timer_hz_ = core_->rate_hz;
+    timer_hz_ = core_->dev.rate_hz;
   }
 
   // One timer interrupt: the core scans `counts` (R, C) through the mux addresses it selects.
@@ -81,9 +81,9 @@ class PsmFirmware {
 
   int rows() const { return core_->rows; }
   int cols() const { return core_->cols; }
-  bool streaming() const { return core_->streaming != 0; }
-  int protocol() const { return core_->protocol; }
-  uint32_t seq() const { return core_->seq; }
+  bool streaming() const { return core_->dev.streaming != 0; }
+  int protocol() const { return core_->dev.protocol; }
+  uint32_t seq() const { return core_->dev.seq; }
   uint32_t rate_hz() const { return timer_hz_; }
   py::object hold() const {
     if (core_->hold == PM_CAL_RESUME) return py::none();

@@ -8,13 +8,14 @@
 #include <stdint.h>
 
 #include "command.h"
+#include "device.h"
 #include "frame.h"
 
 #define IMU_FW_VERSION "0.1.0"
 #define IMU_DEFAULT_RATE_HZ 10u
 #define IMU_RATE_MIN 1u
 #define IMU_RATE_MAX 100u /* the BNO055 fusion output rate */
-#define IMU_SERIAL_MAX 16u
+#define IMU_SERIAL_MAX PM_DEV_SERIAL_MAX
 
 typedef struct imu_hal {
     void *ctx;
@@ -27,15 +28,9 @@ typedef struct imu_hal {
 
 typedef struct imu_core {
     imu_hal hal;
-    uint8_t protocol;
-    uint8_t streaming;
-    uint32_t rate_hz;
-    uint32_t seq; /* frames sent so far = seq of the next frame */
-    char serial[IMU_SERIAL_MAX + 1];
-    pm_cmd_parser parser;
+    pm_device dev; /* protocol, streaming, rate_hz, seq, serial, parser, reply */
     float angles[IMU_ANGLES]; /* last read, sensor-major */
     uint8_t frame[PM_V2_LEN(IMU_PAYLOAD_LEN)];
-    uint8_t reply[PM_REPLY_MAX];
 } imu_core;
 
 void imu_init(imu_core *c, const imu_hal *hal, uint8_t protocol, const char *serial);

@@ -5,23 +5,14 @@
 void psm_init(psm_core *c, const psm_hal *hal, uint8_t rows, uint8_t cols, uint8_t protocol,
               const char *serial)
 {
-    uint8_t k = 0;
+    const pm_dev_io io = {hal->ctx, hal->write, hal->micros, hal->set_rate};
     c->hal = *hal;
+    pm_dev_init(&c->dev, &io, protocol, PSM_DEFAULT_RATE_HZ, PSM_RATE_MIN, PSM_RATE_MAX, serial);
     c->rows = rows < 1 ? 1 : rows > PSM_MAX_ROWS ? PSM_MAX_ROWS : rows;
     c->cols = cols < 1 ? 1 : cols > PSM_MAX_COLS ? PSM_MAX_COLS : cols;
-    c->protocol = protocol == PM_PROTO_V1 ? PM_PROTO_V1 : PM_PROTO_V2;
-    c->streaming = 1;
-    c->rate_hz = PSM_DEFAULT_RATE_HZ;
-    c->seq = 0;
     c->hold = PM_CAL_RESUME;
     c->r_o_ohm = 2200;
     c->v_ref_mv = 3300;
-    while (serial && serial[k] && k < PSM_SERIAL_MAX) {
-        c->serial[k] = serial[k];
-        k++;
-    }
-    c->serial[k] = '\0';
-    pm_cmd_parser_init(&c->parser);
 }
 
 /* Code 2.5: rows through the mux at address R-1-i, columns at p; frame in logical order. */
@@ -53,19 +44,18 @@ void psm_on_tick(psm_core *c)
 {
     size_t len;
     uint32_t t_us;
-    if (!c->streaming)
+    if (!c->dev.streaming)
         return;
     t_us = c->hal.micros(c->hal.ctx);
     if (c->hold == PM_CAL_RESUME)
         scan(c);
     else
         scan_held(c);
-    if (c->protocol == PM_PROTO_V1)
+    if (c->dev.protocol == PM_PROTO_V1)
         len = psm_encode_v1(c->cells, (size_t)c->rows * c->cols, c->frame);
     else
-        len = psm_encode_v2(c->seq, t_us, c->rows, c->cols, c->cells, c->frame);
-    c->seq++;
-    c->hal.write(c->hal.ctx, c->frame, len);
+        len = psm_encode_v2(c->dev.seq, t_us, c->rows, c->cols, c->cells, c->frame);
+    pm_dev_send_frame(&c->dev, c->frame, len);
 }
 
 static size_t identify(const psm_core *c, char *buf, size_t cap)
@@ -77,11 +67,11 @@ static size_t identify(const psm_core *c, char *buf, size_t cap)
     pm_text_str(&t, " cols=");
     pm_text_u32(&t, c->cols);
     pm_text_str(&t, " rate=");
-    pm_text_u32(&t, c->rate_hz);
+    pm_text_u32(&t, c->dev.rate_hz);
     pm_text_str(&t, " proto=");
-    pm_text_u32(&t, c->protocol);
+    pm_text_u32(&t, c->dev.protocol);
     pm_text_str(&t, " serial=");
-    pm_text_str(&t, c->serial);
+    pm_text_str(&t, c->dev.serial);
     pm_text_str(&t, " r_o=");
     pm_text_u32(&t, c->r_o_ohm);
     pm_text_str(&t, " v_ref=");
@@ -90,31 +80,14 @@ static size_t identify(const psm_core *c, char *buf, size_t cap)
     return t.len;
 }
 
-/* Applies one command; returns its status and leaves any reply text in text[0..*len).
- * START, STOP and IDENTIFY take arg 0 and ignore it. */
-static uint8_t execute(psm_core *c, const pm_cmd *cmd, char *text, size_t *len)
+/* The PSM's own commands (pm_dev_execute_fn); device.c handles the shared ones. */
+static uint8_t execute(void *core, const pm_cmd *cmd, char *text, size_t *len)
 {
+    psm_core *c = core;
     uint32_t arg = cmd->arg;
     switch (cmd->opcode) {
-    case PM_OP_START:
-        c->streaming = 1;
-        return PM_ST_OK;
-    case PM_OP_STOP:
-        c->streaming = 0;
-        return PM_ST_OK;
-    case PM_OP_SET_RATE:
-        if (arg < PSM_RATE_MIN || arg > PSM_RATE_MAX)
-            return PM_ST_BAD_ARG;
-        c->rate_hz = arg;
-        c->hal.set_rate(c->hal.ctx, arg);
-        return PM_ST_OK;
     case PM_OP_IDENTIFY:
         *len = identify(c, text, PM_REPLY_TEXT_MAX);
-        return PM_ST_OK;
-    case PM_OP_SET_PROTOCOL:
-        if (arg != PM_PROTO_V1 && arg != PM_PROTO_V2)
-            return PM_ST_BAD_ARG;
-        c->protocol = (uint8_t)arg;
         return PM_ST_OK;
     case PM_OP_CAL_HOLD:
         if (arg != PM_CAL_RESUME && (arg > 0xFFFFu || (arg >> 8) >= c->rows ||
@@ -129,16 +102,5 @@ static uint8_t execute(psm_core *c, const pm_cmd *cmd, char *text, size_t *len)
 
 void psm_on_rx(psm_core *c, const uint8_t *data, size_t n)
 {
-    pm_cmd cmd;
-    char text[PM_REPLY_TEXT_MAX];
-    for (size_t k = 0; k < n; k++) {
-        size_t len = 0;
-        uint8_t status;
-        if (!pm_cmd_push(&c->parser, data[k], &cmd))
-            continue;
-        status = execute(c, &cmd, text, &len);
-        len = pm_encode_reply(c->seq, c->hal.micros(c->hal.ctx), cmd.opcode, status, text, len,
-                              c->reply);
-        c->hal.write(c->hal.ctx, c->reply, len);
-    }
+    pm_dev_on_rx(&c->dev, data, n, execute, c);
 }

@@ -8,6 +8,7 @@
 #include <stdint.h>
 
 #include "command.h"
+#include "device.h"
 #include "frame.h"
 
 /* Buffer limits; a target may lower them (the BluePill's 4-bit muxes stop at 16x16). */
@@ -25,7 +26,7 @@
 #define PSM_RATE_MIN 1u
 #define PSM_RATE_MAX 1000u
 #define PSM_ADC_MASK 0x0FFFu /* 12-bit counts keep 0xFF 0xFF out of v1 frames */
-#define PSM_SERIAL_MAX 16u
+#define PSM_SERIAL_MAX PM_DEV_SERIAL_MAX
 
 typedef struct psm_hal {
     void *ctx;
@@ -39,20 +40,14 @@ typedef struct psm_hal {
 
 typedef struct psm_core {
     psm_hal hal;
+    pm_device dev; /* protocol, streaming, rate_hz, seq, serial, parser, reply */
     uint8_t rows, cols;
-    uint8_t protocol;  /* PM_PROTO_V1 or PM_PROTO_V2 */
-    uint8_t streaming; /* frames are written only while set */
-    uint32_t rate_hz;  /* last rate given to hal.set_rate (reported by IDENTIFY) */
-    uint32_t seq;      /* frames sent so far = seq of the next frame */
     uint32_t hold;     /* CAL_HOLD argument (row << 8 | col) or PM_CAL_RESUME */
     /* board description for IDENTIFY; psm_init sets the thesis board, the caller may edit */
     uint32_t r_o_ohm;
     uint16_t v_ref_mv;
-    char serial[PSM_SERIAL_MAX + 1];
-    pm_cmd_parser parser;
     uint16_t cells[PSM_MAX_CELLS]; /* last scan, row-major a = i*C + p */
     uint8_t frame[PSM_FRAME_MAX];
-    uint8_t reply[PM_REPLY_MAX];
 } psm_core;
 
 /* rows/cols are clamped to [1, PSM_MAX_*]; a protocol other than 1 selects v2. Streaming

@@ -245,7 +245,7 @@ static void test_rx_chunks_and_reply_header(void)
     CHECK_EQ(u32le(r + 4), 2); /* a reply carries the seq of the next frame */
     r = last_write(&len);
     CHECK_EQ(r[16], PM_OP_IDENTIFY);
-    CHECK_EQ(C.streaming, 0);
+    CHECK_EQ(C.dev.streaming, 0);
 }
 
 static void test_init_limits(void)
@@ -253,9 +253,9 @@ static void test_init_limits(void)
     setup(0, 200, 9);
     CHECK_EQ(C.rows, 1);
     CHECK_EQ(C.cols, PSM_MAX_COLS);
-    CHECK_EQ(C.protocol, PM_PROTO_V2);
-    CHECK_EQ(C.streaming, 1);
-    CHECK_EQ(C.rate_hz, 100);
+    CHECK_EQ(C.dev.protocol, PM_PROTO_V2);
+    CHECK_EQ(C.dev.streaming, 1);
+    CHECK_EQ(C.dev.rate_hz, 100);
 }
 
 int main(void)

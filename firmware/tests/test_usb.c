@@ -18,6 +18,13 @@ static void setup(usb_ctrl *c, usb_reply *r, uint8_t type, uint8_t req, uint16_t
     usb_ctrl_setup(c, &s, r);
 }
 
+/* setup(), then the kind of reply; a macro so that a failure names the caller's line */
+#define SETUP_KIND(c, r, type, req, value, index, length, want)                            \
+    do {                                                                                   \
+        setup(c, r, type, req, value, index, length);                                      \
+        CHECK_EQ((r)->kind, want);                                                         \
+    } while (0)
+
 static void test_device_descriptor(void)
 {
     const uint8_t *d = usb_device_desc;
@@ -152,24 +159,20 @@ static void test_get_descriptor(void)
     usb_ctrl_init(&c, "psmat PSM", "01ABCDEF");
 
     /* Linux asks for 64 bytes of the device descriptor first: 18 come */
-    setup(&c, &r, 0x80, 6, 0x0100, 0, 64);
-    CHECK_EQ(r.kind, USB_REPLY_IN);
+    SETUP_KIND(&c, &r, 0x80, 6, 0x0100, 0, 64, USB_REPLY_IN);
     CHECK_EQ(r.len, 18);
     CHECK(r.data == usb_device_desc);
     /* Windows asks for 8 first: truncated to 8 */
-    setup(&c, &r, 0x80, 6, 0x0100, 0, 8);
-    CHECK_EQ(r.kind, USB_REPLY_IN);
+    SETUP_KIND(&c, &r, 0x80, 6, 0x0100, 0, 8, USB_REPLY_IN);
     CHECK_EQ(r.len, 8);
     /* configuration header only (9), then all of it (wLength 0xFF > 67) */
-    setup(&c, &r, 0x80, 6, 0x0200, 0, 9);
-    CHECK_EQ(r.kind, USB_REPLY_IN);
+    SETUP_KIND(&c, &r, 0x80, 6, 0x0200, 0, 9, USB_REPLY_IN);
     CHECK_EQ(r.len, 9);
     CHECK(r.data == usb_config_desc);
     setup(&c, &r, 0x80, 6, 0x0200, 0, 0xFF);
     CHECK_EQ(r.len, 67);
     /* strings, LANGID and serial, truncated too */
-    setup(&c, &r, 0x80, 6, 0x0300, 0, 0xFF);
-    CHECK_EQ(r.kind, USB_REPLY_IN);
+    SETUP_KIND(&c, &r, 0x80, 6, 0x0300, 0, 0xFF, USB_REPLY_IN);
     CHECK_EQ(r.len, 4);
     setup(&c, &r, 0x80, 6, 0x0303, 0x0409, 0xFF);
     CHECK_EQ(r.len, 18);
@@ -179,20 +182,14 @@ static void test_get_descriptor(void)
     CHECK_EQ(r.data[0], 18); /* bLength still says the whole length */
     /* unknown string, DEVICE_QUALIFIER (full-speed only), other configuration index,
      * unknown descriptor type: STALL */
-    setup(&c, &r, 0x80, 6, 0x0307, 0x0409, 0xFF);
-    CHECK_EQ(r.kind, USB_REPLY_STALL);
-    setup(&c, &r, 0x80, 6, 0x0600, 0, 10);
-    CHECK_EQ(r.kind, USB_REPLY_STALL);
-    setup(&c, &r, 0x80, 6, 0x0201, 0, 0xFF);
-    CHECK_EQ(r.kind, USB_REPLY_STALL);
-    setup(&c, &r, 0x80, 6, 0x2100, 0, 0xFF);
-    CHECK_EQ(r.kind, USB_REPLY_STALL);
+    SETUP_KIND(&c, &r, 0x80, 6, 0x0307, 0x0409, 0xFF, USB_REPLY_STALL);
+    SETUP_KIND(&c, &r, 0x80, 6, 0x0600, 0, 10, USB_REPLY_STALL);
+    SETUP_KIND(&c, &r, 0x80, 6, 0x0201, 0, 0xFF, USB_REPLY_STALL);
+    SETUP_KIND(&c, &r, 0x80, 6, 0x2100, 0, 0xFF, USB_REPLY_STALL);
     /* wrong direction bit */
-    setup(&c, &r, 0x00, 6, 0x0100, 0, 18);
-    CHECK_EQ(r.kind, USB_REPLY_STALL);
+    SETUP_KIND(&c, &r, 0x00, 6, 0x0100, 0, 18, USB_REPLY_STALL);
     /* wLength 0: no data stage, just the status */
-    setup(&c, &r, 0x80, 6, 0x0100, 0, 0);
-    CHECK_EQ(r.kind, USB_REPLY_ACK);
+    SETUP_KIND(&c, &r, 0x80, 6, 0x0100, 0, 0, USB_REPLY_ACK);
 }
 
 static void test_address_and_configuration(void)
@@ -203,25 +200,20 @@ static void test_address_and_configuration(void)
 
     /* SET_ADDRESS: acknowledged, applied only after its status stage */
     CHECK_EQ(usb_ctrl_status_in_done(&c), -1);
-    setup(&c, &r, 0x00, 5, 23, 0, 0);
-    CHECK_EQ(r.kind, USB_REPLY_ACK);
+    SETUP_KIND(&c, &r, 0x00, 5, 23, 0, 0, USB_REPLY_ACK);
     CHECK_EQ(c.address, 0); /* still 0 during the status stage */
     CHECK_EQ(usb_ctrl_status_in_done(&c), 23);
     CHECK_EQ(c.address, 23);
     CHECK_EQ(usb_ctrl_status_in_done(&c), -1); /* once */
-    setup(&c, &r, 0x00, 5, 128, 0, 0);        /* > 127 */
-    CHECK_EQ(r.kind, USB_REPLY_STALL);
+    SETUP_KIND(&c, &r, 0x00, 5, 128, 0, 0, USB_REPLY_STALL); /* > 127 */
     CHECK_EQ(usb_ctrl_status_in_done(&c), -1);
 
     /* GET_CONFIGURATION / SET_CONFIGURATION */
-    setup(&c, &r, 0x80, 8, 0, 0, 1);
-    CHECK_EQ(r.kind, USB_REPLY_IN);
+    SETUP_KIND(&c, &r, 0x80, 8, 0, 0, 1, USB_REPLY_IN);
     CHECK_EQ(r.len, 1);
     CHECK_EQ(r.data[0], 0);
-    setup(&c, &r, 0x00, 9, 2, 0, 0); /* no configuration 2 */
-    CHECK_EQ(r.kind, USB_REPLY_STALL);
-    setup(&c, &r, 0x00, 9, 1, 0, 0);
-    CHECK_EQ(r.kind, USB_REPLY_ACK);
+    SETUP_KIND(&c, &r, 0x00, 9, 2, 0, 0, USB_REPLY_STALL); /* no configuration 2 */
+    SETUP_KIND(&c, &r, 0x00, 9, 1, 0, 0, USB_REPLY_ACK);
     CHECK_EQ(r.event, USB_EV_CONFIGURED);
     setup(&c, &r, 0x80, 8, 0, 0, 1);
     CHECK_EQ(r.data[0], 1);
@@ -230,49 +222,38 @@ static void test_address_and_configuration(void)
     CHECK_EQ(c.address, 23);
 
     /* GET_STATUS device / interface / endpoint */
-    setup(&c, &r, 0x80, 0, 0, 0, 2);
-    CHECK_EQ(r.kind, USB_REPLY_IN);
+    SETUP_KIND(&c, &r, 0x80, 0, 0, 0, 2, USB_REPLY_IN);
     CHECK_EQ(r.len, 2);
     CHECK_EQ(r.data[0], 0); /* bus powered, no remote wakeup */
     CHECK_EQ(r.data[1], 0);
-    setup(&c, &r, 0x81, 0, 0, 1, 2);
-    CHECK_EQ(r.kind, USB_REPLY_IN);
-    setup(&c, &r, 0x81, 0, 0, 2, 2); /* no interface 2 */
-    CHECK_EQ(r.kind, USB_REPLY_STALL);
-    setup(&c, &r, 0x82, 0, 0, 0x82, 2);
-    CHECK_EQ(r.kind, USB_REPLY_IN);
+    SETUP_KIND(&c, &r, 0x81, 0, 0, 1, 2, USB_REPLY_IN);
+    SETUP_KIND(&c, &r, 0x81, 0, 0, 2, 2, USB_REPLY_STALL); /* no interface 2 */
+    SETUP_KIND(&c, &r, 0x82, 0, 0, 0x82, 2, USB_REPLY_IN);
     CHECK_EQ(r.data[0], 0);
-    setup(&c, &r, 0x82, 0, 0, 0x83, 2); /* no such endpoint */
-    CHECK_EQ(r.kind, USB_REPLY_STALL);
+    SETUP_KIND(&c, &r, 0x82, 0, 0, 0x83, 2, USB_REPLY_STALL); /* no such endpoint */
     /* halt the bulk IN endpoint, read it back, clear it */
-    setup(&c, &r, 0x02, 3, 0, 0x82, 0);
-    CHECK_EQ(r.kind, USB_REPLY_ACK);
+    SETUP_KIND(&c, &r, 0x02, 3, 0, 0x82, 0, USB_REPLY_ACK);
     CHECK_EQ(r.event, USB_EV_SET_HALT);
     CHECK_EQ(r.ep, 0x82);
     setup(&c, &r, 0x82, 0, 0, 0x82, 2);
     CHECK_EQ(r.data[0], 1);
-    setup(&c, &r, 0x02, 1, 0, 0x82, 0);
-    CHECK_EQ(r.kind, USB_REPLY_ACK);
+    SETUP_KIND(&c, &r, 0x02, 1, 0, 0x82, 0, USB_REPLY_ACK);
     CHECK_EQ(r.event, USB_EV_CLEAR_HALT);
     setup(&c, &r, 0x82, 0, 0, 0x82, 2);
     CHECK_EQ(r.data[0], 0);
-    setup(&c, &r, 0x00, 3, 1, 0, 0); /* DEVICE_REMOTE_WAKEUP: not offered */
-    CHECK_EQ(r.kind, USB_REPLY_STALL);
+    SETUP_KIND(&c, &r, 0x00, 3, 1, 0, 0, USB_REPLY_STALL); /* DEVICE_REMOTE_WAKEUP: not offered */
 
     /* GET_INTERFACE / SET_INTERFACE: alternate setting 0 only */
-    setup(&c, &r, 0x81, 10, 0, 1, 1);
-    CHECK_EQ(r.kind, USB_REPLY_IN);
+    SETUP_KIND(&c, &r, 0x81, 10, 0, 1, 1, USB_REPLY_IN);
     CHECK_EQ(r.data[0], 0);
-    setup(&c, &r, 0x01, 11, 0, 1, 0);
-    CHECK_EQ(r.kind, USB_REPLY_ACK);
-    setup(&c, &r, 0x01, 11, 1, 1, 0);
-    CHECK_EQ(r.kind, USB_REPLY_STALL);
+    SETUP_KIND(&c, &r, 0x01, 11, 0, 1, 0, USB_REPLY_ACK);
+    SETUP_KIND(&c, &r, 0x01, 11, 1, 1, 0, USB_REPLY_STALL);
 
     /* deconfigure, then a USB reset forgets the address */
     setup(&c, &r, 0x00, 9, 0, 0, 0);
     CHECK_EQ(r.event, USB_EV_UNCONFIGURED);
-    setup(&c, &r, 0x81, 10, 0, 1, 1); /* interfaces exist only when configured */
-    CHECK_EQ(r.kind, USB_REPLY_STALL);
+    /* interfaces exist only when configured */
+    SETUP_KIND(&c, &r, 0x81, 10, 0, 1, 1, USB_REPLY_STALL);
     usb_ctrl_bus_reset(&c);
     CHECK_EQ(c.address, 0);
     CHECK_EQ(c.configuration, 0);
@@ -290,8 +271,7 @@ static void test_cdc_requests(void)
     setup(&c, &r, 0x00, 9, 1, 0, 0);
 
     /* GET_LINE_CODING: the default, then truncated */
-    setup(&c, &r, 0xA1, 0x21, 0, 0, 7);
-    CHECK_EQ(r.kind, USB_REPLY_IN);
+    SETUP_KIND(&c, &r, 0xA1, 0x21, 0, 0, 7, USB_REPLY_IN);
     CHECK_EQ(r.len, 7);
     CHECK_BYTES(r.data, coding_1m, 7);
     setup(&c, &r, 0xA1, 0x21, 0, 0, 4);
@@ -310,13 +290,11 @@ static void test_cdc_requests(void)
     r.out_buf[0] = 0x55;
     CHECK_EQ(usb_ctrl_out_done(&c, &s, 3), 0);
     CHECK_EQ(c.line_coding[0], 0x00);
-    setup(&c, &r, 0x21, 0x20, 0, 0, 6); /* wrong wLength */
-    CHECK_EQ(r.kind, USB_REPLY_STALL);
+    SETUP_KIND(&c, &r, 0x21, 0x20, 0, 0, 6, USB_REPLY_STALL); /* wrong wLength */
 
     /* SET_CONTROL_LINE_STATE: bit 0 DTR, bit 1 RTS */
     CHECK_EQ(usb_ctrl_dtr(&c), 0);
-    setup(&c, &r, 0x21, 0x22, 0x0002, 0, 0); /* RTS only */
-    CHECK_EQ(r.kind, USB_REPLY_ACK);
+    SETUP_KIND(&c, &r, 0x21, 0x22, 0x0002, 0, 0, USB_REPLY_ACK); /* RTS only */
     CHECK_EQ(r.event, USB_EV_LINE_STATE);
     CHECK_EQ(usb_ctrl_dtr(&c), 0);
     setup(&c, &r, 0x21, 0x22, 0x0003, 0, 0);
@@ -338,26 +316,18 @@ static void test_cdc_requests(void)
     setup(&c, &r, 0x00, 9, 1, 0, 0);
 
     /* SEND_BREAK accepted; class requests to the data interface are not ours */
-    setup(&c, &r, 0x21, 0x23, 0xFFFF, 0, 0);
-    CHECK_EQ(r.kind, USB_REPLY_ACK);
-    setup(&c, &r, 0x21, 0x22, 0x0001, 1, 0);
-    CHECK_EQ(r.kind, USB_REPLY_STALL);
+    SETUP_KIND(&c, &r, 0x21, 0x23, 0xFFFF, 0, 0, USB_REPLY_ACK);
+    SETUP_KIND(&c, &r, 0x21, 0x22, 0x0001, 1, 0, USB_REPLY_STALL);
 
     /* unknown requests: STALL */
-    setup(&c, &r, 0x21, 0x00, 0, 0, 0);      /* SEND_ENCAPSULATED_COMMAND */
-    CHECK_EQ(r.kind, USB_REPLY_STALL);
-    setup(&c, &r, 0xA1, 0x01, 0, 0, 64);     /* GET_ENCAPSULATED_RESPONSE */
-    CHECK_EQ(r.kind, USB_REPLY_STALL);
-    setup(&c, &r, 0xC0, 0x01, 0, 0, 16);     /* vendor */
-    CHECK_EQ(r.kind, USB_REPLY_STALL);
-    setup(&c, &r, 0x80, 0x07, 0x0100, 0, 18); /* SET_DESCRIPTOR with IN: nonsense */
-    CHECK_EQ(r.kind, USB_REPLY_STALL);
-    setup(&c, &r, 0x00, 0x07, 0x0100, 0, 18); /* SET_DESCRIPTOR */
-    CHECK_EQ(r.kind, USB_REPLY_STALL);
-    setup(&c, &r, 0x80, 0x0C, 0, 0, 2);      /* SYNCH_FRAME */
-    CHECK_EQ(r.kind, USB_REPLY_STALL);
-    setup(&c, &r, 0x60, 0x00, 0, 0, 0);      /* reserved type */
-    CHECK_EQ(r.kind, USB_REPLY_STALL);
+    SETUP_KIND(&c, &r, 0x21, 0x00, 0, 0, 0, USB_REPLY_STALL); /* SEND_ENCAPSULATED_COMMAND */
+    SETUP_KIND(&c, &r, 0xA1, 0x01, 0, 0, 64, USB_REPLY_STALL); /* GET_ENCAPSULATED_RESPONSE */
+    SETUP_KIND(&c, &r, 0xC0, 0x01, 0, 0, 16, USB_REPLY_STALL); /* vendor */
+    /* SET_DESCRIPTOR with IN: nonsense */
+    SETUP_KIND(&c, &r, 0x80, 0x07, 0x0100, 0, 18, USB_REPLY_STALL);
+    SETUP_KIND(&c, &r, 0x00, 0x07, 0x0100, 0, 18, USB_REPLY_STALL); /* SET_DESCRIPTOR */
+    SETUP_KIND(&c, &r, 0x80, 0x0C, 0, 0, 2, USB_REPLY_STALL); /* SYNCH_FRAME */
+    SETUP_KIND(&c, &r, 0x60, 0x00, 0, 0, 0, USB_REPLY_STALL); /* reserved type */
     CHECK_EQ(r.event, USB_EV_NONE);
 }
 
