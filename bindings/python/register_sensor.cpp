@@ -4,6 +4,8 @@
 #include <pybind11/pybind11.h>
 #include <pybind11/stl.h>
 
+#include <atomic>
+#include <cstdint>
 #include <stdexcept>
 
 #include "psmat/sensor/fit.hpp"
@@ -34,6 +36,28 @@ std::vector<Experiment> experiments(const std::vector<Eigen::VectorXd>& p,
     ex[e] = Experiment{p[e], g[e], dt[e]};
   }
   return ex;
+}
+
+AnnealOptions anneal_options(int max_evals, double t0, double t_end, std::uint64_t seed,
+                             std::atomic<int>* progress) {
+  AnnealOptions o;
+  o.max_evals = max_evals;
+  o.t0 = t0;
+  o.t_end = t_end;
+  o.seed = seed;
+  o.progress = progress;
+  return o;
+}
+
+// theta (optional) is inserted after x, as anneal_fit reports it.
+py::dict anneal_dict(const AnnealResult& r, const Eigen::VectorXd* theta = nullptr) {
+  py::dict d;
+  d["x"] = r.x;
+  if (theta) d["theta"] = *theta;
+  d["sse_n"] = r.sse_n;
+  d["evaluations"] = r.evaluations;
+  d["accepted"] = r.accepted;
+  return d;
 }
 
 void check_state(const MPICreep& m, const MPICreepState& s, Index cells) {
@@ -154,24 +178,14 @@ void register_sensor(py::module_& m) {
          const std::vector<bool>& log10, int max_evals, double t0, double t_end, std::uint64_t seed,
          std::atomic<int>* progress) {
         const auto ex = experiments(p, g, dt);
-        AnnealOptions o;
-        o.max_evals = max_evals;
-        o.t0 = t0;
-        o.t_end = t_end;
-        o.seed = seed;
-        o.progress = progress;
+        const AnnealOptions o = anneal_options(max_evals, t0, t_end, seed, progress);
         AnnealResult r;
         {
           py::gil_scoped_release release;
           r = anneal_fit(ex, n_ops, p_max, x0, lo, hi, scale, log10, o);
         }
-        py::dict d;
-        d["x"] = r.x;
-        d["theta"] = theta_from_x(r.x, scale, log10);
-        d["sse_n"] = r.sse_n;
-        d["evaluations"] = r.evaluations;
-        d["accepted"] = r.accepted;
-        return d;
+        const Eigen::VectorXd theta = theta_from_x(r.x, scale, log10);
+        return anneal_dict(r, &theta);
       },
       py::arg("p"), py::arg("g"), py::arg("dt"), py::arg("n_ops"), py::arg("p_max"), py::arg("x0"),
       py::arg("lo"), py::arg("hi"), py::arg("scale"), py::arg("log10"), py::arg("max_evals"),
@@ -218,23 +232,13 @@ void register_sensor(py::module_& m) {
       [](const SeparableProblem& s, const Eigen::VectorXd& z0, const Eigen::VectorXd& lo,
          const Eigen::VectorXd& hi, int max_evals, double t0, double t_end, std::uint64_t seed,
          std::atomic<int>* progress) {
-        AnnealOptions o;
-        o.max_evals = max_evals;
-        o.t0 = t0;
-        o.t_end = t_end;
-        o.seed = seed;
-        o.progress = progress;
+        const AnnealOptions o = anneal_options(max_evals, t0, t_end, seed, progress);
         AnnealResult r;
         {
           py::gil_scoped_release release;
           r = anneal_separable(s, z0, lo, hi, o);
         }
-        py::dict d;
-        d["x"] = r.x;
-        d["sse_n"] = r.sse_n;
-        d["evaluations"] = r.evaluations;
-        d["accepted"] = r.accepted;
-        return d;
+        return anneal_dict(r);
       },
       py::arg("problem"), py::arg("z0"), py::arg("lo"), py::arg("hi"), py::arg("max_evals"), py::arg("t0"),
       py::arg("t_end"), py::arg("seed"), py::arg("progress") = nullptr,
