@@ -32,6 +32,19 @@ void cold_start(Shape s, const Readings& G, double r0, VecRef g, VecRef sw) {
 
 namespace {
 
+// Work counters of a stage added to / copied into a report.
+void add_counts(SolveReport& acc, const SolveReport& r) {
+  acc.iterations += r.iterations;
+  acc.evaluations += r.evaluations;
+  acc.factorizations += r.factorizations;
+}
+
+void copy_counts(SolveReport& to, const SolveReport& from) {
+  to.iterations = from.iterations;
+  to.evaluations = from.evaluations;
+  to.factorizations = from.factorizations;
+}
+
 // Levenberg-Marquardt on x = log(theta) for one switch mode. theta = (cells, switches) with
 // switches of length 1 (shared) or R + C (separate).
 class Lsq {
@@ -41,7 +54,7 @@ class Lsq {
       const Eigen::VectorXd* fixed_sw = nullptr)
       : s_(s), G_(G), o_(o), mode_(mode), net_(s),
         np_(s.cells() + (fixed_sw ? 0 : (mode == Switches::Shared ? 1 : s.nodes()))),
-        F_(G.size()), r_(G.size()), Jfull_(G.size(), n_parameters(s)) {
+        F_(G.size()), r_(G.size()), w_(G.array().inverse()), Jfull_(G.size(), n_parameters(s)) {
     if (fixed_sw) fixed_sw_ = *fixed_sw;
   }
 
@@ -58,9 +71,8 @@ class Lsq {
   }
 
   bool evaluate(const Eigen::VectorXd& theta, double& cost, double& resid) {
-    Eigen::VectorXd g, sw;
-    expand(theta, g, sw);
-    if (!net_.compute(g, sw)) return false;
+    expand(theta, g_, sw_);
+    if (!net_.compute(g_, sw_)) return false;
     readings(net_, F_);
     r_ = (F_.array() / G_.array() - 1.0).matrix();
     if (!r_.allFinite()) return false;
@@ -74,7 +86,7 @@ class Lsq {
     jacobian(net_, Jfull_);
     const Index m = G_.size(), nc = s_.cells();
     Jw.resize(m, np_);
-    const Eigen::ArrayXd w = G_.array().inverse();
+    const Eigen::ArrayXd& w = w_;
     for (Index a = 0; a < nc; ++a) Jw.col(a) = (Jfull_.col(a).array() * w * theta[a]).matrix();
     if (fixed_sw_.size() > 0) return;
     if (mode_ == Switches::Shared) {
@@ -183,6 +195,8 @@ class Lsq {
   Index np_;
   Eigen::VectorXd fixed_sw_;
   Eigen::VectorXd F_, r_;
+  Eigen::ArrayXd w_;         // 1 / G (weights of the relative residuals)
+  Eigen::VectorXd g_, sw_;   // expanded parameters of the last evaluation (reused buffers)
   RowMatrixXd Jfull_;
 };
 
@@ -199,13 +213,22 @@ double solve_cells(Shape s, const Eigen::VectorXd& G, const SolveOptions& o,
   Lsq cells(s, G, oi, Switches::Separate, &sw);
   SolveReport ri;
   cells.run(g, ri);
-  acc.iterations += ri.iterations;
-  acc.evaluations += ri.evaluations;
-  acc.factorizations += ri.factorizations;
+  add_counts(acc, ri);
   if (ri.status == Status::Singular || !std::isfinite(ri.cost))
     return std::numeric_limits<double>::infinity();
   r = cells.residual();
   return ri.cost;
+}
+
+// Full separate-switch LM on the original readings G from theta (updated in place); its
+// counters are added to acc. Returns the stage's report.
+SolveReport polish(Shape s, const Eigen::VectorXd& G, const SolveOptions& o, Eigen::VectorXd& theta,
+                   SolveReport& acc) {
+  Lsq sep(s, G, o, Switches::Separate);
+  SolveReport rf;
+  sep.run(theta, rf);
+  add_counts(acc, rf);
+  return rf;
 }
 
 // Variable projection for the separate-switch problem (docs/qzpm.md §3): the cells are
@@ -221,16 +244,18 @@ Eigen::VectorXd varpro(Shape s, const Eigen::VectorXd& G, const SolveOptions& o,
   theta << g, sw;
   if (!std::isfinite(cost)) return theta;
   Lsq full(s, G, o, Switches::Separate);
-  Eigen::MatrixXd Jw, Jc, Js, QtJs, Jr, A(nn, nn), M(nn, nn);
+  Eigen::MatrixXd Jw, Jc, Js, QtJs, P, Jr, A(nn, nn), M(nn, nn);
   Eigen::VectorXd b(nn), D(nn), d1(nn), d2(nn), d(nn), gt(nc), gh(nc), swt(nn), swh(nn);
+  Eigen::VectorXd y(nc), dx(nc), rpp(m);  // buffers reused across iterations
   Eigen::LDLT<Eigen::MatrixXd> ldlt(nn);
+  Eigen::HouseholderQR<Eigen::MatrixXd> qr(m, nc);
   double lambda = 1e-3;
   const double stop = std::max(o.rtol, 1e-12);
   // first-order change of the (eliminated) cells for a switch step e: -J_c^+ J_s e
-  auto cells_for = [&](const Eigen::HouseholderQR<Eigen::MatrixXd>& qr, const Eigen::VectorXd& e,
-                       Eigen::VectorXd& out) {
-    Eigen::VectorXd y = QtJs.topRows(nc) * e;
-    Eigen::VectorXd dx = -qr.matrixQR().topLeftCorner(nc, nc).triangularView<Eigen::Upper>().solve(y);
+  // (qr: the QR of J_c of the current iteration)
+  auto cells_for = [&](const Eigen::VectorXd& e, Eigen::VectorXd& out) {
+    y.noalias() = QtJs.topRows(nc) * e;
+    dx = -qr.matrixQR().topLeftCorner(nc, nc).triangularView<Eigen::Upper>().solve(y);
     if (!dx.allFinite()) dx.setZero();
     out = (g.array() * dx.array().max(-2.0).min(2.0).exp()).matrix().cwiseMax(o.g_floor);
   };
@@ -242,9 +267,9 @@ Eigen::VectorXd varpro(Shape s, const Eigen::VectorXd& G, const SolveOptions& o,
     full.jacobian_log(theta, Jw);
     Jc = Jw.leftCols(nc);
     Js = Jw.rightCols(nn);
-    Eigen::HouseholderQR<Eigen::MatrixXd> qr(Jc);
+    qr.compute(Jc);
     QtJs = qr.householderQ().transpose() * Js;
-    Eigen::MatrixXd P = QtJs;
+    P = QtJs;
     P.topRows(nc).setZero();
     Jr = qr.householderQ() * P;
     A.setZero();
@@ -268,12 +293,12 @@ Eigen::VectorXd varpro(Shape s, const Eigen::VectorXd& G, const SolveOptions& o,
       double ch = std::numeric_limits<double>::infinity();
       if (accel) {
         swh = (sw.array() * (h * d1).array().exp()).matrix();
-        cells_for(qr, h * d1, gh);
+        cells_for(h * d1, gh);
         ch = solve_cells(s, G, o, swh, gh, rh, acc);
       }
       d2.setZero();
       if (accel && std::isfinite(ch)) {
-        const Eigen::VectorXd rpp = (2.0 / h) * ((rh - r) / h - Jr * d1);
+        rpp = (2.0 / h) * ((rh - r) / h - Jr * d1);
         d2 = ldlt.solve(-0.5 * (Jr.transpose() * rpp));
         if (!d2.allFinite()) d2.setZero();
         const double n1 = (D.cwiseSqrt().array() * d1.array()).matrix().norm();
@@ -287,7 +312,7 @@ Eigen::VectorXd varpro(Shape s, const Eigen::VectorXd& G, const SolveOptions& o,
       const double mx = d.cwiseAbs().maxCoeff();
       if (mx > 1.0) d /= mx;
       swt = (sw.array() * d.array().exp()).matrix();
-      cells_for(qr, d, gt);
+      cells_for(d, gt);
       const double ct = solve_cells(s, G, o, swt, gt, rt, acc);
       if (std::isfinite(ct) && ct < cost) {
         accepted = true;
@@ -350,12 +375,7 @@ Solution solve(Shape s, const Readings& Gr, const SolveOptions& o, const Eigen::
     for (auto& run : runs) {
       const auto& st = starts[run.first];
       Eigen::VectorXd th = varpro(s, G, o, st.first, st.second, acc, run.second);
-      Lsq sep(s, G, o, Switches::Separate);
-      SolveReport rf;
-      sep.run(th, rf);
-      acc.iterations += rf.iterations;
-      acc.evaluations += rf.evaluations;
-      acc.factorizations += rf.factorizations;
+      const SolveReport rf = polish(s, G, o, th, acc);
       if (rf.cost < vp_rep.cost || vp_best.size() == 0) {
         vp_best = th;
         vp_rep.status = rf.status;
@@ -364,9 +384,7 @@ Solution solve(Shape s, const Readings& Gr, const SolveOptions& o, const Eigen::
       }
       if (rf.status == Status::Converged) break;
     }
-    vp_rep.iterations = acc.iterations;
-    vp_rep.evaluations = acc.evaluations;
-    vp_rep.factorizations = acc.factorizations;
+    copy_counts(vp_rep, acc);
     if (vp_rep.status == Status::Converged) {
       rep = vp_rep;
       sol.g = vp_best.head(nc);
@@ -374,9 +392,7 @@ Solution solve(Shape s, const Readings& Gr, const SolveOptions& o, const Eigen::
       sol.g_col = vp_best.tail(s.cols);
       return sol;
     }
-    rep.iterations = acc.iterations;
-    rep.evaluations = acc.evaluations;
-    rep.factorizations = acc.factorizations;
+    copy_counts(rep, acc);
   }
 
   // stage 1: one shared switch conductance (the only stage in shared mode; in separate mode
@@ -417,9 +433,7 @@ Solution solve(Shape s, const Readings& Gr, const SolveOptions& o, const Eigen::
           Lsq step(s, Gt, ot, Switches::Separate);
           SolveReport rs;
           step.run(th, rs);
-          acc.iterations += rs.iterations;
-          acc.evaluations += rs.evaluations;
-          acc.factorizations += rs.factorizations;
+          add_counts(acc, rs);
           if (rs.status == Status::Converged) {
             t = t1;
             dt = std::min(1.0, dt * 2.0);
@@ -429,12 +443,7 @@ Solution solve(Shape s, const Readings& Gr, const SolveOptions& o, const Eigen::
           }
         }
       }
-      Lsq sep(s, G, o, Switches::Separate);
-      SolveReport rf;
-      sep.run(th, rf);
-      acc.iterations += rf.iterations;
-      acc.evaluations += rf.evaluations;
-      acc.factorizations += rf.factorizations;
+      const SolveReport rf = polish(s, G, o, th, acc);
       acc.status = rf.status;
       acc.residual = rf.residual;
       acc.cost = rf.cost;
@@ -454,17 +463,13 @@ Solution solve(Shape s, const Readings& Gr, const SolveOptions& o, const Eigen::
       SolveReport r = acc;
       r.status = Status::MaxIterations;
       Eigen::VectorXd th = homotopy(theta, r);
-      acc.iterations = r.iterations;
-      acc.evaluations = r.evaluations;
-      acc.factorizations = r.factorizations;
+      copy_counts(acc, r);
       if (r.cost < best_rep.cost || r.status == Status::Converged) {
         best = th;
         best_rep = r;
       }
     }
-    best_rep.iterations = acc.iterations;
-    best_rep.evaluations = acc.evaluations;
-    best_rep.factorizations = acc.factorizations;
+    copy_counts(best_rep, acc);
     if (vp_best.size() > 0 && vp_rep.cost <= best_rep.cost) {
       best = vp_best;
       best_rep.status = vp_rep.status;
