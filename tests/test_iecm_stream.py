@@ -87,3 +87,59 @@ def test_stream_rejects_bad_frames_and_push_after_close(rng):
     with pytest.raises(RuntimeError, match="closed"):
         s.push(np.full((4, 4), 1e-3))
     assert s.pop(0.1) is None
+
+
+def _noisy_twin_frames(T=50):
+    """16x16 G as a mat measures it (1 mV, 12 bits): slower to solve than to push."""
+    from psmat.circuit import OPEN
+    from psmat.process import open_floor
+    from psmat.scenes import swaying_feet
+
+    c = psmat.Circuit()
+    g = swaying_feet(T, 16, 16, rng=0)
+    G, flags = c.conductance(c.counts(psmat.iecm.forward(g), noise_v=1e-3, rng=1), return_flags=True)
+    return np.where(flags == OPEN, open_floor(c), G)
+
+
+def _readme_stream_example() -> str:
+    """The README's `with psmat.iecm.Stream(...)` statement, as printed there."""
+    from pathlib import Path
+
+    lines = (Path(__file__).resolve().parents[1] / "README.md").read_text().splitlines()
+    start = next(k for k, line in enumerate(lines) if line.startswith("with psmat.iecm.Stream("))
+    body = [lines[start]]
+    for line in lines[start + 1:]:
+        if line.strip() and not line.startswith(" "):
+            break
+        body.append(line)
+    return "\n".join(body)
+
+
+def test_the_readme_stream_example_returns_every_frame():
+    # regression (issue 10, item 6): run as written, the example got 0 of 50 noisy frames from
+    # ready() (they arrive faster than they are solved) and left the rest unread at exit
+    G = _noisy_twin_frames()
+    ns = {"psmat": psmat, "np": np, "live_frames": list(G)}
+    exec(compile(_readme_stream_example(), "README.md", "exec"), ns)
+    assert ns["s"].pending == 0  # every pushed frame was popped by the example's own code
+    assert ns["seq"] == len(G) - 1  # the last frame it handled is the last one pushed
+    expected = psmat.iecm.solve(G[-1])
+    loaded = expected >= 1e-4
+    np.testing.assert_allclose(ns["g_frame"][loaded], expected[loaded], rtol=1e-6)
+
+
+def test_leaving_the_with_block_with_unread_frames_warns():
+    G = _noisy_twin_frames(T=20)
+    with pytest.warns(RuntimeWarning, match=r"20 frames pushed and never popped.*drain\(\)"):
+        with psmat.iecm.Stream((16, 16), threads=2) as s:
+            for frame in G:
+                s.push(frame)
+    assert len(list(s.drain())) == 20  # still there for whoever drains afterwards
+
+
+def test_leaving_the_with_block_on_an_exception_does_not_warn():
+    G = _noisy_twin_frames(T=5)
+    with pytest.raises(KeyError):
+        with psmat.iecm.Stream((16, 16)) as s:
+            s.push(G[0])
+            raise KeyError("the caller's own error")

@@ -4,11 +4,17 @@ The reference design is the thesis' C thread pool (Fig. 2.10): a producer queues
 worker threads solve them, a consumer takes them in order. Each frame warm-starts from the
 newest solution available and reuses its worker's preconditioner, so a live recording
 costs a few Krylov iterations per frame, not cold solves.
+
+:meth:`Stream.ready` never waits, so frames that arrive faster than they are solved are
+still queued when the input ends: :meth:`Stream.drain` waits for them. Leaving the ``with``
+block does not wait; it warns when frames were pushed and never popped.
 """
 
 from __future__ import annotations
 
 from collections.abc import Iterable, Iterator
+
+import warnings
 
 import numpy as np
 
@@ -41,8 +47,10 @@ class Stream:
     >>> with Stream((16, 16)) as s:               # doctest: +SKIP
     ...     for G in frames_from_mat():
     ...         s.push(G)
-    ...         for seq, g, info in s.ready():
+    ...         for seq, g, info in s.ready():   # solved so far, without waiting
     ...             show(g)
+    ...     for seq, g, info in s.drain():       # the rest, waiting for each
+    ...         show(g)
     """
 
     def __init__(self, shape: tuple[int, int], method: str = "newton", *, threads: int = 1,
@@ -125,6 +133,10 @@ class Stream:
     def __enter__(self) -> "Stream":
         return self
 
-    def __exit__(self, *exc) -> None:
+    def __exit__(self, exc_type, exc, tb) -> None:
+        unread = self.pending
         self.close()
+        if exc_type is None and unread:
+            warnings.warn(f"Stream: {unread} frames pushed and never popped at the end of the with block; "
+                          "drain() returns them", RuntimeWarning, stacklevel=2)
 
