@@ -5,10 +5,13 @@
    default). Lost frames are counted by the device's sequence numbers, so the figure is
    measured, not inferred.
 2. The same with a corrupted link (bit flips and dropped bytes), psmat against a
-   thesis-style reader run in the same process on the same kind of stream: fixed-size v1
-   frames read after one initial sync on ``INIT INIT`` (Code 2.1–2.2 on the PC side), bad
-   checks stored as missing rows. It never resynchronises, which is what the v1/v2
-   decoders' byte-by-byte resync is for.
+   thesis-style reader run in the same process on the same kind of stream. The thesis gives
+   the device side (Code 2.1–2.2: ``INIT INIT``, the cells, their sum mod 4096; "if the
+   signature is not right, the PC stores -1"); the reader does what that framing allows:
+   before every frame it waits for ``INIT INIT``, then reads the frame's fixed size and
+   checks the sum, a bad one stored as a missing row. When a byte is lost, that read runs
+   into the next frame's marker, so the next frame leaves no row at all; psmat's decoders
+   resync byte by byte after a failed check and find it.
 """
 
 from __future__ import annotations
@@ -23,7 +26,7 @@ import time
 
 import numpy as np
 
-__all__ = ["main"]
+__all__ = ["main", "thesis_read"]
 
 
 def _psmat_run(seconds: float, rate: int, protocol: str, faults: str) -> dict:
@@ -53,33 +56,46 @@ def _psmat_run(seconds: float, rate: int, protocol: str, faults: str) -> dict:
                 sent=sent, wall=wall, cpu=cpu, buffer_drops=st.dropped_buffer)
 
 
+def _read_exact(s, n: int, stop: threading.Event) -> bytes | None:
+    """n bytes from the port, or None when ``stop`` is set first."""
+    buf = b""
+    while len(buf) < n:
+        if stop.is_set():
+            return None
+        buf += s.read(n - len(buf))
+    return buf
+
+
+def _sync(s, stop: threading.Event) -> bool:
+    """Consume bytes up to and including the next INIT INIT (0xFF 0xFF); False if stopped."""
+    prev = b""
+    while not stop.is_set():
+        b = s.read(1)
+        if prev == b == b"\xff":
+            return True
+        prev = b or prev
+    return False
+
+
+def thesis_read(s, shape: tuple[int, int], stop: threading.Event, out: dict) -> None:
+    """The thesis' PC side (module docstring) on an open port ``s`` (``read(n)`` with a timeout),
+    until ``stop``: INIT INIT, a fixed-size frame, its sum mod 4096; a bad sum is a missing row
+    (the thesis stores -1). Keeps ``out["frames"]`` (valid rows) and ``out["invalid"]`` current."""
+    size = 2 * shape[0] * shape[1] + 2
+    out.update(frames=0, invalid=0)
+    while _sync(s, stop) and (frame := _read_exact(s, size, stop)) is not None:
+        cells = np.frombuffer(frame[:-2], "<u2")
+        check = int.from_bytes(frame[-2:], "little")
+        good = int(cells.sum()) % 4096 == check and cells.max() < 4096
+        out["frames" if good else "invalid"] += 1
+
+
 def _thesis_reader(port: str, shape: tuple[int, int], stop: threading.Event, out: dict) -> None:
-    """The thesis' PC side: sync once on INIT INIT, then fixed-size frames; bad check -> -1 row."""
     import serial
 
-    n = shape[0] * shape[1]
-    size = 2 * n + 2
     with serial.Serial(port, timeout=0.2) as s:
         s.reset_input_buffer()
-        prev = b""
-        while not stop.is_set():  # initial sync
-            b = s.read(1)
-            if prev == b"\xff" and b == b"\xff":
-                break
-            prev = b
-        good = bad = 0
-        while not stop.is_set():
-            frame = s.read(size)
-            if len(frame) < size:
-                continue
-            cells = np.frombuffer(frame[:-2], "<u2")
-            check = int.from_bytes(frame[-2:], "little")
-            if int(cells.sum()) % 4096 == check and cells.max() < 4096:
-                good += 1
-            else:
-                bad += 1
-            s.read(2)  # the next INIT INIT, assumed in place
-        out.update(frames=good, invalid=bad)
+        thesis_read(s, shape, stop, out)
 
 
 def _thesis_run(seconds: float, rate: int, faults: str) -> dict:
@@ -121,5 +137,5 @@ def main(argv: list[str] | None = None) -> int:
           f"of {r['sent']} sent (v1 cannot count losses)", flush=True)
     b = _thesis_run(args.fault_seconds, args.rate, args.faults)
     print(f"  thesis-style v1 reader : {b.get('frames', 0)} valid, {b.get('invalid', 0)} invalid rows, "
-          f"of {b.get('sent', 0)} sent (no resync after the first lost byte)", flush=True)
+          f"of {b.get('sent', 0)} sent (INIT INIT, then a fixed-size read)", flush=True)
     return 0

@@ -1,4 +1,4 @@
-"""Sensor-model benchmark (SPEC §10, issue 3): ``python -m psmat.bench sensor [--quick]``.
+"""Sensor-model benchmark (SPEC §10, issue 3): ``python -m psmat.bench sensor [--quick] [--seed K]``.
 
 1. Throughput of the C++ direct and inverse MPI + creep model on 256 cells, beside a NumPy
    implementation vectorised over cells (a Python loop over samples) run in the same process.
@@ -8,7 +8,8 @@
    problem (tau, creep rates; linear parameters exact) and over all 9 parameters (the
    thesis' literal method), and ``scipy.optimize.dual_annealing`` on each of those two
    objectives and boxes, each with its wall time and SSE_N relative to the best SSE_N
-   found in the run.
+   found in the run. ``--seed`` seeds the annealers (C++ and scipy); the data stay the same,
+   so runs with different seeds show how far the annealing's result depends on its seed.
 """
 
 from __future__ import annotations
@@ -21,7 +22,7 @@ import numpy as np
 
 from .iecm import machine_info
 
-__all__ = ["main", "run"]
+__all__ = ["main", "run", "identification_data"]
 
 
 def _numpy_setup(model, dt: float, cells: int):
@@ -97,18 +98,29 @@ def _throughput(quick: bool, log) -> list[dict]:
     return rows
 
 
-def _identification(quick: bool, log) -> tuple[list[dict], dict]:
-    from scipy.optimize import dual_annealing
-
-    from .. import _core
-    from ..sensor import MPICreep, fit, protocols
-    from ..sensor.fit import _Reduced, _space
+def identification_data(quick: bool = False) -> tuple[list[np.ndarray], list[np.ndarray]]:
+    """The identification data: descending and ascending protocols (psi) at 2 Hz and the
+    thesis cell's conductances (S) with 0.5 % noise, fixed whatever the annealing seed."""
+    from ..sensor import MPICreep, protocols
 
     reps = 2 if quick else 10
     true = MPICreep.thesis()
     rng = np.random.default_rng(1)
     ps = [protocols.descending_hysteresis(repetitions=reps).p_psi, protocols.ascending_hysteresis(repetitions=reps).p_psi]
     gs = [(g := true.direct(p, 0.5)) * (1 + 0.005 * rng.standard_normal(g.shape)) for p in ps]
+    return ps, gs
+
+
+def _identification(quick: bool, seed: int, log) -> tuple[list[dict], dict]:
+    from scipy.optimize import dual_annealing
+
+    from .. import _core
+    from ..sensor import MPICreep, fit
+    from ..sensor.fit import _Reduced, _space
+
+    reps = 2 if quick else 10
+    true = MPICreep.thesis()
+    ps, gs = identification_data(quick)
     data = dict(samples=[len(p) for p in ps], hours=sum(len(p) for p in ps) * 0.5 / 3600)
     log(f"  data: descending + ascending x{reps} at 2 Hz: {data['samples']} samples ({data['hours']:.2f} h), 0.5 % noise")
     rows = []
@@ -117,18 +129,18 @@ def _identification(quick: bool, log) -> tuple[list[dict], dict]:
 
     res = fit(ps, gs, 0.5, method="varpro")
     rows.append(dict(method="varpro (grid + NLopt BOBYQA)", sse_n=res.sse_n, seconds=res.wall_time, evaluations=res.evaluations))
-    res = fit(ps, gs, 0.5, method="anneal", seed=0, max_evals=evals)
+    res = fit(ps, gs, 0.5, method="anneal", seed=seed, max_evals=evals)
     chains = res.details["chains"]
     rows.append(dict(method=f"anneal C++ reduced ({chains} chains x {evals}) + BOBYQA", sse_n=res.sse_n,
                      seconds=res.wall_time, evaluations=res.evaluations))
-    res = fit(ps, gs, 0.5, method="anneal_full", seed=0, max_evals=evals_full)
+    res = fit(ps, gs, 0.5, method="anneal_full", seed=seed, max_evals=evals_full)
     rows.append(dict(method=f"anneal C++ all 9 ({chains} chains x {evals_full}) + BOBYQA", sse_n=res.sse_n,
                      seconds=res.wall_time, evaluations=res.evaluations))
 
     # scipy's dual_annealing on the same two objectives and boxes, same budgets
     red = _Reduced(ps, gs, [0.5, 0.5], 6, 32.0, 2)
     t0 = time.perf_counter()
-    da = dual_annealing(lambda z: np.log(red(z)[0]), list(zip(red.lower, red.upper)), maxfun=chains * evals, seed=0)
+    da = dual_annealing(lambda z: np.log(red(z)[0]), list(zip(red.lower, red.upper)), maxfun=chains * evals, seed=seed)
     rows.append(dict(method=f"scipy dual_annealing reduced (maxfun {chains * evals})", sse_n=float(np.exp(da.fun)),
                      seconds=time.perf_counter() - t0, evaluations=red.evals))
 
@@ -145,7 +157,7 @@ def _identification(quick: bool, log) -> tuple[list[dict], dict]:
         return float(np.log(np.mean(_core.sensor.sse_n_each(th, ps, gs, [0.5, 0.5], 6, 32.0))))
 
     t0 = time.perf_counter()
-    da = dual_annealing(objective, list(zip(lo, hi)), x0=x0, maxfun=chains * evals_full, seed=0)
+    da = dual_annealing(objective, list(zip(lo, hi)), x0=x0, maxfun=chains * evals_full, seed=seed)
     rows.append(dict(method=f"scipy dual_annealing all 9 (maxfun {chains * evals_full})", sse_n=float(np.exp(da.fun)),
                      seconds=time.perf_counter() - t0, evaluations=count))
     best = min(r_["sse_n"] for r_ in rows)
@@ -158,22 +170,28 @@ def _identification(quick: bool, log) -> tuple[list[dict], dict]:
     return rows, data
 
 
-def run(quick: bool = False, log=print) -> dict:
+def run(quick: bool = False, seed: int = 0, log=print) -> dict:
+    """Run the benchmark (module docstring); ``seed`` seeds the annealers. Returns the figures."""
     info = machine_info()
-    log(f"sensor model benchmark - machine: {info.get('cpu', '?')}, {info.get('usable_cpus', '?')} cores")
+    log(f"sensor model benchmark - machine: {info.get('cpu', '?')}, {info.get('usable_cpus', '?')} cores; "
+        f"annealing seed {seed}")
     log("throughput (256 cells):")
     thr = _throughput(quick, log)
     log("identification:")
-    ident, data = _identification(quick, log)
-    return {"machine": info, "throughput": thr, "identification": ident, "data": data}
+    ident, data = _identification(quick, seed, log)
+    return {"machine": info, "seed": seed, "throughput": thr, "identification": ident, "data": data}
 
 
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(prog="python -m psmat.bench sensor", description=__doc__.split("\n\n")[0])
     ap.add_argument("--quick", action="store_true", help="small data and budgets (about a minute)")
+    ap.add_argument("--seed", type=int, default=0, help="seed of the annealers, C++ and scipy (default 0); "
+                    "the data do not change with it")
     ap.add_argument("--json", help="write the figures to this file")
     args = ap.parse_args(argv)
-    res = run(quick=args.quick)
+    if args.seed < 0:
+        ap.error(f"--seed must be >= 0, got {args.seed}")
+    res = run(quick=args.quick, seed=args.seed)
     if args.json:
         with open(args.json, "w") as f:
             json.dump(res, f, indent=1, default=float)
