@@ -65,7 +65,7 @@ def _figure(g_true, G_meas, g_hat, sigma, pitch, out, res, show):
     from matplotlib.colors import LogNorm
 
     R, C = g_true.shape
-    extent = (0, C * pitch, R * pitch, 0)
+    extent = (-pitch / 2, (C - 0.5) * pitch, -pitch / 2, (R - 0.5) * pitch)  # cell (i, p) at (p, i)·pitch, SPEC §7
     norm = LogNorm(vmin=1e-6, vmax=2e-2)
     fig, ax = plt.subplots(1, 4, figsize=(17, 4.4), constrained_layout=True)
     panels = [
@@ -74,13 +74,14 @@ def _figure(g_true, G_meas, g_hat, sigma, pitch, out, res, show):
         (g_hat, f"after IECM ({100 * res['ghost_fraction_iecm']:.1f} % ghost)"),
     ]
     for a, (img, title) in zip(ax[:3], panels):
-        im = a.imshow(np.clip(img, 1e-6, None), norm=norm, cmap="viridis", extent=extent)
+        im = a.imshow(np.clip(img, 1e-6, None), norm=norm, cmap="viridis", extent=extent, origin="lower",
+                      interpolation="nearest")
         a.set_title(title, fontsize=10)
         a.set_xlabel("x, medial-lateral (cm)")
     ax[0].set_ylabel("y, anterior-posterior (cm)")
     fig.colorbar(im, ax=ax[:3], label="conductance (S)", shrink=0.9)
     for img, mk, lab in ((g_true, "o", "true"), (G_meas, "x", "raw"), (g_hat, "+", "IECM")):
-        cx, cy = cop(img, pitch) + pitch / 2  # the images' extent starts at the mat's corner
+        cx, cy = cop(img, pitch)
         ax[0].plot(cx, cy, mk, color={"true": "w", "raw": "r", "IECM": "m"}[lab], ms=9, mew=2, label=f"CoP {lab}")
     ax[0].legend(loc="lower right", fontsize=7)
     free = g_hat > 1e-9  # cells held at the bound g ~ 0 (noise) have no meaningful eq. 2.11
