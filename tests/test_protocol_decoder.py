@@ -136,8 +136,11 @@ def test_v1_fuzz_everything(seed, shape):
         # counts add up: each touched frame gives at most one row; garbage at most one spurious row
         assert dec.frames == n - len(touched)
         assert dec.invalid <= len(touched) + between
-        lost = n - dec.frames - min(dec.invalid, len(touched))
-        assert dec.frames + min(dec.invalid, len(touched)) + lost == n
+        # so the time base is off by at most that much: clean frame i lands at row i, moved
+        # earlier by touched frames that left no row, later by spurious rows from garbage
+        at = np.flatnonzero([r.valid for r in rows])
+        sent_at = np.array([i for i in range(n) if i not in touched])
+        assert np.all(at >= sent_at - len(touched)) and np.all(at <= sent_at + between)
     # all frames after the last corruption are recovered
     last = max(touched) if touched else -1
     tail = [r for r in rows][-(n - last - 1):]

@@ -17,8 +17,12 @@ byte. In v1 a failed candidate is an invalid row, except (a) a false start: dire
 another marker byte (``FF FF FF``), its first byte is garbage; (b) a candidate that starts
 inside the span of the previous invalid row is a row of its own only if a marker follows
 right after its span (else it is a marker-like pair inside the corrupted frame: one
-corrupted frame gives one invalid row, not several). In v2 every frame with a plausible
-header and a bad CRC is an invalid row.
+corrupted frame gives one invalid row, not several). In v2 a packet with a plausible header
+and a bad CRC is an invalid row, but its header failed the check too and is trusted only as
+far as it agrees with what is known: a candidate inside the span of the previous invalid row
+is no row (the sequence numbers count a real frame lost there), nor is one whose shape
+differs from the last valid frame of its type (a fake header in garbage or in a payload).
+So invalid rows never overlap: they hold at most as many bytes as the stream.
 
 Counters (attributes, also :attr:`~_Decoder.stats`): ``bytes_in``, ``frames`` (valid
 frames), ``invalid`` (invalid rows), ``skipped`` (garbage bytes that belong to no reported
@@ -426,14 +430,18 @@ class V2Decoder(_Decoder):
     A header is trusted only within the limits of docs/protocol.md (version 2, type 0x01,
     0x02 or 0x11, ``n <= 8192``, ``n == 2*R*C`` / ``4*R*C`` with ``R, C >= 1`` for frames);
     otherwise its first byte is garbage. A frame with a plausible header and a bad CRC is
-    an invalid :class:`Frame` (shape from its header; ``seq``/``t_us`` None); a gap in
-    ``seq`` not filled by such rows emits a :class:`Gap` and adds to ``dropped``.
+    an invalid :class:`Frame` (``seq``/``t_us`` None) unless it starts inside the previous
+    invalid row or names another shape than the last valid frame of its type (then its
+    first byte is garbage); before the first valid frame its shape is its header's,
+    untrusted. A gap in ``seq`` not filled by invalid rows emits a :class:`Gap` and adds to
+    ``dropped``.
     """
 
     def __init__(self) -> None:
         super().__init__()
         self._last_seq: int | None = None
         self._invalid_since = 0
+        self._shapes: dict[int, tuple[int, int]] = {}   # packet type -> shape of its last valid frame
 
     def _process(self, events: list[Event], final: bool) -> None:
         buf = self._buf
@@ -457,7 +465,7 @@ class V2Decoder(_Decoder):
                 continue
             crc_ok, typ, seq, t_raw, rows, cols, payload = info
             if not crc_ok:
-                if typ != PacketType.REPLY:
+                if self._is_row(typ, rows, cols, k):
                     self.invalid += 1
                     self._invalid_since += 1
                     if typ == PacketType.PSM:
@@ -488,6 +496,7 @@ class V2Decoder(_Decoder):
                     self.restarts += 1
             self._last_seq = seq
             self._invalid_since = 0
+            self._shapes[typ] = (rows, cols)
             if typ == PacketType.PSM:
                 data = np.frombuffer(payload, dtype="<u2").astype(np.uint16).reshape(rows, cols)
                 kind = "psm"
@@ -497,6 +506,12 @@ class V2Decoder(_Decoder):
             self.frames += 1
             events.append(Frame(kind, data, True, seq, self._unwrap(t_raw, frame=True), self._base + k))
         self._pos = pos
+
+    def _is_row(self, typ: int, rows: int, cols: int, k: int) -> bool:
+        """Whether the bad-CRC packet at ``buf[k]`` is an invalid row (see the class docstring)."""
+        if typ == PacketType.REPLY or self._base + k < self._owned_end:
+            return False
+        return self._shapes.get(typ, (rows, cols)) == (rows, cols)
 
 
 def decode_v2(data: bytes | bytearray | memoryview, kind: Literal["psm", "imu"] = "psm") -> dict[str, Any]:
@@ -515,12 +530,14 @@ def decode_v2(data: bytes | bytearray | memoryview, kind: Literal["psm", "imu"] 
         ``frames`` (N, R, C) uint16 counts or float32 degrees (0 / NaN in invalid rows),
         ``valid`` (N,) bool, ``seq`` (N,) int64 (-1 when invalid), ``t_us`` (N,) int64
         unwrapped device time in microseconds (-1 when invalid), and ``dropped`` (int, from
-        the seq gaps). The shape is the first frame's; N = 0 gives shape (0, 0, 0).
+        the seq gaps). The shape is the first valid frame's (the first invalid row's when
+        none is valid); an invalid row of another shape is left out, the shape of a packet
+        that failed its CRC being untrusted. N = 0 gives shape (0, 0, 0).
 
     Raises
     ------
     ValueError
-        Frames of that kind with different shapes.
+        Valid frames of that kind with different shapes.
     """
     if kind not in ("psm", "imu"):
         raise ValueError(f"kind must be 'psm' or 'imu', got {kind!r}")
@@ -528,9 +545,10 @@ def decode_v2(data: bytes | bytearray | memoryview, kind: Literal["psm", "imu"] 
     events = dec.feed(data)
     events += dec.finish()
     rows = [e for e in events if isinstance(e, Frame) and e.kind == kind]
-    shape = rows[0].data.shape if rows else (0, 0)
-    if any(e.data.shape != shape for e in rows):
-        raise ValueError("the recording holds frames of different shapes")
+    shape = next((e.data.shape for e in rows if e.valid), rows[0].data.shape if rows else (0, 0))
+    if any(e.valid and e.data.shape != shape for e in rows):
+        raise ValueError("the recording holds valid frames of different shapes")
+    rows = [e for e in rows if e.data.shape == shape]
     dtype = np.uint16 if kind == "psm" else np.float32
     frames = np.empty((len(rows), *shape), dtype=dtype)
     valid = np.empty(len(rows), dtype=bool)
