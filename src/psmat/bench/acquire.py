@@ -121,6 +121,7 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--rate", type=int, default=165)
     p.add_argument("--faults", default="bit_flip=2e-6,drop_byte=2e-6,seed=1")
     args = p.parse_args(argv)
+    t_start = time.monotonic()
     print(f"acquisition benchmark - {platform.processor() or platform.machine()}, {os.cpu_count()} CPUs, "
           f"Python {sys.version.split()[0]}", flush=True)
     r = _psmat_run(args.seconds, args.rate, "v2", "")
@@ -138,4 +139,5 @@ def main(argv: list[str] | None = None) -> int:
     b = _thesis_run(args.fault_seconds, args.rate, args.faults)
     print(f"  thesis-style v1 reader : {b.get('frames', 0)} valid, {b.get('invalid', 0)} invalid rows, "
           f"of {b.get('sent', 0)} sent (INIT INIT, then a fixed-size read)", flush=True)
+    print(f"wall time of the whole benchmark: {time.monotonic() - t_start:.0f} s", flush=True)
     return 0

@@ -15,6 +15,10 @@ model (:func:`psmat.bench.baseline_numpy.forward_numpy`), noise-free.
   cold) solution of the frame just before them, passed as ``g0``.
 * **cold** — ``solve(G, warm_start=False, threads=K)``: every frame independently from
   ``g0 = G``.
+* **noisy G** — streaming on the same frames as a mat measures them (``psmat.Circuit``:
+  1 mV on the ADC node, 12 bits), so quiet cells end at the bound g = 0. SPEC §10's noisy
+  targets ask for frames/s with every frame's complementarity residual <= 1e-6 and none
+  over 50 iterations; the error against the true g is noise-limited there.
 
 Per entry: one untimed warm-up call (skipped for arrays above 32×32, where one frame is
 seconds of work), then the same call repeated until at least ``--min-time`` seconds
@@ -50,19 +54,23 @@ import numpy as np
 from .. import scenes
 from .baseline_numpy import forward_numpy, jacobian_numpy, solve_fixed_point_numpy, solve_least_squares_scipy
 
-__all__ = ["run", "format_table", "machine_info", "main", "TARGETS"]
+__all__ = ["run", "format_table", "machine_info", "main", "TARGETS", "NOISY_TARGETS"]
 
 ERROR_THRESHOLD_S = 1e-4   # cells with g >= this (S) carry the accuracy target
 ACCURACY_TARGET = 1e-6     # relative error reached by "Newton accuracy"
 HEAVY_CELLS = 32 * 32      # above this, psmat entries run isolated in a child process
 
-# (size, mode) -> (frames/s, "core" | "total"); SPEC §10, 2-core machine.
+# SPEC §10 on a 2-core machine. Noise-free G: (size, mode) -> (frames/s, "core" | "total"),
+# at a relative error <= ACCURACY_TARGET on cells g >= ERROR_THRESHOLD_S.
 TARGETS = {
     (16, "streaming"): (2000.0, "core"),
     (16, "cold"): (300.0, "core"),
-    (32, "streaming"): (100.0, "total"),
-    (64, "streaming"): (10.0, "total"),
 }
+# Noisy G (1 mV, 12 bits), streaming: size -> (frames/s, "core" | "total"), with every frame's
+# complementarity residual <= NOISY_RESIDUAL and none over NOISY_MAX_ITER iterations.
+NOISY_TARGETS = {16: (2000.0, "core"), 32: (200.0, "total"), 64: (20.0, "total")}
+NOISY_RESIDUAL = 1e-6
+NOISY_MAX_ITER = 50
 
 
 # ----------------------------------------------------------------------------- helpers
@@ -147,20 +155,31 @@ def _row(**kw) -> dict:
     base = dict(size=None, mode="", solver="", threads=1, frames=0, calls=0, seconds=float("nan"),
                 fps=float("nan"), fps_per_core=float("nan"), err_loaded=float("nan"),
                 err_all=float("nan"), iterations=float("nan"), factorizations=float("nan"),
+                max_iterations=float("nan"), max_residual=float("nan"), noise_v=0.0,
                 note="", target="", target_met=None)
     base.update(kw)
     return base
 
 
 def _target(row: dict) -> None:
-    t = TARGETS.get((row["size"], row["mode"])) if row["solver"] == "psmat newton" else None
+    """The row's SPEC §10 target, if it has one, and whether it was met."""
+    newton = row["solver"].startswith("psmat newton")
+    if not newton:
+        return
+    if row["noise_v"] > 0:
+        t = NOISY_TARGETS.get(row["size"]) if row["mode"] == "streaming" else None
+        accuracy = f"residual <= {NOISY_RESIDUAL:g}, <= {NOISY_MAX_ITER} it"
+        ok_acc = row["max_residual"] <= NOISY_RESIDUAL and row["max_iterations"] <= NOISY_MAX_ITER
+    else:
+        t = TARGETS.get((row["size"], row["mode"]))
+        accuracy = f"err <= {ACCURACY_TARGET:g}"
+        ok_acc = row["err_loaded"] <= ACCURACY_TARGET
     if t is None:
         return
     fps_req, per = t
     fps = row["fps_per_core"] if per == "core" else row["fps"]
-    row["target"] = f">= {fps_req:g} fps{'/core' if per == 'core' else ''}, err <= {ACCURACY_TARGET:g}"
-    ok_acc = np.isfinite(row["err_loaded"]) and row["err_loaded"] <= ACCURACY_TARGET
-    row["target_met"] = bool(np.isfinite(fps) and fps >= fps_req and ok_acc)
+    row["target"] = f">= {fps_req:g} fps{'/core' if per == 'core' else ''}, {accuracy}"
+    row["target_met"] = bool(np.isfinite(fps) and fps >= fps_req and ok_acc)  # NaN compares False
 
 
 # ----------------------------------------------------------------------------- psmat entries
@@ -241,9 +260,10 @@ def measure_psmat(size: int, mode: str, threads: int, frames: int, seed: int, mi
     fps = T * calls / secs
     return _row(size=size, mode=mode, solver=label, threads=nt, frames=T, calls=calls,
                 seconds=secs, fps=fps, fps_per_core=fps / nt, err_loaded=e_loaded, err_all=e_all,
-                iterations=float(np.mean(info.iterations)),
+                iterations=float(np.mean(info.iterations)), max_iterations=float(np.max(info.iterations)),
+                max_residual=float(np.max(info.residual)),
                 factorizations=float(np.mean(getattr(info, "factorizations", np.nan))),
-                note="; ".join(notes))
+                noise_v=noise_v, note="; ".join(notes))
 
 
 def _child(conn, fn_name: str, kwargs: dict) -> None:  # pragma: no cover - runs in a child
@@ -474,14 +494,18 @@ def run(sizes=(16, 32, 64), frames: int | None = None, threads=None, *, quick: b
                         emit(_row(size=size, mode=mode, solver="psmat newton", threads=nt, frames=Tm,
                                   note=f"failed: {exc!r}"))
         # A real mat's data: noisy G (quiet cells end at the bound g = 0, bounded Newton).
-        if not heavy:
+        label = "psmat newton, noisy G (1 mV, 12 bit)"
+        kw = dict(size=size, mode="streaming", threads=ncpu, frames=T, seed=seed, min_time=min_time,
+                  max_time=budget, warmup=not heavy, noise_v=1e-3, label=label)
+        fb = _row(size=size, mode="streaming", solver=label, threads=min(ncpu, T), frames=T, noise_v=1e-3)
+        if heavy:
+            emit(_isolated("measure_psmat", kw, budget, fb))
+        else:
             try:
-                emit(measure_psmat(size=size, mode="streaming", threads=ncpu, frames=T, seed=seed,
-                                   min_time=min_time, max_time=budget, noise_v=1e-3,
-                                   label="psmat newton, noisy G (1 mV, 12 bit)"))
+                emit(measure_psmat(**kw))
             except Exception as exc:
-                emit(_row(size=size, mode="streaming", solver="psmat newton, noisy G", threads=ncpu,
-                          frames=T, note=f"failed: {exc!r}"))
+                fb["note"] = f"failed: {exc!r}"
+                emit(fb)
         # psmat's C++ fixed point, the thesis' iteration (same 2000 iterations as the NumPy baseline).
         if baselines:
             fp_it = 200 if smoke else 2000
@@ -612,10 +636,12 @@ def main(argv: list[str] | None = None) -> int:
     if any(s < 2 for s in a.sizes):
         p.error("--sizes must be >= 2")
     threads = a.threads
+    t_start = time.perf_counter()
     res = run(a.sizes, a.frames, threads, quick=a.quick, smoke=a.smoke, min_time=a.min_time,
               budget=a.budget, seed=a.seed, baselines=not a.no_baselines,
               log=lambda *x, **k: print(*x, file=sys.stderr, **k))
     print(format_table(res))
+    print(f"- wall time of the whole benchmark: {time.perf_counter() - t_start:.0f} s")
     if a.json:
         with open(a.json, "w") as f:
             json.dump(_jsonable(res), f, indent=1)

@@ -191,7 +191,9 @@ def main(argv: list[str] | None = None) -> int:
     args = ap.parse_args(argv)
     if args.seed < 0:
         ap.error(f"--seed must be >= 0, got {args.seed}")
+    t_start = time.perf_counter()
     res = run(quick=args.quick, seed=args.seed)
+    print(f"wall time of the whole benchmark: {time.perf_counter() - t_start:.0f} s")
     if args.json:
         with open(args.json, "w") as f:
             json.dump(res, f, indent=1, default=float)
