@@ -57,14 +57,23 @@ class FakeDevice:
         ``corrupt(i, packet) -> bytes`` may alter frame ``i``'s bytes.
     seq0 : int
         First v2 sequence number.
+    lose_commands : int
+        The first this many commands are lost on the way in (a link that stalls at open):
+        neither executed nor answered, counted in ``lost``.
+    seq_jump_on_identify : int
+        When IDENTIFY arrives while streaming: the frame still queued is sent, then this
+        many sequence numbers are skipped (frames a device streaming while nobody read it
+        had to drop), then the reply follows.
     """
 
     def __init__(self, kind: str = "psm", protocol: int = 2, rate: float = 165.0, n_frames: int | None = None,
                  stream_on_start: bool = True, identify: str | None = IDENTIFY_TEXT,
                  corrupt: Callable[[int, bytes], bytes] | None = None, seq0: int = 0,
-                 shape: tuple[int, int] = (16, 16)) -> None:
+                 shape: tuple[int, int] = (16, 16), lose_commands: int = 0, seq_jump_on_identify: int = 0) -> None:
         self.kind, self.protocol, self.rate, self.n_frames = kind, protocol, float(rate), n_frames
         self.identify, self.corrupt, self.seq0, self.shape = identify, corrupt, seq0, shape
+        self.lose_commands, self.seq_jump_on_identify = lose_commands, seq_jump_on_identify
+        self.lost = 0
         self.streaming = not stream_on_start
         self.master, self.slave = os.openpty()
         tty.setraw(self.master)
@@ -110,6 +119,9 @@ class FakeDevice:
                 del self._rx[:k + 1]
                 continue
             del self._rx[:k + COMMAND_SIZE]
+            if self.lost < self.lose_commands:
+                self.lost += 1
+                continue
             self.commands.append((int(op), arg))
             if self.identify is not None:
                 self._answer(int(op), arg)
@@ -118,6 +130,10 @@ class FakeDevice:
         status, text, switch = Status.OK, "", None
         if op == Opcode.IDENTIFY:
             text = self.identify or ""
+            if self.seq_jump_on_identify and self.streaming:
+                os.write(self.master, self.packet(self.sent))
+                self.sent += 1
+                self.seq0 += self.seq_jump_on_identify
         elif op == Opcode.START:
             self.streaming = True
         elif op == Opcode.STOP:

@@ -36,33 +36,35 @@ def test_loop_frames_round_trip(loop: Device) -> None:
     assert "loop://" in repr(loop)
 
 
-def test_read_never_blocks_forever(loop: Device) -> None:
+def _wait_until(condition, timeout: float = 5.0) -> None:
+    """Poll ``condition()`` until true (a hang guard, not a timing claim)."""
+    deadline = time.monotonic() + timeout
+    while not condition() and time.monotonic() < deadline:
+        time.sleep(0.01)
+    assert condition()
+
+
+def test_read_returns_what_it_has_when_its_timeout_ends(loop: Device) -> None:
     loop.start()
     loop.serial.write(encode_v2(_frame(1), 0, 0))
-    t0 = time.monotonic()
     b = loop.read(10, timeout=0.2)              # only one frame will come
-    assert len(b) == 1 and 0.15 < time.monotonic() - t0 < 1.5
-    t0 = time.monotonic()
-    assert len(loop.read()) == 0                # n=None, no timeout: immediate
+    assert len(b) == 1 and b.seq.tolist() == [0]
+    assert len(loop.read()) == 0                # n=None, no timeout: what is buffered (nothing)
     assert len(loop.read(0)) == 0
     loop.read_timeout_s = 0.1
-    assert len(loop.read(3)) == 0               # n without timeout: read_timeout_s
-    assert time.monotonic() - t0 < 1.0
+    assert len(loop.read(3)) == 0               # n without timeout: read_timeout_s, then nothing
     with pytest.raises(ValueError):
         loop.read(-1)
 
 
 def test_latest_and_frames_before_start_are_ignored(loop: Device) -> None:
     loop.serial.write(encode_v2(_frame(7), 0, 0))
-    time.sleep(0.2)
-    assert len(loop.read()) == 0 and loop.stats.ignored == 1
+    _wait_until(lambda: loop.stats.ignored == 1)
+    assert len(loop.read()) == 0
     loop.start()
     for i in range(3):
         loop.serial.write(encode_v2(_frame(i), i + 1, 0))
-    loop.read(0)
-    deadline = time.monotonic() + 2.0
-    while loop.stats.buffered < 3 and time.monotonic() < deadline:
-        time.sleep(0.01)
+    _wait_until(lambda: loop.stats.buffered == 3)
     last = loop.latest()
     assert len(last) == 1 and last.seq[0] == 3
     assert len(loop.latest(10)) == 3 and len(loop.read()) == 3
@@ -77,11 +79,12 @@ def test_command_timeout_message(loop: Device) -> None:
         loop.set_rate(100)
 
 
-def test_identify_timeout_is_brief_and_recorded() -> None:
-    t0 = time.monotonic()
-    with open_device("loop://", identify_timeout=0.1) as dev:
-        assert dev.description == {} and "IDENTIFY" in dev.stats.last_error
-    assert time.monotonic() - t0 < 2.0
+def test_identify_unanswered_is_recorded() -> None:
+    # loop:// echoes the command, which is no reply: every field stays unknown
+    with open_device("loop://", identify_timeout=0.1, identify_attempts=2) as dev:
+        assert dev.description["unknown"][:2] == ["device", "fw"] and not dev.identified
+        assert dev.description["note"] == "no reply to IDENTIFY after 2 attempts of 0.1 s"
+        assert "IDENTIFY" in dev.stats.last_error and dev.stats.replies == 0
 
 
 def test_daq_on_loop() -> None:

@@ -9,10 +9,19 @@ import numpy as np
 import pytest
 
 from psmat.acquire import (AcquireError, CommandRejected, CommandTimeout, DeviceDisconnected, open_device)
+from psmat.acquire.identify import IDENTIFY_FIELDS
 from psmat.protocol import Opcode, Status
 from test_acquire_fake import FakeDevice, daq_counts, imu_frame, psm_frame
 
 RATE = 165.0
+
+
+def _wait_until(condition, timeout: float = 5.0) -> None:
+    """Poll ``condition()`` until true (a hang guard, not a timing claim)."""
+    deadline = time.monotonic() + timeout
+    while not condition() and time.monotonic() < deadline:
+        time.sleep(0.01)
+    assert condition()
 
 
 def _collect(dev, n: int, timeout: float = 8.0):
@@ -58,8 +67,6 @@ def test_psm_165hz_three_seconds_no_loss(protocol: int) -> None:
                 else:
                     assert (seq == -1).all() and (dt == -1).all()
                 assert np.all(np.diff(host) >= 0) and t0 - 1 < host[0] <= host[-1] < time.time() + 1
-                # paced: the 3 s of frames took about 3 s of host time
-                assert 2.0 < host[-1] - host[0] < 6.0
                 s = dev.stats
                 assert (s.frames, s.invalid, s.dropped_wire, s.dropped_buffer) == (n, 0, 0, 0)
                 assert s.skipped_bytes == 0 and s.connected and s.last_error is None
@@ -113,17 +120,16 @@ def test_set_protocol_switches_decoder_mid_stream() -> None:
         assert dev.stats.invalid == 0
 
 
-def test_no_identify_reply_leaves_description_empty() -> None:
+def test_no_identify_reply_leaves_every_field_unknown() -> None:
     with FakeDevice(identify=None, stream_on_start=False, rate=200) as fake:
-        t0 = time.monotonic()
         dev = open_device(fake.port, identify_timeout=0.2)
         try:
-            assert dev.description == {}
+            assert dev.description == {"unknown": list(IDENTIFY_FIELDS["psm"]),
+                                       "note": "no reply to IDENTIFY after 3 attempts of 0.2 s"}
             assert "IDENTIFY" in dev.stats.last_error
             with pytest.raises(CommandTimeout, match=r"no reply to SET_RATE \(0x03\) .* within 0.1 s"):
                 dev.send_command(Opcode.SET_RATE, 100, timeout=0.1)
             dev.start()                          # START written without waiting for a reply
-            assert time.monotonic() - t0 < 2.0
             assert len(dev.read(10, timeout=2.0)) == 10
             assert dev.stats.ignored > 0         # streamed from power-up, before start()
         finally:
@@ -226,11 +232,11 @@ def test_reconnect_to_the_same_port(tmp_path) -> None:
     fake2 = None
     try:
         dev.start()
-        assert len(dev.read(10, timeout=3.0)) == 10
+        _wait_until(lambda: dev.stats.buffered >= 10)
         fake1.hangup()
-        time.sleep(0.3)
-        assert not dev.connected
-        assert len(dev.read()) >= 0                 # no DeviceDisconnected while reconnecting
+        _wait_until(lambda: not dev.connected)
+        b = dev.read()                              # no DeviceDisconnected while reconnecting:
+        assert len(b) >= 10 and np.all(np.diff(b.seq) == 1) and b.seq[-1] < 10_000    # fake1's frames
         fake2 = FakeDevice(rate=200, stream_on_start=True, seq0=10_000)
         tmp = tmp_path / "tmp-link"
         os.symlink(fake2.port, tmp)
@@ -310,8 +316,7 @@ def test_daq_text_device_via_pty() -> None:
             np.testing.assert_array_equal(frames[12], daq_counts(12))
             assert (_cat(parts, "seq") == -1).all() and dev.stats.invalid == 0
             dev.stop()
-            time.sleep(0.05)
-            assert not fake.streaming                  # 'f' arrived
+            _wait_until(lambda: not fake.streaming)    # 'f' arrived
             with pytest.raises(AcquireError, match="only 's'/'f'"):
                 dev.send_command(Opcode.IDENTIFY)
         finally:
@@ -348,8 +353,7 @@ def test_close_while_reconnecting_is_fast() -> None:
     try:
         dev.start()
         fake.hangup()
-        time.sleep(0.2)
-        assert not dev.connected
+        _wait_until(lambda: not dev.connected)
         t0 = time.monotonic()
         dev.stop()
         dev.close()

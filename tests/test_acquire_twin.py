@@ -4,40 +4,49 @@ the serial link, psmat.acquire, the session file."""
 from __future__ import annotations
 
 import time
+from contextlib import closing
 
 import numpy as np
 import pytest
 
 from psmat.acquire import DeviceDisconnected, open_device
 from psmat.io import SessionWriter, load_session
+from psmat.protocol import v1_frame_size, v2_frame_size
 from psmat.twin import Faults, SerialTwin
 
 
-@pytest.mark.slow
 @pytest.mark.parametrize("protocol", ["v2", "v1"])
-def test_165_hz_for_10_s_without_losing_a_frame(protocol, tmp_path):
-    seconds, rate = 10.5, 165
+def test_a_165_hz_recording_holds_every_frame_sent(protocol, tmp_path):
+    # a short run; the rate over 10 min is `python -m psmat.bench acquire`'s to measure
+    n, rate = 200, 165
     path = tmp_path / "run.h5"
-    with SerialTwin("psm", rate, protocol, scene="quiet") as twin, open_device(twin.port, "psm", protocol) as dev, \
-            SessionWriter(path, (16, 16), device=dict(dev.description or {})) as writer:
+    with SerialTwin("psm", rate, protocol, scene="quiet") as twin, \
+            closing(open_device(twin.port, "psm", protocol)) as dev, \
+            SessionWriter(path, (16, 16), device=dict(dev.description)) as writer:
+        # the twin streams from power-up: the host may open the port mid-packet; those bytes
+        # are judged before the IDENTIFY reply that open() waited for
+        skipped_at_open = dev.stats.skipped_bytes
         dev.record_to(writer)
-        dev.start()
-        t0 = time.monotonic()
-        got = 0
-        while time.monotonic() - t0 < seconds:
-            got += len(dev.read(timeout=0.2))
+        dev.start()                                          # recorded from the first frame buffered
+        parts = []
+        deadline = time.monotonic() + 30.0                  # hang guard
+        while sum(map(len, parts)) < n and time.monotonic() < deadline:
+            parts.append(dev.read(n - sum(map(len, parts)), timeout=0.5))
         dev.stop()
         dev.stop_recording()
         st = dev.stats
+    frames = np.concatenate([b.frames for b in parts])
+    seq = np.concatenate([b.seq for b in parts])
     s = load_session(path)
-    assert s.n_frames >= rate * 10 and s.valid.all()
-    assert st.invalid == 0 and st.dropped_wire == 0 and st.dropped_buffer == 0 and st.skipped_bytes == 0
+    assert len(frames) == n and s.n_frames >= n and s.valid.all()
+    np.testing.assert_array_equal(s.frames[:n], frames)     # what was read is what was recorded
+    assert st.invalid == 0 and st.dropped_wire == 0 and st.dropped_buffer == 0
+    size = v2_frame_size((16, 16)) if protocol == "v2" else v1_frame_size((16, 16))
+    assert skipped_at_open < size and st.skipped_bytes == skipped_at_open
     if protocol == "v2":
-        # the device's own sequence numbers prove that nothing was lost in between
-        assert np.all(np.diff(s.seq) == 1)
-        # and its clock that frames were paced at the rate
-        assert np.median(np.diff(s.device_time_us)) == pytest.approx(1e6 / rate, rel=0.02)
-    # every frame the twin sent after the first one recorded arrived (count by the twin)
+        # the device's own sequence numbers: every one from the first recorded on arrived
+        np.testing.assert_array_equal(s.seq, seq[0] + np.arange(s.n_frames))
+    # no more frames recorded than the twin sent (count by the twin)
     assert s.n_frames <= twin.stats.frames_sent
 
 
@@ -70,6 +79,8 @@ def test_the_imu_and_material_daq_twins_through_the_same_api():
 
 
 def test_psmat_boxes_are_recognised_by_their_usb_identity():
+    from serial.tools.list_ports_linux import SysFS
+
     from psmat.acquire import find_devices
     from psmat.acquire.discover import is_psmat_port
 
@@ -78,4 +89,8 @@ def test_psmat_boxes_are_recognised_by_their_usb_identity():
     assert not is_psmat_port(0x0403, 0x6001, product="FT232R USB UART", manufacturer="FTDI")
     assert not is_psmat_port(None, None)
     # a pseudo-terminal twin is not a USB box: the demo falls back to starting its own
-    assert all(not f.port.startswith("/dev/pts/") for f in find_devices())
+    with SerialTwin("psm", 10, "v2") as twin:
+        info = SysFS(twin.port)                       # what pyserial knows of the twin's port
+        assert (info.vid, info.pid, info.product, info.manufacturer) == (None, None, None, None)
+        assert not is_psmat_port(info.vid, info.pid, info.product, info.manufacturer)
+        assert twin.port not in [f.port for f in find_devices()]

@@ -18,10 +18,11 @@ from typing import Any, Literal
 import numpy as np
 import serial
 
-from ..protocol import (CAL_RESUME, DAQ_START, DAQ_STOP, Opcode, Reply, Status, cal_hold_arg, encode_command,
-                        parse_identify)
+from ..protocol import (CAL_RESUME, DAQ_START, DAQ_STOP, Gap, Opcode, Reply, Status, cal_hold_arg,
+                        encode_command, parse_identify)
 from .clock import HostClock
 from .errors import AcquireError, CommandRejected, CommandTimeout, DeviceDisconnected
+from .identify import describe, learn
 from .port import open_port
 from .ring_buffer import FrameBatch, FrameRing
 from .stream import Row, StreamDecoder, default_shape, frame_dtype
@@ -43,8 +44,10 @@ class DeviceStats:
     invalid : int
         Rows that failed their checksum/CRC (or malformed DAQ lines); kept as invalid rows.
     dropped_wire : int
-        Frames the device sent that never arrived (v2 ``seq`` gaps; 0 for v1 and the DAQ,
-        which cannot tell).
+        Frames the device sent that never arrived: v2 ``seq`` gaps between two buffered
+        rows (a gap before the first frame buffered after :meth:`Device.start`, e.g. frames
+        a device streaming from power-up dropped while nobody read it, is not a loss of what
+        was received); 0 for v1 and the DAQ, which cannot tell.
     dropped_buffer : int
         Frames overwritten in the ring buffer because nobody read them in time.
     skipped_bytes : int
@@ -106,8 +109,14 @@ class Device:
     dtype : numpy.dtype
         uint16 counts (PSM, DAQ) or float32 degrees (IMU).
     description : dict
-        Parsed IDENTIFY reply (``rows``, ``cols``, ``rate``, ``fw``, ``r_o``, ...); empty
-        when the device did not answer (the DAQ never does).
+        Parsed IDENTIFY reply (``rows``, ``cols``, ``rate``, ``fw``, ``r_o``, ...). Fields
+        the device did not report (no reply after the retries, or a reply that lacks them)
+        are listed under ``"unknown"`` with a ``"note"`` saying why
+        (:func:`~psmat.acquire.identify.describe`). Empty for the DAQ (no IDENTIFY) and when
+        opened with ``identify=False``.
+    identified : bool
+        Whether the device answered IDENTIFY (then :meth:`start` and :meth:`stop` wait for
+        their replies).
     read_timeout_s : float
         Longest wait of :meth:`read` when ``n`` is given without a timeout (s).
     """
@@ -144,6 +153,7 @@ class Device:
         self.reconnect_max_delay_s = float(reconnect_max_delay_s)
         self.read_timeout_s = float(read_timeout_s)
         self.description: dict[str, Any] = {}
+        self.identified = False
         self._ring = FrameRing(buffer_frames, shape, self.dtype)
         self._decoder = StreamDecoder(kind, proto, shape)
         self._clock = HostClock()
@@ -158,6 +168,8 @@ class Device:
         self._started = False
         self._closed = False
         self._ignored = 0
+        self._dropped_wire = 0
+        self._last_row_buffered = False         # the last decoded row went to the buffer
         self._reconnects = 0
         self._last_error: str | None = None
         self._recorder: Any = None
@@ -186,7 +198,7 @@ class Device:
     def stats(self) -> DeviceStats:
         """A snapshot of the counters (:class:`DeviceStats`)."""
         c = self._decoder.counters
-        return DeviceStats(frames=c["frames"], invalid=c["invalid"], dropped_wire=c["dropped"],
+        return DeviceStats(frames=c["frames"], invalid=c["invalid"], dropped_wire=self._dropped_wire,
                            dropped_buffer=self._ring.dropped, skipped_bytes=c["skipped"], replies=c["replies"],
                            reconnects=self._reconnects, ignored=self._ignored, mismatched=c["mismatched"],
                            bytes_in=c["bytes_in"], buffered=len(self._ring), connected=self._connected,
@@ -198,22 +210,30 @@ class Device:
                 f"{'connected' if self._connected else 'disconnected'}>")
 
     # -- lifecycle -----------------------------------------------------------------------
-    def open(self, identify: bool = True, identify_timeout: float = 0.5) -> Device:
+    def open(self, identify: bool = True, identify_timeout: float = 0.5, identify_attempts: int = 3) -> Device:
         """Open the port, start the reader thread and (PSM, IMU) ask IDENTIFY.
 
         Parameters
         ----------
         identify : bool
-            Send IDENTIFY and wait up to ``identify_timeout`` s for the reply; no reply
-            leaves :attr:`description` empty (a thesis firmware does not answer).
+            Send IDENTIFY and wait up to ``identify_timeout`` s for the reply, at most
+            ``identify_attempts`` times (a link that stalls at open loses the first ones).
+            Fields that stay unknown are listed in :attr:`description` with a note (a thesis
+            firmware never answers).
         identify_timeout : float
-            Seconds.
+            Seconds per attempt.
+        identify_attempts : int
+            IDENTIFY commands sent at most, >= 1.
 
         Raises
         ------
         serial.SerialException
             The port cannot be opened.
+        ValueError
+            ``identify_attempts`` < 1.
         """
+        if identify_attempts < 1:
+            raise ValueError(f"identify_attempts must be >= 1, got {identify_attempts}")
         if self._closed:
             raise AcquireError(f"device on {self.port} is closed")
         if self._thread is not None:
@@ -223,13 +243,33 @@ class Device:
         self._thread = threading.Thread(target=self._run, name=f"psmat-acquire({self.port})", daemon=True)
         self._thread.start()
         if identify and self.kind != "daq":
-            try:
-                reply = self.send_command(Opcode.IDENTIFY, timeout=identify_timeout, check=True)
-                self.description = parse_identify(reply.text)
-            except (CommandTimeout, CommandRejected, ValueError) as exc:
-                self._last_error = f"IDENTIFY: {exc}"
+            self._identify(identify_timeout, identify_attempts)
             self._check_description()
         return self
+
+    def _identify(self, timeout: float, attempts: int) -> None:
+        """Ask IDENTIFY until it is answered or ``attempts`` ran out; set :attr:`description`."""
+        note = f"no reply to IDENTIFY after {attempts} attempt{'s' if attempts > 1 else ''} of {timeout:g} s"
+        reported: dict[str, Any] = {}
+        for _ in range(attempts):
+            try:
+                reply = self.send_command(Opcode.IDENTIFY, timeout=timeout, check=True)
+            except CommandTimeout:
+                continue
+            except CommandRejected as exc:
+                self.identified = True
+                note = f"IDENTIFY rejected: {exc}"
+                break
+            self.identified = True
+            try:
+                reported = parse_identify(reply.text)
+                note = ""
+            except ValueError as exc:
+                note = f"IDENTIFY reply unreadable: {exc}"
+            break
+        if note:
+            self._last_error = f"IDENTIFY: {note}"
+        self.description = describe(self.kind, reported, note or None)
 
     def _check_description(self) -> None:
         d = self.description
@@ -260,7 +300,7 @@ class Device:
     def _send_start(self, wait: bool = True) -> None:
         if self.kind == "daq":
             self._write(DAQ_START)
-        elif wait and self.description:
+        elif wait and self.identified:
             self.send_command(Opcode.START)
         else:
             self._write(encode_command(Opcode.START))
@@ -278,7 +318,7 @@ class Device:
         try:
             if self.kind == "daq":
                 self._write(DAQ_STOP)
-            elif self.description:
+            elif self.identified:
                 self.send_command(Opcode.STOP, timeout=0.5, check=False)
             else:
                 self._write(encode_command(Opcode.STOP))
@@ -428,8 +468,7 @@ class Device:
         if isinstance(hz, bool) or int(hz) != hz or not 1 <= hz <= 1000:
             raise ValueError(f"rate must be an integer 1 ... 1000 frames/s, got {hz!r}")
         reply = self.send_command(Opcode.SET_RATE, int(hz))
-        if self.description:
-            self.description["rate"] = int(hz)
+        learn(self.description, "rate", int(hz))
         return reply
 
     def set_protocol(self, protocol: int) -> Reply:
@@ -441,8 +480,7 @@ class Device:
         except BaseException:
             self._decoder.cancel_protocol_switch()
             raise
-        if self.description:
-            self.description["proto"] = protocol
+        learn(self.description, "proto", protocol)
         return reply
 
     def cal_hold(self, row: int, col: int) -> Reply:
@@ -529,14 +567,22 @@ class Device:
             self._ring.wake()
             self._fail_waiters()
 
-    def _handle(self, events: list[Row | Reply], t: float) -> None:
-        rows = [e for e in events if isinstance(e, Row)]
+    def _handle(self, events: list[Row | Reply | Gap], t: float) -> None:
+        started = self._started
+        rows = []
         for e in events:
-            if isinstance(e, Reply):
+            if isinstance(e, Row):
+                rows.append(e)
+                self._last_row_buffered = started
+            elif isinstance(e, Gap):
+                # a loss only between two buffered rows: what was received has a hole
+                if started and self._last_row_buffered:
+                    self._dropped_wire += e.count
+            else:
                 self._dispatch(e)
         if not rows:
             return
-        if not self._started:
+        if not started:
             self._ignored += len(rows)
             return
         n = len(rows)
@@ -623,7 +669,7 @@ def _status_name(status: int | None) -> str:
 def open_device(port: str, kind: Literal["psm", "daq", "imu"] = "psm", protocol: str | int = "v2",
                 shape: tuple[int, ...] | None = None, baudrate: int = 1_000_000, buffer_frames: int = 60_000,
                 reconnect: bool = False, identify: bool = True, *, identify_timeout: float = 0.5,
-                **options: Any) -> Device:
+                identify_attempts: int = 3, **options: Any) -> Device:
     """Open a device and start reading it.
 
     Parameters
@@ -647,7 +693,8 @@ def open_device(port: str, kind: Literal["psm", "daq", "imu"] = "psm", protocol:
         ``reconnect_delay_s`` = 0.1 doubling up to ``reconnect_max_delay_s`` = 2.0 s; pass
         them as keywords).
     identify : bool
-        Ask IDENTIFY and wait up to ``identify_timeout`` s (0.5) for :attr:`Device.description`.
+        Ask IDENTIFY for :attr:`Device.description`, waiting up to ``identify_timeout`` s
+        (0.5) per attempt, at most ``identify_attempts`` (3) times.
     **options
         Further keywords of :class:`Device` (``read_timeout_s``, reconnection settings).
 
@@ -666,7 +713,7 @@ def open_device(port: str, kind: Literal["psm", "daq", "imu"] = "psm", protocol:
     """
     dev = Device(port, kind, protocol, shape, baudrate, buffer_frames, reconnect, **options)
     try:
-        dev.open(identify=identify, identify_timeout=identify_timeout)
+        dev.open(identify=identify, identify_timeout=identify_timeout, identify_attempts=identify_attempts)
     except BaseException:
         dev.close()
         raise

@@ -3,8 +3,8 @@
 :class:`StreamDecoder` wraps :class:`~psmat.protocol.V1Decoder`,
 :class:`~psmat.protocol.ImuV1Decoder`, :class:`~psmat.protocol.V2Decoder` or
 :class:`~psmat.protocol.DaqLineDecoder` and turns their events into rows (frame, valid,
-seq, device time) and replies, with cumulative counters that survive a protocol switch or
-a reconnection (each of which starts a fresh protocol decoder).
+seq, device time), replies and v2 sequence gaps, with cumulative counters that survive a
+protocol switch or a reconnection (each of which starts a fresh protocol decoder).
 """
 
 from __future__ import annotations
@@ -16,8 +16,8 @@ from typing import Any, Literal
 import numpy as np
 from numpy.typing import NDArray
 
-from ..protocol import (IMU_SHAPE, DAQ_SENSORS, DaqLineDecoder, DaqMalformed, DaqSample, Frame, ImuV1Decoder,
-                        Opcode, Reply, Status, V1Decoder, V2Decoder)
+from ..protocol import (IMU_SHAPE, DAQ_SENSORS, DaqLineDecoder, DaqMalformed, DaqSample, Frame, Gap,
+                        ImuV1Decoder, Opcode, Reply, Status, V1Decoder, V2Decoder)
 
 __all__ = ["Kind", "Row", "StreamDecoder", "default_shape", "frame_dtype"]
 
@@ -51,7 +51,7 @@ _COUNTERS = ("bytes_in", "frames", "invalid", "skipped", "dropped", "replies", "
 
 
 class StreamDecoder:
-    """Decode a device's byte stream into rows and replies.
+    """Decode a device's byte stream into rows, replies and gaps.
 
     Parameters
     ----------
@@ -67,8 +67,9 @@ class StreamDecoder:
     ----------
     counters : dict
         Cumulative ``bytes_in``, ``frames`` (valid), ``invalid``, ``skipped`` (garbage
-        bytes), ``dropped`` (v2 ``seq`` gaps), ``replies``, ``restarts`` (v2 ``seq`` went
-        backwards), ``mismatched``; see :attr:`counters`.
+        bytes), ``dropped`` (every v2 ``seq`` gap seen, also before anything was buffered;
+        the :class:`~psmat.protocol.Gap` events say where), ``replies``, ``restarts`` (v2
+        ``seq`` went backwards), ``mismatched``; see :attr:`counters`.
     """
 
     def __init__(self, kind: str, protocol: int, shape: tuple[int, ...]) -> None:
@@ -127,20 +128,20 @@ class StreamDecoder:
         """Forget a pending switch (its command failed)."""
         self._pending_protocol = None
 
-    def reset(self) -> list[Row | Reply]:
+    def reset(self) -> list[Row | Reply | Gap]:
         """End of one connection: judge held bytes, then start a fresh decoder (counters kept)."""
         out = self._convert(self._dec.finish())
         self._retire()
         self._dec = self._new_decoder()
         return out
 
-    def feed(self, chunk: bytes) -> list[Row | Reply]:
-        """Decode a chunk; return its rows and replies in stream order."""
+    def feed(self, chunk: bytes) -> list[Row | Reply | Gap]:
+        """Decode a chunk; return its rows, replies and gaps (v2 frames lost just before the next row), in order."""
         if self._pending_protocol is not None and self.kind != "daq":
             return self._feed_switching(chunk)
         return self._convert(self._dec.feed(chunk))
 
-    def _feed_switching(self, chunk: bytes) -> list[Row | Reply]:
+    def _feed_switching(self, chunk: bytes) -> list[Row | Reply | Gap]:
         """Feed while a SET_PROTOCOL reply is awaited: bytes after it go to a new decoder.
 
         A trial copy of the decoder finds where the reply ends; the real decoder is then fed
@@ -168,8 +169,8 @@ class StreamDecoder:
         self._dec = self._new_decoder()
         return out + self._convert(self._dec.feed(chunk[end:]))
 
-    def _convert(self, events: list[Any]) -> list[Row | Reply]:
-        out: list[Row | Reply] = []
+    def _convert(self, events: list[Any]) -> list[Row | Reply | Gap]:
+        out: list[Row | Reply | Gap] = []
         for ev in events:
             if isinstance(ev, Frame):
                 if ev.kind != self.kind or ev.data.shape != self.shape:
@@ -184,11 +185,10 @@ class StreamDecoder:
                     out.append(Row(ev.data, True, seq, t))
                 else:
                     out.append(Row(self._invalid, False, -1, -1))
-            elif isinstance(ev, Reply):
+            elif isinstance(ev, (Reply, Gap)):
                 out.append(ev)
             elif isinstance(ev, DaqSample):
                 out.append(Row(ev.counts.astype(np.uint16), True, -1, -1))
             elif isinstance(ev, DaqMalformed):
                 out.append(Row(self._invalid, False, -1, -1))
-            # Gap events are reflected in the `dropped` counter.
         return out
