@@ -1,7 +1,8 @@
 """Command line: ``psmat <command>`` (also ``python -m psmat``).
 
 Commands live one per module in :mod:`psmat.commands` and are discovered here, so adding a
-command is adding a file.
+command is adding a file. A command-line error (a bad or missing argument) is one line on
+stderr and exit status 1, like every other error a person can fix.
 """
 
 from __future__ import annotations
@@ -10,6 +11,7 @@ import argparse
 import importlib
 import pkgutil
 import sys
+from typing import NoReturn
 
 from . import commands as _commands
 
@@ -25,19 +27,42 @@ def _command_modules() -> list:
     return mods
 
 
+class UsageError(Exception):
+    """A bad command line, already worded for the person who typed it."""
+
+
+class _Parser(argparse.ArgumentParser):
+    """argparse without the usage block and exit status 2: errors become :class:`UsageError`."""
+
+    def error(self, message: str) -> NoReturn:
+        raise UsageError(f"{self.prog}: {message} (see {self.prog} --help)")
+
+
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(prog="psmat", description="Low-cost pressure-sensitive mats")
+    parser = _Parser(prog="psmat", description="Low-cost pressure-sensitive mats")
     sub = parser.add_subparsers(dest="command", required=True)
     for mod in _command_modules():
         p = sub.add_parser(mod.NAME, help=mod.HELP, description=mod.__doc__,
                            add_help=getattr(mod, "ADD_HELP", True))
         mod.add_arguments(p)
-        p.set_defaults(func=mod.run)
+        p.set_defaults(func=mod.run, parser=p)
     return parser
 
 
+def parse(argv: list[str] | None = None) -> argparse.Namespace:
+    """The command line as a namespace; raises :class:`UsageError` for a bad one."""
+    args, unknown = build_parser().parse_known_args(argv)
+    if unknown:  # named by the subcommand's parser, so that the hint is its --help
+        args.parser.error(f"unrecognized arguments: {' '.join(unknown)}")
+    return args
+
+
 def main(argv: list[str] | None = None) -> int:
-    args = build_parser().parse_args(argv)
+    try:
+        args = parse(argv)
+    except UsageError as exc:
+        print(exc, file=sys.stderr)
+        return 1
     try:
         return int(args.func(args))
     except KeyboardInterrupt:

@@ -8,6 +8,8 @@ from __future__ import annotations
 
 import argparse
 
+from . import _args
+
 NAME = "calibrate"
 HELP = "calibrate the box: R_adc from an open circuit, R_mux from shorted pairs; writes a JSON file"
 
@@ -16,9 +18,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("port", nargs="?", help="the box's serial port (omit with --simulate)")
     p.add_argument("--simulate", action="store_true", help="calibrate the digital twin (no person needed)")
     p.add_argument("--protocol", choices=("v1", "v2"), default="v2")
-    p.add_argument("--shape", default="16x16")
+    p.add_argument("--shape", type=_args.shape, default=(16, 16), help="rows x cols, e.g. 16x16")
     p.add_argument("--pairs", default="corners", help="'corners', 'all', or pairs like 0,0;15,15")
-    p.add_argument("--seconds", type=float, default=1.0, help="recording per step (s)")
+    p.add_argument("--seconds", type=_args.seconds, default=1.0, help="recording per step (s)")
     p.add_argument("--per-pair", action="store_true", help="keep R_mux per pair (needs --pairs all)")
     p.add_argument("--out", default=None, help="file to write (default psmat_calibration_<serial>.json)")
     p.add_argument("--yes", action="store_true", help="do not wait for Enter between steps")
@@ -40,13 +42,13 @@ def run(args: argparse.Namespace) -> int:
 
     if bool(args.port) == bool(args.simulate):
         print("psmat calibrate: give a PORT or --simulate", file=sys.stderr)
-        return 2
-    R, C = (int(v) for v in args.shape.lower().split("x"))
+        return 1
+    R, C = args.shape
     try:
         pairs = _pairs(args.pairs, R, C)
     except ValueError:
         print(f"psmat calibrate: --pairs must be 'corners', 'all' or 'i,p;i,p', got {args.pairs!r}", file=sys.stderr)
-        return 2
+        return 1
     twin = fixture = None
     port = args.port
     if args.simulate:

@@ -9,6 +9,8 @@ from __future__ import annotations
 
 import argparse
 
+from . import _args
+
 NAME = "demo"
 HELP = "record, process and plot a swaying person on the simulated mat (or --port PORT)"
 
@@ -18,19 +20,19 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--port", default=None, help="a real mat's serial port (default: a psmat box found on USB, "
                    "else the digital twin)")
     p.add_argument("--twin", action="store_true", help="use the digital twin even if a mat is plugged in")
-    p.add_argument("--seconds", type=float, default=8.0, help="recording length (s)")
-    p.add_argument("--rate", type=int, default=100, help="frames per second")
+    p.add_argument("--seconds", type=_args.seconds, default=8.0, help="recording length (s)")
+    p.add_argument("--rate", type=_args.positive_int, default=100, help="frames per second")
     p.add_argument("--session", default="psmat_demo.h5", help="session file to write (HDF5)")
     p.add_argument("--bds-trial", type=int, default=1, help="force-platform trial driving the twin")
     p.add_argument("--crosstalk", action="store_true", help="run the single-frame crosstalk demo instead")
-    p.add_argument("--rows", type=int, default=16)
-    p.add_argument("--cols", type=int, default=16)
+    p.add_argument("--shape", type=_args.shape, default=(16, 16), help="rows x cols of the simulated mat, e.g. 16x16")
     p.add_argument("--noise-mv", type=float, default=1.0, help="ADC-node voltage noise SD in mV")
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--show", action="store_true", help="also open a window")
 
 
 def run(args: argparse.Namespace) -> int:
+    rows, cols = args.shape
     if not args.crosstalk:
         from ..acquire import find_devices
         from ..demo_sway import run_sway_demo
@@ -41,15 +43,15 @@ def run(args: argparse.Namespace) -> int:
                 args.port = found[0].port
                 print(f"psmat demo: using the mat on {args.port} ({found[0].description}); --twin for the simulation")
 
-        print(f"psmat demo: {args.seconds:g} s of a person swaying, {args.rows}x{args.cols} at {args.rate} Hz")
+        print(f"psmat demo: {args.seconds:g} s of a person swaying, {rows}x{cols} at {args.rate} Hz")
         run_sway_demo(args.out, seconds=args.seconds, rate_hz=args.rate, session=args.session,
-                      bds_trial=args.bds_trial, port=args.port, shape=(args.rows, args.cols), seed=args.seed)
+                      bds_trial=args.bds_trial, port=args.port, shape=args.shape, seed=args.seed)
         return 0
     from ..demo import run_crosstalk_demo
 
-    res = run_crosstalk_demo(args.out, rows=args.rows, cols=args.cols, noise_v=args.noise_mv * 1e-3,
+    res = run_crosstalk_demo(args.out, rows=rows, cols=cols, noise_v=args.noise_mv * 1e-3,
                              seed=args.seed, show=args.show)
-    print(f"psmat demo: simulated {args.rows}x{args.cols} mat, two feet, {args.noise_mv:g} mV noise, 12-bit ADC")
+    print(f"psmat demo: simulated {rows}x{cols} mat, two feet, {args.noise_mv:g} mV noise, 12-bit ADC")
     print(f"  ghost (conductance outside the feet): {100 * res['ghost_fraction_raw']:.1f} % raw -> "
           f"{100 * res['ghost_fraction_iecm']:.2f} % after IECM")
     print(f"  centre-of-pressure error: {res['cop_error_raw_cm']:.3f} cm raw -> {res['cop_error_iecm_cm']:.4f} cm after IECM")

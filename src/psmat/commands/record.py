@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import argparse
 
+from . import _args
+
 NAME = "record"
 HELP = "record a session (HDF5) from a mat, IMU or material DAQ; Ctrl-C stops cleanly"
 
@@ -14,29 +16,34 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--simulate", action="store_true", help="record the digital twin")
     p.add_argument("--device", choices=("psm", "imu", "daq"), default="psm")
     p.add_argument("--protocol", choices=("v1", "v2"), default="v2")
-    p.add_argument("--shape", default="16x16", help="PSM rows x cols")
-    p.add_argument("--rate", type=float, default=None, help="ask the device for this frame rate (Hz)")
-    p.add_argument("--seconds", type=float, default=None, help="stop after this long (default: until Ctrl-C)")
+    p.add_argument("--shape", type=_args.shape, default=(16, 16), help="PSM rows x cols, e.g. 16x16")
+    p.add_argument("--rate", type=_args.rate_hz, default=None, help="ask the device for this frame rate (Hz)")
+    p.add_argument("--seconds", type=_args.seconds, default=None, help="stop after this long (default: until Ctrl-C)")
     p.add_argument("--calibration", default=None, help="calibration JSON of the box (psmat calibrate)")
     p.add_argument("--subject", default="", help="subject id (metadata)")
     p.add_argument("--trial", default="", help="trial name (metadata)")
     p.add_argument("--note", default="", help="free text (metadata)")
-    p.add_argument("--overwrite", action="store_true")
+    p.add_argument("--overwrite", action="store_true", help="replace an existing session file")
 
 
 def run(args: argparse.Namespace) -> int:
+    import os
     import sys
     import time
 
     from tqdm.auto import tqdm
 
     from ..acquire import DeviceDisconnected, open_device
-    from ..io import SessionWriter
+    from ..io import SessionWriter, journal_path
 
     if bool(args.port) == bool(args.simulate):
         print("psmat record: give a PORT or --simulate", file=sys.stderr)
-        return 2
-    shape = tuple(int(v) for v in args.shape.lower().split("x")) if args.device == "psm" else None
+        return 1
+    taken = [p for p in (args.out, journal_path(args.out)) if os.path.lexists(p)]
+    if taken and not args.overwrite:
+        print(f"psmat record: {taken[0]} exists; add --overwrite to replace it", file=sys.stderr)
+        return 1
+    shape = args.shape if args.device == "psm" else None
     calibration = None
     if args.calibration:
         from ..calibration import Calibration

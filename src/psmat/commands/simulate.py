@@ -8,21 +8,23 @@ from __future__ import annotations
 
 import argparse
 
+from . import _args
+
 NAME = "simulate"
 HELP = "serve the simulated mat (or IMU / material DAQ) on a pseudo-terminal; prints the port first"
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--rate", type=float, default=None, help="frames per second (PSM default 100, max 1000)")
+    p.add_argument("--rate", type=_args.rate_hz, default=None, help="frames per second (PSM default 100, max 1000)")
     p.add_argument("--protocol", choices=("v1", "v2"), default="v2", help="frame format (docs/protocol.md)")
     p.add_argument("--device", choices=("psm", "imu", "daq"), default="psm", help="which device to simulate")
     p.add_argument("--scene", default="sway", help="PSM scene: sway (a BDS force-platform trajectory), quiet, "
                    "single-leg, sitting")
     p.add_argument("--bds-trial", type=int, default=1, help="BDS trial driving the sway scene")
-    p.add_argument("--shape", default="16x16", help="PSM rows x cols, e.g. 16x16")
+    p.add_argument("--shape", type=_args.shape, default=(16, 16), help="PSM rows x cols, e.g. 16x16")
     p.add_argument("--faults", default="", help="fault injection, e.g. bit_flip=1e-5,drop_byte=1e-6,"
                    "stall_every_s=5,stall_s=0.2,disconnect_after_s=30")
-    p.add_argument("--duration", type=float, default=None, help="stop after this many seconds (default: never)")
+    p.add_argument("--duration", type=_args.seconds, default=None, help="stop after this many seconds (default: never)")
     p.add_argument("--seed", type=int, default=0)
 
 
@@ -35,7 +37,7 @@ def run(args: argparse.Namespace) -> int:
     from ..twin import Faults, PsmSource, SerialTwin
 
     try:
-        rows, cols = (int(v) for v in args.shape.lower().split("x"))
+        rows, cols = args.shape
         faults = Faults.parse(args.faults)
         source = None
         if args.device == "psm":
@@ -45,7 +47,7 @@ def run(args: argparse.Namespace) -> int:
                           faults=faults, seed=args.seed)
     except ValueError as exc:
         print(f"psmat simulate: {exc}", file=sys.stderr)
-        return 2
+        return 1
     print(twin.port, flush=True)
     print(f"serving a simulated {args.device} ({args.protocol}, {twin.rate_hz:g} Hz) on {twin.port}; Ctrl-C stops",
           file=sys.stderr, flush=True)

@@ -16,6 +16,8 @@ from __future__ import annotations
 
 import argparse
 
+from . import _args
+
 NAME = "view"
 HELP = "live window on a mat (PORT) or the digital twin (--simulate): raw image, pressure, CoP"
 
@@ -23,38 +25,21 @@ HELP = "live window on a mat (PORT) or the digital twin (--simulate): raw image,
 EXIT_DISCONNECTED = 3
 
 
-def _shape(text: str) -> tuple[int, int]:
-    try:
-        r, c = (int(v) for v in text.lower().split("x"))
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"shape must be RxC, e.g. 16x16, got {text!r}") from None
-    if not (2 <= r <= 255 and 2 <= c <= 255):
-        raise argparse.ArgumentTypeError(f"rows and columns must be 2 ... 255, got {text!r}")
-    return r, c
-
-
-def _positive_int(text: str) -> int:
-    v = int(text)
-    if v < 1:
-        raise argparse.ArgumentTypeError(f"must be >= 1, got {text}")
-    return v
-
-
 def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("port", nargs="?", default=None, help="the mat's serial port (/dev/ttyACM0, COM4, a pty)")
     p.add_argument("--simulate", action="store_true", help="view the digital twin instead of a mat")
-    p.add_argument("--rate", type=int, default=100, help="twin frame rate, frames/s (with --simulate)")
+    p.add_argument("--rate", type=_args.positive_int, default=100, help="twin frame rate, frames/s (with --simulate)")
     p.add_argument("--protocol", choices=("v1", "v2"), default="v2", help="frame format")
     p.add_argument("--scene", default="sway", help="twin scene (with --simulate): sway, quiet, single-leg, sitting")
-    p.add_argument("--shape", type=_shape, default=None,
+    p.add_argument("--shape", type=_args.shape, default=None,
                    help="mat rows x cols, e.g. 16x16 (default: what the mat reports, else 16x16)")
-    p.add_argument("--decimate", type=_positive_int, default=1, help="process and draw every Nth frame")
-    p.add_argument("--seconds", type=float, default=None, help="close after this many seconds")
+    p.add_argument("--decimate", type=_args.positive_int, default=1, help="process and draw every Nth frame")
+    p.add_argument("--seconds", type=_args.seconds, default=None, help="close after this many seconds")
     p.add_argument("--save", default=None, metavar="PNG", help="write a screenshot of the figure at the end")
     p.add_argument("--no-iecm", action="store_true", help="raw image and raw CoP only (for slow machines)")
     p.add_argument("--g-rest", type=float, default=1e-7,
                    help="conductance of an unloaded cell (S), subtracted before the sensor model")
-    p.add_argument("--interval", type=float, default=0.05, help="pause between redraws (s)")
+    p.add_argument("--interval", type=_args.seconds, default=0.05, help="pause between redraws (s)")
 
 
 def _pick_backend(args: argparse.Namespace) -> tuple[bool, str | None]:
@@ -105,9 +90,6 @@ def run(args: argparse.Namespace) -> int:
 
     if (args.port is None) == (not args.simulate):
         err("give a PORT or --simulate (not both)")
-        return 2
-    if args.seconds is not None and args.seconds <= 0:
-        err("--seconds must be > 0")
         return 2
     interactive, problem = _pick_backend(args)
     if problem:
