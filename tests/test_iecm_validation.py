@@ -62,3 +62,12 @@ def test_g0_shape_mismatch():
 def test_integer_input_is_accepted_as_conductance():
     g = np.ones((3, 3), dtype=np.int64)  # 1 S everywhere
     np.testing.assert_allclose(psmat.iecm.forward(g), psmat.iecm.forward(g.astype(float)))
+
+
+@pytest.mark.parametrize("counts", [np.full((4, 4), 1000, dtype=np.uint16), np.full((3, 4, 4), 1000, dtype=np.int64),
+                                    [[1000, 1200], [900, 4000]]])
+def test_solve_refuses_raw_counts(counts):
+    # ADC counts passed by mistake were solved as conductances: g ~ 1205 S, "converged"
+    with pytest.raises(TypeError, match=r"integer.*psmat\.Circuit\(\)\.conductance\(counts\)") as err:
+        psmat.iecm.solve(counts)
+    assert "\n" not in str(err.value)

@@ -23,11 +23,16 @@ batches are spread over all cores. Methods:
     Least squares (eq. 2.9) on g with the bound g >= g_floor (projected LM, active set).
 ``"fixed_point"``
     The thesis' iteration g <- g + beta (G - F(g)) (eq. 2.10).
+
+Whatever the method, a frame that g_floor decides is not a solution: every cell at g_floor
+(status ``all_at_floor``), or g_floor at or above a measured G (``floor_above_data``: since
+g <= G cell by cell, that cell is forced to the bound by the floor, not by the data).
 """
 
 from __future__ import annotations
 
 import time
+import warnings
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -43,6 +48,12 @@ METHODS = ("newton", "bounded_newton", "lm", "bounded_lsq", "fixed_point")
 # need 15-40), so both allow 1000 before reporting max_iterations
 _DEFAULT_MAX_ITER = {"newton": 1000, "bounded_newton": 1000, "lm": 200, "bounded_lsq": 200, "fixed_point": 20000}
 _STATUS_NAMES = np.array(["converged", "max_iterations", "stalled", "singular", "least_squares", "bounded"])
+# statuses set here rather than by the core: the answer is g_floor's, not the data's (SPEC §3)
+_FLOOR_REASONS = {
+    "floor_above_data": "g_floor = {g_floor:g} S is not below the measured G; it is a positivity bound and must be "
+                        "far below the data",
+    "all_at_floor": "every cell ended at g_floor = {g_floor:g} S: no signal above the floor",
+}
 
 
 @dataclass
@@ -62,9 +73,11 @@ class SolveInfo:
     status : str array
         ``converged``, ``bounded`` (noisy G: complementarity solution with ``at_bound``
         cells at g_floor), ``least_squares`` (noisy G: least-squares point),
-        ``max_iterations``, ``stalled`` or ``singular``.
+        ``max_iterations``, ``stalled``, ``singular``, ``all_at_floor`` (every cell at
+        g_floor) or ``floor_above_data`` (g_floor >= some measured G).
     converged : bool array
-        True for ``converged``, ``bounded`` and ``least_squares``.
+        True for ``converged``, ``bounded`` and ``least_squares`` (never for a frame that
+        g_floor decided).
     at_bound : int array
         Cells held at g_floor (bounded methods).
     used_fallback : bool array
@@ -100,6 +113,38 @@ class SolveInfo:
         if isinstance(status, np.ndarray) and status.dtype.kind == "i":
             status = _STATUS_NAMES[status]  # batch reports carry status codes
         return cls(**{k: np.asarray(rep[k]) for k in cls._FIELDS}, status=np.asarray(status), method=method, **kw)
+
+    def flag_floor(self, G: np.ndarray, g: np.ndarray, g_floor: float) -> None:
+        """Mark the frames that g_floor decided (module docstring) as not converged.
+
+        Parameters
+        ----------
+        G, g : numpy.ndarray, shape (T, R, C)
+            Measured equivalent conductances and the solution, S.
+        g_floor : float
+            The lower bound the solver used, S.
+        """
+        shape = np.shape(self.converged)
+        above = (G.min(axis=(1, 2)) <= g_floor).reshape(shape)
+        # the core's own test for a cell at the bound (at_bound)
+        floor = np.all(g <= g_floor * (1.0 + 1e-9), axis=(1, 2)).reshape(shape)
+        self.status = np.where(above, "floor_above_data", np.where(floor, "all_at_floor", self.status))
+        self.converged = self.converged & ~above & ~floor
+
+    def warn_unconverged(self, g_floor: float, stacklevel: int = 3) -> None:
+        """One RuntimeWarning naming the statuses of the frames that did not converge, if any."""
+        conv = np.atleast_1d(self.converged)
+        if conv.all():
+            return
+        names, counts = np.unique(np.atleast_1d(self.status)[~conv], return_counts=True)
+        reasons = [_FLOOR_REASONS[n].format(g_floor=g_floor) for n in names if n in _FLOOR_REASONS]
+        warnings.warn(
+            f"IECM ({self.method}): {int((~conv).sum())} of {conv.size} frame(s) did not converge "
+            f"(status: {', '.join(f'{n} {c}' for n, c in zip(names.tolist(), counts.tolist()))})"
+            + "".join(f"; {r}" for r in reasons) + "; pass return_info=True to inspect them",
+            RuntimeWarning,
+            stacklevel=stacklevel,
+        )
 
     @property
     def all_converged(self) -> bool:
@@ -169,8 +214,9 @@ def solve(
     Parameters
     ----------
     G : array_like, shape (R, C) or (T, R, C)
-        Equivalent conductances in S (> 0, finite), e.g. ``Circuit.conductance(counts)``.
-    method : {"newton", "lm", "bounded_lsq", "fixed_point"}
+        Equivalent conductances in S (> 0, finite, a float dtype), e.g.
+        ``Circuit.conductance(counts)``; integer arrays (raw ADC counts) are refused.
+    method : {"newton", "bounded_newton", "lm", "bounded_lsq", "fixed_point"}
         See the module docstring.
     g0 : array_like, optional
         Starting point, shape of G (S). Default: a cold start from g0 = G, or for a batch
@@ -184,7 +230,7 @@ def solve(
     rtol : float
         Stop when max |F(g) - G| / G <= rtol.
     max_iter : int, optional
-        Per-frame iteration limit (default 100 Newton, 200 least squares, 20000 fixed point).
+        Per-frame iteration limit (default 1000 Newton, 200 least squares, 20000 fixed point).
     beta : float
         Fixed-point damping (eq. 2.10).
     g_floor : float
@@ -207,9 +253,15 @@ def solve(
     Warns
     -----
     RuntimeWarning
-        When some frame did not converge (look at ``info.status``).
+        When some frame did not converge, including frames that g_floor decided (look at
+        ``info.status``).
+
+    Raises
+    ------
+    TypeError
+        For an integer (or non-numeric) G.
     """
-    frames, single = as_frames(G, "G", allow_zero=False)
+    frames, single = as_frames(G, "G", allow_zero=False, measured=True)
     opts = make_options(method, rtol=rtol, max_iter=max_iter, beta=beta, g_floor=g_floor,
                         reuse_factorization=reuse_factorization, fallback=fallback)
     init = None
@@ -234,17 +286,8 @@ def solve(
         out = job.g().reshape(frames.shape)
         info = SolveInfo.from_report(job.reports(), method, threads=nthreads)
     info.wall_time = time.perf_counter() - t0
-    if not info.all_converged:
-        import warnings
-
-        bad = int(np.size(info.converged) - np.sum(info.converged))
-        warnings.warn(
-            f"IECM ({method}): {bad} of {np.size(info.converged)} frame(s) did not converge "
-            f"(status: {sorted(set(np.atleast_1d(info.status)[~np.atleast_1d(info.converged)]))}); "
-            "pass return_info=True to inspect them",
-            RuntimeWarning,
-            stacklevel=2,
-        )
+    info.flag_floor(frames, out.reshape(frames.shape), g_floor)
+    info.warn_unconverged(g_floor)
     return (out, info) if return_info else out
 
 
