@@ -20,11 +20,6 @@ using psmat::iecm::StreamSolver;
 
 namespace {
 
-using Clock = std::chrono::steady_clock;
-double seconds_since(Clock::time_point t0) {
-  return std::chrono::duration<double>(Clock::now() - t0).count();
-}
-
 // A recording: T frames of a slowly varying array. Frame t scales every cell by
 // 1 + 0.05 sin(0.4 t + 0.3 a), so consecutive frames differ by up to ~2 % per cell — far
 // more than the 1e-6 tolerance, so a frame delivered in the wrong place cannot pass.
@@ -155,7 +150,6 @@ TEST_CASE("BatchJob: cancel() stops a long job") {
   for (bool streaming : {true, false}) {
     CAPTURE(streaming);
     BatchJob job(c.shape, G, o, streaming, 2);
-    const auto t0 = Clock::now();
     job.start();
     CHECK_FALSE(job.wait(0.0));  // a 4000-frame job is not done immediately
     std::this_thread::sleep_for(std::chrono::milliseconds(20));
@@ -163,13 +157,10 @@ TEST_CASE("BatchJob: cancel() stops a long job") {
     job.cancel();
     CHECK(job.cancelled());
     REQUIRE(job.wait(30.0));  // returns: the threads saw the flag
-    const double elapsed = seconds_since(t0);
     CAPTURE(before);
     CAPTURE(job.completed());
-    CAPTURE(elapsed);
     CHECK(job.completed() < T);
     CHECK(job.completed() >= before);
-    CHECK(elapsed < 5.0);
     // after wait() nothing is running any more
     const Index after = job.completed();
     std::this_thread::sleep_for(std::chrono::milliseconds(50));
@@ -180,13 +171,19 @@ TEST_CASE("BatchJob: cancel() stops a long job") {
 TEST_CASE("BatchJob: destroying a running job cancels and joins it") {
   const auto cases = load_forward_reference();
   const RefCase& c = find_case(cases, "16x16_feet");
-  RowMatrixXd G = c.G.transpose().replicate(2000, 1);
-  const auto t0 = Clock::now();
+  // frames that each run 30000 fixed-point iterations (~0.5 s): all 10000 of them would take
+  // far longer than CTest's TIMEOUT (300 s), so a destructor that joined without cancelling
+  // fails this test by timing out; one that cancels returns after the frames in flight
+  RowMatrixXd G = c.G.transpose().replicate(10000, 1);
+  SolveOptions o;
+  o.method = psmat::iecm::Method::FixedPoint;
+  o.max_iter = 30000;
+  o.rtol = 1e-300;
   {
-    BatchJob job(c.shape, G, SolveOptions{}, false, 2);
+    BatchJob job(c.shape, G, o, false, 2);
     job.start();
+    REQUIRE_FALSE(job.wait(0.0));  // still running when it goes out of scope
   }  // ~BatchJob
-  CHECK(seconds_since(t0) < 5.0);
 }
 
 TEST_CASE("StreamSolver: 2 threads return frames in push order with correct solutions") {
@@ -221,11 +218,10 @@ TEST_CASE("StreamSolver: 2 threads return frames in push order with correct solu
     CHECK(max_rel_err(out[size_t(t)].g, rec.g.row(t).transpose()) < 1e-6);
   }
   CHECK(stream.pending() == 0);
-  // nothing more to pop: a timed pop returns false promptly
+  // nothing more to pop: a timed pop returns false (one that ignored its timeout would block
+  // until CTest's TIMEOUT)
   StreamResult none;
-  const auto t0 = Clock::now();
   CHECK_FALSE(stream.pop(none, 0.05));
-  CHECK(seconds_since(t0) < 2.0);
 }
 
 TEST_CASE("StreamSolver: close() drains queued frames; push after close throws") {
