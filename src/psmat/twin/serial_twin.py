@@ -4,7 +4,11 @@
 ``psmat._core.firmware``) on the host, feeds its "ADC" from a source
 (:mod:`psmat.twin.sources`) and serves its bytes on a pseudo-terminal, paced by the
 firmware's own timer rate — what a reader sees is what it would see from the mat over USB:
-the same frames, the same replies to commands, at the configured rate.
+the same frames, the same replies to commands, at the configured rate. A frame carries
+the timer's time of its tick (µs since the start, on the grid of the frame period, as the
+MCU's timer-IRQ pacing gives, SPEC §5), not the moment the host's scheduler ran the tick;
+ticks that come more than a period late are lost, like a timer's missed interrupts, and
+counted in ``late_ticks``.
 
 A pty buffers unread data (about 20 KB); the twin writes without blocking, keeps up to
 ``buffer_bytes`` more queued for a host that is briefly slow (as the device's and the host
@@ -15,16 +19,27 @@ Fault injection (:class:`Faults`) for robustness tests: bit flips and dropped by
 given rate per byte, stalls (the link goes silent for a while, frames scanned meanwhile
 are lost, as on a device whose USB stalls), and a disconnect (the pty goes away, as when
 the cable is pulled).
+
+The port a host opens is a link to the pty in a private temporary folder (like udev's
+``/dev/serial/by-id`` names), removed when the twin stops or is disconnected. The system
+gives a freed pty number (``/dev/pts/N``) to the next pty opened anywhere on the machine,
+so a host still re-opening a vanished twin's ``/dev/pts/N`` (reconnecting, or another
+process) would land on a newer twin; two hosts on one pty take each other's bytes, and
+pyserial then reports the port gone. A link's path is never handed out again.
 """
 
 from __future__ import annotations
 
 import errno
+import math
 import os
 import select
+import shutil
+import tempfile
 import threading
 import time
 import tty
+import weakref
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -102,7 +117,7 @@ class TwinStats:
     commands_bytes: int = 0
     bits_flipped: int = 0
     bytes_dropped: int = 0
-    late_ticks: int = 0  # ticks more than one period behind schedule
+    late_ticks: int = 0  # times the twin fell more than a period behind (the ticks missed are lost)
     errors: list[str] = field(default_factory=list)
 
 
@@ -130,6 +145,13 @@ class SerialTwin:
         Bytes queued for a host that is slow to read, beyond the pty's own ~20 KB (what the
         device's and the host driver's buffers hold on a real link; Linux's tty layer keeps
         up to 64 KiB). When it is full, packets are dropped whole and counted.
+
+    Attributes
+    ----------
+    port : str
+        The path a host opens: a link to the pty in a private temporary folder, unique to
+        this twin and removed by :meth:`stop` and :meth:`disconnect` (see the module
+        docstring).
     """
 
     def __init__(self, kind: str = "psm", rate_hz: float | None = None, protocol: str = "v2", *,
@@ -174,7 +196,11 @@ class SerialTwin:
         self._master, self._slave = os.openpty()
         tty.setraw(self._slave)  # no echo, no line discipline: bytes pass untouched
         os.set_blocking(self._master, False)
-        self.port = os.ttyname(self._slave)
+        link_dir = tempfile.mkdtemp(prefix="psmat-twin-")
+        self.port = os.path.join(link_dir, f"tty{kind.upper()}")
+        os.symlink(os.ttyname(self._slave), self.port)
+        self._remove_port = weakref.finalize(self, shutil.rmtree, link_dir, True)  # also at exit
+        self._release_lock = threading.Lock()
         self._stop = threading.Event()
         self._thread: threading.Thread | None = None
         self._t0 = 0.0
@@ -191,7 +217,7 @@ class SerialTwin:
         self._stop.set()
         if self._thread is not None:
             self._thread.join(timeout)
-        self._close_fds()
+        self._release()
 
     def __enter__(self) -> "SerialTwin":
         return self.start()
@@ -204,23 +230,27 @@ class SerialTwin:
         try:
             self._serve()
         finally:
-            self._close_fds()
+            self._release()
 
     def disconnect(self) -> None:
-        """Pull the cable: the pty disappears; the host's reads fail."""
+        """Pull the cable: the port and the pty disappear; the host's reads fail."""
         self.disconnected = True
         self._stop.set()
-        self._close_fds()
+        self._release()
 
-    def _close_fds(self) -> None:
-        for name in ("_master", "_slave"):
-            fd = getattr(self, name)
-            if fd is not None:
-                try:
-                    os.close(fd)
-                except OSError:
-                    pass
-                setattr(self, name, None)
+    def _release(self) -> None:
+        """Remove the port's link, then close the pty; once, whichever thread comes first
+        (a second close of a number the system has handed out again would close another file)."""
+        with self._release_lock:
+            self._remove_port()
+            for name in ("_master", "_slave"):
+                fd = getattr(self, name)
+                if fd is not None:
+                    try:
+                        os.close(fd)
+                    except OSError:
+                        pass
+                    setattr(self, name, None)
 
     # -------------------------------------------------------------------- the device
     @property
@@ -296,14 +326,16 @@ class SerialTwin:
                             t_us = int((time.monotonic() - self._t0) * 1e6)
                             self._send(self._receive(data, t_us), elapsed, is_frame=False)
                     continue
-                t_us = int((now - self._t0) * 1e6)
+                # the MCU stamps a scan with its timer's time, not with when the host got round to it
+                t_us = int(round((next_t - self._t0) * 1e6))
                 self.stats.ticks += 1
                 self._send(self._tick(t_us), elapsed, is_frame=True)
                 period = 1.0 / self.rate_hz
                 next_t += period
-                if now - next_t > period:  # fell behind by more than a period: resync the timer
+                behind = now - next_t
+                if behind > period:  # fell behind by more than a period: those ticks are lost, the grid kept
                     self.stats.late_ticks += 1
-                    next_t = now + period
+                    next_t += period * math.floor(behind / period)
         except Exception as exc:  # reported, never silent
             if self._stop.is_set():  # the port was closed under us by stop()/disconnect()
                 return
