@@ -19,11 +19,11 @@ def run(args: argparse.Namespace) -> int:
     from ..io import SessionFormatError, export_csv, info, load_session
 
     try:
-        s = load_session(args.session)
-    except (FileNotFoundError, SessionFormatError, OSError) as exc:
+        s = load_session(args.session)  # SPEC §6: every loader error is one SessionFormatError
+        print(info(s))
+        if args.csv:
+            print(f"CSV: {export_csv(s, args.csv)}")
+    except (SessionFormatError, OSError) as exc:  # FileNotFoundError is an OSError
         print(f"psmat info: {exc}", file=sys.stderr)
         return 1
-    print(info(s))
-    if args.csv:
-        print(f"CSV: {export_csv(s, args.csv)}")
     return 0

@@ -1,0 +1,110 @@
+"""A session for people and other programs: a CSV export and a text summary."""
+
+from __future__ import annotations
+
+import csv
+import math
+import os
+from collections.abc import Mapping
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from .session_layout import COUNTER_NAMES, Session
+from .session_reader import load_session
+
+_IMU_ANGLES = ("heading", "roll", "pitch")
+
+
+def _cell_names(kind: str, shape: tuple[int, ...]) -> list[str]:
+    if kind == "imu":
+        return [f"s{k}_{a}_deg" for k in range(shape[0]) for a in _IMU_ANGLES[: shape[1]]]
+    if kind == "daq":
+        return [f"s{k}_count" for k in range(shape[0])]
+    r, c = shape
+    return [f"c_{i}_{p}" for i in range(r) for p in range(c)]
+
+
+def export_csv(session: Session | str | os.PathLike[str], path: str | os.PathLike[str], *,
+               missing: str | None = None) -> Path:
+    """Write one CSV row per frame: ``time_s, valid, seq``, then the frame values.
+
+    Cell columns are ``c_{i}_{p}`` (row-major) for a mat, ``s{k}_{heading|roll|pitch}_deg``
+    for the IMUs, ``s{k}_count`` for the material DAQ. ``valid`` is 1/0; ``seq`` is empty
+    when unknown. Values are written exactly (integers; shortest round-trip floats).
+    ``missing``: if given (e.g. ``""``), the cells of invalid frames are written as this
+    string instead of the stored placeholder values.
+    """
+    s = session if isinstance(session, Session) else load_session(session)
+    out = Path(path)
+    flat = s.counts.reshape(s.n_frames, -1)
+    is_float = flat.dtype.kind == "f"
+    seq = s.seq
+    with open(out, "w", newline="", encoding="utf-8") as fh:
+        w = csv.writer(fh, lineterminator="\n")
+        w.writerow(["time_s", "valid", "seq", *_cell_names(s.kind, s.frame_shape)])
+        ncol = flat.shape[1]
+        for k in range(s.n_frames):
+            head = [repr(float(s.host_time_s[k])), int(s.valid[k]),
+                    "" if seq is None or seq[k] < 0 else int(seq[k])]
+            if missing is not None and not s.valid[k]:
+                w.writerow(head + [missing] * ncol)
+            elif is_float:
+                w.writerow(head + [np.format_float_positional(x, unique=True, trim="-") for x in flat[k]])
+            else:
+                w.writerow(head + flat[k].tolist())
+    return out
+
+
+def info(session: Session | str | os.PathLike[str]) -> str:
+    """A human-readable summary of a session (or of the session file at a path)."""
+    s = session if isinstance(session, Session) else load_session(session)
+    n = s.n_frames
+    lines = [f"psmat session: {s.path if s.path is not None else '(in memory)'}"]
+    state = "complete" if s.complete else "INTERRUPTED recording"
+    if s.recovered:
+        state += ", frames recovered from the journal"
+    lines.append(f"  kind          {s.kind}, frame shape {s.frame_shape}, format v{s.format_version} ({state})")
+    if s.created_utc:
+        lines.append(f"  created       {s.created_utc}")
+    rate = s.rate_hz
+    lines.append(
+        f"  frames        {n}, duration {s.duration_s:.3f} s, rate "
+        + (f"{rate:.2f} Hz (from host times)" if math.isfinite(rate) else "n/a")
+    )
+    n_bad = int(n - np.count_nonzero(s.valid))
+    pct = 100.0 * n_bad / n if n else 0.0
+    lines.append(f"  invalid       {n_bad} frames ({pct:.2f} %)")
+    c = s.counters
+    counters = ", ".join(f"{k} {c.get(k, 0)}" for k in COUNTER_NAMES) if c else "unknown (damaged)"
+    lines.append(f"  counters      {counters}")
+    if s.seq is not None:
+        known = s.seq[s.seq >= 0]
+        gaps = int(np.sum(np.clip(np.diff(known) - 1, 0, None))) if known.size > 1 else 0
+        lines.append(f"  seq           {int(known[0]) if known.size else '-'}..{int(known[-1]) if known.size else '-'}, "
+                     f"{gaps} frames missing by sequence number")
+    if s.device_time_us is not None:
+        known = s.device_time_us[s.device_time_us >= 0]
+        if known.size > 1:
+            lines.append(f"  device clock  {(known[-1] - known[0]) / 1e6:.3f} s span")
+
+    def kv(d: Mapping[str, Any]) -> str:
+        return ", ".join(f"{k}={v}" for k, v in d.items()) if d else "(none)"
+
+    lines.append(f"  device        {kv(s.device)}")
+    if s.calibration is None:
+        lines.append("  calibration   (none)")
+    else:
+        cal = {k: v for k, v in s.calibration.items() if not isinstance(v, (list, dict))}
+        lines.append(f"  calibration   {kv(cal)}")
+    lines.append(f"  metadata      {kv(s.metadata)}")
+    if s.products:
+        lines.append("  products")
+        for name, p in sorted(s.products.items()):
+            lines.append(f"    {name:<12}{p.data.shape} {p.data.dtype} [{p.unit}] params: {kv(p.params)}")
+    else:
+        lines.append("  products      (none)")
+    for note in s.notes:
+        lines.append(f"  note          {note}")
+    return "\n".join(lines)

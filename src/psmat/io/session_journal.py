@@ -1,0 +1,232 @@
+"""The crash record of a session being written: an append-only journal of fixed-size CRC'd records.
+
+Format (little-endian; :mod:`psmat.io.session` explains its role):
+
+* ``b"PSMATJ02"``, ``uint32`` header length ``H``, ``H`` bytes of UTF-8 JSON (kind, frame
+  shape and dtype, chunk size, device, calibration, metadata, record size), ``uint32``
+  CRC-32 of those ``H`` bytes;
+* then records of ``32 + P + 4`` bytes: ``uint8 type`` (0 frame, 1 counters), ``uint8
+  valid``, 6 pad bytes, ``float64 host_time_s``, ``int64 seq``, ``int64 device_time_us``,
+  ``P`` payload bytes (the frame, or the counters as int64, zero padded), ``uint32`` CRC-32
+  of the record's preceding bytes.
+
+Records have one size, so a reader that meets a record failing its CRC skips exactly that
+record and goes on with the next (SPEC §6); only a torn last record (a write cut short)
+leaves a tail shorter than a record.
+"""
+
+from __future__ import annotations
+
+import json
+import zlib
+from collections.abc import Iterator, Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from .session_layout import COUNTER_NAMES, FORMAT_NAME, FORMAT_VERSION, KINDS, FrameBlock, Header, SessionFormatError
+
+MAGIC = b"PSMATJ02"
+FRAME, COUNTERS = 0, 1
+_BLOCK_RECORDS = 4096  # records read and checked at a time
+
+
+def record_dtype(payload: int) -> np.dtype:
+    """The structured dtype of one journal record with ``payload`` payload bytes."""
+    return np.dtype(
+        [
+            ("type", "u1"),
+            ("valid", "u1"),
+            ("pad", "u1", (6,)),
+            ("host_time_s", "<f8"),
+            ("seq", "<i8"),
+            ("device_time_us", "<i8"),
+            ("payload", "u1", (payload,)),
+            ("crc", "<u4"),
+        ]
+    )
+
+
+def payload_bytes(h: Header) -> int:
+    """Payload size: room for one frame or for the counters, whichever is larger."""
+    return max(int(np.prod(h.frame_shape)) * h.spec.dtype.itemsize, 8 * len(COUNTER_NAMES))
+
+
+def encode_header(h: Header) -> bytes:
+    """The journal's first bytes: magic, length, JSON, CRC-32 of the JSON."""
+    p = payload_bytes(h)
+    doc = {
+        "format": FORMAT_NAME + "-journal",
+        "format_version": FORMAT_VERSION,
+        "kind": h.kind,
+        "frame_shape": list(h.frame_shape),
+        "frame_dtype": h.spec.dtype.str,
+        "chunk_frames": h.chunk_frames,
+        "payload_bytes": p,
+        "record_bytes": record_dtype(p).itemsize,
+        "counter_names": list(COUNTER_NAMES),
+        "device": h.device,
+        "calibration": h.calibration,
+        "metadata": h.metadata,
+        "created_utc": h.created_utc,
+    }
+    hb = json.dumps(doc, allow_nan=True).encode("utf-8")
+    return MAGIC + len(hb).to_bytes(4, "little") + hb + zlib.crc32(hb).to_bytes(4, "little")
+
+
+def _with_crc(rec: NDArray[Any]) -> bytes:
+    raw = rec.view(np.uint8).reshape(rec.shape[0], rec.dtype.itemsize)
+    for i in range(rec.shape[0]):
+        rec["crc"][i] = zlib.crc32(raw[i, :-4].tobytes())
+    return rec.tobytes()
+
+
+def encode_frames(dtype: np.dtype, b: FrameBlock) -> bytes:
+    """One CRC'd record per frame of ``b`` (frames already in the kind's dtype, C order)."""
+    n = len(b)
+    rec = np.zeros(n, dtype)
+    rec["type"] = FRAME
+    rec["valid"] = b.valid
+    rec["host_time_s"] = b.host_time_s
+    rec["seq"] = b.seq
+    rec["device_time_us"] = b.device_time_us
+    flat = b.frames.reshape(n, -1).view(np.uint8)
+    rec["payload"][:, : flat.shape[1]] = flat
+    return _with_crc(rec)
+
+
+def encode_counters(dtype: np.dtype, counters: Mapping[str, int]) -> bytes:
+    """One CRC'd record holding the cumulative counters (:data:`COUNTER_NAMES` order)."""
+    rec = np.zeros(1, dtype)
+    rec["type"] = COUNTERS
+    rec["payload"][0, : 8 * len(COUNTER_NAMES)] = np.array([counters[k] for k in COUNTER_NAMES], "<i8").view(np.uint8)
+    return _with_crc(rec)
+
+
+def format_ranges(idx: NDArray[Any] | list[int]) -> str:
+    """``[0, 1, 2, 5, 8, 9]`` -> ``"0..2, 5, 8..9"``."""
+    a = np.asarray(idx, np.int64)
+    if a.size == 0:
+        return "none"
+    cut = np.flatnonzero(np.diff(a) != 1) + 1
+    parts = []
+    for run in np.split(a, cut):
+        parts.append(f"{run[0]}" if run.size == 1 else f"{run[0]}..{run[-1]}")
+    return ", ".join(parts)
+
+
+@dataclass
+class Journal:
+    """An opened journal: its header, then its records read block by block with :meth:`blocks`.
+
+    After a full pass of :meth:`blocks`: ``skipped_frames`` holds the write-order indices of
+    frame records that failed their CRC (a damaged record whose type byte does not say
+    "counters" is counted as a frame), ``skipped_counters`` the number of damaged counters
+    records, ``counters`` the last intact counters record, ``frames_read`` the intact frames.
+    """
+
+    path: Path
+    header: Header
+    format_version: int
+    record: np.dtype
+    body_offset: int
+    n_records: int
+    tail_bytes: int
+    skipped_frames: list[int] = field(default_factory=list)
+    skipped_counters: int = 0
+    counters: dict[str, int] | None = None
+    frames_read: int = 0
+
+    @classmethod
+    def open(cls, path: Path) -> Journal:
+        """Read and check the header; :class:`SessionFormatError` if it is not an intact journal header."""
+        with open(path, "rb") as fh:
+            head = fh.read(12)
+            if len(head) < 12 or head[:8] != MAGIC:
+                raise SessionFormatError(f"{path}: not a psmat session journal (bad or missing magic)")
+            hlen = int.from_bytes(head[8:12], "little")
+            hb = fh.read(hlen + 4)
+        size = path.stat().st_size
+        if len(hb) < hlen + 4:
+            raise SessionFormatError(f"{path}: journal header truncated ({len(hb)} of {hlen + 4} bytes)")
+        if zlib.crc32(hb[:hlen]) != int.from_bytes(hb[hlen:], "little"):
+            raise SessionFormatError(f"{path}: journal header damaged (CRC-32 mismatch)")
+        try:
+            doc = json.loads(hb[:hlen].decode("utf-8"))
+            kind = str(doc["kind"])
+            h = Header(kind=kind, frame_shape=tuple(int(x) for x in doc["frame_shape"]),
+                       device=dict(doc["device"] or {}), calibration=doc["calibration"],
+                       metadata=dict(doc["metadata"] or {}), created_utc=str(doc["created_utc"]),
+                       chunk_frames=int(doc["chunk_frames"]))
+            if kind not in KINDS or np.dtype(doc["frame_dtype"]) != KINDS[kind].dtype:
+                raise ValueError(f"kind {kind!r} with frame dtype {doc['frame_dtype']!r}")
+            rec = record_dtype(payload_bytes(h))
+            if rec.itemsize != int(doc["record_bytes"]):
+                raise ValueError(f"record size {doc['record_bytes']}, the frame shape needs {rec.itemsize}")
+            version = int(doc["format_version"])
+        except (UnicodeDecodeError, ValueError, KeyError, TypeError) as e:
+            raise SessionFormatError(f"{path}: journal header is not a psmat journal header ({e})") from None
+        body = 12 + hlen + 4
+        n = (size - body) // rec.itemsize
+        return cls(path=path, header=h, format_version=version, record=rec, body_offset=body, n_records=n,
+                   tail_bytes=size - body - n * rec.itemsize)
+
+    def blocks(self) -> Iterator[FrameBlock]:
+        """The intact frame records, in write order, a block at a time (damaged records skipped)."""
+        h = self.header
+        nbytes = int(np.prod(h.frame_shape)) * h.spec.dtype.itemsize
+        frame_no = 0
+        with open(self.path, "rb") as fh:
+            fh.seek(self.body_offset)
+            left = self.n_records
+            while left:
+                m = min(left, _BLOCK_RECORDS)
+                rec = np.frombuffer(fh.read(m * self.record.itemsize), dtype=self.record)
+                left -= m
+                u8 = rec.view(np.uint8).reshape(m, self.record.itemsize)
+                ok = np.array([zlib.crc32(u8[i, :-4].tobytes()) == int(rec["crc"][i]) for i in range(m)], bool)
+                is_frame = rec["type"] != COUNTERS  # a damaged type byte: most records are frames
+                order = frame_no + np.cumsum(is_frame) - 1  # write-order index of each frame record
+                frame_no += int(is_frame.sum())
+                self.skipped_frames.extend(order[~ok & is_frame].tolist())
+                self.skipped_counters += int(np.count_nonzero(~ok & ~is_frame))
+                cr = rec[ok & (rec["type"] == COUNTERS)]
+                if cr.shape[0]:
+                    vals = cr["payload"][-1, : 8 * len(COUNTER_NAMES)].copy().view("<i8")
+                    self.counters = {k: int(v) for k, v in zip(COUNTER_NAMES, vals)}
+                fr = rec[ok & (rec["type"] == FRAME)]
+                self.frames_read += fr.shape[0]
+                yield FrameBlock(
+                    frames=fr["payload"][:, :nbytes].copy().view(h.spec.dtype).reshape((fr.shape[0], *h.frame_shape)),
+                    host_time_s=fr["host_time_s"].astype(np.float64),
+                    valid=fr["valid"].astype(bool),
+                    seq=fr["seq"].astype(np.int64),
+                    device_time_us=fr["device_time_us"].astype(np.int64),
+                )
+
+    def read_all(self) -> FrameBlock:
+        """Every intact frame record as one block."""
+        parts = list(self.blocks())
+        if not parts:
+            h = self.header
+            return FrameBlock(np.zeros((0, *h.frame_shape), h.spec.dtype), np.zeros(0), np.zeros(0, bool),
+                              np.zeros(0, np.int64), np.zeros(0, np.int64))
+        return FrameBlock(*(np.concatenate([getattr(p, k) for p in parts]) for k in
+                            ("frames", "host_time_s", "valid", "seq", "device_time_us")))
+
+    def damage_notes(self) -> list[str]:
+        """What a pass of :meth:`blocks` skipped, one note per kind of damage."""
+        notes = []
+        n_bad = len(self.skipped_frames) + self.skipped_counters
+        if n_bad:
+            what = [f"frame(s) {format_ranges(self.skipped_frames)} (write order) lost"] if self.skipped_frames else []
+            if self.skipped_counters:
+                what.append(f"{self.skipped_counters} counters record(s)")
+            notes.append(f"{n_bad} journal record{'s' if n_bad != 1 else ''} failed the CRC and "
+                         f"{'were' if n_bad != 1 else 'was'} skipped: {'; '.join(what)}")
+        if self.tail_bytes:
+            notes.append(f"journal tail of {self.tail_bytes} bytes discarded (incomplete last record)")
+        return notes

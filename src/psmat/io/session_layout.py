@@ -1,0 +1,416 @@
+"""The session file's layout: names, kinds, the in-memory classes and the HDF5 file writer.
+
+The layout itself (datasets, attributes, checksums) is documented in :mod:`psmat.io.session`;
+this module is the one place that creates it.
+"""
+
+from __future__ import annotations
+
+import datetime as _dt
+import json
+import os
+from collections.abc import Iterable, Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import h5py
+import numpy as np
+from numpy.typing import NDArray
+
+FORMAT_NAME = "psmat-session"
+FORMAT_VERSION = 2
+COUNTER_NAMES: tuple[str, ...] = ("dropped_frames", "bad_frames", "resyncs", "bytes_discarded")
+PER_FRAME: tuple[str, ...] = ("host_time_s", "valid", "seq", "device_time_us")
+
+
+@dataclass(frozen=True)
+class KindSpec:
+    """What one kind of device stores: the frame dataset's name, dtype, unit and axes."""
+
+    dataset: str
+    dtype: np.dtype
+    unit: str
+    axes: str
+
+
+KINDS: dict[str, KindSpec] = {
+    "psm": KindSpec("counts", np.dtype("<u2"), "count", "time, row, column"),
+    "imu": KindSpec("angles", np.dtype("<f4"), "deg", "time, sensor, (heading, roll, pitch)"),
+    "daq": KindSpec("counts", np.dtype("<u2"), "count", "time, sensor"),
+}
+# per-frame datasets: dtype, unit, description, fill value of a frame whose chunk is damaged
+PER_FRAME_SPEC: dict[str, tuple[str, str, str, Any]] = {
+    "host_time_s": ("<f8", "s", "host clock when the frame was received", np.nan),
+    "valid": ("u1", "1", "1 = frame passed its checksum/CRC; 0 = placeholder", 0),
+    "seq": ("<i8", "1", "device frame sequence number (unwrapped); -1 = unknown", -1),
+    "device_time_us": ("<i8", "us", "device clock (unwrapped); -1 = unknown", -1),
+}
+
+
+class SessionFormatError(ValueError):
+    """A file is not a (readable) psmat session; the message names the file and the problem."""
+
+
+def journal_path(path: str | os.PathLike[str]) -> Path:
+    """The journal side file of a session file: ``PATH.journal``."""
+    p = Path(path)
+    return p.with_name(p.name + ".journal")
+
+
+def partial_path(path: str | os.PathLike[str]) -> Path:
+    """Where a session file is built before it atomically replaces ``PATH``: ``PATH.partial``."""
+    p = Path(path)
+    return p.with_name(p.name + ".partial")
+
+
+# ====================================================================== in memory
+@dataclass(eq=False)
+class Product:
+    """A processed product stored with a session: the array, its unit and the parameters that made it."""
+
+    data: NDArray[Any]
+    unit: str
+    params: dict[str, Any] = field(default_factory=dict)
+    created_utc: str = ""
+
+
+@dataclass(frozen=True)
+class Header:
+    """What a session holds besides its frames: the device and what was recorded.
+
+    ``chunk_frames`` is the number of frames per HDF5 chunk, hence the frames that one
+    damaged chunk costs (SPEC §6).
+    """
+
+    kind: str
+    frame_shape: tuple[int, ...]
+    device: dict[str, Any]
+    calibration: dict[str, Any] | None
+    metadata: dict[str, Any]
+    created_utc: str
+    chunk_frames: int = 256
+
+    @property
+    def spec(self) -> KindSpec:
+        return KINDS[self.kind]
+
+
+@dataclass
+class FrameBlock:
+    """Consecutive frames with their per-frame values (``N`` rows each)."""
+
+    frames: NDArray[Any]
+    host_time_s: NDArray[np.float64]
+    valid: NDArray[np.bool_]
+    seq: NDArray[np.int64]
+    device_time_us: NDArray[np.int64]
+
+    def __len__(self) -> int:
+        return int(self.frames.shape[0])
+
+
+@dataclass(eq=False)
+class Session:
+    """A recorded session as loaded by :func:`psmat.io.load_session`.
+
+    Attributes
+    ----------
+    counts : ndarray
+        The raw frames, time first: ``(T, R, C)`` uint16 ADC counts (``kind="psm"``),
+        ``(T, 5, 3)`` float32 Euler angles in degrees (``"imu"``), ``(T, 10)`` uint16
+        counts (``"daq"``). Also available as :attr:`frames`.
+    host_time_s, valid : ndarray
+        ``(T,)`` float64 host receive times (s; NaN where a damaged chunk lost them) and
+        bool validity (False for a frame the device flagged or the file lost to damage).
+    seq, device_time_us : ndarray or None
+        ``(T,)`` int64 device sequence numbers / device clock (µs), -1 where unknown;
+        None when the device never sent them (protocol v1).
+    device, calibration, metadata : dict
+        Device description, calibration used (None if none), subject/trial metadata.
+    products : dict[str, Product]
+    counters : dict[str, int]
+        Reader error counters (:data:`COUNTER_NAMES`); empty when they were lost to damage.
+    kind : str
+    complete : bool
+        False for an interrupted recording (writer killed before it closed).
+    recovered : bool
+        True when the frames were recovered from the journal side file.
+    notes : list[str]
+        What the loader found or had to do (recovery, damaged records or chunks), for the record.
+    """
+
+    path: Path | None
+    kind: str
+    counts: NDArray[Any]
+    host_time_s: NDArray[np.float64]
+    valid: NDArray[np.bool_]
+    seq: NDArray[np.int64] | None
+    device_time_us: NDArray[np.int64] | None
+    device: dict[str, Any]
+    calibration: dict[str, Any] | None
+    metadata: dict[str, Any]
+    products: dict[str, Product] = field(default_factory=dict)
+    counters: dict[str, int] = field(default_factory=dict)
+    format_version: int = FORMAT_VERSION
+    created_utc: str = ""
+    complete: bool = True
+    recovered: bool = False
+    notes: list[str] = field(default_factory=list)
+
+    @property
+    def frames(self) -> NDArray[Any]:
+        return self.counts
+
+    @property
+    def n_frames(self) -> int:
+        return int(self.counts.shape[0])
+
+    @property
+    def frame_shape(self) -> tuple[int, ...]:
+        return tuple(int(x) for x in self.counts.shape[1:])
+
+    def _timed(self) -> NDArray[np.intp]:
+        return np.flatnonzero(np.isfinite(self.host_time_s))
+
+    @property
+    def duration_s(self) -> float:
+        """Host time (s) from the first to the last frame whose time is known; 0 if fewer than two."""
+        k = self._timed()
+        return float(self.host_time_s[k[-1]] - self.host_time_s[k[0]]) if k.size >= 2 else 0.0
+
+    @property
+    def rate_hz(self) -> float:
+        """Frame rate (Hz) estimated from the host times; NaN if undefined.
+
+        Frame intervals from the first to the last frame whose time is known, over :attr:`duration_s`.
+        """
+        k = self._timed()
+        d = self.duration_s
+        return float(k[-1] - k[0]) / d if k.size >= 2 and d > 0 else float("nan")
+
+    def __repr__(self) -> str:
+        return (
+            f"Session(kind={self.kind!r}, frames={self.n_frames}, shape={self.frame_shape}, "
+            f"duration_s={self.duration_s:.3f}, products={sorted(self.products)}, path={str(self.path)!r})"
+        )
+
+
+# ====================================================================== JSON and attributes
+def utc_now() -> str:
+    return _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="milliseconds")
+
+
+def psmat_version() -> str:
+    from importlib.metadata import PackageNotFoundError, version
+
+    try:
+        return version("psmat")
+    except PackageNotFoundError:  # a source checkout that is not installed
+        from .. import __version__
+
+        return __version__
+
+
+def _json_default(o: Any) -> Any:
+    if isinstance(o, np.ndarray):
+        return o.tolist()
+    if isinstance(o, np.generic):
+        return o.item()
+    if isinstance(o, (Path, os.PathLike)):
+        return os.fspath(o)
+    if hasattr(o, "to_dict"):
+        return o.to_dict()
+    raise TypeError(f"{type(o).__name__} is not JSON serialisable")
+
+
+def to_json(d: Any) -> str:
+    return json.dumps(d, default=_json_default, allow_nan=True, sort_keys=False)
+
+
+def as_dict(d: Any, what: str) -> dict[str, Any] | None:
+    """A mapping (or an object with ``to_dict()``) as plain JSON types; None stays None."""
+    if d is None:
+        return None
+    if hasattr(d, "to_dict") and not isinstance(d, Mapping):
+        d = d.to_dict()
+    if not isinstance(d, Mapping):
+        raise TypeError(f"{what} must be a dict (or have .to_dict()), got {type(d).__name__}")
+    out: dict[str, Any] = json.loads(to_json(dict(d)))  # normalise: plain JSON types, checks serialisability
+    return out
+
+
+def set_flat_attrs(obj: h5py.HLObject, d: Mapping[str, Any], skip: tuple[str, ...] = ("json",)) -> None:
+    """One attribute per scalar, string or flat numeric/string list entry of ``d`` (so ``h5dump -A`` shows them)."""
+    for k, v in d.items():
+        if k in skip or not isinstance(k, str) or not k:
+            continue
+        if isinstance(v, bool):
+            put_attr(obj, k, np.uint8(v))
+        elif isinstance(v, (int, float)):
+            if isinstance(v, int) and not (-(2**63) <= v < 2**63):
+                continue
+            put_attr(obj, k, v)
+        elif isinstance(v, str):
+            put_attr(obj, k, v)
+        elif isinstance(v, (list, tuple)) and v:
+            if all(isinstance(x, (int, float)) and not isinstance(x, bool) for x in v):
+                arr = np.asarray(v)
+                if arr.dtype.kind in "if":
+                    put_attr(obj, k, arr)
+            elif all(isinstance(x, str) for x in v):
+                put_attr(obj, k, list(v))
+
+
+def put_attr(obj: h5py.HLObject, name: str, value: Any) -> None:
+    """Set an attribute; strings (and lists of strings) as fixed-length UTF-8.
+
+    Fixed-length strings live in the object's header, which carries a checksum; HDF5's
+    variable-length strings would live in the global heap, which has none (and whose
+    damaged lengths can hang the library), so no string of a session file is one.
+    """
+    if isinstance(value, str) or (isinstance(value, list) and value and all(isinstance(x, str) for x in value)):
+        raw = np.array([x.encode("utf-8") for x in value] if isinstance(value, list) else value.encode("utf-8"))
+        width = max(raw.dtype.itemsize, 1)
+        obj.attrs.create(name, raw.astype(f"S{width}"), dtype=h5py.string_dtype("utf-8", width))
+    else:
+        obj.attrs[name] = value
+
+
+def attr_str(v: Any) -> str:
+    if isinstance(v, bytes):
+        return v.decode("utf-8")
+    if isinstance(v, np.ndarray) and v.shape == ():
+        return attr_str(v.item())
+    return str(v)
+
+
+# ====================================================================== writing a complete file
+def write_product(f: h5py.File, name: str, array: Any, params: Mapping[str, Any], unit: str) -> None:
+    """Create (or replace) ``/products/NAME``, Fletcher-32 checksummed when it has elements."""
+    g = f.require_group("products")
+    if name in g:
+        del g[name]
+    arr = np.asarray(array)
+    if arr.dtype.kind not in "biuf":
+        raise TypeError(f"product {name!r} must be a numeric array, got dtype {arr.dtype}")
+    if arr.dtype.kind == "b":
+        arr = arr.astype(np.uint8)
+    chunked = arr.ndim > 0 and arr.size > 0
+    ds = g.create_dataset(name, data=arr, chunks=True if chunked else None, fletcher32=chunked)
+    put_attr(ds, "unit", str(unit))
+    pj = to_json(dict(params))
+    put_attr(ds, "params_json", pj)
+    put_attr(ds, "created_utc", utc_now())
+    set_flat_attrs(ds, json.loads(pj), skip=("unit", "params_json", "created_utc"))
+
+
+def _create_layout(f: h5py.File, h: Header) -> dict[str, h5py.Dataset]:
+    spec = h.spec
+    put_attr(f, "format", FORMAT_NAME)
+    put_attr(f, "format_version", FORMAT_VERSION)
+    put_attr(f, "kind", h.kind)
+    put_attr(f, "frame_shape", np.asarray(h.frame_shape, dtype=np.int64))
+    put_attr(f, "frame_dataset", spec.dataset)
+    put_attr(f, "created_utc", h.created_utc)
+    put_attr(f, "psmat_version", psmat_version())
+    c = h.chunk_frames
+    # SPEC §6: every frame dataset carries Fletcher-32 checksums, one per chunk of c frames
+    d = f.create_dataset(spec.dataset, shape=(0, *h.frame_shape), maxshape=(None, *h.frame_shape),
+                         dtype=spec.dtype, chunks=(c, *h.frame_shape), fletcher32=True)
+    put_attr(d, "unit", spec.unit)
+    put_attr(d, "axes", spec.axes)
+    out = {spec.dataset: d}
+    for name, (dt, unit, desc, _fill) in PER_FRAME_SPEC.items():
+        ds = f.create_dataset(name, shape=(0,), maxshape=(None,), dtype=dt, chunks=(c,), fletcher32=True)
+        put_attr(ds, "unit", unit)
+        put_attr(ds, "description", desc)
+        out[name] = ds
+    for gname, d_ in (("device", h.device), ("calibration", h.calibration), ("metadata", h.metadata)):
+        if d_ is None:
+            continue
+        g = f.create_group(gname)
+        put_attr(g, "json", to_json(d_))
+        set_flat_attrs(g, d_)
+    f.create_group("products")
+    return out
+
+
+def write_session_file(
+    path: Path,
+    header: Header,
+    blocks: Iterable[FrameBlock],
+    counters: Mapping[str, int],
+    *,
+    products: Mapping[str, Product] | None = None,
+    attrs: Mapping[str, str] | None = None,
+) -> int:
+    """Write a complete session file at ``path``, atomically; return the number of frames.
+
+    The file is built as ``PATH.partial``, marked complete, fsync'd, then renamed over
+    ``path``: a session file that exists is always a complete one. ``attrs`` are extra
+    string attributes of ``/`` (e.g. ``repaired_utc``).
+    """
+    tmp = partial_path(path)
+    tmp.unlink(missing_ok=True)
+    try:
+        n = _write_file(tmp, header, blocks, counters, products or {}, attrs or {})
+    except BaseException:
+        tmp.unlink(missing_ok=True)
+        raise
+    fsync_file(tmp)
+    os.replace(tmp, path)
+    fsync_dir(path.parent)
+    return n
+
+
+def _write_file(tmp: Path, header: Header, blocks: Iterable[FrameBlock], counters: Mapping[str, int],
+                products: Mapping[str, Product], attrs: Mapping[str, str]) -> int:
+    n = 0
+    with h5py.File(tmp, "w", libver="latest") as f:  # latest: checksums on every metadata object too
+        ds = _create_layout(f, header)
+        dname = header.spec.dataset
+        for b in blocks:
+            m = len(b)
+            if m == 0:
+                continue
+            cols = {dname: b.frames, "host_time_s": b.host_time_s, "valid": b.valid.astype(np.uint8),
+                    "seq": b.seq, "device_time_us": b.device_time_us}
+            for name, arr in cols.items():
+                ds[name].resize(n + m, axis=0)
+                ds[name][n : n + m] = arr
+            n += m
+        k = f.create_dataset("counters", data=np.array([int(counters.get(c, 0)) for c in COUNTER_NAMES], np.int64),
+                             chunks=(len(COUNTER_NAMES),), fletcher32=True)
+        put_attr(k, "unit", "1")
+        put_attr(k, "names", list(COUNTER_NAMES))
+        for name, p in products.items():
+            write_product(f, name, p.data, p.params, p.unit)
+        put_attr(f, "complete", np.uint8(1))
+        put_attr(f, "n_frames", np.int64(n))
+        put_attr(f, "closed_utc", utc_now())
+        for key, val in attrs.items():
+            put_attr(f, key, val)
+    return n
+
+
+def fsync_file(path: Path) -> None:
+    fd = os.open(path, os.O_RDONLY)
+    try:
+        os.fsync(fd)
+    finally:
+        os.close(fd)
+
+
+def fsync_dir(path: Path) -> None:
+    """Make a rename or an unlink in ``path`` durable (best effort: not every file system allows it)."""
+    try:
+        fd = os.open(path, os.O_RDONLY)
+    except OSError:
+        return
+    try:
+        os.fsync(fd)
+    except OSError:
+        pass
+    finally:
+        os.close(fd)

@@ -1,0 +1,64 @@
+"""Processed products stored in a session file (``/products/NAME``): saving and reading them."""
+
+from __future__ import annotations
+
+import json
+import os
+from collections.abc import Mapping
+from pathlib import Path
+from typing import Any
+
+import h5py
+from numpy.typing import ArrayLike
+
+from .session_layout import FORMAT_NAME, Product, SessionFormatError, attr_str, journal_path, write_product
+
+
+def save_product(
+    path: str | os.PathLike[str], name: str, array: ArrayLike, params: Mapping[str, Any], unit: str
+) -> None:
+    """Store a processed product (e.g. ``"G"``, ``"g"``, ``"pressure"``, ``"cop"``) in a session file.
+
+    ``params`` (JSON-serialisable: numbers, strings, lists, dicts, NumPy values) records
+    how it was made (method, model parameters, calibration serial, …). A product of the
+    same name is replaced. The session must be complete (closed, or repaired with
+    :func:`psmat.io.repair_session`).
+    """
+    path = Path(path)
+    if not name or "/" in name or name in (".", ".."):
+        raise ValueError(f"invalid product name {name!r}")
+    if not path.is_file():
+        if journal_path(path).exists():
+            raise SessionFormatError(
+                f"{path}: the recording is still being written or was interrupted "
+                f"({journal_path(path).name} exists); close the writer or call repair_session() first"
+            )
+        raise FileNotFoundError(f"session file not found: {path}")
+    try:
+        f = h5py.File(path, "r+", libver="latest")  # new objects get checksummed headers too
+    except OSError as e:
+        raise SessionFormatError(f"{path}: cannot open for writing ({e})") from None
+    with f:
+        if attr_str(f.attrs.get("format", "")) != FORMAT_NAME:
+            raise SessionFormatError(f"{path}: HDF5 file but not a psmat session")
+        write_product(f, name, array, params, unit)
+
+
+def read_products(f: h5py.File, notes: list[str]) -> dict[str, Product]:
+    """Every readable ``/products/NAME``; a damaged one (checksum, attributes) is left out with a note."""
+    out: dict[str, Product] = {}
+    if "products" not in f:
+        return out
+    for name in f["products"]:
+        try:
+            ds = f["products"][name]
+            if not isinstance(ds, h5py.Dataset):
+                continue
+            params = json.loads(attr_str(ds.attrs.get("params_json", "{}")))
+            if not isinstance(params, dict):
+                raise ValueError("params_json is not a JSON object")
+            out[name] = Product(data=ds[()], unit=attr_str(ds.attrs.get("unit", "")), params=params,
+                                created_utc=attr_str(ds.attrs.get("created_utc", "")))
+        except (OSError, KeyError, ValueError) as e:
+            notes.append(f"product {name!r} damaged and left out ({type(e).__name__}: {e})")
+    return out

@@ -1,0 +1,276 @@
+"""Loading a session (a finished HDF5 file, or the journal a killed writer left) and repairing one.
+
+Every error is one :class:`SessionFormatError` naming the file (SPEC §6). A damaged HDF5
+chunk costs its frames only: they load as invalid, with a note naming the dataset and the
+frames; a damaged journal record costs that record only.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+from pathlib import Path
+from typing import Any
+
+import h5py
+import numpy as np
+from numpy.typing import NDArray
+
+from .session_journal import Journal, format_ranges
+from .session_layout import (
+    COUNTER_NAMES,
+    FORMAT_NAME,
+    FORMAT_VERSION,
+    KINDS,
+    PER_FRAME,
+    PER_FRAME_SPEC,
+    FrameBlock,
+    Header,
+    Session,
+    SessionFormatError,
+    attr_str,
+    fsync_dir,
+    journal_path,
+    utc_now,
+    write_session_file,
+)
+from .session_products import read_products
+
+# what h5py and NumPy raise on bytes that do not decode (damaged metadata, wrong types)
+_DECODE_ERRORS = (OSError, KeyError, ValueError, TypeError, RuntimeError, IndexError, AttributeError, OverflowError)
+
+
+def load_session(path: str | os.PathLike[str], *, use_journal: bool = True) -> Session:
+    """Load a session file, or recover an interrupted recording from its journal.
+
+    Parameters
+    ----------
+    path : str or Path
+        The session file (``.h5``). Its journal ``PATH.journal`` is read when the file is
+        missing (the writer was killed before it closed) or unreadable.
+    use_journal : bool
+        False: read the HDF5 file only.
+
+    Returns
+    -------
+    Session
+        ``notes`` says what the loader found: frames recovered from the journal, journal
+        records skipped (which frames), damaged chunks (which dataset, which frames; those
+        frames are loaded with ``valid=False``).
+
+    Raises
+    ------
+    FileNotFoundError
+        Neither the file nor its journal exists.
+    SessionFormatError
+        Anything else that keeps the file from loading: not an HDF5 file, not a psmat
+        session, a newer format version, damaged metadata; the message names the file.
+    """
+    path = Path(path)
+    jpath = journal_path(path)
+    have_j = use_journal and jpath.is_file()
+    if not path.exists() and not have_j:
+        raise FileNotFoundError(f"session file not found: {path}")
+    if path.exists() and not path.is_file():
+        raise SessionFormatError(f"{path}: not a regular file")
+    if not path.exists():
+        return _from_journal(path, jpath, f"{path.name} missing (the writer did not close)")
+    notes: list[str] = []
+    try:
+        s = _from_h5(path, notes)
+    except SessionFormatError as e:
+        if not have_j:
+            raise
+        return _from_journal(path, jpath, f"{path.name} unusable ({e})")
+    if have_j and not s.complete:
+        return _from_journal(path, jpath, f"{path.name} was not closed")
+    if have_j:
+        s.notes.append(f"stale journal {jpath.name} ignored: the HDF5 file is complete")
+    return s
+
+
+def repair_session(path: str | os.PathLike[str]) -> Session:
+    """Turn an interrupted recording into a complete file (from its journal), then reload it.
+
+    The recovered frames are written to ``PATH.partial``, which replaces ``path``
+    atomically; the journal is removed afterwards. A complete file is returned unchanged.
+    """
+    path = Path(path)
+    s = load_session(path)
+    if s.complete:
+        return s
+    n = s.n_frames
+    block = FrameBlock(s.counts, s.host_time_s, s.valid,
+                       s.seq if s.seq is not None else np.full(n, -1, np.int64),
+                       s.device_time_us if s.device_time_us is not None else np.full(n, -1, np.int64))
+    h = Header(kind=s.kind, frame_shape=s.frame_shape, device=s.device, calibration=s.calibration,
+               metadata=s.metadata, created_utc=s.created_utc or utc_now())
+    write_session_file(path, h, [block], s.counters, products=s.products,
+                       attrs={"repaired_utc": utc_now(), "repair_notes": "; ".join(s.notes)})
+    journal_path(path).unlink(missing_ok=True)
+    fsync_dir(path.parent)
+    return load_session(path)
+
+
+# ====================================================================== journal
+def _from_journal(path: Path, jpath: Path, why: str) -> Session:
+    try:
+        j = Journal.open(jpath)
+        b = j.read_all()
+    except (SessionFormatError, OSError, ValueError) as e:
+        raise SessionFormatError(f"{path}: {why}, and its journal is unusable ({e})") from None
+    notes = [f"{why}: {len(b)} frames recovered from the journal {jpath.name}", *j.damage_notes()]
+    h = j.header
+    return _session(path, h.kind, b, device=h.device, calibration=h.calibration, metadata=h.metadata,
+                    counters=j.counters or dict.fromkeys(COUNTER_NAMES, 0), version=j.format_version,
+                    created=h.created_utc, complete=False, recovered=True, notes=notes)
+
+
+def _session(path: Path, kind: str, b: FrameBlock, **kw: Any) -> Session:
+    seq, dt = b.seq, b.device_time_us
+    return Session(path=path, kind=kind, counts=b.frames, host_time_s=b.host_time_s, valid=b.valid,
+                   seq=seq if np.any(seq >= 0) else None, device_time_us=dt if np.any(dt >= 0) else None,
+                   products=kw.pop("products", {}), format_version=kw.pop("version"),
+                   created_utc=kw.pop("created"), **kw)
+
+
+# ====================================================================== HDF5
+def _from_h5(path: Path, notes: list[str]) -> Session:
+    try:
+        is_h5 = h5py.is_hdf5(path)
+    except OSError:
+        is_h5 = False
+    if not is_h5:
+        size = path.stat().st_size
+        raise SessionFormatError(
+            f"{path}: not an HDF5 file ({size} bytes, no HDF5 signature)"
+            + (" — an empty file: the recording never started" if size == 0 else "")
+        )
+    try:
+        f = h5py.File(path, "r")
+    except OSError as e:
+        raise SessionFormatError(f"{path}: corrupt HDF5 file, cannot be opened ({e})") from None
+    try:
+        with f:
+            return _read_open(f, path, notes)
+    except SessionFormatError:
+        raise
+    except _DECODE_ERRORS as e:
+        raise SessionFormatError(f"{path}: corrupt session file ({type(e).__name__}: {e})".replace("\n", " ")) from None
+
+
+def _read_open(f: h5py.File, path: Path, notes: list[str]) -> Session:
+    a = f.attrs
+    fmt = attr_str(a["format"]) if "format" in a else None
+    if fmt != FORMAT_NAME:
+        raise SessionFormatError(
+            f"{path}: HDF5 file but not a psmat session (root attribute 'format' is {fmt!r}, expected {FORMAT_NAME!r})"
+        )
+    version = int(a.get("format_version", -1))
+    if version < 1 or version > FORMAT_VERSION:
+        raise SessionFormatError(
+            f"{path}: session format version {version} is not supported (this psmat reads 1..{FORMAT_VERSION})"
+        )
+    kind = attr_str(a["kind"])
+    if kind not in KINDS or attr_str(a.get("frame_dataset", KINDS[kind].dataset)) != KINDS[kind].dataset:
+        raise SessionFormatError(f"{path}: corrupt session, unknown kind {kind!r} or frame dataset")
+    dname = KINDS[kind].dataset
+    missing = [n for n in (dname, *PER_FRAME) if n not in f]
+    if missing:
+        raise SessionFormatError(f"{path}: corrupt session, missing dataset(s) {missing}")
+    lengths = {n: int(f[n].shape[0]) for n in (dname, *PER_FRAME)}
+    complete = bool(int(a.get("complete", 0)))
+    if complete:
+        n = int(a.get("n_frames", lengths[dname]))
+        if len(set(lengths.values())) != 1 or n != lengths[dname]:
+            raise SessionFormatError(
+                f"{path}: corrupt session, per-frame datasets disagree in length {lengths} (n_frames={n})"
+            )
+    else:  # a format-1 SWMR file whose writer was killed, its flag cleared (h5clear -s)
+        n = min(lengths.values())
+        if "committed" in f:
+            n = min(n, int(f["committed"][0]))
+        notes.append(f"interrupted recording (not closed): {n} committed frames in the HDF5 file")
+
+    fill = 0 if KINDS[kind].dtype.kind in "ui" else np.nan
+    frames, bad = _read_chunked(f[dname], n, fill, notes)
+    cols = {}
+    for name in PER_FRAME:
+        cols[name], bad_k = _read_chunked(f[name], n, PER_FRAME_SPEC[name][3], notes)
+        bad |= bad_k
+    unchecked = [n_ for n_ in (dname, *PER_FRAME) if not f[n_].fletcher32]
+    if unchecked:
+        notes.append(f"{', '.join(unchecked)} carry no checksums (written by an older psmat): "
+                     "damage there cannot be seen")
+    valid = cols["valid"].astype(bool) & ~bad  # SPEC §6: a damaged frame is never returned as valid
+    block = FrameBlock(frames, cols["host_time_s"], valid, cols["seq"], cols["device_time_us"])
+    return _session(
+        path, kind, block,
+        device=_group_json(f, "device", path) or {},
+        calibration=_group_json(f, "calibration", path),
+        metadata=_group_json(f, "metadata", path) or {},
+        products=read_products(f, notes),
+        counters=_counters(f, notes),
+        version=version, created=attr_str(a.get("created_utc", "")),
+        complete=complete, recovered=False, notes=notes,
+    )
+
+
+def _read_chunked(ds: h5py.Dataset, n: int, fill: Any, notes: list[str]) -> tuple[NDArray[Any], NDArray[np.bool_]]:
+    """Rows ``[0, n)`` of ``ds``, chunk by chunk: a chunk failing its checksum becomes ``fill``, flagged."""
+    out = np.empty((n, *ds.shape[1:]), ds.dtype)
+    bad = np.zeros(n, bool)
+    step = ds.chunks[0] if ds.chunks else max(n, 1)
+    for a in range(0, n, step):
+        b = min(a + step, n)
+        try:
+            out[a:b] = ds[a:b]
+        except OSError:  # Fletcher-32 mismatch (or an unreadable chunk)
+            out[a:b] = fill
+            bad[a:b] = True
+    if bad.any():
+        idx = np.flatnonzero(bad)
+        notes.append(f"{ds.name}: damaged chunk(s) (checksum failed), frames {format_ranges(idx)} "
+                     f"loaded as invalid")
+    return out, bad
+
+
+def _group_json(f: h5py.File, name: str, path: Path) -> dict[str, Any] | None:
+    if name not in f:
+        return None
+    g = f[name]
+    if "json" not in g.attrs:
+        return {k: _attr_value(v) for k, v in g.attrs.items()}
+    try:
+        d = json.loads(attr_str(g.attrs["json"]))
+    except json.JSONDecodeError as e:
+        raise SessionFormatError(f"{path}: /{name} attribute 'json' is not valid JSON ({e})") from None
+    if not isinstance(d, dict):
+        raise SessionFormatError(f"{path}: /{name} attribute 'json' is not a JSON object")
+    return d
+
+
+def _attr_value(v: Any) -> Any:
+    if isinstance(v, bytes):
+        return v.decode("utf-8")
+    if isinstance(v, np.ndarray):
+        return v.tolist()
+    if isinstance(v, np.generic):
+        return v.item()
+    return v
+
+
+def _counters(f: h5py.File, notes: list[str]) -> dict[str, int]:
+    """The reader's counters; empty, with a note, when their chunk is damaged."""
+    counters = dict.fromkeys(COUNTER_NAMES, 0)
+    if "counters" not in f:
+        return counters
+    ds = f["counters"]
+    names = [attr_str(x) for x in ds.attrs.get("names", list(COUNTER_NAMES))]
+    try:
+        values = ds[()]
+    except OSError:
+        notes.append("/counters: damaged (checksum failed), the reader's counters are unknown")
+        return {}
+    counters.update({k: int(v) for k, v in zip(names, values)})
+    return counters
