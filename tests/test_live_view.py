@@ -19,9 +19,12 @@ from psmat.live import LiveView, run_view  # noqa: E402
 from psmat.twin import PsmSource, SerialTwin  # noqa: E402
 
 
-def _drive(view: LiveView, seconds: float) -> None:
-    t_end = time.monotonic() + seconds
-    while time.monotonic() < t_end:
+def _drive(view: LiveView, received: int, processed: int, timeout_s: float = 60.0) -> None:
+    """Update and draw until the view received and processed that many frames (hang guard: fail)."""
+    deadline = time.monotonic() + timeout_s
+    while view.received < received or view.processed < processed:
+        if time.monotonic() > deadline:
+            pytest.fail(f"{view.received} frames received, {view.processed} processed within {timeout_s:g} s")
         view.update(timeout=0.05)
         view.draw()
 
@@ -33,8 +36,7 @@ def test_live_view_on_the_twin_shows_the_mat() -> None:
     try:
         dev.start()
         view = LiveView(dev)
-        _drive(view, 2.0)
-        assert view.received >= 120 and view.processed >= 50
+        _drive(view, received=120, processed=50)
         # images: the mat's shape, in the arrays and in the artists
         assert view.G.shape == shape and view.pressure_kpa.shape == shape
         assert view.im_raw.get_array().shape == shape and view.im_p.get_array().shape == shape
@@ -63,9 +65,8 @@ def test_live_view_on_the_twin_shows_the_mat() -> None:
         assert twin.port in s and "received" in s and "invalid 0" in s and "lost 0" in s
         frames = int(re.search(r"frames (\d+)", s).group(1))
         assert frames == view.received >= 120
-        rx = float(re.search(r"received ([\d.]+) frames/s", s).group(1))
-        assert 60 <= rx <= 140
-        assert re.search(r"processed [\d.]+ frames/s", s) and re.search(r"display [\d.]+ fps", s)
+        assert re.search(r"received [\d.]+ frames/s", s) and re.search(r"processed [\d.]+ frames/s", s)
+        assert re.search(r"display [\d.]+ fps", s)
     finally:
         dev.close()
         twin.stop()
@@ -110,19 +111,58 @@ def test_decimate_and_no_iecm() -> None:
         LiveView(dev, decimate=0)
 
 
+def test_rates_are_counts_over_the_last_window() -> None:
+    from psmat.live.view import _Rate
+
+    r = _Rate(window_s=2.0)
+    r.add(0.0, 0)
+    assert np.isnan(r.value)  # one sample: no rate yet
+    r.add(0.5, 50)
+    r.add(1.0, 100)
+    assert r.value == 100.0  # 100 frames in 1 s
+    r.add(3.0, 120)  # samples more than the window before the newest are dropped: (1 s, 100) is the oldest
+    assert r.value == 10.0  # (120 - 100) / (3 - 1)
+
+
 def test_cli_simulate_writes_a_screenshot(tmp_path, monkeypatch, capsys) -> None:
     monkeypatch.setenv("MPLBACKEND", "Agg")
     png = tmp_path / "out.png"
-    t0 = time.monotonic()
     assert cli.main(["view", "--simulate", "--seconds", "2", "--save", str(png)]) == 0
-    assert time.monotonic() - t0 < 20
     assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     img = matplotlib.image.imread(png)
     assert img.shape[0] > 300 and img.shape[1] > 900
     assert img[..., :3].std() > 0.05  # not a blank canvas
     out = capsys.readouterr().out
-    assert "2 s elapsed" in out and re.search(r"(\d+) frames received", out)
-    assert int(re.search(r"(\d+) frames received", out).group(1)) >= 100
+    counts = re.search(r"2 s elapsed; (\d+) frames received, (\d+) processed, 0 invalid", out)
+    assert counts and int(counts.group(1)) >= int(counts.group(2)) > 0
+
+
+def test_a_host_still_reopening_a_vanished_twin_cannot_reach_the_views_twin(tmp_path, monkeypatch, capsys) -> None:
+    """The flake of issue 10: the view reported its pty disconnected after a few frames.
+
+    The system hands a freed pty number to the next pty at once. A host that keeps re-opening a
+    vanished twin's port (``reconnect=True``, or another process) then reached the view's new twin,
+    and two hosts on one pty tear each other's stream apart: pyserial flushes the input when it
+    opens, a read after ``select`` finds the other host took the bytes, and the view's reader
+    takes the port for gone ("readiness to read but returned no data").
+    """
+    monkeypatch.setenv("MPLBACKEND", "Agg")
+    old = SerialTwin("psm", 100, "v2", scene="quiet").start()
+    stale = open_device(old.port, reconnect=True, reconnect_attempts=None, reconnect_delay_s=0.01,
+                        reconnect_max_delay_s=0.02)
+    try:
+        stale.start()
+        old.disconnect()
+        png = tmp_path / "view.png"
+        rc = cli.main(["view", "--simulate", "--scene", "quiet", "--seconds", "2", "--save", str(png)])
+        reconnects = stale.stats.reconnects
+    finally:
+        stale.close()
+        old.stop()
+    captured = capsys.readouterr()
+    assert "DISCONNECTED" not in captured.err and rc == 0
+    assert reconnects == 0  # the stale host never found a port to re-open
+    assert int(re.search(r"(\d+) frames received", captured.out).group(1)) > 0
 
 
 def test_vanished_port_ends_the_view_with_a_message(tmp_path, monkeypatch, capsys) -> None:
@@ -131,15 +171,12 @@ def test_vanished_port_ends_the_view_with_a_message(tmp_path, monkeypatch, capsy
     timer = threading.Timer(1.0, twin.disconnect)
     timer.start()
     png = tmp_path / "gone.png"
-    t0 = time.monotonic()
     try:
         rc = cli.main(["view", twin.port, "--seconds", "30", "--save", str(png)])
     finally:
         timer.cancel()
         twin.stop()
-    elapsed = time.monotonic() - t0
-    assert rc == 3
-    assert elapsed < 8.0  # hang guard: far below --seconds
+    assert rc == 3  # ended by the disconnect, not by --seconds (that is status 0)
     err = capsys.readouterr().err
     assert "DISCONNECTED" in err and twin.port in err
     assert png.is_file()
@@ -151,7 +188,7 @@ def test_run_view_returns_after_seconds_and_closes() -> None:
     closed = []
     res = run_view(view, seconds=0.5, interval_s=0.01, interactive=False, on_close=lambda: closed.append(1))
     assert res.status == 0 and res.reason == "seconds" and closed == [1]
-    assert 0 < view.received < 2000 and res.updates >= 3
+    assert res.updates == view.updates >= 1 and view.received == 2 * res.updates  # one batch of 2 per update
 
 
 def test_cli_needs_a_port_or_simulate(capsys) -> None:
