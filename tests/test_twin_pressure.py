@@ -7,9 +7,6 @@ of the field sampled on a fine grid or of the cell image at cell centres (SPEC Â
 
 from __future__ import annotations
 
-import os
-from pathlib import Path
-
 import numpy as np
 import pytest
 
@@ -23,21 +20,11 @@ from psmat.twin import (
     trajectory_sway,
 )
 
+from conftest import shared_path
+
 PSI_IN_PA = 6894.757  # by definition, 1 psi = 6894.757 Pa
 PITCH = 2.0
 CELL_AREA_M2 = (PITCH / 100.0) ** 2  # 4 cmÂ²
-
-
-def _bds_file() -> Path | None:
-    candidates = []
-    if os.environ.get("PSMAT_BDS_DIR"):
-        candidates.append(Path(os.environ["PSMAT_BDS_DIR"]) / "BDS00001.txt")
-    candidates.append(Path(__file__).resolve().parents[2] / "shared" / "data" / "bds" / "BDS00001.txt")
-    candidates.append(Path("/work/shared/data/bds/BDS00001.txt"))
-    for c in candidates:
-        if c.is_file():
-            return c
-    return None
 
 
 def force_n(pressure_psi: np.ndarray, pitch_cm: float = PITCH) -> np.ndarray:
@@ -277,10 +264,7 @@ def test_trajectory_sway_reproduces_a_circle():
 
 
 def test_trajectory_sway_reproduces_a_real_bds_recording():
-    path = _bds_file()
-    if path is None:
-        pytest.skip("BDS data (shared/data/bds/BDS00001.txt) not available")
-    d = np.loadtxt(path, skiprows=1)
+    d = np.loadtxt(shared_path("data", "bds", "BDS00001.txt"), skiprows=1)
     t, fz, copx, copy = d[:, 0], d[:, 3], d[:, 7], d[:, 8]
     # In BDS COPx is A-P and COPy is M-L.
     s = trajectory_sway(t, copy, copx, fz, 100.0)
