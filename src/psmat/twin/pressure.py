@@ -71,6 +71,7 @@ from typing import Any, Sequence
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
+from scipy.spatial import ConvexHull, QhullError
 
 __all__ = [
     "PSI_PA",
@@ -621,25 +622,17 @@ def _mat_centre(shape: tuple[int, int], pitch: float) -> NDArray[np.float64]:
 
 
 def _convex_hull(points: NDArray[np.float64]) -> NDArray[np.float64]:
-    """Counter-clockwise convex hull (Andrew's monotone chain) of a few 2-D points."""
-    pts = sorted(set(map(tuple, np.round(points, 12))))
-    if len(pts) < 3:
-        return np.array(pts)
+    """Vertices of the convex hull of 2-D points (V, 2), counter-clockwise (Qhull orders 2-D hulls so).
 
-    def cross(o: tuple, a: tuple, b: tuple) -> float:
-        return (a[0] - o[0]) * (b[1] - o[1]) - (a[1] - o[1]) * (b[0] - o[0])
-
-    lower: list[tuple] = []
-    for p in pts:
-        while len(lower) >= 2 and cross(lower[-2], lower[-1], p) <= 0:
-            lower.pop()
-        lower.append(p)
-    upper: list[tuple] = []
-    for p in reversed(pts):
-        while len(upper) >= 2 and cross(upper[-2], upper[-1], p) <= 0:
-            upper.pop()
-        upper.append(p)
-    return np.array(lower[:-1] + upper[:-1])
+    Raises
+    ------
+    ValueError
+        If the points span no area (fewer than 3 distinct points, or all collinear).
+    """
+    try:
+        return points[ConvexHull(points).vertices]
+    except QhullError:
+        raise ValueError("the load groups' centroids are collinear: the CoP cannot be steered in 2-D") from None
 
 
 def _project_to_polygon(p: NDArray[np.float64], hull: NDArray[np.float64]) -> NDArray[np.float64]:
@@ -674,8 +667,6 @@ def _solve_group_fractions(
         raise ValueError(f"min_fraction={lo} is too large for {g} groups (needs <= {1.0 / g:.3g})")
     shrunk = lo * centroids.sum(axis=0) + (1.0 - g * lo) * centroids
     hull = _convex_hull(shrunk)
-    if hull.shape[0] < 3:
-        raise ValueError("the load groups' centroids are collinear: the CoP cannot be steered in 2-D")
     reach = _project_to_polygon(target, hull)
     moved = np.any(reach != target, axis=1)
     if np.any(moved):  # a hair inside, so that round-off keeps the QP feasible
