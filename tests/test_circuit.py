@@ -1,4 +1,4 @@
-"""Measurement chain (SPEC §2) and calibration (thesis §2.1.4 end).
+"""Measurement chain (SPEC §2): forward, inverse and flags, both sensor sides, Table 2.4.
 
 Expectations come from the independent reference vectors in ``shared/reference`` and from
 the circuit algebra written out here in resistance form, never from psmat itself.
@@ -12,7 +12,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from psmat.circuit import OK, OPEN, SHORT, Calibration, Circuit
+from psmat.circuit import OK, OPEN, SHORT, Circuit
 
 REF_DIR = Path(__file__).resolve().parents[2] / "shared" / "reference"
 
@@ -276,6 +276,85 @@ def test_counts_rejects_negative_noise():
         Circuit().counts([1e-3], noise_v=-1e-3)
 
 
+# --------------------------------------------------------------------- below 0 V and past the open reading
+def test_negative_voltage_reads_as_short_not_open():
+    # a node voltage at or below 0 V lies beyond the zero-resistance reading (SPEC §2): SHORT
+    c = Circuit()
+    v = np.array([-0.5, -1e-9, 0.0])
+    G, flags = c.conductance_from_voltage(v, return_flags=True)
+    np.testing.assert_array_equal(flags, SHORT)
+    assert np.isnan(G).all()
+
+
+def test_extrapolate_open_continues_the_resistance_form_past_the_open_reading():
+    c = Circuit()
+    v_open = V_REF * R_ADC_IMPROVED / (R_O + R_ADC_IMPROVED)
+    v = np.array([v_open + 1e-4, v_open + 1e-3, V_REF, V_REF + 2e-3])
+    G, flags = c.conductance_from_voltage(v, return_flags=True, extrapolate_open=True)
+    # resistance form undone by hand: 1/R_x = (V_ref - v)/(R_o v), 1/R_path = 1/R_x - 1/R_adc,
+    # G = 1/(R_path - R_mux): finite and negative beyond the open reading
+    g_path = (V_REF - v) / (R_O * v) - 1.0 / R_ADC_IMPROVED
+    np.testing.assert_allclose(G, 1.0 / (1.0 / g_path - R_MUX), rtol=1e-9)
+    assert np.all(G < 0)
+    np.testing.assert_array_equal(flags, OPEN)
+    # elsewhere it is the flagged inverse: the short side stays NaN
+    v_in = np.concatenate([[-1e-3, 0.0], v_of_r(np.array([0.0, 10.0, 1e3, 1e5]))])
+    G_in, f_in = c.conductance_from_voltage(v_in, return_flags=True, extrapolate_open=True)
+    G_ref, f_ref = c.conductance_from_voltage(v_in, return_flags=True)
+    np.testing.assert_array_equal(G_in, G_ref)
+    np.testing.assert_array_equal(f_in, f_ref)
+    assert np.isnan(G_in[:3]).all() and np.all(G_in[3:] > 0)
+
+
+# --------------------------------------------------------------------- sensor on the high side
+def v_high(r_cell, r_adc, r_mux, r_o=R_O, v_ref=V_REF):
+    """Mirrored divider in resistance form: R_path = r + R_mux from V_ref to X, R_o || R_adc from X to ground."""
+    r_b = r_o * r_adc / (r_o + r_adc) if np.isfinite(r_adc) else r_o
+    return v_ref * r_b / (np.asarray(r_cell, dtype=float) + r_mux + r_b)
+
+
+@pytest.mark.parametrize("r_adc, r_mux", [(np.inf, 0.0), (R_ADC_FIRST, R_MUX)])
+def test_high_side_matches_resistance_form(r_adc, r_mux):
+    c = Circuit(r_mux=r_mux, r_adc=r_adc, sensor_side="high")
+    r = np.array([1.0, 50.0, 1e3, 33e3, 1e6])
+    v = v_high(r, r_adc, r_mux)
+    np.testing.assert_allclose(c.voltage(1.0 / r), v, rtol=1e-12)
+    assert c.voltage(0.0) == 0.0 and c.v_open == 0.0  # open sensor: no current from V_ref
+    np.testing.assert_array_equal(c.counts(1.0 / r), np.rint(v / V_REF * FS))
+    np.testing.assert_allclose(c.conductance_from_voltage(v), 1.0 / r, rtol=1e-9)
+    # |dV/dG| against central differences of the resistance form
+    G, h = 1.0 / r, 1e-6 / r
+    fd = (v_high(1.0 / (G + h), r_adc, r_mux) - v_high(1.0 / (G - h), r_adc, r_mux)) / (2 * h)
+    np.testing.assert_allclose(c.sensitivity(G), fd, rtol=1e-6)
+
+
+def test_high_side_flags_are_mirrored():
+    c = Circuit(r_mux=R_MUX, r_adc=R_ADC_FIRST, sensor_side="high")
+    r_b = R_O * R_ADC_FIRST / (R_O + R_ADC_FIRST)
+    c_short = FS * r_b / (R_MUX + r_b)  # zero-resistance cell: the highest reading
+    codes = np.arange(FS + 1)
+    G, flags = c.conductance(codes, return_flags=True)
+    expected = np.where(codes >= c_short, SHORT, np.where(codes == 0, OPEN, OK))
+    np.testing.assert_array_equal(flags, expected)
+    assert np.all(np.isnan(G) == (flags != OK)) and np.all(G[flags == OK] > 0)
+    ok = flags == OK
+    np.testing.assert_array_equal(c.counts(G[ok]), codes[ok])
+    # past the open reading (v < 0) the continuation is negative; above V_ref it is SHORT
+    G_x, f_x = c.conductance_from_voltage(np.array([-1e-3, V_REF + 1e-3]), return_flags=True, extrapolate_open=True)
+    assert G_x[0] < 0 and np.isnan(G_x[1])
+    np.testing.assert_array_equal(f_x, [OPEN, SHORT])
+
+
+def test_sensor_side_is_part_of_the_circuit():
+    low, high = Circuit(), Circuit(sensor_side="high")
+    assert low.sensor_side == "low" and high.sensor_side == "high"
+    assert low != high
+    assert high.as_dict()["sensor_side"] == "high"
+    assert "sensor_side='high'" in repr(high)
+    with pytest.raises(ValueError, match="sensor_side"):
+        Circuit(sensor_side="middle")  # type: ignore[arg-type]
+
+
 # --------------------------------------------------------------------- Table 2.4
 TABLE_R = [100.0, 1e3, 10e3, 100e3, 220e3]
 TABLE_SIGMA_V = [1.0e-3, 0.9e-3, 1.1e-3, 1.1e-3, 1.1e-3]
@@ -322,204 +401,3 @@ def test_sigma_G_open_cell_is_finite():
     s = Circuit().sigma_G(0.0)
     # dV/dG at G = 0: V_ref R_o / (1 + R_o/R_adc)^2
     assert s == pytest.approx(1e-3 * (1 + R_O / R_ADC_IMPROVED) ** 2 / (V_REF * R_O), rel=1e-12)
-
-
-# --------------------------------------------------------------------- calibration
-def _short_counts(circuit, pairs, shape, frames, noise_v, rng):
-    """Counts of recordings with one row-column pair shorted by a wire (cell R = 0 → G huge)."""
-    out = {}
-    for i, p in pairs:
-        G = np.zeros((frames, *shape))
-        G[:, i, p] = 1e12  # 1 pΩ: R_path = R_mux to 1e-12 Ω
-        out[(i, p)] = circuit.counts(G, noise_v=noise_v, rng=rng)
-    return out
-
-
-def _r_mux_tolerance(r_mux, r_adc):
-    """Half an LSB at the short-circuit reading, expressed in Ω (plus rounding margin)."""
-    r_x = r_mux * r_adc / (r_mux + r_adc)
-    c = FS * r_x / (R_O + r_x)
-    drx_dc = R_O * FS / (FS - c) ** 2  # R_x = R_o c/(FS - c)
-    drpath_drx = (r_adc / (r_adc - r_x)) ** 2  # R_path = R_x || (-R_adc)
-    return 0.5 * drx_dc * drpath_drx * 1.05
-
-
-@pytest.mark.parametrize("r_adc, frames", [(R_ADC_FIRST, 20), (R_ADC_IMPROVED, 400)])
-def test_open_circuit_recording_gives_r_adc(r_adc, frames):
-    c = Circuit(r_adc=r_adc)
-    rec = c.counts(np.zeros((frames, 16, 16)), noise_v=1e-3, rng=5)
-    cal = Calibration.from_open_circuit(rec, c, serial="box-1")
-    assert cal.r_adc == pytest.approx(r_adc, rel=0.05)
-    st = cal.open_stats
-    assert st.n_samples == rec.size
-    assert st.count_sd == pytest.approx(1e-3 / LSB, rel=0.1)  # the spread is the noise
-    m = FS * r_adc / (R_O + r_adc)
-    assert st.r_adc_per_count == pytest.approx(R_O * FS / (FS - m) ** 2, rel=0.05)
-    # a single frame (256 samples) works too, within the standard error it reports: for the
-    # improved prototype one count is ~5 MΩ, so 256 samples of 1.2-LSB noise give ~6 %
-    one = Calibration.from_open_circuit(rec[0], c)
-    assert abs(one.r_adc - r_adc) < 4 * one.open_stats.r_adc_se
-
-
-def test_open_circuit_rejects_bad_recordings():
-    c = Circuit.first_prototype()
-    with pytest.raises(ValueError, match=r"\(R, C\)"):
-        Calibration.from_open_circuit(np.full(10, 4000), c)
-    with pytest.raises(ValueError):
-        Calibration.from_open_circuit(np.full((2, 2), np.nan), c)
-    with pytest.raises(TypeError):
-        Calibration.from_open_circuit(np.full((2, 2), 4000 + 0j), c)
-    with pytest.raises(ValueError, match="end of the ADC range"):
-        Calibration.from_open_circuit(np.full((2, 2), FS), c)
-
-
-@pytest.mark.parametrize("r_adc", [R_ADC_FIRST, R_ADC_IMPROVED])
-def test_short_circuit_recordings_give_r_mux(r_adc):
-    c = Circuit(r_adc=r_adc)
-    pairs = [(i, p) for i in range(4) for p in range(4)]
-    rec = _short_counts(c, pairs, (4, 4), 30, noise_v=1e-4, rng=np.random.default_rng(2))
-    cal = Calibration.from_short_circuit(rec, c)
-    tol = _r_mux_tolerance(R_MUX, r_adc)
-    assert tol < 0.5  # one LSB is ~0.6 Ω at the short-circuit reading
-    assert cal.r_mux == pytest.approx(R_MUX, abs=tol)
-    assert cal.short_stats.r_mux_pairs.shape == (4, 4)
-    np.testing.assert_allclose(cal.short_stats.r_mux_pairs, R_MUX, atol=tol)
-    assert cal.r_adc == r_adc
-
-
-def test_short_circuit_per_pair_and_sample_forms():
-    rng = np.random.default_rng(4)
-    r_mux = rng.uniform(120, 170, size=(3, 2))
-    c = Circuit(r_mux=r_mux, r_adc=R_ADC_FIRST)
-    pairs = [(i, p) for i in range(3) for p in range(2)]
-    rec = _short_counts(c, pairs, (3, 2), 10, noise_v=1e-4, rng=rng)
-    cal = Calibration.from_short_circuit(rec, c, per_pair=True)
-    assert cal.r_mux.shape == (3, 2)
-    np.testing.assert_allclose(cal.r_mux, r_mux, atol=_r_mux_tolerance(170.0, R_ADC_FIRST))
-    # the same recordings given as that cell's samples only
-    samples = {k: v[:, k[0], k[1]] for k, v in rec.items()}
-    cal2 = Calibration.from_short_circuit(samples, c, per_pair=True)
-    np.testing.assert_array_equal(cal2.r_mux, cal.r_mux)
-    # the summary is the median over pairs
-    assert Calibration.from_short_circuit(rec, c).r_mux == pytest.approx(np.median(cal.r_mux))
-    # per_pair needs every pair
-    del rec[(0, 0)]
-    with pytest.raises(ValueError, match="every pair"):
-        Calibration.from_short_circuit(rec, c, per_pair=True)
-
-
-def test_short_circuit_rejects_bad_input():
-    c = Circuit()
-    with pytest.raises(ValueError):
-        Calibration.from_short_circuit({}, c)
-    with pytest.raises(ValueError, match="outside"):
-        Calibration.from_short_circuit({(5, 0): np.zeros((2, 3), dtype=np.uint16)}, c)
-    with pytest.raises(ValueError, match="pairs"):
-        Calibration.from_short_circuit({(0, -1): np.array([250])}, c)
-    with pytest.raises(ValueError, match="pair"):
-        Calibration.from_short_circuit({(0, 0): np.array([4095, 4095])}, c)
-    # above the open-circuit reading of the first prototype (4023): the wire is not there
-    with pytest.raises(ValueError, match="reads as open"):
-        Calibration.from_short_circuit({(0, 0): np.array([4050])}, Circuit.first_prototype())
-
-
-def _calibration():
-    c = Circuit(r_adc=R_ADC_FIRST)
-    rng = np.random.default_rng(9)
-    open_rec = c.counts(np.zeros((20, 4, 4)), noise_v=1e-3, rng=rng)
-    shorts = _short_counts(c, [(i, p) for i in range(4) for p in range(4)], (4, 4), 10, 1e-4, rng)
-    return Calibration.from_recordings("PSM-0042", open_rec, shorts, Circuit(), date="2024-05-17", notes="lab")
-
-
-def test_from_recordings_combines_both():
-    cal = _calibration()
-    assert cal.serial == "PSM-0042" and cal.date == "2024-05-17" and cal.notes == "lab"
-    assert cal.r_adc == pytest.approx(R_ADC_FIRST, rel=0.05)
-    assert cal.r_mux == pytest.approx(R_MUX, abs=0.5)
-    assert cal.open_stats is not None and cal.short_stats is not None
-
-
-def test_calibration_save_load_round_trip(tmp_path):
-    cal = _calibration()
-    path = tmp_path / "cal.json"
-    cal.save(path)
-    d = json.loads(path.read_text())
-    assert d["serial"] == "PSM-0042"
-    assert {"r_adc_ohm", "r_mux_ohm", "r_o_ohm", "v_ref_volt", "bits"} <= d.keys()
-    back = Calibration.load(path)
-    assert back == cal
-    assert back.r_adc == cal.r_adc and back.r_mux == cal.r_mux
-    # per-pair arrays survive too
-    per_pair = Calibration("x", 123e3, np.arange(6.0).reshape(2, 3) + 140, date="2024-01-01")
-    per_pair.save(path)
-    np.testing.assert_array_equal(Calibration.load(path).r_mux, per_pair.r_mux)
-
-
-def test_circuit_from_calibration():
-    cal = _calibration()
-    c = Circuit.from_calibration(cal)
-    assert (c.r_adc, c.r_mux, c.r_o, c.v_ref, c.bits) == (cal.r_adc, cal.r_mux, 2200.0, 3.3, 12)
-    assert Circuit().calibrated(cal) == c
-    assert cal.circuit() == c
-    with pytest.raises(ValueError, match="r_o"):
-        Circuit(r_o=1000.0).calibrated(cal)
-    with pytest.raises(ValueError, match="bits"):
-        Circuit(bits=10).calibrated(cal)
-    with pytest.raises(TypeError):
-        Circuit.from_calibration({"r_adc_ohm": 1.0})
-
-
-@pytest.mark.parametrize(
-    "text",
-    [
-        "",
-        "{not json",
-        '{"format": "psmat-calibration"',
-        "[1, 2]",
-        '{"format": "other", "version": 1}',
-        "GOOD:r_adc_ohm=-5",
-        "GOOD:r_adc_ohm=NaN",
-        'GOOD:r_adc_ohm="123k"',
-        "GOOD:bits=12.5",
-        "GOOD:r_mux_ohm=[[1, 2], [3]]",
-        "GOOD:date=\"yesterday\"",
-        "GOOD:version=2",
-        "DROP:serial",
-    ],
-)
-def test_corrupt_calibration_file(tmp_path, text):
-    path = tmp_path / "bad.json"
-    if text.startswith(("GOOD:", "DROP:")):
-        good = _calibration().to_dict()
-        if text.startswith("DROP:"):
-            del good[text[5:]]
-            body = json.dumps(good)
-        else:
-            key, val = text[5:].split("=", 1)
-            good[key] = "@@"
-            body = json.dumps(good).replace('"@@"', val)
-        path.write_text(body)
-    else:
-        path.write_text(text)
-    with pytest.raises(ValueError):
-        Calibration.load(path)
-
-
-def test_binary_garbage_and_missing_calibration_file(tmp_path):
-    path = tmp_path / "bad.json"
-    path.write_bytes(b"\xff\xfe\x00garbage")
-    with pytest.raises(ValueError, match="not a valid calibration"):
-        Calibration.load(path)
-    with pytest.raises(FileNotFoundError):
-        Calibration.load(tmp_path / "nope.json")
-
-
-def test_calibration_validation():
-    with pytest.raises(ValueError):
-        Calibration("x", r_adc=-1.0, r_mux=145.0)
-    with pytest.raises(ValueError):
-        Calibration("x", r_adc=123e3, r_mux=np.full((2, 2), -1.0))
-    with pytest.raises(TypeError):
-        Calibration(12, r_adc=123e3, r_mux=145.0)  # type: ignore[arg-type]
-    with pytest.raises(ValueError):
-        Calibration("x", r_adc=123e3, r_mux=145.0, date="17/05/2024")

@@ -96,6 +96,25 @@ def test_add_noise_voltage_short_side_is_nan_not_inf():
     assert np.isnan(draws).any()
 
 
+def test_add_noise_voltage_is_the_circuits_continued_inverse():
+    # one home for the algebra: the noisy voltage goes through Circuit's own inverse, continued
+    # past the open reading; a draw at or below 0 V is beyond a zero-resistance cell (NaN)
+    c = Circuit(r_mux=0.0)
+    G = np.array([0.0, 1e-6, 1e-3, 10.0])  # 10 S reads 1.5e-4 V: 1 mV of noise often crosses 0 V
+    draws = noise.add_noise(np.broadcast_to(G, (5000, 4)), rng=3, model="voltage", sigma_v=1e-3, circuit=c)
+    v = c.voltage(G) + np.random.default_rng(3).standard_normal((5000, 4)) * 1e-3  # the same draws
+    below = v <= 0
+    assert below[:, 3].mean() > 0.3 and not below[:, :3].any()
+    assert np.isnan(draws[below]).all()
+    np.testing.assert_array_equal(draws, c.conductance_from_voltage(v, extrapolate_open=True))
+    # past the open reading, the resistance form undone by hand (R_mux = 0): G = 1/R_x - 1/R_adc < 0
+    past = v[:, 0] >= c.v_open
+    assert past.mean() > 0.3
+    g_hand = (3.3 - v[past, 0]) / (2200.0 * v[past, 0]) - 1.0 / 6.9e6
+    np.testing.assert_allclose(draws[past, 0], g_hand, rtol=0, atol=1e-18)  # |G| ~ 1e-7 S
+    assert np.all(draws[past, 0] <= 0)
+
+
 def test_add_noise_bad_arguments():
     with pytest.raises(ValueError, match="model"):
         noise.add_noise([1e-3], rng=0, model="pink")

@@ -1,12 +1,11 @@
-"""Calibration of a DAQ box: R_adc and R_mux from recordings (SPEC §2; thesis §2.1.4 end).
+"""Calibration of a DAQ box as data: R_adc, R_mux and their diagnostics, with JSON I/O (SPEC §2).
 
-Thesis procedure: with the mat unplugged every cell is open, so node X sees ``R_o`` to
-``V_ref`` and only ``R_adc`` to ground, ``V = V_ref R_adc/(R_o + R_adc)`` → ``R_adc``; with a
-wire shorting one row-column pair (cell resistance 0) the path is the two mux channels
-alone, ``R_path = R_mux`` → ``R_mux``, pair by pair ("all the channels have the same value
-for practical purposes"). A calibration is data, stored with the box's serial number
-(JSON, :meth:`Calibration.save` / :meth:`Calibration.load`) and applied with
-:meth:`psmat.circuit.Circuit.calibrated`.
+A calibration is data, stored with the box's serial number (JSON, :meth:`Calibration.save` /
+:meth:`Calibration.load`) and applied with :meth:`psmat.circuit.Circuit.from_calibration` or
+:meth:`psmat.circuit.Circuit.calibrated`. The estimates come from recordings through
+:mod:`psmat.calibration_estimate` (thesis §2.1.4 end). This module imports neither of
+them: the constants are checked by the validation the circuit uses too
+(:mod:`psmat._circuit_checks`).
 """
 
 from __future__ import annotations
@@ -17,86 +16,17 @@ import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import NDArray
 
-if TYPE_CHECKING:  # circuit.py imports this module; import Circuit lazily at run time
-    from .circuit import Circuit
+from ._circuit_checks import check_constants
 
 __all__ = ["Calibration", "OpenCircuitStats", "ShortCircuitStats"]
 
 _FORMAT = "psmat-calibration"
 _VERSION = 1
-
-
-# ---------------------------------------------------------------------- statistics helpers
-def _phi(z: NDArray[np.float64]) -> NDArray[np.float64]:
-    """Standard normal density (0 at ±inf)."""
-    return np.exp(-0.5 * z * z) / math.sqrt(2.0 * math.pi)
-
-
-_erf = np.frompyfunc(math.erf, 1, 1)
-
-
-def _Phi(z: NDArray[np.float64]) -> NDArray[np.float64]:
-    """Standard normal CDF (z may be ±inf)."""
-    return 0.5 * (1.0 + _erf(z / math.sqrt(2.0)).astype(np.float64))
-
-
-def _latent_mean(c: NDArray[np.float64], full_scale: int) -> tuple[float, float, float]:
-    """Mean and SD (counts) of the reading *before* quantisation and clipping, and the clipped fraction.
-
-    Without clipped samples this is the plain mean and sample SD over all frames and cells.
-    When some samples sit at 0 or full scale, the plain mean is biased (the ADC clipped
-    the noise), so the interval-censored Gaussian maximum-likelihood estimate is used:
-    count ``k`` means the latent value lay in ``[k-1/2, k+1/2]``, with the end codes open
-    towards ±inf. It is computed by EM on the histogram (a loop over distinct codes only).
-    """
-    n = c.size
-    clipped = (c <= 0) | (c >= full_scale)
-    frac = float(clipped.mean())
-    mean, sd = float(c.mean()), float(c.std(ddof=1)) if n > 1 else 0.0
-    if frac == 0.0:
-        return mean, sd, frac
-    if frac == 1.0 and np.all(c == c.flat[0]):
-        raise ValueError(
-            f"every sample reads {int(c.flat[0])} (the end of the ADC range): the latent reading is not identifiable"
-        )
-    codes, weights = np.unique(c, return_counts=True)
-    lo = np.where(codes <= 0, -np.inf, codes - 0.5)
-    hi = np.where(codes >= full_scale, np.inf, codes + 0.5)
-    w = weights / n
-    mu, s = mean, max(sd, 0.3)
-    for _ in range(2000):
-        a, b = (lo - mu) / s, (hi - mu) / s
-        z = np.maximum(_Phi(b) - _Phi(a), 1e-300)
-        pa, pb = _phi(a), _phi(b)
-        apa = np.where(np.isfinite(a), a, 0.0) * pa  # a·phi(a) -> 0 at a = -inf
-        bpb = np.where(np.isfinite(b), b, 0.0) * pb
-        m1 = mu + s * (pa - pb) / z  # E[X | interval]
-        var = s * s * (1.0 + (apa - bpb) / z - ((pa - pb) / z) ** 2)
-        m2 = var + m1 * m1  # E[X^2 | interval]
-        mu_new = float(np.sum(w * m1))
-        s_new = math.sqrt(max(float(np.sum(w * m2)) - mu_new * mu_new, 1e-6))
-        done = abs(mu_new - mu) < 1e-10 and abs(s_new - s) < 1e-10
-        mu, s = mu_new, s_new
-        if done:
-            break
-    return mu, s, frac
-
-
-def _check_counts(counts: ArrayLike, full_scale: int, what: str) -> NDArray[np.float64]:
-    c = np.asarray(counts)
-    if c.dtype.kind not in "iuf":
-        raise TypeError(f"{what} must be a real numeric array of counts, got dtype {c.dtype}")
-    c = c.astype(np.float64)
-    if c.size == 0:
-        raise ValueError(f"{what} is empty")
-    if not np.all(np.isfinite(c)) or np.any(c != np.round(c)) or np.any(c < 0) or np.any(c > full_scale):
-        raise ValueError(f"{what} must hold integer counts in [0, {full_scale}] (no NaN)")
-    return c
 
 
 def _reject_constant(name: str) -> Any:
@@ -216,11 +146,10 @@ class Calibration:
             _dt.datetime.fromisoformat(self.date)
         except ValueError:
             raise ValueError(f"date must be ISO 8601 (YYYY-MM-DD[THH:MM:SS]), got {self.date!r}") from None
-        # Circuit validates every constant (types, ranges, r_mux shape) with clear messages.
-        from .circuit import Circuit
-
-        c = Circuit(r_o=self.r_o, r_mux=self.r_mux, r_adc=self.r_adc, v_ref=self.v_ref, bits=self.bits)
-        self.r_o, self.r_adc, self.v_ref, self.bits, self.r_mux = c.r_o, c.r_adc, c.v_ref, c.bits, c.r_mux
+        # the circuit's own checks (types, ranges, r_mux shape), with the same messages
+        self.r_o, self.r_mux, self.r_adc, self.v_ref, self.bits = check_constants(
+            self.r_o, self.r_mux, self.r_adc, self.v_ref, self.bits
+        )
 
     def __eq__(self, other: object) -> bool:
         if not isinstance(other, Calibration):
@@ -235,218 +164,6 @@ class Calibration:
         )
 
     __hash__ = None  # type: ignore[assignment]
-
-    # ------------------------------------------------------------------ estimation
-    @staticmethod
-    def _circuit(circuit: Circuit | None) -> Circuit:
-        from .circuit import Circuit
-
-        if circuit is None:
-            return Circuit()
-        if not isinstance(circuit, Circuit):
-            raise TypeError(f"circuit must be a Circuit, got {type(circuit).__name__}")
-        return circuit
-
-    @staticmethod
-    def estimate_r_adc(counts_open: ArrayLike, circuit: Circuit | None = None) -> tuple[float, OpenCircuitStats]:
-        """``R_adc`` (Ω) from an open-circuit recording, and its diagnostics.
-
-        Parameters
-        ----------
-        counts_open : array_like, shape (R, C) or (T, R, C)
-            Counts with the mat unplugged (every cell open).
-        circuit : Circuit, optional
-            Supplies ``r_o``, ``v_ref``, ``bits`` (default :class:`Circuit` ()).
-
-        Notes
-        -----
-        With every cell open ``V = V_ref R_adc/(R_o + R_adc)``; at the mean count ``m``
-        (over frames and cells) ``R_adc = R_o m/(FS - m)``, ``FS = 2**bits - 1``.
-        Near full scale one count is worth ``R_o FS/(FS - m)^2`` Ω — about 5 MΩ for the
-        improved prototype's 6.9 MΩ — so a large ``R_adc`` needs noise (dither) and many
-        samples to be estimated well; see ``OpenCircuitStats.r_adc_per_count``.
-        """
-        cir = Calibration._circuit(circuit)
-        fs = cir.full_scale
-        c = _check_counts(counts_open, fs, "counts_open")
-        if c.ndim not in (2, 3):
-            raise ValueError(f"counts_open must be (R, C) or (T, R, C), got shape {c.shape}")
-        m, sd, frac = _latent_mean(c, fs)
-        if not 0.0 < m < fs:
-            raise ValueError(
-                f"open-circuit mean reading {m:.3f} is at the end of the ADC range [0, {fs}]: "
-                "R_adc cannot be estimated (mat really unplugged? R_adc beyond the ADC's resolution?)"
-            )
-        r_adc = cir.r_o * m / (fs - m)
-        per_count = cir.r_o * fs / (fs - m) ** 2  # dR_adc/dm
-        stats = OpenCircuitStats(
-            count_mean=m,
-            count_sd=sd,
-            n_samples=int(c.size),
-            clipped_fraction=frac,
-            r_adc_se=per_count * sd / math.sqrt(c.size),
-            r_adc_per_count=per_count,
-        )
-        return r_adc, stats
-
-    @staticmethod
-    def estimate_r_mux(
-        counts_by_cell: Mapping[tuple[int, int], ArrayLike],
-        circuit: Circuit | None = None,
-        shape: tuple[int, int] | None = None,
-    ) -> ShortCircuitStats:
-        """``R_mux`` (Ω) per shorted pair from short-circuit recordings.
-
-        Parameters
-        ----------
-        counts_by_cell : mapping {(i, p): array_like}
-            For each shorted row ``i`` / column ``p``: either that cell's samples, shape
-            ``()`` or ``(T,)``, or whole frames ``(R, C)`` / ``(T, R, C)`` from which
-            ``[..., i, p]`` is taken.
-        circuit : Circuit, optional
-            Supplies ``r_o``, ``v_ref``, ``bits`` and ``r_adc`` (use the calibrated ``r_adc``).
-        shape : (R, C), optional
-            Array shape; default from the frames given, else the largest index + 1.
-
-        Notes
-        -----
-        A shorted cell has ``R_path = R_mux``: ``R_x = R_o m/(FS - m)`` at the mean count
-        ``m``, then ``R_mux = 1/(1/R_x - 1/R_adc)``.
-        """
-        cir = Calibration._circuit(circuit)
-        fs = cir.full_scale
-        if not isinstance(counts_by_cell, Mapping) or len(counts_by_cell) == 0:
-            raise ValueError("counts_by_cell must be a non-empty mapping {(row, col): counts}")
-        keys, means = [], []
-        frame_shape: tuple[int, int] | None = None
-        for key, rec in counts_by_cell.items():  # one entry per shorted pair, not per cell
-            if (
-                not isinstance(key, tuple)
-                or len(key) != 2
-                or not all(isinstance(k, (int, np.integer)) and not isinstance(k, bool) for k in key)
-                or min(key) < 0
-            ):
-                raise ValueError(f"keys must be (row, col) pairs of non-negative ints, got {key!r}")
-            i, p = int(key[0]), int(key[1])
-            c = _check_counts(rec, fs, f"short-circuit recording for pair {key}")
-            if c.ndim >= 2:
-                if c.ndim > 3:
-                    raise ValueError(f"recording for pair {key} must be (T,), (R, C) or (T, R, C), got {c.shape}")
-                fr = (int(c.shape[-2]), int(c.shape[-1]))
-                if frame_shape is not None and fr != frame_shape:
-                    raise ValueError(f"recordings have different frame shapes {frame_shape} and {fr}")
-                frame_shape = fr
-                if i >= fr[0] or p >= fr[1]:
-                    raise ValueError(f"pair {key} is outside the frames of shape {fr}")
-                c = c[..., i, p]
-            keys.append((i, p))
-            try:
-                means.append(_latent_mean(c.ravel(), fs)[0])
-            except ValueError as exc:
-                raise ValueError(f"short-circuit recording for pair {key}: {exc}") from None
-        if shape is None:
-            shape = frame_shape or (max(k[0] for k in keys) + 1, max(k[1] for k in keys) + 1)
-        shape = (int(shape[0]), int(shape[1]))
-        if frame_shape is not None and frame_shape != shape:
-            raise ValueError(f"shape {shape} disagrees with the recorded frames {frame_shape}")
-        if any(i >= shape[0] or p >= shape[1] for i, p in keys):
-            raise ValueError(f"a pair lies outside shape {shape}")
-        m = np.asarray(means)
-        r_x = cir.r_o * m / (fs - m)  # divider undone
-        g_path = 1.0 / np.maximum(r_x, 1e-300) - 1.0 / cir.r_adc  # R_adc removed in parallel
-        if np.any(m >= fs) or np.any(g_path <= 0):
-            bad = keys[int(np.flatnonzero((m >= fs) | (g_path <= 0))[0])]
-            raise ValueError(f"short-circuit recording for pair {bad} reads as open (wire not connected?)")
-        r_mux = np.where(m <= 0, 0.0, 1.0 / g_path)
-        pairs = np.full(shape, np.nan)
-        idx = np.asarray(keys)
-        pairs[idx[:, 0], idx[:, 1]] = r_mux
-        pairs.setflags(write=False)
-        spread = float(np.std(r_mux, ddof=1)) if r_mux.size > 1 else 0.0
-        return ShortCircuitStats(r_mux_pairs=pairs, summary=float(np.median(r_mux)), spread=spread)
-
-    @classmethod
-    def from_open_circuit(
-        cls,
-        counts_open: ArrayLike,
-        circuit: Circuit | None = None,
-        *,
-        serial: str = "",
-        date: str | None = None,
-        notes: str = "",
-    ) -> Calibration:
-        """Calibration with ``r_adc`` from an open-circuit recording (see :meth:`estimate_r_adc`);
-        ``r_mux`` and the constants are the circuit's."""
-        cir = cls._circuit(circuit)
-        r_adc, stats = cls.estimate_r_adc(counts_open, cir)
-        return cls(
-            serial=serial, r_adc=r_adc, r_mux=cir.r_mux, r_o=cir.r_o, v_ref=cir.v_ref, bits=cir.bits,
-            date=date or _today(), notes=notes, open_stats=stats,
-        )  # fmt: skip
-
-    @classmethod
-    def from_short_circuit(
-        cls,
-        counts_by_cell: Mapping[tuple[int, int], ArrayLike],
-        circuit: Circuit | None = None,
-        *,
-        serial: str = "",
-        per_pair: bool = False,
-        shape: tuple[int, int] | None = None,
-        date: str | None = None,
-        notes: str = "",
-    ) -> Calibration:
-        """Calibration with ``r_mux`` from short-circuit recordings (see :meth:`estimate_r_mux`).
-
-        ``r_mux`` is the median over pairs (the thesis found all channels equal), or with
-        ``per_pair=True`` the (R, C) array, which then needs a recording for every pair.
-        ``r_adc`` and the constants are the circuit's.
-        """
-        cir = cls._circuit(circuit)
-        stats = cls.estimate_r_mux(counts_by_cell, cir, shape)
-        if per_pair:
-            missing = np.argwhere(np.isnan(stats.r_mux_pairs))
-            if missing.size:
-                raise ValueError(f"per_pair=True needs a recording for every pair; missing e.g. {tuple(missing[0])}")
-            r_mux: float | NDArray[np.float64] = stats.r_mux_pairs
-        else:
-            r_mux = stats.summary
-        return cls(
-            serial=serial, r_adc=cir.r_adc, r_mux=r_mux, r_o=cir.r_o, v_ref=cir.v_ref, bits=cir.bits,
-            date=date or _today(), notes=notes, short_stats=stats,
-        )  # fmt: skip
-
-    @classmethod
-    def from_recordings(
-        cls,
-        serial: str,
-        open_counts: ArrayLike,
-        short_counts: Mapping[tuple[int, int], ArrayLike],
-        circuit: Circuit | None = None,
-        *,
-        per_pair: bool = False,
-        shape: tuple[int, int] | None = None,
-        date: str | None = None,
-        notes: str = "",
-    ) -> Calibration:
-        """Full thesis procedure: ``r_adc`` from the open recording, then ``r_mux`` from the
-        short recordings using that ``r_adc``. ``circuit`` supplies ``r_o``, ``v_ref``, ``bits``."""
-        from .circuit import Circuit
-
-        cir = cls._circuit(circuit)
-        op = cls.from_open_circuit(open_counts, cir)
-        cir2 = Circuit(r_o=cir.r_o, r_mux=cir.r_mux, r_adc=op.r_adc, v_ref=cir.v_ref, bits=cir.bits)
-        sh = cls.from_short_circuit(short_counts, cir2, per_pair=per_pair, shape=shape)
-        return cls(
-            serial=serial, r_adc=op.r_adc, r_mux=sh.r_mux, r_o=cir.r_o, v_ref=cir.v_ref, bits=cir.bits,
-            date=date or _today(), notes=notes, open_stats=op.open_stats, short_stats=sh.short_stats,
-        )  # fmt: skip
-
-    def circuit(self) -> Circuit:
-        """The :class:`~psmat.circuit.Circuit` this calibration describes."""
-        from .circuit import Circuit
-
-        return Circuit.from_calibration(self)
 
     # ------------------------------------------------------------------ JSON
     def to_dict(self) -> dict[str, Any]:

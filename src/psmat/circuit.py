@@ -15,23 +15,34 @@ cell (``G = 0``).
 
 The inverse (:meth:`Circuit.conductance`) undoes each step and flags, instead of returning
 infinities or negative conductances, the readings that the circuit cannot produce from a
-positive finite cell conductance: :data:`SHORT` at or below the reading of a zero-resistance
-cell, :data:`OPEN` at or above the open-circuit reading.
+positive finite cell conductance: :data:`SHORT` at or beyond the reading of a zero-resistance
+cell, :data:`OPEN` at or beyond the open-circuit reading.
+
+``sensor_side="high"`` mirrors the divider (the material DAQ's option, thesis §2.4.1): the
+cell path from ``V_ref`` to X, ``R_o`` (with ``R_adc`` in parallel) from X to ground::
+
+    V_x = V_ref * R_b / (R_path + R_b),   R_b = R_o || R_adc
+
+so an open cell reads 0 V and a zero-resistance cell the highest voltage. This module is the
+one home of this algebra: the noise model, the calibration estimators and the DAQ divider
+all call :class:`Circuit`.
 """
 
 from __future__ import annotations
 
 import math
-from typing import Any
+from typing import Any, Literal
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from ._circuit_checks import check_constants
+from ._circuit_checks import first_bad as _first_bad
+from ._circuit_checks import real_array as _real_array
 from .calibration import Calibration
 
 __all__ = [
     "Circuit",
-    "Calibration",
     "OK",
     "SHORT",
     "OPEN",
@@ -41,39 +52,15 @@ __all__ = [
 
 #: Flag values returned by :meth:`Circuit.conductance` with ``return_flags=True`` (uint8).
 OK: int = 0
-#: Reading at or beyond a zero-resistance cell (count 0, or inverted ``R_path <= R_mux``).
+#: Reading at or beyond a zero-resistance cell (low side: count 0 or ``v <= 0``; inverted ``R_path <= R_mux``).
 SHORT: int = 1
-#: Reading at or beyond the open-circuit reading (full scale, or inverted ``R_x >= R_adc``).
+#: Reading at or beyond the open-circuit reading (low side: full scale or ``v >= V_ref``; inverted ``G_path <= 0``).
 OPEN: int = 2
 
 #: ADC input resistance of the first prototype (thesis §2.2.1: "typical values R_ADC = 123 kΩ").
 FIRST_PROTOTYPE_R_ADC: float = 123e3
 #: ADC input resistance of the improved prototype (thesis §2.2.2: "about 6.9 MΩ").
 IMPROVED_PROTOTYPE_R_ADC: float = 6.9e6
-
-
-def _positive_scalar(name: str, value: Any, *, allow_inf: bool = False) -> float:
-    """Validate a strictly positive real scalar (finite unless ``allow_inf``)."""
-    if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, float, np.integer, np.floating)):
-        raise TypeError(f"{name} must be a real number, got {type(value).__name__}")
-    v = float(value)
-    if math.isnan(v) or v <= 0 or (math.isinf(v) and not allow_inf):
-        raise ValueError(f"{name} must be {'> 0' if allow_inf else 'finite and > 0'}, got {value!r}")
-    return v
-
-
-def _real_array(name: str, value: ArrayLike) -> NDArray[Any]:
-    """Convert to an ndarray of a real numeric dtype; complex/object/str/bool → TypeError."""
-    arr = np.asarray(value)
-    if arr.dtype.kind not in "iuf":
-        raise TypeError(f"{name} must be a real numeric array, got dtype {arr.dtype}")
-    return arr
-
-
-def _first_bad(mask: NDArray[np.bool_]) -> tuple[int, ...]:
-    """Index (as a tuple) of the first True element of ``mask`` in C order."""
-    flat = int(np.flatnonzero(mask)[0])
-    return tuple(int(k) for k in np.unravel_index(flat, mask.shape))
 
 
 def _check_conductance(G: ArrayLike) -> NDArray[np.float64]:
@@ -94,7 +81,8 @@ class Circuit:
     Parameters
     ----------
     r_o : float
-        Divider resistor between node X and ``V_ref`` (Ω), > 0. Thesis: 2.2 kΩ.
+        Divider resistor between node X and ``V_ref`` (Ω), > 0 (X and ground on the high
+        side). Thesis: 2.2 kΩ.
     r_mux : float or array_like, shape (R, C)
         Series resistance of the row and column multiplexer channels together (Ω), >= 0.
         A scalar, or one value per row-column pair from a calibration; it broadcasts against
@@ -106,6 +94,10 @@ class Circuit:
         Reference voltage of the divider and full scale of the ADC (V), > 0. Thesis: 3.3 V.
     bits : int
         ADC resolution, 1..16 (counts are returned as uint16). Thesis: 12.
+    sensor_side : {"low", "high"}
+        ``"low"`` (the mat, SPEC §2): the cell path from X to ground. ``"high"``: the cell
+        path from ``V_ref`` to X and ``R_o || R_adc`` from X to ground; an open cell reads 0
+        and a zero-resistance cell the top of the range, so the flags swap ends.
     """
 
     OK = OK
@@ -119,27 +111,14 @@ class Circuit:
         r_adc: float = IMPROVED_PROTOTYPE_R_ADC,
         v_ref: float = 3.3,
         bits: int = 12,
+        sensor_side: Literal["low", "high"] = "low",
     ) -> None:
-        self._r_o = _positive_scalar("r_o", r_o)
-        self._r_adc = _positive_scalar("r_adc", r_adc, allow_inf=True)
-        self._v_ref = _positive_scalar("v_ref", v_ref)
-        if isinstance(bits, (bool, np.bool_)) or not isinstance(bits, (int, np.integer)):
-            raise TypeError(f"bits must be an integer, got {type(bits).__name__}")
-        if not 1 <= int(bits) <= 16:
-            raise ValueError(f"bits must be in 1..16, got {bits}")
-        self._bits = int(bits)
-        rm = _real_array("r_mux", r_mux).astype(np.float64)
-        if rm.ndim not in (0, 2):
-            raise ValueError(f"r_mux must be a scalar or an (R, C) array, got shape {rm.shape}")
-        bad = ~np.isfinite(rm) | (rm < 0)
-        if bad.any():
-            where = "" if rm.ndim == 0 else f" at index {_first_bad(bad)}"
-            raise ValueError(f"r_mux must be finite and >= 0 (Ω){where}")
-        if rm.ndim == 0:
-            self._r_mux: float | NDArray[np.float64] = float(rm)
-        else:
-            rm.setflags(write=False)
-            self._r_mux = rm
+        self._r_o, self._r_mux, self._r_adc, self._v_ref, self._bits = check_constants(r_o, r_mux, r_adc, v_ref, bits)
+        if sensor_side not in ("low", "high"):
+            raise ValueError(f"sensor_side must be 'low' or 'high', got {sensor_side!r}")
+        self._high = sensor_side == "high"
+        # high side: X to ground besides the cell path, R_b = R_o || R_adc (Ω)
+        self._r_b = self._r_o if math.isinf(self._r_adc) else self._r_o * self._r_adc / (self._r_o + self._r_adc)
 
     # ------------------------------------------------------------------ constructors
     @classmethod
@@ -171,7 +150,8 @@ class Circuit:
                 raise ValueError(f"calibration {cal.serial!r} was made with {name}={theirs}, circuit has {mine}")
         if cal.bits != self.bits:
             raise ValueError(f"calibration {cal.serial!r} was made with bits={cal.bits}, circuit has {self.bits}")
-        return Circuit(r_o=self.r_o, r_mux=cal.r_mux, r_adc=cal.r_adc, v_ref=self.v_ref, bits=self.bits)
+        return Circuit(r_o=self.r_o, r_mux=cal.r_mux, r_adc=cal.r_adc, v_ref=self.v_ref, bits=self.bits,
+                       sensor_side=self.sensor_side)
 
     # ------------------------------------------------------------------ properties
     @property
@@ -200,6 +180,11 @@ class Circuit:
         return self._bits
 
     @property
+    def sensor_side(self) -> Literal["low", "high"]:
+        """Where the cell path sits in the divider: ``"low"`` (X to ground) or ``"high"`` (V_ref to X)."""
+        return "high" if self._high else "low"
+
+    @property
     def full_scale(self) -> int:
         """Largest count, ``2**bits - 1``."""
         return (1 << self._bits) - 1
@@ -211,23 +196,27 @@ class Circuit:
 
     @property
     def v_open(self) -> float:
-        """Node voltage with every cell open, ``V_ref R_adc / (R_o + R_adc)`` (V)."""
-        return self._v_ref / (1.0 + self._r_o / self._r_adc)
+        """Node voltage with every cell open (V): ``V_ref R_adc / (R_o + R_adc)``, 0 on the high side."""
+        return 0.0 if self._high else self._v_ref / (1.0 + self._r_o / self._r_adc)
 
     def as_dict(self) -> dict[str, Any]:
         """Constants as a plain dict (``r_mux`` as a nested list when per pair), keys in SI units."""
         rm = self._r_mux if isinstance(self._r_mux, float) else self._r_mux.tolist()
-        return {"r_o_ohm": self._r_o, "r_mux_ohm": rm, "r_adc_ohm": self._r_adc, "v_ref_volt": self._v_ref, "bits": self._bits}
+        return {"r_o_ohm": self._r_o, "r_mux_ohm": rm, "r_adc_ohm": self._r_adc, "v_ref_volt": self._v_ref,
+                "bits": self._bits, "sensor_side": self.sensor_side}
 
     def __repr__(self) -> str:
         rm = f"{self._r_mux!r}" if isinstance(self._r_mux, float) else f"<array {self._r_mux.shape}>"
-        return f"Circuit(r_o={self._r_o!r}, r_mux={rm}, r_adc={self._r_adc!r}, v_ref={self._v_ref!r}, bits={self._bits})"
+        side = ", sensor_side='high'" if self._high else ""
+        return (f"Circuit(r_o={self._r_o!r}, r_mux={rm}, r_adc={self._r_adc!r}, v_ref={self._v_ref!r}, "
+                f"bits={self._bits}{side})")
 
     def __eq__(self, other: object) -> bool:
         if not isinstance(other, Circuit):
             return NotImplemented
         return (
-            (self._r_o, self._r_adc, self._v_ref, self._bits) == (other._r_o, other._r_adc, other._v_ref, other._bits)
+            (self._r_o, self._r_adc, self._v_ref, self._bits, self._high)
+            == (other._r_o, other._r_adc, other._v_ref, other._bits, other._high)
             and np.shape(self._r_mux) == np.shape(other._r_mux)
             and bool(np.all(np.asarray(self._r_mux) == np.asarray(other._r_mux)))
         )
@@ -244,9 +233,9 @@ class Circuit:
                     f"{what} of shape {arr.shape} does not broadcast against the per-pair r_mux of shape {self._r_mux.shape}"
                 ) from None
 
-    def _node_conductance(self, G: NDArray[np.float64]) -> NDArray[np.float64]:
-        """``G_x = 1/R_x = G/(1 + G R_mux) + 1/R_adc`` (S): 1/(1/G + R_mux) without dividing by G."""
-        return G / (1.0 + G * self._r_mux) + 1.0 / self._r_adc
+    def _path_conductance(self, G: NDArray[np.float64]) -> NDArray[np.float64]:
+        """``G_path = 1/R_path = G/(1 + G R_mux)`` (S): 1/(1/G + R_mux) without dividing by G."""
+        return G / (1.0 + G * self._r_mux)
 
     def voltage(self, G: ArrayLike) -> NDArray[np.float64]:
         """Node voltage ``V_x`` for equivalent conductances ``G`` (SPEC §2).
@@ -260,11 +249,14 @@ class Circuit:
         Returns
         -------
         ndarray of float64
-            ``V_x = V_ref R_x / (R_o + R_x)`` (V).
+            ``V_x = V_ref R_x / (R_o + R_x)`` (V); high side ``V_ref R_b / (R_path + R_b)``.
         """
         g = _check_conductance(G)
         self._broadcast(g, "G")
-        return self._v_ref / (1.0 + self._r_o * self._node_conductance(g))
+        gp = self._path_conductance(g)
+        if self._high:  # V_x = V_ref R_b G_path/(1 + R_b G_path)
+            return self._v_ref * (self._r_b * gp) / (1.0 + self._r_b * gp)
+        return self._v_ref / (1.0 + self._r_o * (gp + 1.0 / self._r_adc))  # G_x = G_path + 1/R_adc
 
     def quantise(self, v: ArrayLike) -> NDArray[np.uint16]:
         """ADC counts of node voltages: ``round(v/V_ref (2**bits-1))`` clipped to [0, full scale].
@@ -313,8 +305,10 @@ class Circuit:
     def sensitivity(self, G: ArrayLike) -> NDArray[np.float64]:
         """Magnitude of the derivative ``|dV_x/dG|`` (V/S), finite everywhere including ``G = 0``.
 
-        ``V_x`` falls as ``G`` rises; ``-dV_x/dG = V_ref R_o / ((1 + R_o G_x)^2 (1 + G R_mux)^2)``
+        Low side: ``V_x`` falls as ``G`` rises; ``-dV_x/dG = V_ref R_o / ((1 + R_o G_x)^2 (1 + G R_mux)^2)``
         by the chain rule through ``V_x = V_ref/(1 + R_o G_x)`` and ``G_x = G/(1 + G R_mux) + 1/R_adc``.
+        High side: ``dV_x/dG = V_ref R_b / ((1 + R_b G_path)^2 (1 + G R_mux)^2)``, through
+        ``V_x = V_ref R_b G_path/(1 + R_b G_path)``.
 
         Parameters
         ----------
@@ -323,8 +317,9 @@ class Circuit:
         """
         g = _check_conductance(G)
         self._broadcast(g, "G")
-        gx = self._node_conductance(g)
-        return self._v_ref * self._r_o / ((1.0 + self._r_o * gx) ** 2 * (1.0 + g * self._r_mux) ** 2)
+        gp = self._path_conductance(g)
+        r, gn = (self._r_b, gp) if self._high else (self._r_o, gp + 1.0 / self._r_adc)
+        return self._v_ref * r / ((1.0 + r * gn) ** 2 * (1.0 + g * self._r_mux) ** 2)
 
     def sigma_G(self, G: ArrayLike, sigma_v: float | ArrayLike = 1e-3) -> NDArray[np.float64]:
         """First-order standard deviation of ``G`` implied by voltage noise (thesis Table 2.4).
@@ -350,23 +345,40 @@ class Circuit:
     def _invert(self, v: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         """Raw algebraic inverse: returns (G, G_path) with no flagging; may hold inf/negatives/NaN."""
         with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
-            gx = (self._v_ref / v - 1.0) / self._r_o  # 1/R_x from the divider
-            gpath = gx - 1.0 / self._r_adc  # remove R_adc in parallel
+            if self._high:  # V_x = V_ref R_b G_path/(1 + R_b G_path) solved for G_path
+                gpath = v / (self._r_b * (self._v_ref - v))
+            else:
+                gx = (self._v_ref / v - 1.0) / self._r_o  # 1/R_x from the divider
+                gpath = gx - 1.0 / self._r_adc  # remove R_adc in parallel
             g = gpath / (1.0 - gpath * self._r_mux)  # subtract R_mux: 1/(1/G_path - R_mux)
         return g, gpath
 
+    def _range_ends(
+        self, at_zero: NDArray[np.bool_], at_top: NDArray[np.bool_]
+    ) -> tuple[NDArray[np.bool_], NDArray[np.bool_]]:
+        """(short, open) masks of the readings at or beyond the ends of the range: a
+        zero-resistance cell reads the bottom on the low side, the top on the high side."""
+        return (at_top, at_zero) if self._high else (at_zero, at_top)
+
     def _flag_and_clean(
-        self, g: NDArray[np.float64], gpath: NDArray[np.float64], short: NDArray[np.bool_], open_: NDArray[np.bool_]
+        self,
+        g: NDArray[np.float64],
+        gpath: NDArray[np.float64],
+        short: NDArray[np.bool_],
+        open_: NDArray[np.bool_],
+        keep_open: bool = False,
     ) -> tuple[NDArray[np.float64], NDArray[np.uint8]]:
-        # open: R_x >= R_adc  <=>  G_path <= 0 ; short: R_path <= R_mux  <=>  G_path * R_mux >= 1
+        # inside the range: open  <=>  G_path <= 0 (R_x >= R_adc) ; short  <=>  G_path R_mux >= 1 (R_path <= R_mux)
+        inside = ~(short | open_)
         with np.errstate(invalid="ignore"):  # inf * 0 at count 0 with R_mux = 0: already SHORT
-            open_ = open_ | (gpath <= 0)
-            short = (short | (gpath * self._r_mux >= 1.0) | ~np.isfinite(g)) & ~open_
+            open_ = open_ | (inside & (gpath <= 0))
+            short = short | (inside & ~open_ & ((gpath * self._r_mux >= 1.0) | ~np.isfinite(g)))
         flags = np.where(short, SHORT, np.where(open_, OPEN, OK)).astype(np.uint8)
-        return np.where(flags == OK, g, np.nan), flags
+        keep = (flags == OK) | (open_ if keep_open else False)
+        return np.where(keep, g, np.nan), flags
 
     def conductance_from_voltage(
-        self, v: ArrayLike, return_flags: bool = False
+        self, v: ArrayLike, return_flags: bool = False, *, extrapolate_open: bool = False
     ) -> NDArray[np.float64] | tuple[NDArray[np.float64], NDArray[np.uint8]]:
         """Exact inverse of :meth:`voltage` (no quantisation).
 
@@ -376,13 +388,18 @@ class Circuit:
             Node voltages (V), real, not NaN.
         return_flags : bool
             Also return the uint8 flags (:data:`OK`, :data:`SHORT`, :data:`OPEN`).
+        extrapolate_open : bool
+            At or beyond the open-circuit reading (flag :data:`OPEN`), return the algebraic
+            continuation ``G = G_path/(1 - G_path R_mux)`` instead of NaN: it passes smoothly
+            through ``G = 0`` to negative values and has no pole on that side (the noise
+            model, SPEC §2). The short side stays NaN: no finite conductance reads there.
 
         Returns
         -------
         G : ndarray of float64
-            Equivalent conductances (S); NaN where flagged: ``v <= 0`` or at/below the reading
-            of a zero-resistance cell (SHORT), ``v >= V_ref`` or at/above the open-circuit
-            reading (OPEN).
+            Equivalent conductances (S); NaN where flagged: at or beyond the reading of a
+            zero-resistance cell (SHORT; low side ``v <= 0``), at or beyond the open-circuit
+            reading (OPEN; low side ``v >= V_ref``) unless ``extrapolate_open``.
         flags : ndarray of uint8, only if ``return_flags``
         """
         x = _real_array("v", v).astype(np.float64, copy=False)
@@ -390,7 +407,8 @@ class Circuit:
             raise ValueError(f"v contains NaN at index {_first_bad(np.isnan(x))}")
         self._broadcast(x, "v")
         g, gpath = self._invert(x)
-        g, flags = self._flag_and_clean(g, gpath, x <= 0, x >= self._v_ref)
+        short, open_ = self._range_ends(x <= 0, x >= self._v_ref)
+        g, flags = self._flag_and_clean(g, gpath, short, open_, keep_open=extrapolate_open)
         return (g, flags) if return_flags else g
 
     def _check_counts(self, counts: ArrayLike) -> NDArray[np.float64]:
@@ -421,6 +439,7 @@ class Circuit:
         The count is taken at its code centre ``v = count/(2**bits-1) V_ref``; then the
         divider is undone (``R_x = R_o v/(V_ref - v)``), ``R_adc`` removed in parallel
         (``R_path = 1/(1/R_x - 1/R_adc)``) and ``R_mux`` subtracted (``G = 1/(R_path - R_mux)``).
+        On the high side the divider gives ``R_path = R_b (V_ref - v)/v`` directly.
 
         Parameters
         ----------
@@ -435,9 +454,10 @@ class Circuit:
             Equivalent conductances (S), finite and > 0 where the flag is :data:`OK`, NaN
             elsewhere (never inf or negative).
         flags : ndarray of uint8, only if ``return_flags``
-            :data:`OK` (0); :data:`SHORT` (1): count 0 or ``R_path <= R_mux`` (reads as a
-            zero or negative cell resistance); :data:`OPEN` (2): full scale or
-            ``R_x >= R_adc`` (at or beyond the open-circuit reading).
+            :data:`OK` (0); :data:`SHORT` (1): count 0 (full scale on the high side) or
+            ``R_path <= R_mux`` (reads as a zero or negative cell resistance); :data:`OPEN`
+            (2): full scale (0 on the high side) or ``G_path <= 0`` (at or beyond the
+            open-circuit reading).
 
         Raises
         ------
@@ -450,6 +470,6 @@ class Circuit:
         c = self._check_counts(counts)
         self._broadcast(c, "counts")
         g, gpath = self._invert(c / self.full_scale * self._v_ref)
-        g, flags = self._flag_and_clean(g, gpath, c == 0, c == self.full_scale)
+        g, flags = self._flag_and_clean(g, gpath, *self._range_ends(c == 0, c == self.full_scale))
         return (g, flags) if return_flags else g
 

@@ -17,7 +17,7 @@ from typing import Literal
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from .circuit import OPEN, Circuit
+from .circuit import Circuit
 
 __all__ = [
     "TABLE_2_4_R_OHM",
@@ -107,7 +107,9 @@ def add_noise(
         Random generator or seed.
     model : {"table", "voltage"}
         ``"table"``: ``G + N(0, sigma_G(G))``. ``"voltage"``: ``V = circuit.voltage(G) +
-        N(0, sigma_v)``, then the exact inverse of the circuit (no quantisation).
+        N(0, sigma_v)``, then the exact inverse of the circuit (no quantisation), continued
+        past the open reading (:meth:`Circuit.conductance_from_voltage` with
+        ``extrapolate_open=True``).
     sigma_v : float
         Voltage noise standard deviation (V), ``"voltage"`` model only.
     circuit : Circuit, optional
@@ -128,7 +130,7 @@ def add_noise(
     ``"voltage"`` near an open cell, where the noisy voltage lies beyond the open-circuit
     reading and the algebraic inverse continues smoothly to ``G < 0``). In the
     ``"voltage"`` model a draw whose voltage reaches the reading of a zero-resistance cell
-    (or leaves ``(0, V_ref)``) has no finite conductance and is returned as NaN.
+    (or 0 V) has no finite conductance and is returned as NaN.
     """
     g = _check_G(G)
     gen = np.random.default_rng(rng)
@@ -142,7 +144,7 @@ def add_noise(
             raise TypeError(f"circuit must be a Circuit, got {type(cir).__name__}")
         v = cir.voltage(g)
         v = v + gen.standard_normal(v.shape) * sigma_v
-        out = _invert_keep_open(cir, v)
+        out = cir.conductance_from_voltage(v, extrapolate_open=True)
     else:
         raise ValueError(f"model must be 'table' or 'voltage', got {model!r}")
     if clip_min is not None:
@@ -150,19 +152,3 @@ def add_noise(
             out = np.where(np.isnan(out), np.nan, np.maximum(out, float(clip_min)))
     return out
 
-
-def _invert_keep_open(cir: Circuit, v: NDArray[np.float64]) -> NDArray[np.float64]:
-    """Algebraic inverse of the circuit without quantisation.
-
-    Like :meth:`Circuit.conductance_from_voltage`, but at or beyond the open-circuit reading
-    (flag OPEN) the formula ``G = G_path/(1 - G_path R_mux)`` is kept: it passes smoothly
-    through ``G = 0`` to negative values and has no pole on that side. Only the short side
-    (flag SHORT: no finite conductance) stays NaN.
-    """
-    g, flags = cir.conductance_from_voltage(v, return_flags=True)
-    is_open = flags == OPEN
-    if is_open.any():
-        with np.errstate(divide="ignore", invalid="ignore"):
-            gpath = (cir.v_ref / v - 1.0) / cir.r_o - 1.0 / cir.r_adc  # divider undone, R_adc removed
-            g = np.where(is_open, gpath / (1.0 - gpath * cir.r_mux), g)  # R_mux subtracted
-    return g

@@ -42,7 +42,7 @@ from typing import Any, Literal, NamedTuple, Union
 import numpy as np
 from numpy.typing import NDArray
 
-from ..circuit import OK, OPEN, SHORT
+from ..circuit import OPEN, Circuit
 from .mpi_creep import MPICreep
 from .protocols import Protocol, Segment, segments_from_pressure
 
@@ -206,12 +206,11 @@ def _check_divider(r_o: float, v_ref: float, bits: int, sensor_side: str) -> Non
         raise ValueError(f"sensor_side must be 'low' or 'high', got {sensor_side!r}")
 
 
-def _low_side(r_o: float, bits: int = 16):
-    """The material DAQ's low-side divider as the measurement chain of :class:`psmat.Circuit`
-    (V_ref normalised to 1, no multiplexer, ideal ADC): one home for the divider equations."""
-    from ..circuit import Circuit
-
-    return Circuit(r_o=float(r_o), r_mux=0.0, r_adc=np.inf, v_ref=1.0, bits=int(bits))
+def _divider(r_o: float, sensor_side: str, bits: int = 16) -> Circuit:
+    """The material DAQ's divider as the measurement chain of :class:`psmat.Circuit` (V_ref
+    normalised to 1, no multiplexer, ideal ADC, the sensor on either side): one home for the
+    divider equations."""
+    return Circuit(r_o=float(r_o), r_mux=0.0, r_adc=np.inf, v_ref=1.0, bits=int(bits), sensor_side=sensor_side)
 
 
 def divider_conductance(x: NDArray[np.float64], r_o: float = DAQ_R_O,
@@ -243,17 +242,8 @@ def divider_conductance(x: NDArray[np.float64], r_o: float = DAQ_R_O,
     """
     _check_divider(float(r_o), 1.0, 1, sensor_side)
     x = np.asarray(x, dtype=np.float64)
-    if sensor_side == "low":  # the mat's divider (SPEC §2) with no mux and an ideal ADC
-        g, flags = _low_side(r_o).conductance_from_voltage(x, return_flags=True)
-        return np.where(flags == OPEN, float(open_value), g), flags
-    lo, hi = x <= 0.0, x >= 1.0
-    short, open_ = (lo, hi) if sensor_side == "low" else (hi, lo)
-    xc = np.clip(x, 1e-300, 1.0 - 1e-16)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        g = (1.0 - xc) / (r_o * xc) if sensor_side == "low" else xc / (r_o * (1.0 - xc))
-    flags = np.where(short, SHORT, np.where(open_, OPEN, OK)).astype(np.uint8)
-    g = np.where(short, np.nan, np.where(open_, float(open_value), g))
-    return g, flags
+    g, flags = _divider(r_o, sensor_side).conductance_from_voltage(x, return_flags=True)
+    return np.where(flags == OPEN, float(open_value), g), flags
 
 
 def divider_counts(g: NDArray[np.float64], r_o: float = DAQ_R_O, bits: int = DAQ_BITS,
@@ -265,11 +255,7 @@ def divider_counts(g: NDArray[np.float64], r_o: float = DAQ_R_O, bits: int = DAQ
     g = np.asarray(g, dtype=np.float64)
     if np.any(~np.isfinite(g) | (g < 0)):
         raise ValueError("g must be finite and >= 0 S")
-    if sensor_side == "low":
-        return _low_side(r_o, bits).counts(g).astype(np.int64)
-    x = r_o * g / (1.0 + r_o * g)
-    fs = 2 ** int(bits) - 1
-    return np.clip(np.round(x * fs), 0, fs).astype(np.int64)
+    return _divider(r_o, sensor_side, bits).counts(g).astype(np.int64)
 
 
 # --------------------------------------------------------------------------- text sources
