@@ -128,6 +128,35 @@ def test_damaged_records_anywhere_are_each_skipped(tmp_path: Path) -> None:
     assert "6 bytes" in note  # the torn tail
 
 
+def test_any_flipped_journal_byte_is_reported_or_costs_one_record(tmp_path: Path) -> None:
+    d = data(20)
+    p = journal_only(tmp_path, d, counters_after=10)  # frames 0..9, counters (dropped 5), frames 10..19
+    j = journal_path(p)
+    raw = j.read_bytes()
+    returned = raised = 0
+    for off in range(0, len(raw), 3):
+        damaged = bytearray(raw)
+        damaged[off] ^= 0xFF
+        j.write_bytes(bytes(damaged))
+        try:
+            s = load_session(p)
+        except SessionFormatError as e:
+            assert "killed.h5" in str(e) and "\n" not in str(e), (off, str(e))
+            raised += 1
+            continue
+        returned += 1
+        kept = np.isin(d["seq"], s.seq)  # sequence numbers are unique: which frames came back
+        lost_counters = s.counters["dropped_frames"] == 0
+        assert s.n_frames + lost_counters >= 19 and s.n_frames == kept.sum(), off  # at most one record lost
+        np.testing.assert_array_equal(s.counts, d["frames"][kept], err_msg=f"offset {off}")
+        np.testing.assert_array_equal(s.host_time_s, d["t"][kept], err_msg=f"offset {off}")
+        np.testing.assert_array_equal(s.valid, d["valid"][kept], err_msg=f"offset {off}")
+        np.testing.assert_array_equal(s.device_time_us, d["dt"][kept], err_msg=f"offset {off}")
+        assert s.counters["dropped_frames"] in (0, 5), off
+        assert s.metadata == META and s.calibration == CAL and s.device["serial"] == DEVICE["serial"], off
+    assert returned and raised
+
+
 # ---------------------------------------------------------------------- HDF5: checksummed chunks
 def test_frame_data_carry_checksums(tmp_path: Path) -> None:
     p = write_complete(tmp_path / "c.h5", data(20))
@@ -269,3 +298,28 @@ def test_lost_host_times_leave_duration_and_rate_defined(tmp_path: Path) -> None
     assert s.duration_s == pytest.approx(0.31, abs=1e-9)  # frames 8..39
     assert s.rate_hz == pytest.approx(100.0, rel=1e-9)
     assert "100.00 Hz" in info(s)
+
+
+def test_a_format_1_file_still_loads_and_says_it_is_unchecked(tmp_path: Path) -> None:
+    """Format 1 (before the checksums): no Fletcher-32, variable-length strings, /committed."""
+    d = data(12)
+    p = tmp_path / "v1.h5"
+    with h5py.File(p, "w", libver="latest") as f:
+        f.attrs.update({"format": "psmat-session", "format_version": 1, "kind": "psm", "frame_dataset": "counts",
+                        "frame_shape": [4, 4], "complete": 1, "n_frames": 12, "created_utc": "2024-05-01T10:00:00"})
+        f.create_dataset("counts", data=d["frames"], chunks=(8, 4, 4), maxshape=(None, 4, 4))
+        for name, arr in (("host_time_s", d["t"]), ("valid", d["valid"].astype(np.uint8)), ("seq", d["seq"]),
+                          ("device_time_us", d["dt"])):
+            f.create_dataset(name, data=arr, chunks=(1024,), maxshape=(None,))
+        f["committed"] = np.array([12])
+        f["counters"] = np.array([1, 2, 3, 4])
+        f["counters"].attrs["names"] = ["dropped_frames", "bad_frames", "resyncs", "bytes_discarded"]
+        f.create_group("device").attrs["json"] = json.dumps(DEVICE)
+        f.create_group("metadata").attrs["json"] = json.dumps(META)
+    s = load_session(p)
+    assert s.format_version == 1 and s.complete and s.n_frames == 12 and s.valid.all()
+    np.testing.assert_array_equal(s.counts, d["frames"])
+    np.testing.assert_array_equal(s.seq, d["seq"])
+    assert s.device == DEVICE and s.metadata == META and s.calibration is None
+    assert s.counters == {"dropped_frames": 1, "bad_frames": 2, "resyncs": 3, "bytes_discarded": 4}
+    assert any("carry no checksums" in n and "counts" in n for n in s.notes)

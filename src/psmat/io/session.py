@@ -30,7 +30,9 @@ reads it; no pickles, no compound types, no enums. ``T`` is the number of frames
 axis is always the first one, chunked (``chunk_frames`` frames per chunk, the same for
 every per-frame dataset) and resizable (``maxshape=None``). Every per-frame dataset and
 ``/counters`` carry HDF5's Fletcher-32 checksum filter, one checksum per chunk. Every
-dataset has a string attribute ``unit``.
+dataset has a string attribute ``unit``. String attributes are fixed-length UTF-8 (h5py
+reads them as ``bytes``): variable-length strings would live in HDF5's global heap, which
+has no checksum.
 
 ==================  ==================  =========  =======  ==============================================
 dataset             shape               dtype      unit     content
