@@ -20,6 +20,7 @@ from typing import Any
 
 import numpy as np
 
+from . import calibration_estimate
 from .calibration import Calibration
 from .circuit import Circuit
 
@@ -69,6 +70,7 @@ def run_calibration(dev: Any, pairs: Sequence[tuple[int, int]], *, seconds: floa
     # with CAL_HOLD every reading of the frame is the pair: all samples go in
     samples = {key: np.asarray(v, dtype=np.float64).ravel() for key, v in shorts.items()}
     serial = str((dev.description or {}).get("serial", ""))
-    cal = Calibration.from_recordings(serial, open_counts, samples, circuit, per_pair=per_pair, shape=(R, C),
-                                      notes=f"psmat calibrate: {len(pairs)} shorted pair(s), {seconds:g} s per step")
+    notes = f"psmat calibrate: {len(pairs)} shorted pair(s), {seconds:g} s per step"
+    cal = calibration_estimate.from_recordings(serial, open_counts, samples, circuit, per_pair=per_pair,
+                                               shape=(R, C), notes=notes)
     return cal

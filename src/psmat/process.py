@@ -125,8 +125,9 @@ def _circuit_of(cal: dict | None) -> Circuit:
     if not cal:
         return Circuit()
     if cal.get("format") == "psmat-calibration":
-        return Calibration.from_dict(cal).circuit()
-    keys = {"r_o_ohm": "r_o", "r_mux_ohm": "r_mux", "r_adc_ohm": "r_adc", "v_ref_volt": "v_ref", "bits": "bits"}
+        return Circuit.from_calibration(Calibration.from_dict(cal))
+    keys = {"r_o_ohm": "r_o", "r_mux_ohm": "r_mux", "r_adc_ohm": "r_adc", "v_ref_volt": "v_ref", "bits": "bits",
+            "sensor_side": "sensor_side"}
     return Circuit(**{arg: cal[k] for k, arg in keys.items() if k in cal})
 
 
