@@ -91,6 +91,27 @@ def test_record_overwrite_replaces_the_file(tmp_path):
     assert load_session(out).n_frames > 0
 
 
+@pytest.mark.parametrize("named", [True, False])
+def test_calibrate_refuses_an_existing_calibration_before_any_step(named, tmp_path, capsys, monkeypatch):
+    """An earlier calibration is somebody's data: kept, refused before the steps, --overwrite named.
+    Unnamed, the default file is the twin's serial's (psmat_calibration_<serial>.json)."""
+    monkeypatch.chdir(tmp_path)
+    assert main(["calibrate", "--simulate", "--seconds", "0.2"] + (["--out", "cal.json"] if named else [])) == 0
+    written = tmp_path / "cal.json" if named else next(tmp_path.glob("psmat_calibration_*.json"))
+    assert "unknown" not in written.name
+    before = written.read_bytes()
+    capsys.readouterr()
+    assert main(["calibrate", "--simulate", "--seconds", "0.2"] + (["--out", "cal.json"] if named else [])) == 1
+    captured = capsys.readouterr()
+    line = _one_line(captured.err)
+    assert line.startswith("psmat calibrate: ") and written.name in line and "--overwrite" in line
+    assert "Step 1/2" not in captured.out  # refused before the first step was asked for
+    assert written.read_bytes() == before
+    assert main(["calibrate", "--simulate", "--seconds", "0.2", "--overwrite"]
+                + (["--out", "cal.json"] if named else [])) == 0
+    assert [p.name for p in tmp_path.iterdir()] == [written.name]
+
+
 @pytest.mark.parametrize("argv", [
     ["record", "--simulate", "-o", "{out}", "--shape", "16", "--seconds", "1"],
     ["record", "--simulate", "-o", "{out}", "--seconds", "-1"],

@@ -7,6 +7,7 @@ and writes the JSON that :class:`psmat.Calibration` / :class:`psmat.Circuit` loa
 from __future__ import annotations
 
 import argparse
+from pathlib import Path
 
 from . import _args
 
@@ -23,6 +24,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--seconds", type=_args.seconds, default=1.0, help="recording per step (s)")
     p.add_argument("--per-pair", action="store_true", help="keep R_mux per pair (needs --pairs all)")
     p.add_argument("--out", default=None, help="file to write (default psmat_calibration_<serial>.json)")
+    p.add_argument("--overwrite", action="store_true", help="replace an existing calibration file")
     p.add_argument("--yes", action="store_true", help="do not wait for Enter between steps")
 
 
@@ -60,6 +62,11 @@ def run(args: argparse.Namespace) -> int:
     prompt = (lambda text: print(text)) if args.yes or args.simulate else input
     try:
         with open_device(port, "psm", args.protocol, (R, C)) as dev:
+            # the file name is known once the box has said its serial: refuse before any step
+            out = Path(args.out or f"psmat_calibration_{(dev.description or {}).get('serial') or 'unknown'}.json")
+            if out.exists() and not args.overwrite:
+                print(f"psmat calibrate: {out} exists; add --overwrite to replace it", file=sys.stderr)
+                return 1
             dev.start()
             cal = run_calibration(dev, pairs, seconds=args.seconds, prompt=prompt,
                                   set_fixture=(lambda m: setattr(fixture, "mode", m)) if fixture else None,
@@ -70,7 +77,6 @@ def run(args: argparse.Namespace) -> int:
     finally:
         if twin is not None:
             twin.stop()
-    out = args.out or f"psmat_calibration_{cal.serial or 'unknown'}.json"
     cal.save(out)
     r_mux = cal.r_mux if isinstance(cal.r_mux, float) else f"per pair, median {float(__import__('numpy').median(cal.r_mux)):.1f}"
     print(f"R_adc = {cal.r_adc / 1e6:.3g} MOhm, R_mux = {r_mux if isinstance(r_mux, str) else f'{r_mux:.1f}'} Ohm "
