@@ -6,15 +6,12 @@ the circuit algebra written out here in resistance form, never from psmat itself
 
 from __future__ import annotations
 
-import json
-from pathlib import Path
-
 import numpy as np
 import pytest
 
 from psmat.circuit import OK, OPEN, SHORT, Circuit
 
-REF_DIR = Path(__file__).resolve().parents[2] / "shared" / "reference"
+from conftest import load_reference
 
 V_REF, R_O, R_MUX, BITS = 3.3, 2200.0, 145.0, 12
 FS = 2**BITS - 1
@@ -52,10 +49,7 @@ def test_independent_derivative_matches_finite_differences():
 # --------------------------------------------------------------------- reference vectors
 @pytest.fixture(scope="module")
 def circuit_ref():
-    path = REF_DIR / "circuit.json"
-    if not path.is_file():
-        pytest.fail(f"reference vectors missing: {path} (expected shared/reference next to the repository)")
-    return json.loads(path.read_text())
+    return load_reference("circuit.json")
 
 
 def test_voltage_matches_reference(circuit_ref):
