@@ -69,3 +69,17 @@ def test_the_default_floor_leaves_noisy_frames_alone(rng):
     Gn = G * (1 + 0.02 * rng.standard_normal(G.shape))
     sol, info = psmat.iecm.solve(Gn, return_info=True)
     assert info.status == "bounded" and info.converged and 0 < info.at_bound < Gn.size
+
+
+def test_the_stream_reports_the_same_floor_statuses_as_solve():
+    # frames in a live stream get solve's statuses: an empty mat and a floor-decided frame are
+    # not "converged" there either (no warning per frame: the status is the report)
+    loaded = psmat.iecm.forward(_loaded())
+    empty = 0.5 * psmat.iecm.forward(np.full((4, 4), 1e-12))
+    with psmat.iecm.Stream((4, 4)) as s:
+        statuses = [str(info.status) for _, _, info in s.process([loaded, empty, loaded])]
+    assert statuses == ["converged", "all_at_floor", "converged"]
+    with psmat.iecm.Stream((4, 4), g_floor=1e-4) as s:
+        s.push(loaded)
+        (_, g, info), = list(s.drain())
+    assert str(info.status) == "floor_above_data" and not info.converged and np.all(g >= 1e-4)

@@ -64,10 +64,22 @@ def test_integer_input_is_accepted_as_conductance():
     np.testing.assert_allclose(psmat.iecm.forward(g), psmat.iecm.forward(g.astype(float)))
 
 
-@pytest.mark.parametrize("counts", [np.full((4, 4), 1000, dtype=np.uint16), np.full((3, 4, 4), 1000, dtype=np.int64),
-                                    [[1000, 1200], [900, 4000]]])
+_RAW_COUNTS = [np.full((4, 4), 1000, dtype=np.uint16), np.full((3, 4, 4), 1000, dtype=np.int64),
+               [[1000, 1200], [900, 4000]]]
+
+
+@pytest.mark.parametrize("counts", _RAW_COUNTS)
 def test_solve_refuses_raw_counts(counts):
     # ADC counts passed by mistake were solved as conductances: g ~ 1205 S, "converged"
     with pytest.raises(TypeError, match=r"integer.*psmat\.Circuit\(\)\.conductance\(counts\)") as err:
         psmat.iecm.solve(counts)
     assert "\n" not in str(err.value)
+
+
+@pytest.mark.parametrize("counts", _RAW_COUNTS)
+def test_stream_refuses_raw_counts(counts):
+    # the streaming form takes the same measured G as solve: integers are counts, not S
+    frame = np.asarray(counts)[-1] if np.ndim(counts) == 3 else counts
+    with psmat.iecm.Stream(np.shape(frame)) as s:
+        with pytest.raises(TypeError, match=r"integer.*psmat\.Circuit\(\)\.conductance\(counts\)"):
+            s.push(frame)

@@ -114,18 +114,20 @@ class SolveInfo:
             status = _STATUS_NAMES[status]  # batch reports carry status codes
         return cls(**{k: np.asarray(rep[k]) for k in cls._FIELDS}, status=np.asarray(status), method=method, **kw)
 
-    def flag_floor(self, G: np.ndarray, g: np.ndarray, g_floor: float) -> None:
+    def flag_floor(self, G_min: np.ndarray, g: np.ndarray, g_floor: float) -> None:
         """Mark the frames that g_floor decided (module docstring) as not converged.
 
         Parameters
         ----------
-        G, g : numpy.ndarray, shape (T, R, C)
-            Measured equivalent conductances and the solution, S.
+        G_min : numpy.ndarray, shape (T,)
+            Smallest measured equivalent conductance of each frame, S.
+        g : numpy.ndarray, shape (T, R, C)
+            The solution, S.
         g_floor : float
             The lower bound the solver used, S.
         """
         shape = np.shape(self.converged)
-        above = (G.min(axis=(1, 2)) <= g_floor).reshape(shape)
+        above = (np.asarray(G_min) <= g_floor).reshape(shape)
         # the core's own test for a cell at the bound (at_bound)
         floor = np.all(g <= g_floor * (1.0 + 1e-9), axis=(1, 2)).reshape(shape)
         self.status = np.where(above, "floor_above_data", np.where(floor, "all_at_floor", self.status))
@@ -286,7 +288,7 @@ def solve(
         out = job.g().reshape(frames.shape)
         info = SolveInfo.from_report(job.reports(), method, threads=nthreads)
     info.wall_time = time.perf_counter() - t0
-    info.flag_floor(frames, out.reshape(frames.shape), g_floor)
+    info.flag_floor(frames.min(axis=(1, 2)), out.reshape(frames.shape), g_floor)
     info.warn_unconverged(g_floor)
     return (out, info) if return_info else out
 

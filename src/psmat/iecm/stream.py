@@ -14,6 +14,7 @@ from __future__ import annotations
 
 from collections.abc import Iterable, Iterator
 
+import threading
 import warnings
 
 import numpy as np
@@ -63,7 +64,13 @@ class Stream:
         self.shape = (rows, cols)
         self.method = method
         self.max_pending = int(max_pending)
-        self._s = _core.iecm.StreamSolver(rows, cols, make_options(method, **options), int(threads), self.max_pending)
+        opts = make_options(method, **options)
+        self._g_floor = float(opts.g_floor)
+        # seq -> smallest measured G, for solve's floor statuses; a consumer thread may pop a
+        # frame before its producer has filed it, so pop waits on the condition for the entry
+        self._G_min: dict[int, float] = {}
+        self._filed = threading.Condition()
+        self._s = _core.iecm.StreamSolver(rows, cols, opts, int(threads), self.max_pending)
         self._closed = False
 
     def push(self, G, timeout: float | None = None) -> int:
@@ -76,7 +83,7 @@ class Stream:
         """
         if self._closed:
             raise RuntimeError("the stream is closed")
-        frames, single = as_frames(G, "G", allow_zero=False, max_ndim=2)
+        frames, single = as_frames(G, "G", allow_zero=False, max_ndim=2, measured=True)
         if frames.shape[1:] != self.shape:
             raise ValueError(f"frame shape {frames.shape[1:]} does not match the stream's {self.shape}")
         seq = self._s.push(frames[0], -1.0 if timeout is None else float(timeout))
@@ -84,6 +91,9 @@ class Stream:
             raise TimeoutError(
                 f"the stream stayed full ({self.max_pending} frames unread) for {timeout} s: pop() results"
             )
+        with self._filed:
+            self._G_min[int(seq)] = float(frames[0].min())
+            self._filed.notify_all()
         return int(seq)
 
     def pop(self, timeout: float | None = None):
@@ -96,7 +106,12 @@ class Stream:
         if r is None:
             return None
         seq, g, rep = r
-        return int(seq), g, SolveInfo.from_report(rep, self.method)
+        info = SolveInfo.from_report(rep, self.method)
+        with self._filed:
+            self._filed.wait_for(lambda: int(seq) in self._G_min)
+            G_min = self._G_min.pop(int(seq))
+        info.flag_floor(np.array([G_min]), g[None], self._g_floor)  # as solve: the status, no warning per frame
+        return int(seq), g, info
 
     def ready(self) -> Iterator[tuple[int, np.ndarray, SolveInfo]]:
         """Frames already solved, in order, without waiting."""
