@@ -7,7 +7,8 @@ model, and the last 10 s of the CoP (M-L and A-P, cm); the title line shows the 
 frames/s received, invalid and lost frames, the processing rate and the display rate.
 
 Closing the window (or Ctrl-C) stops and closes the device; a port that vanishes ends the
-view with a message and exit status 3. Without a display, ``--seconds S --save out.png``
+view with a message and exit status 3; an error a person can fix (no port, no display, a
+port that cannot be opened) is one line and status 1, as in every command. Without a display, ``--seconds S --save out.png``
 renders headless (MPLBACKEND=Agg) and writes a screenshot (without ``--seconds`` it runs
 until Ctrl-C).
 """
@@ -90,11 +91,11 @@ def run(args: argparse.Namespace) -> int:
 
     if (args.port is None) == (not args.simulate):
         err("give a PORT or --simulate (not both)")
-        return 2
+        return 1
     interactive, problem = _pick_backend(args)
     if problem:
         err(problem)
-        return 2
+        return 1
 
     twin = None
     port = args.port
@@ -105,7 +106,7 @@ def run(args: argparse.Namespace) -> int:
             twin = SerialTwin("psm", args.rate, args.protocol, shape=args.shape or (16, 16), scene=args.scene).start()
         except ValueError as exc:
             err(str(exc))
-            return 2
+            return 1
         port = twin.port
         print(f"simulated mat ({args.scene}, {args.protocol}, {twin.rate_hz:g} Hz) on {port}", flush=True)
     dev = None
@@ -119,7 +120,7 @@ def run(args: argparse.Namespace) -> int:
             dev.start()
         except (serial.SerialException, OSError, AcquireError) as exc:
             err(f"cannot read a mat on {port}: {exc}")
-            return EXIT_DISCONNECTED if isinstance(exc, AcquireError) else 2
+            return EXIT_DISCONNECTED if isinstance(exc, AcquireError) else 1
 
         from ..live import LiveView, run_view
 
