@@ -75,6 +75,8 @@ class FakeDevice:
         self.lose_commands, self.seq_jump_on_identify = lose_commands, seq_jump_on_identify
         self.lost = 0
         self.streaming = not stream_on_start
+        self.master: int | None
+        self.slave: int | None
         self.master, self.slave = os.openpty()
         tty.setraw(self.master)
         tty.setraw(self.slave)
@@ -185,14 +187,17 @@ class FakeDevice:
         assert self.sent >= n, f"fake sent {self.sent} of {n} frames"
 
     def hangup(self) -> None:
-        """Stop the feeder and close the master (the 'cable is pulled')."""
+        """Stop the feeder and close both ends (the 'cable is pulled'); idempotent.
+
+        The descriptors are forgotten once closed: a second call (``close`` after ``hangup``)
+        must not close numbers the system has since handed to someone else.
+        """
         self._stop.set()
         self._thread.join(2.0)
         for fd in (self.master, self.slave):
-            try:
+            if fd is not None:
                 os.close(fd)
-            except OSError:
-                pass
+        self.master = self.slave = None
 
     close = hangup
 
@@ -233,3 +238,20 @@ def test_fake_streams_paced_frames_after_start() -> None:
         frames = [e for e in V2Decoder().feed(data) if hasattr(e, "data")]
         assert [f.seq for f in frames] == [0, 1, 2, 3, 4]
         np.testing.assert_array_equal(frames[3].data, psm_frame(3))
+
+
+def test_hangup_then_close_leaves_reused_descriptors_alone() -> None:
+    fake = FakeDevice(stream_on_start=False)
+    old = (fake.master, fake.slave)
+    fake.hangup()
+    # the system hands the freed numbers to the next opens: put a file at exactly those numbers
+    spare = os.open(os.devnull, os.O_RDONLY)
+    try:
+        for fd in old:
+            os.dup2(spare, fd)
+        fake.close()                      # the same method again: must not close them
+        for fd in old:
+            os.fstat(fd)                  # raises OSError (EBADF) if closed under their new owner
+    finally:
+        for fd in {spare, *old}:
+            os.close(fd)
