@@ -7,6 +7,7 @@ import time
 
 import numpy as np
 import pytest
+import serial
 
 from psmat.acquire import (AcquireError, CommandRejected, CommandTimeout, DeviceDisconnected, open_device)
 from psmat.acquire.identify import IDENTIFY_FIELDS
@@ -100,6 +101,23 @@ def test_identify_and_commands_round_trip() -> None:
             assert dev.stats.replies >= 7
         assert [c for c in fake.commands if c[0] == Opcode.CAL_HOLD] == [(Opcode.CAL_HOLD, 3 << 8 | 5),
                                                                           (Opcode.CAL_HOLD, 0xFFFFFFFF)]
+
+
+def test_a_second_host_on_the_same_port_is_refused_and_the_first_keeps_its_frames() -> None:
+    # open_port takes pyserial's exclusive flock before touching settings or the input buffer,
+    # so a second host cannot flush or read bytes meant for the first
+    with FakeDevice(rate=200) as fake, open_device(fake.port) as first:
+        before = first.read(20, timeout=5.0)
+        assert len(before) == 20
+        with pytest.raises(serial.SerialException) as info:
+            open_device(fake.port)
+        message = str(info.value)
+        assert "\n" not in message and fake.port in message and "in use" in message
+        after = first.read(100, timeout=10.0)
+        assert len(after) == 100 and after.valid.all()
+        seq = np.concatenate([before.seq, after.seq])
+        np.testing.assert_array_equal(seq, seq[0] + np.arange(len(seq)))    # not one frame stolen
+        assert first.stats.dropped_wire == 0 and first.stats.skipped_bytes == 0 and first.connected
 
 
 def test_set_protocol_switches_decoder_mid_stream() -> None:

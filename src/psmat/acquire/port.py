@@ -39,11 +39,20 @@ def open_port(port: str, baudrate: int, timeout: float = READ_TIMEOUT_S) -> Any:
     Raises
     ------
     serial.SerialException
-        The port cannot be opened.
+        The port cannot be opened, or another program (a second psmat host) holds it.
     """
-    ser = serial.serial_for_url(port, baudrate=baudrate, timeout=timeout, write_timeout=1.0, do_not_open=True)
+    # exclusive: on POSIX pyserial takes an flock before it changes settings or flushes input,
+    # so a second host is refused instead of stealing bytes (URLs such as loop:// ignore it)
+    ser = serial.serial_for_url(port, baudrate=baudrate, timeout=timeout, write_timeout=1.0, exclusive=True,
+                                do_not_open=True)
     ser.dtr = True  # applied by open() (errors from ptys' missing modem lines are ignored there)
-    ser.open()
+    try:
+        ser.open()
+    except serial.SerialException as exc:
+        if exc.errno in (errno.EAGAIN, errno.EWOULDBLOCK):   # the flock is held elsewhere
+            raise serial.SerialException(exc.errno, f"{port} is in use by another program (its exclusive lock "
+                                                    "is held)") from None
+        raise
     if not is_url(port):
         try:
             ser.dtr = True
