@@ -9,6 +9,7 @@ import pytest
 
 from psmat.acquire import AcquireError, CommandTimeout, Device, DeviceStats, open_device
 from psmat.protocol import Opcode, encode_daq_line, encode_v2
+from hang_guard import HANG_GUARD_S, returns
 
 
 def _frame(i: int) -> np.ndarray:
@@ -26,7 +27,7 @@ def test_loop_frames_round_trip(loop: Device) -> None:
     loop.start()                      # START goes into the loop too: skipped as garbage
     for i in range(5):
         loop.serial.write(encode_v2(_frame(i), 100 + i, 1000 * i))
-    b = loop.read(5, timeout=2.0)
+    b = loop.read(5, timeout=HANG_GUARD_S)
     assert len(b) == 5
     np.testing.assert_array_equal(b.frames[:, 3, 4], np.arange(5))
     np.testing.assert_array_equal(b.seq, 100 + np.arange(5))
@@ -36,12 +37,12 @@ def test_loop_frames_round_trip(loop: Device) -> None:
     assert "loop://" in repr(loop)
 
 
-def _wait_until(condition, timeout: float = 5.0) -> None:
+def _wait_until(condition, timeout: float = HANG_GUARD_S) -> None:
     """Poll ``condition()`` until true (a hang guard, not a timing claim)."""
     deadline = time.monotonic() + timeout
     while not condition() and time.monotonic() < deadline:
         time.sleep(0.01)
-    assert condition()
+    assert condition(), f"condition still false after the {timeout:g} s hang guard"
 
 
 def test_read_returns_what_it_has_when_its_timeout_ends(loop: Device) -> None:
@@ -92,7 +93,7 @@ def test_daq_on_loop() -> None:
         assert dev.shape == (10,)
         # the loop echoes start()'s "s" first: a malformed line of its own
         dev.serial.write(b"\r\n" + encode_daq_line(np.arange(10) * 3) + b"oops\r\n")
-        b = dev.read(3, timeout=2.0)
+        b = dev.read(3, timeout=HANG_GUARD_S)
         assert b.valid.tolist() == [False, True, False]
         np.testing.assert_array_equal(b.frames[1], np.arange(10) * 3)
         assert dev.stats.invalid == 2 and (b.frames[~b.valid] == 0).all()
@@ -115,12 +116,10 @@ def test_arguments_are_checked() -> None:
         open_device("/nonexistent/ttyUSB9")
 
 
-def test_close_is_idempotent_and_fast(loop: Device) -> None:
+def test_close_is_idempotent(loop: Device) -> None:
     loop.start()
-    t0 = time.monotonic()
-    loop.close()
-    loop.close()
-    assert time.monotonic() - t0 < 2.0 and not loop.connected and loop.serial is None
+    returns(lambda: (loop.close(), loop.close()), "close, twice")
+    assert not loop.connected and loop.serial is None
     with pytest.raises(AcquireError, match="closed"):
         loop.send_command(Opcode.START)
 
@@ -144,7 +143,7 @@ def test_record_to_adapter_with_a_fake_writer(loop: Device) -> None:
     loop.start()
     for i in range(4):
         loop.serial.write(encode_v2(_frame(i), i, 0))
-    assert len(loop.read(4, timeout=2.0)) == 4
+    assert len(loop.read(4, timeout=HANG_GUARD_S)) == 4
     loop.stop_recording()
     assert sum(len(b[2]) for b in w.batches) == 4
     assert w.counters == {"dropped_frames": 0, "bad_frames": 0, "bytes_discarded": 11}
@@ -155,7 +154,7 @@ def test_record_to_adapter_with_a_fake_writer(loop: Device) -> None:
 
     loop.record_to(Broken())
     loop.serial.write(encode_v2(_frame(9), 9, 0))
-    assert len(loop.read(1, timeout=2.0)) == 1          # acquisition goes on
+    assert len(loop.read(1, timeout=HANG_GUARD_S)) == 1     # acquisition goes on
     assert "disk full" in loop.stats.last_error
 
     class Other(Writer):
