@@ -19,7 +19,7 @@ def _identifies(fake: FakeDevice) -> int:
     return sum(op == Opcode.IDENTIFY for op, _ in fake.commands)
 
 
-def _wait_until(condition, timeout: float = 5.0) -> None:
+def _wait_until(condition, timeout: float = 30.0) -> None:
     """Poll ``condition()`` until true (a hang guard, not a timing claim)."""
     deadline = time.monotonic() + timeout
     while not condition() and time.monotonic() < deadline:

@@ -15,7 +15,7 @@ from psmat.twin import SerialTwin
 from test_acquire_fake import FakeDevice
 
 
-def _read(dev, n: int, timeout: float = 10.0):
+def _read(dev, n: int, timeout: float = 30.0):  # a hang guard: returns once n frames arrived
     seq = []
     deadline = time.monotonic() + timeout
     while len(seq) < n and time.monotonic() < deadline:
