@@ -18,7 +18,7 @@ def test_noisy_rows_carry_the_spec_targets():
     met = _noisy(fps=5000.0)  # 2500 fps/core
     _target(met)
     assert met["target"] == ">= 2000 fps/core, residual <= 1e-06, <= 50 it" and met["target_met"] is True
-    slow = _noisy(fps=371.6)  # 185.8 fps/core: the README's printed row
+    slow = _noisy(fps=371.6)  # 185.8 fps/core: below the target
     _target(slow)
     assert slow["target_met"] is False
     long = _noisy(fps=5000.0, max_iterations=51)
