@@ -15,9 +15,9 @@
 from .crc import CRC16_TABLE, crc16, crc16_frames, crc16_table
 from .daq import (DAQ_MAX_COUNT, DAQ_PERIOD_S, DAQ_SENSORS, DAQ_START, DAQ_STOP, DaqLineDecoder, DaqMalformed,
                   DaqSample, encode_daq_command, encode_daq_line, parse_daq_line)
-from .decoder import Event, Frame, Gap, ImuV1Decoder, Reply, V1Decoder, V2Decoder, decode_v2
-from .v1 import (IMU_SHAPE, INIT, V1_MAX_COUNT, decode_imu_v1, decode_v1, encode_imu_v1, encode_v1, encode_v1_many,
-                 v1_frame_size)
+from .decoder import (Event, Frame, Gap, ImuV1Decoder, Reply, V1Decoder, V2Decoder, decode_imu_v1, decode_v1,
+                      decode_v2)
+from .v1 import IMU_SHAPE, INIT, V1_MAX_COUNT, encode_imu_v1, encode_v1, encode_v1_many, v1_frame_size
 from .v2 import (CAL_RESUME, COMMAND_SIZE, HEADER_SIZE, MAX_PAYLOAD, SYNC, VERSION, Opcode, PacketType, Status,
                  cal_hold_arg, decode_command, encode_command, encode_reply, encode_v2, format_identify,
                  parse_identify, v2_frame_size)

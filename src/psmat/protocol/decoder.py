@@ -51,7 +51,8 @@ from .crc import crc16
 from .v1 import IMU_SHAPE, V1_MAX_COUNT
 from .v2 import CRC_SIZE, HEADER_SIZE, MAX_PAYLOAD, SYNC, VERSION, Opcode, PacketType, Status
 
-__all__ = ["Frame", "Reply", "Gap", "Event", "V1Decoder", "ImuV1Decoder", "V2Decoder", "decode_v2"]
+__all__ = ["Frame", "Reply", "Gap", "Event", "V1Decoder", "ImuV1Decoder", "V2Decoder", "decode_v1", "decode_imu_v1",
+           "decode_v2"]
 
 _WRAP = 1 << 32
 _HALF = 1 << 31
@@ -561,3 +562,59 @@ def decode_v2(data: bytes | bytearray | memoryview, kind: Literal["psm", "imu"] 
             seq[i] = e.seq
             t_us[i] = e.t_us
     return {"frames": frames, "valid": valid, "seq": seq, "t_us": t_us, "dropped": dec.dropped}
+
+
+def decode_v1(data: bytes | bytearray | memoryview,
+              shape: tuple[int, int]) -> tuple[NDArray[np.uint16], NDArray[np.bool_]]:
+    """Decode a v1 PSM byte stream (a recording, or what a port delivered).
+
+    Parameters
+    ----------
+    data : bytes-like
+        The stream; it may start and end mid-frame and contain garbage, v2 reply packets
+        and corrupted frames.
+    shape : (int, int)
+        The mat's ``(R, C)`` (not on the wire).
+
+    Returns
+    -------
+    frames : ndarray of uint16, shape (N, R, C)
+        ADC counts, one row per frame found; the cells of invalid rows are 0.
+    valid : ndarray of bool, shape (N,)
+        False for a frame whose check failed (kept so that the time base is preserved).
+
+    Notes
+    -----
+    The same algorithm as :class:`~psmat.protocol.V1Decoder` (which also keeps counters):
+    a frame starts at ``0xFF 0xFF``; after a failed check the reader resyncs on the next
+    marker. Frames whose marker was destroyed cannot be seen and are absent.
+    """
+    dec = V1Decoder(shape)
+    events = dec.feed(data)
+    events += dec.finish()
+    return _stack(events, dec.shape, np.uint16)
+
+
+def _stack(events: list[Any], shape: tuple[int, int], dtype: Any) -> tuple[NDArray[Any], NDArray[np.bool_]]:
+    rows = [e for e in events if isinstance(e, Frame)]
+    frames = np.empty((len(rows), *shape), dtype=dtype)
+    valid = np.empty(len(rows), dtype=bool)
+    for i, e in enumerate(rows):
+        frames[i] = e.data
+        valid[i] = e.valid
+    return frames, valid
+
+
+def decode_imu_v1(data: bytes | bytearray | memoryview) -> tuple[NDArray[np.float32], NDArray[np.bool_]]:
+    """Decode a v1 spine-IMU stream.
+
+    Returns
+    -------
+    angles : ndarray of float32, shape (N, 5, 3)
+        Degrees; NaN in invalid rows.
+    valid : ndarray of bool, shape (N,)
+    """
+    dec = ImuV1Decoder()
+    events = dec.feed(data)
+    events += dec.finish()
+    return _stack(events, IMU_SHAPE, np.float32)

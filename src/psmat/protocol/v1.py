@@ -15,17 +15,15 @@ payload read as 30 little-endian uint16 words, mod 4096.
 
 from __future__ import annotations
 
-from typing import Any
 
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import ArrayLike
 
 from ._checks import float32_frame, int_frame, shape2
 
 __all__ = [
     "INIT", "V1_MAX_COUNT", "IMU_SHAPE",
-    "v1_frame_size", "encode_v1", "encode_v1_many", "decode_v1",
-    "encode_imu_v1", "decode_imu_v1",
+    "v1_frame_size", "encode_v1", "encode_v1_many", "encode_imu_v1",
 ]
 
 #: Frame marker byte; a frame starts with two of them.
@@ -94,51 +92,6 @@ def encode_v1_many(frames: ArrayLike) -> bytes:
     return out.tobytes()
 
 
-def decode_v1(data: bytes | bytearray | memoryview,
-              shape: tuple[int, int]) -> tuple[NDArray[np.uint16], NDArray[np.bool_]]:
-    """Decode a v1 PSM byte stream (a recording, or what a port delivered).
-
-    Parameters
-    ----------
-    data : bytes-like
-        The stream; it may start and end mid-frame and contain garbage, v2 reply packets
-        and corrupted frames.
-    shape : (int, int)
-        The mat's ``(R, C)`` (not on the wire).
-
-    Returns
-    -------
-    frames : ndarray of uint16, shape (N, R, C)
-        ADC counts, one row per frame found; the cells of invalid rows are 0.
-    valid : ndarray of bool, shape (N,)
-        False for a frame whose check failed (kept so that the time base is preserved).
-
-    Notes
-    -----
-    The same algorithm as :class:`~psmat.protocol.V1Decoder` (which also keeps counters):
-    a frame starts at ``0xFF 0xFF``; after a failed check the reader resyncs on the next
-    marker. Frames whose marker was destroyed cannot be seen and are absent.
-    """
-    from .decoder import V1Decoder
-
-    dec = V1Decoder(shape)
-    events = dec.feed(data)
-    events += dec.finish()
-    return _stack(events, dec.shape, np.uint16)
-
-
-def _stack(events: list[Any], shape: tuple[int, int], dtype: Any) -> tuple[NDArray[Any], NDArray[np.bool_]]:
-    from .decoder import Frame
-
-    rows = [e for e in events if isinstance(e, Frame)]
-    frames = np.empty((len(rows), *shape), dtype=dtype)
-    valid = np.empty(len(rows), dtype=bool)
-    for i, e in enumerate(rows):
-        frames[i] = e.data
-        valid[i] = e.valid
-    return frames, valid
-
-
 def encode_imu_v1(angles: ArrayLike) -> bytes:
     """Encode one spine-IMU sample in v1 framing.
 
@@ -159,20 +112,3 @@ def encode_imu_v1(angles: ArrayLike) -> bytes:
     payload = arr.astype("<f4").tobytes()
     check = int(np.frombuffer(payload, dtype="<u2").sum(dtype=np.int64)) & 0xFFF
     return b"\xff\xff" + payload + check.to_bytes(2, "little")
-
-
-def decode_imu_v1(data: bytes | bytearray | memoryview) -> tuple[NDArray[np.float32], NDArray[np.bool_]]:
-    """Decode a v1 spine-IMU stream.
-
-    Returns
-    -------
-    angles : ndarray of float32, shape (N, 5, 3)
-        Degrees; NaN in invalid rows.
-    valid : ndarray of bool, shape (N,)
-    """
-    from .decoder import ImuV1Decoder
-
-    dec = ImuV1Decoder()
-    events = dec.feed(data)
-    events += dec.finish()
-    return _stack(events, IMU_SHAPE, np.float32)
