@@ -27,7 +27,9 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from .session_layout import COUNTER_NAMES, FORMAT_NAME, FORMAT_VERSION, KINDS, FrameBlock, Header, SessionFormatError
+from ..frames import FrameBatch
+
+from .session_layout import COUNTER_NAMES, FORMAT_NAME, FORMAT_VERSION, KINDS, Header, SessionFormatError
 
 MAGIC = b"PSMATJ02"
 FRAME, COUNTERS = 0, 1
@@ -84,7 +86,7 @@ def _with_crc(rec: NDArray[Any]) -> bytes:
     return rec.tobytes()
 
 
-def encode_frames(dtype: np.dtype, b: FrameBlock) -> bytes:
+def encode_frames(dtype: np.dtype, b: FrameBatch) -> bytes:
     """One CRC'd record per frame of ``b`` (frames already in the kind's dtype, C order)."""
     n = len(b)
     rec = np.zeros(n, dtype)
@@ -174,7 +176,7 @@ class Journal:
         return cls(path=path, header=h, format_version=version, record=rec, body_offset=body, n_records=n,
                    tail_bytes=size - body - n * rec.itemsize)
 
-    def blocks(self) -> Iterator[FrameBlock]:
+    def blocks(self) -> Iterator[FrameBatch]:
         """The intact frame records, in write order, a block at a time (damaged records skipped)."""
         h = self.header
         nbytes = int(np.prod(h.frame_shape)) * h.spec.dtype.itemsize
@@ -199,7 +201,7 @@ class Journal:
                     self.counters = {k: int(v) for k, v in zip(COUNTER_NAMES, vals)}
                 fr = rec[ok & (rec["type"] == FRAME)]
                 self.frames_read += fr.shape[0]
-                yield FrameBlock(
+                yield FrameBatch(
                     frames=fr["payload"][:, :nbytes].copy().view(h.spec.dtype).reshape((fr.shape[0], *h.frame_shape)),
                     host_time_s=fr["host_time_s"].astype(np.float64),
                     valid=fr["valid"].astype(bool),
@@ -207,14 +209,14 @@ class Journal:
                     device_time_us=fr["device_time_us"].astype(np.int64),
                 )
 
-    def read_all(self) -> FrameBlock:
+    def read_all(self) -> FrameBatch:
         """Every intact frame record as one block."""
         parts = list(self.blocks())
         if not parts:
             h = self.header
-            return FrameBlock(np.zeros((0, *h.frame_shape), h.spec.dtype), np.zeros(0), np.zeros(0, bool),
+            return FrameBatch(np.zeros((0, *h.frame_shape), h.spec.dtype), np.zeros(0), np.zeros(0, bool),
                               np.zeros(0, np.int64), np.zeros(0, np.int64))
-        return FrameBlock(*(np.concatenate([getattr(p, k) for p in parts]) for k in
+        return FrameBatch(*(np.concatenate([getattr(p, k) for p in parts]) for k in
                             ("frames", "host_time_s", "valid", "seq", "device_time_us")))
 
     def damage_notes(self) -> list[str]:

@@ -18,6 +18,8 @@ import h5py
 import numpy as np
 from numpy.typing import NDArray
 
+from ..frames import FrameBatch
+
 FORMAT_NAME = "psmat-session"
 FORMAT_VERSION = 2
 COUNTER_NAMES: tuple[str, ...] = ("dropped_frames", "bad_frames", "resyncs", "bytes_discarded")
@@ -94,20 +96,6 @@ class Header:
     @property
     def spec(self) -> KindSpec:
         return KINDS[self.kind]
-
-
-@dataclass
-class FrameBlock:
-    """Consecutive frames with their per-frame values (``N`` rows each)."""
-
-    frames: NDArray[Any]
-    host_time_s: NDArray[np.float64]
-    valid: NDArray[np.bool_]
-    seq: NDArray[np.int64]
-    device_time_us: NDArray[np.int64]
-
-    def __len__(self) -> int:
-        return int(self.frames.shape[0])
 
 
 @dataclass(eq=False)
@@ -339,7 +327,7 @@ def _create_layout(f: h5py.File, h: Header) -> dict[str, h5py.Dataset]:
 def write_session_file(
     path: Path,
     header: Header,
-    blocks: Iterable[FrameBlock],
+    blocks: Iterable[FrameBatch],
     counters: Mapping[str, int],
     *,
     products: Mapping[str, Product] | None = None,
@@ -364,7 +352,7 @@ def write_session_file(
     return n
 
 
-def _write_file(tmp: Path, header: Header, blocks: Iterable[FrameBlock], counters: Mapping[str, int],
+def _write_file(tmp: Path, header: Header, blocks: Iterable[FrameBatch], counters: Mapping[str, int],
                 products: Mapping[str, Product], attrs: Mapping[str, str]) -> int:
     n = 0
     with h5py.File(tmp, "w", libver="latest") as f:  # latest: checksums on every metadata object too

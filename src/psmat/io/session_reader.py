@@ -16,6 +16,8 @@ import h5py
 import numpy as np
 from numpy.typing import NDArray
 
+from ..frames import FrameBatch
+
 from .session_journal import Journal, format_ranges
 from .session_layout import (
     COUNTER_NAMES,
@@ -24,7 +26,6 @@ from .session_layout import (
     KINDS,
     PER_FRAME,
     PER_FRAME_SPEC,
-    FrameBlock,
     Header,
     Session,
     SessionFormatError,
@@ -100,7 +101,7 @@ def repair_session(path: str | os.PathLike[str]) -> Session:
     if s.complete:
         return s
     n = s.n_frames
-    block = FrameBlock(s.counts, s.host_time_s, s.valid,
+    block = FrameBatch(s.counts, s.host_time_s, s.valid,
                        s.seq if s.seq is not None else np.full(n, -1, np.int64),
                        s.device_time_us if s.device_time_us is not None else np.full(n, -1, np.int64))
     h = Header(kind=s.kind, frame_shape=s.frame_shape, device=s.device, calibration=s.calibration,
@@ -126,7 +127,7 @@ def _from_journal(path: Path, jpath: Path, why: str) -> Session:
                     created=h.created_utc, complete=False, recovered=True, notes=notes)
 
 
-def _session(path: Path, kind: str, b: FrameBlock, **kw: Any) -> Session:
+def _session(path: Path, kind: str, b: FrameBatch, **kw: Any) -> Session:
     seq, dt = b.seq, b.device_time_us
     return Session(path=path, kind=kind, counts=b.frames, host_time_s=b.host_time_s, valid=b.valid,
                    seq=seq if np.any(seq >= 0) else None, device_time_us=dt if np.any(dt >= 0) else None,
@@ -203,7 +204,7 @@ def _read_open(f: h5py.File, path: Path, notes: list[str]) -> Session:
         notes.append(f"{', '.join(unchecked)} carry no checksums (written by an older psmat): "
                      "damage there cannot be seen")
     valid = cols["valid"].astype(bool) & ~bad  # SPEC §6: a damaged frame is never returned as valid
-    block = FrameBlock(frames, cols["host_time_s"], valid, cols["seq"], cols["device_time_us"])
+    block = FrameBatch(frames, cols["host_time_s"], valid, cols["seq"], cols["device_time_us"])
     return _session(
         path, kind, block,
         device=_group_json(f, "device", path) or {},

@@ -12,11 +12,12 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from ..frames import FrameBatch
+
 from . import session_journal as jr
 from .session_layout import (
     COUNTER_NAMES,
     KINDS,
-    FrameBlock,
     Header,
     as_dict,
     fsync_dir,
@@ -279,7 +280,7 @@ class SessionWriter:
         """The journal, read back and checked record by record, becomes the HDF5 file."""
         j = jr.Journal.open(self.jpath)
 
-        def checked() -> Iterator[FrameBlock]:
+        def checked() -> Iterator[FrameBatch]:
             yield from j.blocks()
             if j.frames_read != self._n_appended or j.damage_notes():  # before the file replaces PATH
                 raise RuntimeError(f"journal damaged on disk while recording ({'; '.join(j.damage_notes())}; "
@@ -288,7 +289,7 @@ class SessionWriter:
         write_session_file(self.path, self.header, checked(), self._counters)
 
     def _block(self, frames: ArrayLike, host_time_s: ArrayLike, valid: ArrayLike, seq: ArrayLike | None,
-               device_time_us: ArrayLike | None) -> FrameBlock:
+               device_time_us: ArrayLike | None) -> FrameBatch:
         fr = np.asarray(frames)
         shape, dtype, kind = self.frame_shape, self.frame_dtype, self.kind
         if fr.shape == shape:
@@ -303,7 +304,7 @@ class SessionWriter:
                 raise ValueError(f"{kind} counts out of uint16 range")
         elif fr.dtype.kind not in "uif":
             raise TypeError(f"{kind} frames must be real numbers, got dtype {fr.dtype}")
-        return FrameBlock(
+        return FrameBatch(
             frames=np.ascontiguousarray(fr, dtype=dtype),
             host_time_s=_per_frame(host_time_s, n, np.float64, "host_time_s"),
             valid=_per_frame(valid, n, np.bool_, "valid"),
