@@ -1,0 +1,192 @@
+"""Input validation for the whole package: one home (issue 11).
+
+Every public function of psmat that takes numbers from a user checks them here and raises
+one clear, one-line error naming the argument: ``TypeError`` for the wrong kind of value
+(a string, a float where an integer count is meant, a boolean), ``ValueError`` for the right
+kind out of range. Nothing here converts silently (no rounding of 2.5 cells to 2).
+"""
+
+from __future__ import annotations
+
+import math
+import numbers
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+__all__ = [
+    "is_int",
+    "shape2",
+    "positive",
+    "finite",
+    "fraction",
+    "positive_int",
+    "nonneg_int",
+    "pair",
+    "vector",
+    "real_array",
+    "int_frame",
+    "float32_frame",
+    "uint",
+    "as_bytes",
+]
+
+
+def is_int(value: Any) -> bool:
+    """True for a Python or NumPy integer (booleans excluded)."""
+    return isinstance(value, numbers.Integral) and not isinstance(value, (bool, np.bool_))
+
+
+def _scalar(name: str, value: Any, what: str) -> float:
+    if np.ndim(value) != 0:
+        raise ValueError(f"{name} must be a single number, got an array of shape {np.shape(value)}")
+    if isinstance(value, (str, bytes)):
+        raise ValueError(f"{name} must be {what}, got {value!r}")
+    try:
+        return float(value)
+    except (TypeError, ValueError):
+        raise ValueError(f"{name} must be {what}, got {value!r}") from None
+
+
+def shape2(shape: Any, name: str = "shape") -> tuple[int, int]:
+    """A frame shape ``(R, C)`` of two positive integers."""
+    try:
+        dims = tuple(shape)
+    except TypeError:
+        raise ValueError(f"{name} must be a pair (rows, cols), got {shape!r}") from None
+    if len(dims) != 2:
+        raise ValueError(f"{name} must be a pair (rows, cols), got {shape!r}")
+    for d in dims:
+        if not is_int(d):
+            raise TypeError(f"{name} must hold two integers (rows, cols), got {shape!r}")
+        if d < 1:
+            raise ValueError(f"{name} must hold two positive integers (rows, cols), got {shape!r}")
+    return int(dims[0]), int(dims[1])
+
+
+def positive(name: str, value: Any) -> float:
+    """A finite number > 0, as float."""
+    v = _scalar(name, value, "a positive number")
+    if not (math.isfinite(v) and v > 0):
+        raise ValueError(f"{name} must be a finite number > 0, got {value!r}")
+    return v
+
+
+def finite(name: str, value: Any) -> float:
+    """A finite number, as float."""
+    v = _scalar(name, value, "a finite number")
+    if not math.isfinite(v):
+        raise ValueError(f"{name} must be a finite number, got {value!r}")
+    return v
+
+
+def fraction(name: str, value: Any, lo: float = 0.0, hi: float = 1.0) -> float:
+    """A finite number in ``[lo, hi]``."""
+    v = finite(name, value)
+    if not lo <= v <= hi:
+        raise ValueError(f"{name} must lie in [{lo}, {hi}], got {value!r}")
+    return v
+
+
+def positive_int(name: str, value: Any, minimum: int = 1) -> int:
+    """An integer (not a float, not a bool) ``>= minimum``."""
+    if not is_int(value):
+        raise ValueError(f"{name} must be an integer >= {minimum}, got {value!r}")
+    if value < minimum:
+        raise ValueError(f"{name} must be an integer >= {minimum}, got {value!r}")
+    return int(value)
+
+
+def nonneg_int(name: str, value: Any) -> int:
+    """An integer ``>= 0`` (seeds, indices)."""
+    if not is_int(value) or value < 0:
+        raise ValueError(f"{name} must be a non-negative integer, got {value!r}")
+    return int(value)
+
+
+def pair(name: str, value: Any, *, nonneg: bool = True, labels: str = "ML, AP") -> tuple[float, float]:
+    """Two finite numbers (``>= 0`` unless ``nonneg=False``)."""
+    a = None if isinstance(value, (str, bytes)) else np.asarray(value, dtype=np.float64)
+    if a is None or a.shape != (2,) or not np.all(np.isfinite(a)) or (nonneg and np.any(a < 0)):
+        kind = "non-negative finite" if nonneg else "finite"
+        raise ValueError(f"{name} must be a pair of {kind} numbers ({labels}), got {value!r}")
+    return float(a[0]), float(a[1])
+
+
+def vector(name: str, value: Any) -> NDArray[np.float64]:
+    """A 1-D float64 array of finite numbers."""
+    try:
+        a = np.asarray(value, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise ValueError(f"{name} must be a 1-D array of numbers") from None
+    if a.ndim != 1:
+        raise ValueError(f"{name} must be 1-D, got shape {a.shape}")
+    if not np.all(np.isfinite(a)):
+        bad = int(np.flatnonzero(~np.isfinite(a))[0])
+        raise ValueError(f"{name} must be finite; sample {bad} is {a[bad]!r}")
+    return a
+
+
+def real_array(value: Any, name: str, *, unit: str = "", allow_nan: bool = False) -> NDArray[np.float64]:
+    """A C-contiguous float64 copy of a real (integer or floating) array, finite unless ``allow_nan``."""
+    a = np.asarray(value)
+    if a.dtype == object or a.dtype == np.bool_ or not (
+        np.issubdtype(a.dtype, np.floating) or np.issubdtype(a.dtype, np.integer)
+    ):
+        raise TypeError(f"{name} must be a real numeric array{f' ({unit})' if unit else ''}, got dtype {a.dtype}")
+    a = np.array(a, dtype=np.float64, order="C")  # a copy; keeps 0-d scalars 0-d
+    bad = np.isinf(a) if allow_nan else ~np.isfinite(a)
+    if bad.any():
+        first = tuple(int(i) for i in np.argwhere(bad)[0])
+        raise ValueError(f"{name} has {int(bad.sum())} non-finite value(s), first at {first}")
+    return a
+
+
+def int_frame(frame: Any, name: str, max_value: int) -> NDArray[np.int64]:
+    """A 2-D integer array with every value in ``[0, max_value]`` (else TypeError/ValueError)."""
+    arr = np.asarray(frame)
+    if arr.dtype == np.bool_ or not np.issubdtype(arr.dtype, np.integer):
+        raise TypeError(f"{name} must be an integer array (counts), got dtype {arr.dtype}")
+    if arr.ndim != 2 or arr.shape[0] < 1 or arr.shape[1] < 1:
+        raise ValueError(f"{name} must have shape (R, C) with R, C >= 1, got {arr.shape}")
+    lo, hi = int(arr.min()), int(arr.max())
+    if lo < 0 or hi > max_value:
+        raise ValueError(f"{name} values must lie in [0, {max_value}], got range [{lo}, {hi}]")
+    return arr
+
+
+def float32_frame(frame: Any, name: str) -> NDArray[np.float32]:
+    """A 2-D real array of finite values representable as float32, returned as float32."""
+    arr = np.asarray(frame)
+    if arr.dtype == np.bool_ or not (np.issubdtype(arr.dtype, np.floating) or np.issubdtype(arr.dtype, np.integer)):
+        raise TypeError(f"{name} must be a real array, got dtype {arr.dtype}")
+    if arr.ndim != 2 or arr.shape[0] < 1 or arr.shape[1] < 1:
+        raise ValueError(f"{name} must have shape (R, C) with R, C >= 1, got {arr.shape}")
+    f64 = arr.astype(np.float64)
+    if not np.all(np.isfinite(f64)):
+        raise ValueError(f"{name} must be finite")
+    if np.any(np.abs(f64) > float(np.finfo(np.float32).max)):
+        raise ValueError(f"{name} values exceed the float32 range")
+    return f64.astype(np.float32)
+
+
+def uint(value: Any, name: str, bits: int, *, wrap: bool = False) -> int:
+    """A non-negative integer below ``2**bits`` (reduced modulo ``2**bits`` if ``wrap``)."""
+    if not is_int(value):
+        raise TypeError(f"{name} must be an integer, got {type(value).__name__}")
+    v = int(value)
+    if v < 0:
+        raise ValueError(f"{name} must be >= 0, got {v}")
+    if wrap:
+        return v % (1 << bits)
+    if v >= 1 << bits:
+        raise ValueError(f"{name} must be < 2**{bits}, got {v}")
+    return v
+
+
+def as_bytes(data: Any, name: str = "data") -> bytes | bytearray | memoryview:
+    """``data`` itself if it is bytes-like, else TypeError."""
+    if isinstance(data, (bytes, bytearray, memoryview)):
+        return data
+    raise TypeError(f"{name} must be bytes-like, got {type(data).__name__}")
