@@ -12,7 +12,6 @@ and closes on exit.
 from __future__ import annotations
 
 import threading
-from dataclasses import dataclass
 from typing import Any, Literal
 
 import numpy as np
@@ -25,64 +24,13 @@ from .errors import AcquireError, CommandRejected, CommandTimeout, DeviceDisconn
 from .identify import describe, learn
 from .port import open_port
 from .ring_buffer import FrameBatch, FrameRing
+from .stats import DeviceStats
 from .stream import Row, StreamDecoder, default_shape, frame_dtype
 
 __all__ = ["Device", "DeviceStats", "open_device"]
 
 _LINK_ERRORS = (serial.SerialException, OSError)
 _JOIN_S = 1.0
-
-
-@dataclass(frozen=True)
-class DeviceStats:
-    """Counters of a :class:`Device` (a snapshot; all cumulative since opening).
-
-    Attributes
-    ----------
-    frames : int
-        Valid frames decoded.
-    invalid : int
-        Rows that failed their checksum/CRC (or malformed DAQ lines); kept as invalid rows.
-    dropped_wire : int
-        Frames the device sent that never arrived: v2 ``seq`` gaps between two buffered
-        rows (a gap before the first frame buffered after :meth:`Device.start`, e.g. frames
-        a device streaming from power-up dropped while nobody read it, is not a loss of what
-        was received); 0 for v1 and the DAQ, which cannot tell.
-    dropped_buffer : int
-        Frames overwritten in the ring buffer because nobody read them in time.
-    skipped_bytes : int
-        Garbage bytes skipped while resynchronising.
-    replies : int
-        Command replies received.
-    reconnects : int
-        Successful re-openings of the port after it vanished.
-    ignored : int
-        Frames decoded while not started (not buffered).
-    mismatched : int
-        v2 frames of another shape or kind than the device's (discarded).
-    bytes_in : int
-        Bytes read from the port.
-    buffered : int
-        Frames waiting in the ring buffer now.
-    connected : bool
-        Whether the port is open and readable now.
-    last_error : str or None
-        The last link or recording problem, as text.
-    """
-
-    frames: int
-    invalid: int
-    dropped_wire: int
-    dropped_buffer: int
-    skipped_bytes: int
-    replies: int
-    reconnects: int
-    ignored: int
-    mismatched: int
-    bytes_in: int
-    buffered: int
-    connected: bool
-    last_error: str | None
 
 
 class _Waiter:
