@@ -1,4 +1,4 @@
-"""Tests of psmat.twin.pressure: pressure fields and scenes for the digital twin.
+"""Tests of the twin's pressure fields and scenes (psmat.twin.field, .anatomy, .scenes).
 
 Expectations come from physics, computed here independently of the module's closed forms:
 forces are Σ p·A with p converted psi → Pa by hand, centres of pressure are first moments
@@ -10,7 +10,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from psmat.twin import pressure as tp
+from psmat.twin import field as tp
 from psmat.twin import (
     PressureScene,
     foot,
@@ -325,7 +325,6 @@ def test_same_seed_same_scene_and_different_seed_different_scene():
     [
         (lambda: quiet_standing(1.0, 10.0, shape=(16,)), "shape"),
         (lambda: quiet_standing(1.0, 10.0, shape=(0, 16)), "shape"),
-        (lambda: quiet_standing(1.0, 10.0, shape=(16.5, 16)), "shape"),
         (lambda: quiet_standing(1.0, 10.0, weight_n=-700.0), "weight_n"),
         (lambda: quiet_standing(1.0, 10.0, weight_n=np.nan), "weight_n"),
         (lambda: quiet_standing(-1.0, 10.0), "duration_s"),
@@ -351,6 +350,12 @@ def test_same_seed_same_scene_and_different_seed_different_scene():
 def test_bad_inputs_raise_value_error(call, match):
     with pytest.raises(ValueError, match=match):
         call()
+
+
+def test_a_fractional_cell_count_is_a_type_error():
+    # psmat._checks.shape2: a float where an integer count is meant is the wrong kind of value
+    with pytest.raises(TypeError, match="shape"):
+        quiet_standing(1.0, 10.0, shape=(16.5, 16))
 
 
 def test_unit_conversion_is_psi():

@@ -9,7 +9,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from psmat.twin.pressure import _convex_hull
+from psmat.twin.steering import convex_hull
 
 
 def monotone_chain(points: np.ndarray) -> np.ndarray:
@@ -49,7 +49,7 @@ def _point_sets() -> list[np.ndarray]:
 
 def test_hull_equals_monotone_chain():
     for k, pts in enumerate(_point_sets()):
-        hull, ref = _convex_hull(pts), monotone_chain(pts)
+        hull, ref = convex_hull(pts), monotone_chain(pts)
         assert sorted(map(tuple, hull)) == sorted(map(tuple, ref)), k  # the same input points, exactly
         assert signed_area(hull) > 0, k  # counter-clockwise, as the projection onto the polygon needs
         assert signed_area(hull) == pytest.approx(signed_area(ref), rel=1e-12), k
@@ -59,4 +59,4 @@ def test_hull_equals_monotone_chain():
                                  np.array([[1.0, 2.0], [1.0, 2.0], [5.0, 0.0]])])
 def test_collinear_or_too_few_points_is_a_clear_error(pts):
     with pytest.raises(ValueError, match="collinear"):
-        _convex_hull(pts)
+        convex_hull(pts)

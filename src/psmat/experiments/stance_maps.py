@@ -5,7 +5,7 @@ The thesis took ``g`` from IECM-processed images of its first prototype with a p
 (Table 2.4 noise model, 1000 draws). We have no recordings of those images, so the stances
 are simulated:
 
-* pressure: two feet from :func:`psmat.twin.pressure.two_feet` (smooth plantar lobes, 24 cm ×
+* pressure: two feet from :func:`psmat.twin.two_feet` (smooth plantar lobes, 24 cm ×
   9 cm, 60 % of each foot's load on the rearfoot), 700 N shared equally, averaged over the
   2 cm cells of the 16×16, 32 cm mat. *Standing*: feet side by side, 15 cm between their
   axes, toes out 7°. *Semi-tandem*: feet parallel and touching along their medial borders
@@ -13,8 +13,8 @@ are simulated:
   pair is centred on the mat, so heel and toe tips (2 cm at each end) fall off it.
 * sensor: the thesis' Velostat model :meth:`psmat.sensor.MPICreep.thesis` (Table 2.11)
   loaded by a 1 s ramp to the cell pressure (20 samples), ``g`` read at the end.
-* unloaded cells: background conductance log-uniform in 1e-6…1e-5 S (100 kΩ–1 MΩ, as
-  :mod:`psmat.scenes`), since the model gives exactly 0 S at 0 psi and IECM needs ``g > 0``.
+* unloaded cells: background conductance log-uniform in 1e-6…1e-5 S (100 kΩ–1 MΩ), since
+  the model gives exactly 0 S at 0 psi and IECM needs ``g > 0``.
 """
 
 from __future__ import annotations
@@ -24,7 +24,8 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..sensor import MPICreep
-from ..twin.pressure import cell_pressure_psi, two_feet
+from ..twin.anatomy import two_feet
+from ..twin.field import cell_pressure_psi
 from ._common import UncertaintyComparison, as_rng, fmt, format_table, plt, timed
 from .random_array import compare_uncertainty, plot_relative
 

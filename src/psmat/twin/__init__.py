@@ -1,32 +1,30 @@
-"""Digital twin of the mat (SPEC §5).
+"""Digital twin of the mat (SPEC §5): one synthetic world for the whole package.
 
-* :mod:`psmat.twin.pressure` — feet and seats as smooth pressure fields (psi), integrated
-  over each cell, and seeded scene generators (quiet standing, single-leg sway, a recorded
+One coordinate convention (cell ``(i, p)`` centred at ``(p·pitch, i·pitch)`` cm, as
+:func:`psmat.balance.cop`), pressure in psi inside (the sensor model's unit), forces in N;
+pressure becomes conductance only through the sensor model (:class:`MatPhysics`).
+
+* :mod:`psmat.twin.field` — the continuous pressure field (:class:`Lobes`) and its cell image.
+* :mod:`psmat.twin.anatomy` — feet and a seat as lobes.
+* :mod:`psmat.twin.steering` — the group forces that put the field's CoP on a target.
+* :mod:`psmat.twin.scenes` — seeded scenes (quiet standing, single-leg sway, a recorded
   force-platform trajectory, sitting) returning :class:`PressureScene`.
 * :mod:`psmat.twin.mat` — :class:`MatPhysics`: pressure → sensor model with cell-to-cell
   variability → crosstalk F(g) → measurement chain → ADC counts.
+* :mod:`psmat.twin.conductance` — :func:`swaying_feet`: cell conductances of a person in quiet
+  standing (benchmarks, tests, the crosstalk demo).
+* :mod:`psmat.twin.arrays` — :func:`random_array`: the random array of thesis Fig. 2.13.
 * :mod:`psmat.twin.sources` — what each simulated device measures, tick by tick.
 * :mod:`psmat.twin.serial_twin` — :class:`SerialTwin`: the firmware core on the host,
   served on a real pseudo-terminal, with fault injection.
 """
 
-from .pressure import (
-    PSI_PA,
-    Lobes,
-    PressureScene,
-    cell_centres_cm,
-    cell_cop_cm,
-    cell_force_n,
-    cell_pressure_psi,
-    foot,
-    quiet_standing,
-    single_leg_sway,
-    sitting,
-    trajectory_sway,
-    two_feet,
-)
-
+from .anatomy import foot, two_feet
+from .arrays import random_array
+from .conductance import swaying_feet
+from .field import MAT_SIZE_CM, PSI_PA, Lobes, cell_centres_cm, cell_cop_cm, cell_force_n, cell_pressure_psi, mat_pitch_cm
 from .mat import MatPhysics, MatTruth
+from .scenes import PressureScene, quiet_standing, single_leg_sway, sitting, trajectory_sway
 from .serial_twin import Faults, SerialTwin, TwinStats
 from .sources import SCENES, CalibrationFixture, DaqSource, ImuSource, PsmSource, make_scene
 
@@ -43,16 +41,20 @@ __all__ = [
     "PsmSource",
     "make_scene",
     "PSI_PA",
+    "MAT_SIZE_CM",
     "Lobes",
     "PressureScene",
     "cell_centres_cm",
     "cell_cop_cm",
     "cell_force_n",
     "cell_pressure_psi",
+    "mat_pitch_cm",
     "foot",
     "quiet_standing",
     "single_leg_sway",
     "sitting",
     "trajectory_sway",
     "two_feet",
+    "swaying_feet",
+    "random_array",
 ]

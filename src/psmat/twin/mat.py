@@ -1,6 +1,6 @@
 """The simulated mat's physics (SPEC §5 "Digital twin"): pressure → ADC counts.
 
-A stream of pressure images (psi, :mod:`psmat.twin.pressure`) goes through
+A stream of pressure images (psi, :mod:`psmat.twin.scenes`) goes through
 
 1. the per-cell sensor model — the Velostat MPI hysteresis + creep model
    (:class:`psmat.sensor.MPICreep`, thesis Table 2.11 by default, eq. 2.15–2.24) with
@@ -92,11 +92,8 @@ class MatPhysics:
         """Back to rest (no load history)."""
         self._state = self.sensor.rest_state(self.shape)
 
-    def counts(self, pressure_psi: NDArray[np.float64], *, return_truth: bool = False):
-        """ADC counts (T, R, C) uint16 for pressure images (T, R, C) psi, in time order.
-
-        With ``return_truth`` also a :class:`MatTruth` (g and G before the circuit).
-        """
+    def _pressure(self, pressure_psi: NDArray[np.float64]) -> NDArray[np.float64]:
+        """Checked (T, R, C) pressure in psi, saturated at the sensor's ``p_max``."""
         p = np.asarray(pressure_psi, dtype=np.float64)
         if p.ndim == 2:
             p = p[None]
@@ -104,8 +101,27 @@ class MatPhysics:
             raise ValueError(f"pressure must be (T, {self.shape[0]}, {self.shape[1]}) psi, got {p.shape}")
         if not np.all(np.isfinite(p)) or np.any(p < 0):
             raise ValueError("pressure must be finite and >= 0 psi")
-        p = np.minimum(p, self.sensor.p_max)  # the sensor saturates (module docstring)
-        g = self.sensor.direct(p, self.dt, self._state) * self.gain + self.g_rest
+        return np.minimum(p, self.sensor.p_max)  # the sensor saturates (module docstring)
+
+    def _cells(self, p: NDArray[np.float64]) -> NDArray[np.float64]:
+        """Cell conductances (S) of checked pressures: ``gain · direct(p) + g_rest``; advances the state."""
+        return self.sensor.direct(p, self.dt, self._state) * self.gain + self.g_rest
+
+    def conductance(self, pressure_psi: NDArray[np.float64]) -> NDArray[np.float64]:
+        """Cell conductances g (T, R, C) in S for pressure images (T, R, C) psi, in time order.
+
+        Step 1 of the module docstring alone (the sensor model, each cell's gain, the leakage
+        ``g_rest``); the sensor state carries on as in :meth:`counts`.
+        """
+        return self._cells(self._pressure(pressure_psi))
+
+    def counts(self, pressure_psi: NDArray[np.float64], *, return_truth: bool = False):
+        """ADC counts (T, R, C) uint16 for pressure images (T, R, C) psi, in time order.
+
+        With ``return_truth`` also a :class:`MatTruth` (g and G before the circuit).
+        """
+        p = self._pressure(pressure_psi)
+        g = self._cells(p)
         G = iecm.forward(g)
         counts = self.circuit.counts(G, noise_v=self.noise_v, rng=self._rng)
         if return_truth:

@@ -1,6 +1,6 @@
 """What the simulated devices measure, one tick at a time (SPEC §5).
 
-* :class:`PsmSource` — a pressure scene (:mod:`psmat.twin.pressure`) played through the mat's
+* :class:`PsmSource` — a pressure scene (:mod:`psmat.twin.scenes`) played through the mat's
   physics (:class:`psmat.twin.mat.MatPhysics`): ADC counts per frame. Scenes: ``"sway"`` (a
   person whose CoP follows a recorded force-platform trajectory from the BDS data set, or
   quiet standing when the data set is not found), ``"quiet"``, ``"single-leg"``, ``"sitting"``.
@@ -18,7 +18,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from . import pressure as _pressure
+from . import scenes as _scenes
 from .mat import MatPhysics
 
 __all__ = ["PsmSource", "ImuSource", "DaqSource", "CalibrationFixture", "SCENES", "make_scene"]
@@ -27,7 +27,7 @@ SCENES = ("sway", "quiet", "single-leg", "sitting")
 
 
 def make_scene(name: str, duration_s: float, rate_hz: float, shape: tuple[int, int] = (16, 16), *,
-               bds_trial: int = 1, seed: int = 0) -> _pressure.PressureScene:
+               bds_trial: int = 1, seed: int = 0) -> _scenes.PressureScene:
     """A named pressure scene (psi) of ``duration_s`` at ``rate_hz`` (see the module docstring)."""
     if name == "sway":
         try:
@@ -38,13 +38,13 @@ def make_scene(name: str, duration_s: float, rate_hz: float, shape: tuple[int, i
             rec = None
         if rec is not None:
             keep = rec.t <= rec.t[0] + duration_s
-            scene = _pressure.trajectory_sway(rec.t[keep], rec.cop_ml_cm[keep], rec.cop_ap_cm[keep],
+            scene = _scenes.trajectory_sway(rec.t[keep], rec.cop_ml_cm[keep], rec.cop_ap_cm[keep],
                                               rec.fz_n[keep], rate_hz, shape)
             scene.meta["source"] = f"BDS{bds_trial:05d}"
             return scene
         name = "quiet"
-    makers = {"quiet": _pressure.quiet_standing, "single-leg": _pressure.single_leg_sway,
-              "sitting": _pressure.sitting}
+    makers = {"quiet": _scenes.quiet_standing, "single-leg": _scenes.single_leg_sway,
+              "sitting": _scenes.sitting}
     if name not in makers:
         raise ValueError(f"unknown scene {name!r}; choose one of {', '.join(SCENES)}")
     return makers[name](duration_s, rate_hz, shape, seed=seed)
@@ -54,7 +54,7 @@ def make_scene(name: str, duration_s: float, rate_hz: float, shape: tuple[int, i
 class PsmSource:
     """Counts (R, C) uint16 per tick of a scene played through the mat's physics."""
 
-    scene: _pressure.PressureScene
+    scene: _scenes.PressureScene
     physics: MatPhysics
     block: int = 64
 
