@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import math
 import numbers
+from collections.abc import Callable
 from typing import Any
 
 import numpy as np
@@ -30,6 +31,12 @@ __all__ = [
     "float32_frame",
     "uint",
     "as_bytes",
+    "first_bad",
+    "real_dtype",
+    "positive_scalar",
+    "finite_values",
+    "nonnegative",
+    "conductances",
 ]
 
 
@@ -190,3 +197,60 @@ def as_bytes(data: Any, name: str = "data") -> bytes | bytearray | memoryview:
     if isinstance(data, (bytes, bytearray, memoryview)):
         return data
     raise TypeError(f"{name} must be bytes-like, got {type(data).__name__}")
+
+
+def first_bad(mask: NDArray[np.bool_]) -> tuple[int, ...]:
+    """Index (as a tuple) of the first True element of ``mask`` in C order."""
+    flat = int(np.flatnonzero(mask)[0])
+    return tuple(int(k) for k in np.unravel_index(flat, mask.shape))
+
+
+def real_dtype(name: str, value: Any) -> NDArray[Any]:
+    """``value`` as an ndarray of a real numeric dtype, not converted (NaN/inf are the caller's);
+    complex, object, str or bool → TypeError."""
+    arr = np.asarray(value)
+    if arr.dtype.kind not in "iuf":
+        raise TypeError(f"{name} must be a real numeric array, got dtype {arr.dtype}")
+    return arr
+
+
+def positive_scalar(name: str, value: Any, *, allow_inf: bool = False) -> float:
+    """A real number > 0 (finite unless ``allow_inf``); TypeError for anything but a real number
+    (a string included), where :func:`positive` answers ValueError."""
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, float, np.integer, np.floating)):
+        raise TypeError(f"{name} must be a real number, got {type(value).__name__}")
+    v = float(value)
+    if math.isnan(v) or v <= 0 or (math.isinf(v) and not allow_inf):
+        raise ValueError(f"{name} must be {'> 0' if allow_inf else 'finite and > 0'}, got {value!r}")
+    return v
+
+
+def finite_values(a: NDArray[Any], name: str, *, where: Callable[[tuple[int, ...]], str] = str) -> None:
+    """ValueError counting the NaN/inf entries of ``a`` and naming the first (``where`` formats
+    its index)."""
+    bad = ~np.isfinite(a)
+    if bad.any():
+        raise ValueError(f"{name} has {int(bad.sum())} non-finite value(s) (NaN/inf), first at {where(first_bad(bad))}")
+
+
+def nonnegative(a: NDArray[Any], name: str, *, allow_zero: bool = True, noun: str = "value(s)",
+                where: Callable[[tuple[int, ...]], str] = str, hint: str = "") -> None:
+    """ValueError counting the negative (or, unless ``allow_zero``, zero or negative) entries of
+    ``a`` and naming the first (``where`` formats its index; ``hint`` ends the message)."""
+    bad = a < 0 if allow_zero else a <= 0
+    if bad.any():
+        idx = first_bad(bad)
+        what = "negative" if allow_zero else "zero or negative"
+        raise ValueError(f"{name} has {int(bad.sum())} {what} {noun}, first at {where(idx)} = {a[idx]!r}{hint}")
+
+
+def conductances(G: Any, name: str = "G") -> NDArray[np.float64]:
+    """Equivalent conductances (S) as float64: a real array, finite and >= 0."""
+    g = real_dtype(name, G).astype(np.float64, copy=False)
+    bad = ~np.isfinite(g)
+    if bad.any():
+        raise ValueError(f"{name} must be finite; non-finite value {g[first_bad(bad)]!r} at index {first_bad(bad)}")
+    bad = g < 0
+    if bad.any():
+        raise ValueError(f"{name} must be >= 0 (S); negative value {g[first_bad(bad)]!r} at index {first_bad(bad)}")
+    return g
