@@ -1,0 +1,159 @@
+"""Time alignment of the mat's CoP with the force platform's (thesis §3.2.1, SPEC §7 and §9).
+
+The two instruments start on their own clocks and sample at their own rates; the mat also
+sees a smaller, offset trajectory (its gain and its origin differ). :func:`align` resamples
+both traces to a common rate, standardises each component (mean 0, SD 1, so gains and
+offsets drop out), maximises the sum of the two components' normalised cross-correlations
+over the lag, refines the peak below one sample (a parabola through the three samples
+around it, then the Pearson correlation maximised on the continuous lag), and reports the
+lag and the correlation there. ``lag_s`` given by the user overrides the search.
+
+Convention (SPEC §9): ``cop(t) ≈ cop_ref(t + lag_s)``, each time on its own clock: when the
+mat's clock reads ``t`` the platform's reads ``t + lag_s``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+from scipy import optimize, signal
+
+from .. import _checks
+
+__all__ = ["Alignment", "align"]
+
+
+@dataclass(frozen=True)
+class Alignment:
+    """Result of :func:`align`.
+
+    Attributes
+    ----------
+    lag_s : float
+        ``cop(t) ≈ cop_ref(t + lag_s)`` (s).
+    r : float
+        Pearson correlation at ``lag_s``, the mean of the M-L and A-P components' (``r_ml``,
+        ``r_ap``), on the overlap of the two traces.
+    r_ml, r_ap : float
+        Per component.
+    fs_hz : float
+        Common rate the search ran at (Hz).
+    overlap_s : float
+        Duration the two traces share at ``lag_s`` (s).
+    manual : bool
+        ``lag_s`` was given, not searched.
+    """
+
+    lag_s: float
+    r: float
+    r_ml: float
+    r_ap: float
+    fs_hz: float
+    overlap_s: float
+    manual: bool = False
+
+    def to_ref_time(self, t: ArrayLike) -> NDArray[np.float64]:
+        """Times of the mat's clock on the platform's clock (s)."""
+        return np.asarray(t, dtype=np.float64) + self.lag_s
+
+
+def _trace(t: ArrayLike, cop: ArrayLike, name: str) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    tt = _checks.vector(f"{name} times", t)
+    c = _checks.real_array(cop, name, unit="cm")
+    if c.ndim != 2 or c.shape[1] != 2 or c.shape[0] != tt.size:
+        raise ValueError(f"{name} must have shape ({tt.size}, 2) (M-L, A-P in cm) to match its times, got {c.shape}")
+    if tt.size < 8:
+        raise ValueError(f"{name} has {tt.size} samples; alignment needs at least 8")
+    if not np.all(np.diff(tt) > 0):
+        raise ValueError(f"{name} times must increase strictly")
+    sd = c.std(axis=0)
+    if not np.all(sd > 0):
+        raise ValueError(f"{name} does not move on one axis: nothing to align")
+    return tt, c
+
+
+def _resample(t: NDArray[np.float64], c: NDArray[np.float64], fs: float) -> NDArray[np.float64]:
+    """The standardised trace on a uniform grid from t[0] at fs (linear interpolation)."""
+    grid = t[0] + np.arange(int(np.floor((t[-1] - t[0]) * fs)) + 1) / fs
+    out = np.column_stack([np.interp(grid, t, c[:, k]) for k in range(2)])
+    return (out - out.mean(axis=0)) / out.std(axis=0)
+
+
+def _pearson(t_ref, c_ref, t, c, lag: float) -> tuple[float, float, float]:
+    """(r_ml, r_ap, overlap) of cop and cop_ref(t + lag) on their overlap, at the mat's samples."""
+    tr = t + lag
+    keep = (tr >= t_ref[0]) & (tr <= t_ref[-1])
+    if keep.sum() < 8:
+        return float("nan"), float("nan"), 0.0
+    ref = np.column_stack([np.interp(tr[keep], t_ref, c_ref[:, k]) for k in range(2)])
+    r = [float(np.corrcoef(c[keep, k], ref[:, k])[0, 1]) for k in range(2)]
+    return r[0], r[1], float(tr[keep][-1] - tr[keep][0])
+
+
+def align(t_ref: ArrayLike, cop_ref: ArrayLike, t: ArrayLike, cop: ArrayLike, *, fs_hz: float | None = None,
+          max_lag_s: float | None = None, lag_s: float | None = None, min_overlap: float = 0.5) -> Alignment:
+    """Align a mat CoP trace with the force platform's.
+
+    Parameters
+    ----------
+    t_ref, cop_ref : arrays, (N,) s and (N, 2) cm
+        The force platform (the reference): times on its clock, CoP (M-L, A-P).
+    t, cop : arrays, (M,) s and (M, 2) cm
+        The mat: times on its own clock, CoP (M-L, A-P).
+    fs_hz : float, optional
+        Common rate of the search (Hz); default the higher of the two traces' mean rates.
+    max_lag_s : float, optional
+        Largest ``|lag − (t_ref[0] − t[0])|`` searched (s): how far apart the two starts may
+        be beyond what the clocks say; default any lag that keeps ``min_overlap``.
+    lag_s : float, optional
+        Manual override: use this lag, only report the correlation there.
+    min_overlap : float
+        Smallest overlap searched, as a fraction of the shorter trace.
+
+    Returns
+    -------
+    Alignment
+    """
+    tr, cr = _trace(t_ref, cop_ref, "cop_ref")
+    tm, cm = _trace(t, cop, "cop")
+    if lag_s is not None:
+        lag = _checks.finite("lag_s", lag_s)
+        r_ml, r_ap, ov = _pearson(tr, cr, tm, cm, lag)
+        if ov == 0.0:
+            raise ValueError(f"with lag_s = {lag:g} s the two traces do not overlap")
+        fs_used = float((tm.size - 1) / (tm[-1] - tm[0]))
+        return Alignment(lag, 0.5 * (r_ml + r_ap), r_ml, r_ap, fs_used, ov, manual=True)
+    rates = [(tr.size - 1) / (tr[-1] - tr[0]), (tm.size - 1) / (tm[-1] - tm[0])]
+    fs = max(rates) if fs_hz is None else _checks.positive("fs_hz", fs_hz)
+    min_overlap = _checks.fraction("min_overlap", min_overlap, 0.0, 1.0)
+    A, B = _resample(tr, cr, fs), _resample(tm, cm, fs)
+    lags = signal.correlation_lags(len(A), len(B))
+    xc = sum(signal.correlate(A[:, k], B[:, k], mode="full", method="fft") for k in range(2))
+    overlap = np.minimum(len(A), lags + len(B)) - np.maximum(0, lags)
+    ok = overlap >= max(8, min_overlap * min(len(A), len(B)))
+    base = tr[0] - tm[0]
+    if max_lag_s is not None:
+        ok &= np.abs(lags / fs) <= _checks.positive("max_lag_s", max_lag_s)
+    if not ok.any():
+        raise ValueError("no lag satisfies max_lag_s and min_overlap: the traces cannot be aligned")
+    score = np.where(ok, xc / np.maximum(overlap, 1), -np.inf)
+    j = int(np.argmax(score))
+    shift = float(lags[j])
+    if 0 < j < len(score) - 1 and np.isfinite(score[j - 1]) and np.isfinite(score[j + 1]):
+        y0, y1, y2 = score[j - 1], score[j], score[j + 1]
+        den = y0 - 2 * y1 + y2
+        if den < 0:
+            shift += 0.5 * (y0 - y2) / den  # vertex of the parabola through the three samples
+    guess = base + shift / fs
+
+    def neg_r(lag: float) -> float:
+        r_ml, r_ap, _ = _pearson(tr, cr, tm, cm, lag)
+        return -(r_ml + r_ap) if np.isfinite(r_ml + r_ap) else 2.0
+
+    res = optimize.minimize_scalar(neg_r, bounds=(guess - 1.0 / fs, guess + 1.0 / fs), method="bounded",
+                                   options={"xatol": 1e-6})
+    lag = float(res.x) if res.fun <= neg_r(guess) else guess
+    r_ml, r_ap, ov = _pearson(tr, cr, tm, cm, lag)
+    return Alignment(lag, 0.5 * (r_ml + r_ap), r_ml, r_ap, float(fs), ov)
