@@ -1,0 +1,109 @@
+"""The scaling factor of the SCHC variant (thesis eq. 3.3, SPEC §7).
+
+The large mat is more conductive than the pneumatic-platform samples its sensor model was
+fitted on (the thesis found it ~1.3–4× more), so the pressures the nominal inverse model
+gives do not add up to the body weight. SCHC scales the conductances by one factor ``f``
+per trial, chosen so that the mean force over the trial equals the weight:
+
+    mean over t of  Σ_ij M(f · g_ij)(t) · A  =  W                      (eq. 3.3)
+
+with ``M`` the inverse sensor model run over the whole trial (its hysteresis and creep
+state carried from frame to frame), ``A`` the cell area and ``W`` the body weight. The
+thesis brute-forces ``f`` on [0.25, 0.75]; the left side grows with ``f`` (the inverse
+model is order preserving), so ``f`` is found as a root with a bracket.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import ArrayLike
+from scipy import optimize
+
+from .. import _checks
+from ..sensor import MPICreep
+from ..units import PSI_PA
+
+__all__ = ["scale_factor", "mean_force_n"]
+
+
+def _cells(g: ArrayLike) -> np.ndarray:
+    a = _checks.real_array(g, "g", unit="S", allow_nan=True)
+    if a.ndim != 3:
+        raise ValueError(f"g must be a trial of frames (T, R, C) in S, got shape {a.shape}")
+    if np.any(a < 0):
+        raise ValueError("g has negative conductances; pass cell conductances (S) after IECM")
+    return a.reshape(a.shape[0], -1)
+
+
+def mean_force_n(g: ArrayLike, dt: float, f: float = 1.0, sensor: MPICreep | None = None,
+                 cell_area_cm2: float = 4.0) -> float:
+    """Left side of eq. 3.3 (N): the trial's mean of ``Σ M(f·g)·A``; NaN frames are left out."""
+    cells = _cells(g)
+    return _mean_force(cells, _checks.positive("dt", dt), f, sensor or MPICreep.thesis(),
+                       _checks.positive("cell_area_cm2", cell_area_cm2))
+
+
+def _mean_force(cells: np.ndarray, dt: float, f: float, sensor: MPICreep, area_cm2: float) -> float:
+    p_psi = sensor.inverse(f * cells, dt)  # one run over the whole trial, state carried
+    force = np.nansum(p_psi, axis=1) * PSI_PA * area_cm2 * 1e-4
+    frames = np.all(np.isfinite(cells), axis=1)
+    return float(force[frames].mean())
+
+
+def scale_factor(g: ArrayLike, dt: float, weight_n: float, sensor: MPICreep | None = None,
+                 cell_area_cm2: float = 4.0, *, bracket: tuple[float, float] = (1e-3, 1e3),
+                 xtol: float = 1e-10) -> float:
+    """Solve eq. 3.3 for ``f``.
+
+    Parameters
+    ----------
+    g : array, (T, R, C)
+        Cell conductances of one trial (S), after IECM (and the unloaded leakage removed);
+        NaN frames (missing) are skipped.
+    dt : float
+        Frame period (s): the sensor model's creep depends on it.
+    weight_n : float
+        Body weight W (N).
+    sensor : MPICreep, optional
+        The nominal sensor model (the pneumatic fit); default the thesis' (Table 2.11).
+    cell_area_cm2 : float
+        Cell area A (cm²); 4 cm² on the thesis mat.
+    bracket : (low, high)
+        Where ``f`` is searched.
+    xtol : float
+        Absolute tolerance on ``f``.
+
+    Returns
+    -------
+    float
+        ``f`` with the trial's mean force equal to ``weight_n``.
+
+    Raises
+    ------
+    ValueError
+        When no ``f`` in ``bracket`` reaches the weight (e.g. too few loaded cells: the
+        inverse model saturates at ``p_max``), with the force reached at the bracket's ends.
+    """
+    cells = _cells(g)
+    dt = _checks.positive("dt", dt)
+    w = _checks.positive("weight_n", weight_n)
+    area = _checks.positive("cell_area_cm2", cell_area_cm2)
+    lo, hi = _checks.pair("bracket", bracket, labels="low, high")
+    if not 0 < lo < hi:
+        raise ValueError(f"bracket must satisfy 0 < low < high, got {bracket!r}")
+    sensor = sensor or MPICreep.thesis()
+    if not np.any(np.all(np.isfinite(cells), axis=1)):
+        raise ValueError("g has no complete frame: nothing to scale")
+    loaded = np.nanmax(cells, axis=0) > 0  # cells that never conduct add M(0) = 0 at any f
+    cells = cells[:, loaded]
+    if cells.shape[1] == 0:
+        raise ValueError("g is zero everywhere: no f can carry the weight")
+
+    def excess(f: float) -> float:
+        return _mean_force(cells, dt, f, sensor, area) - w
+
+    e_lo, e_hi = excess(lo), excess(hi)
+    if e_lo > 0 or e_hi < 0:
+        raise ValueError(f"the weight {w:g} N cannot be reached with f in [{lo:g}, {hi:g}]: the mean force is "
+                         f"{e_lo + w:.4g} N at f = {lo:g} and {e_hi + w:.4g} N at f = {hi:g}")
+    return float(optimize.brentq(excess, lo, hi, xtol=xtol, rtol=4 * np.finfo(float).eps))
