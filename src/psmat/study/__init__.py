@@ -1,0 +1,5 @@
+"""Studies processed in batch (SPEC §6 study layout, §12): discovery, running, results."""
+
+from .layout import StudyItem, StudyLayout, Subject, find_study, read_subjects
+
+__all__ = ["Subject", "StudyItem", "StudyLayout", "find_study", "read_subjects"]

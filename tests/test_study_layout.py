@@ -1,0 +1,69 @@
+"""psmat.study.find_study: a study folder's sessions paired with platform files and subjects,
+problems reported per session (SPEC §6), on real files."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from psmat.io import SessionWriter
+from psmat.study import find_study, read_subjects
+
+
+def _session(path, subject, trial, frames=4):
+    with SessionWriter(path, (4, 4), {"rows": 4, "cols": 4}, metadata={"subject": subject, "trial": trial}) as w:
+        w.append(np.full((frames, 4, 4), 100, np.uint16), np.arange(frames) * 0.01, np.ones(frames, bool))
+
+
+@pytest.fixture
+def study(tmp_path):
+    (tmp_path / "sessions").mkdir()
+    (tmp_path / "forceplate").mkdir()
+    (tmp_path / "subjects.csv").write_text("subject,weight_kg,height_cm\nS01,70.5,175\nS02,58,160\n")
+    _session(tmp_path / "sessions" / "S01_right.h5", "S01", "right-leg")
+    _session(tmp_path / "sessions" / "S02_left.h5", "S02", "left-leg")
+    _session(tmp_path / "sessions" / "S03_rot.h5", "S03", "rotation")  # not in subjects.csv
+    (tmp_path / "sessions" / "S04_bad.h5").write_bytes(b"not an HDF5 file at all")
+    for stem in ("S01_right", "S03_rot", "S04_bad"):  # S02 has no platform file
+        (tmp_path / "forceplate" / f"{stem}.csv").write_text("time,x,y\n0,0,0\n0.01,0.1,0.2\n")
+    return tmp_path
+
+
+def test_pairs_and_problems(study) -> None:
+    lay = find_study(study)
+    by = {i.stem: i for i in lay.items}
+    assert sorted(by) == ["S01_right", "S02_left", "S03_rot", "S04_bad"]
+    assert by["S01_right"].ok and by["S01_right"].subject == "S01" and by["S01_right"].trial == "right-leg"
+    assert by["S01_right"].forceplate == study / "forceplate" / "S01_right.csv"
+    assert by["S02_left"].problems == ["no force-platform file forceplate/S02_left.csv"]
+    assert by["S03_rot"].problems == ["subject 'S03' is not in subjects.csv"]
+    assert len(by["S04_bad"].problems) == 1 and by["S04_bad"].problems[0].startswith("unreadable session")
+    assert lay.subjects["S01"].weight_kg == 70.5
+    assert lay.subjects["S01"].weight_n == pytest.approx(70.5 * 9.80665)
+    assert lay.subjects["S01"].extra == {"height_cm": "175"}
+    assert lay.problems == []
+
+
+def test_missing_subjects_file_is_a_study_problem_not_a_crash(study) -> None:
+    (study / "subjects.csv").unlink()
+    lay = find_study(study)
+    assert any("subjects.csv" in p for p in lay.problems)
+    assert all("not in subjects.csv" in " ".join(i.problems) for i in lay.items if i.stem != "S04_bad")
+
+
+@pytest.mark.parametrize("text, match", [
+    ("subject,height_cm\nS01,170\n", "weight_kg"),
+    ("subject,weight_kg\nS01,heavy\n", "not a number"),
+    ("subject,weight_kg\nS01,70\nS01,71\n", "twice"),
+    ("subject,weight_kg\nS01,7000\n", "expected kg"),
+])
+def test_bad_subjects_file(tmp_path, text, match) -> None:
+    p = tmp_path / "subjects.csv"
+    p.write_text(text)
+    with pytest.raises(ValueError, match=match):
+        read_subjects(p)
+
+
+def test_no_sessions_folder(tmp_path) -> None:
+    with pytest.raises(FileNotFoundError, match="sessions"):
+        find_study(tmp_path)
