@@ -14,7 +14,7 @@
 
 from .crc import crc16
 from .daq import (DAQ_MAX_COUNT, DAQ_PERIOD_S, DAQ_SENSORS, DAQ_START, DAQ_STOP, DaqLineDecoder, DaqMalformed,
-                  DaqSample, encode_daq_command, encode_daq_line, parse_daq_line)
+                  DaqSample, encode_daq_command, encode_daq_line, parse_daq_fields, parse_daq_line)
 from .decoder import (Event, Frame, Gap, ImuV1Decoder, Reply, V1Decoder, V2Decoder, decode_imu_v1, decode_v1,
                       decode_v2)
 from .v1 import IMU_SHAPE, INIT, V1_MAX_COUNT, encode_imu_v1, encode_v1, encode_v1_many, v1_frame_size
@@ -36,5 +36,5 @@ __all__ = [
     "Frame", "Reply", "Gap", "Event", "V1Decoder", "ImuV1Decoder", "V2Decoder",
     # daq
     "DAQ_SENSORS", "DAQ_MAX_COUNT", "DAQ_PERIOD_S", "DAQ_START", "DAQ_STOP", "encode_daq_line",
-    "parse_daq_line", "encode_daq_command", "DaqSample", "DaqMalformed", "DaqLineDecoder",
+    "parse_daq_fields", "parse_daq_line", "encode_daq_command", "DaqSample", "DaqMalformed", "DaqLineDecoder",
 ]

@@ -8,22 +8,26 @@ decimal, separated by commas, ending ``\\r\\n``::
 Host commands are single characters: ``s`` starts, ``f`` stops. :class:`DaqLineDecoder`
 splits an arbitrary byte stream into lines (keeping a partial line for the next chunk) and
 reports malformed lines instead of raising. Logs on disk are read by
-:func:`psmat.sensor.load_daq_log`.
+:func:`psmat.sensor.load_daq_log`. Both go through :func:`parse_daq_fields`, the one parser
+of these lines (which also takes semicolons or white space between the fields, as logs saved
+by other tools have them).
 """
 
 from __future__ import annotations
 
+import math
+import re
 from dataclasses import dataclass
 from typing import Literal, Union
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ._checks import as_bytes
+from .._checks import as_bytes
 
 __all__ = [
     "DAQ_SENSORS", "DAQ_MAX_COUNT", "DAQ_PERIOD_S", "DAQ_START", "DAQ_STOP",
-    "encode_daq_line", "parse_daq_line", "encode_daq_command",
+    "encode_daq_line", "parse_daq_fields", "parse_daq_line", "encode_daq_command",
     "DaqSample", "DaqMalformed", "DaqLineDecoder",
 ]
 
@@ -62,19 +66,45 @@ def encode_daq_line(counts: ArrayLike, *, n_sensors: int = DAQ_SENSORS) -> bytes
     return (",".join(str(int(v)) for v in arr) + "\r\n").encode("ascii")
 
 
-def parse_daq_line(line: str | bytes, *, n_sensors: int = DAQ_SENSORS) -> NDArray[np.int16]:
-    """Parse one DAQ line (with or without its ``\\r\\n``).
+# Separators between fields: the DAQ prints commas (thesis §2.4.1); logs saved by other tools
+# use semicolons or white space. Spaces around a separator are tolerated.
+_SEPARATOR = re.compile(r"[ \t]*[,;][ \t]*|[ \t]+")
+# A reading in counts: the decimal digits the DAQ prints (9 at most, so int() stays cheap).
+_COUNT = re.compile(r"[0-9]{1,9}")
+# Any decimal number (a reading in volts, the time column in ms): no inf/nan, no "1_000".
+_DECIMAL = re.compile(r"[+-]?(?:[0-9]+\.?[0-9]*|\.[0-9]+)(?:[eE][+-]?[0-9]+)?")
+
+
+def parse_daq_fields(line: str | bytes, n_fields: int = DAQ_SENSORS, *, counts_from: int = 0
+                     ) -> NDArray[np.float64]:
+    """Split one DAQ text line into its numbers: the one parser of the DAQ's lines.
+
+    Used by the wire decoder (:func:`parse_daq_line`, :class:`DaqLineDecoder`) and by the
+    log loader (:func:`psmat.sensor.load_daq_log`), so that both accept and reject the same lines.
+
+    Parameters
+    ----------
+    line : str or bytes
+        One line, with or without its ``\\r\\n``; bytes must be ASCII.
+    n_fields : int
+        Number of fields the line must have.
+    counts_from : int
+        Fields ``counts_from`` and later must be counts (decimal digits only, as the DAQ
+        prints them); earlier fields (a time column in ms, readings in V) may be any finite
+        decimal number. ``n_fields`` makes every field a decimal number.
 
     Returns
     -------
-    ndarray of int16, shape (n_sensors,)
-        The counts.
+    ndarray of float64, shape (n_fields,)
+        The values (no range check: the range depends on the ADC, see the callers).
 
     Raises
     ------
     ValueError
-        Not exactly ``n_sensors`` comma-separated decimal fields (spaces around a field
-        are tolerated), or a value outside ``[0, 1023]``.
+        Not exactly ``n_fields`` fields separated by commas, semicolons or white space, a
+        field that is not a number of its kind, or non-ASCII bytes.
+    TypeError
+        ``line`` is neither str nor bytes.
     """
     if isinstance(line, (bytes, bytearray, memoryview)):
         try:
@@ -85,20 +115,40 @@ def parse_daq_line(line: str | bytes, *, n_sensors: int = DAQ_SENSORS) -> NDArra
         text = line
     else:
         raise TypeError(f"line must be str or bytes, got {type(line).__name__}")
-    text = text.rstrip("\r\n")
-    fields = text.split(",")
-    if len(fields) != n_sensors:
-        raise ValueError(f"DAQ line has {len(fields)} fields, expected {n_sensors}: {text[:80]!r}")
-    out = np.empty(n_sensors, dtype=np.int16)
+    text = text.rstrip("\r\n").strip(" \t")
+    fields = _SEPARATOR.split(text)
+    if len(fields) != n_fields:
+        raise ValueError(f"DAQ line: expected {n_fields} values, got {len(fields)} fields: {text[:80]!r}")
+    out = np.empty(n_fields, dtype=np.float64)
     for i, f in enumerate(fields):
-        f = f.strip(" \t")
-        if not (f.isascii() and f.isdigit()) or len(f) > 4:
-            raise ValueError(f"DAQ field {i} is not a decimal count: {f[:20]!r}")
-        v = int(f)
-        if v > DAQ_MAX_COUNT:
-            raise ValueError(f"DAQ field {i} = {v} exceeds {DAQ_MAX_COUNT}")
-        out[i] = v
+        if i >= counts_from:
+            if not _COUNT.fullmatch(f):
+                raise ValueError(f"DAQ field {i} is not a decimal count: {f[:20]!r}")
+        elif not _DECIMAL.fullmatch(f) or not math.isfinite(float(f)):
+            raise ValueError(f"DAQ field {i} is not a finite decimal number: {f[:20]!r}")
+        out[i] = float(f)
     return out
+
+
+def parse_daq_line(line: str | bytes, *, n_sensors: int = DAQ_SENSORS) -> NDArray[np.int16]:
+    """Parse one DAQ line from the wire (with or without its ``\\r\\n``).
+
+    Returns
+    -------
+    ndarray of int16, shape (n_sensors,)
+        The counts.
+
+    Raises
+    ------
+    ValueError
+        What :func:`parse_daq_fields` rejects, or a count above ``DAQ_MAX_COUNT`` (1023).
+    """
+    values = parse_daq_fields(line, n_sensors)
+    over = np.flatnonzero(values > DAQ_MAX_COUNT)
+    if over.size:
+        i = int(over[0])
+        raise ValueError(f"DAQ field {i} = {int(values[i])} exceeds {DAQ_MAX_COUNT}")
+    return values.astype(np.int16)
 
 
 def encode_daq_command(command: Literal["start", "stop"]) -> bytes:

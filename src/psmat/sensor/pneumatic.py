@@ -33,7 +33,6 @@ import csv
 import io
 import math
 import os
-import re
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -42,7 +41,9 @@ from typing import Any, Literal, NamedTuple, Union
 import numpy as np
 from numpy.typing import NDArray
 
+from .._checks import conductances, fraction, positive, positive_int
 from ..circuit import OPEN, Circuit
+from ..protocol.daq import parse_daq_fields
 from .mpi_creep import MPICreep
 from .protocols import Protocol, Segment, segments_from_pressure
 
@@ -174,12 +175,9 @@ def simulate_run(protocol: Protocol, model: MPICreep | None = None, cells: int =
     """
     if not isinstance(protocol, Protocol):
         raise TypeError(f"protocol must be a Protocol, got {type(protocol).__name__}")
-    if isinstance(cells, bool) or int(cells) != cells or int(cells) < 1:
-        raise ValueError(f"cells must be an integer >= 1, got {cells!r}")
-    cells = int(cells)
-    for nm, v in (("variability", variability), ("noise_rel", noise_rel)):
-        if not (math.isfinite(float(v)) and float(v) >= 0):
-            raise ValueError(f"{nm} must be finite and >= 0, got {v!r}")
+    cells = positive_int("cells", cells)
+    variability = fraction("variability", variability, 0.0, math.inf)
+    noise_rel = fraction("noise_rel", noise_rel, 0.0, math.inf)
     model = MPICreep.thesis() if model is None else model
     gen = np.random.default_rng(rng)
     g0 = model.direct(protocol.p_psi, protocol.dt_s)  # (T,) S, one cell from rest
@@ -196,10 +194,8 @@ def simulate_run(protocol: Protocol, model: MPICreep | None = None, cells: int =
 
 # --------------------------------------------------------------------------- divider
 def _check_divider(r_o: float, v_ref: float, bits: int, sensor_side: str) -> None:
-    if not (math.isfinite(r_o) and r_o > 0):
-        raise ValueError(f"r_o must be finite and > 0 Ω, got {r_o!r}")
-    if not (math.isfinite(v_ref) and v_ref > 0):
-        raise ValueError(f"v_ref must be finite and > 0 V, got {v_ref!r}")
+    positive("r_o", r_o)  # Ω
+    positive("v_ref", v_ref)  # V
     if isinstance(bits, bool) or int(bits) != bits or not 1 <= int(bits) <= 16:
         raise ValueError(f"bits must be an integer in 1..16, got {bits!r}")
     if sensor_side not in ("low", "high"):
@@ -253,8 +249,7 @@ def divider_counts(g: NDArray[np.float64], r_o: float = DAQ_R_O, bits: int = DAQ
     simulations of the DAQ."""
     _check_divider(float(r_o), 1.0, bits, sensor_side)
     g = np.asarray(g, dtype=np.float64)
-    if np.any(~np.isfinite(g) | (g < 0)):
-        raise ValueError("g must be finite and >= 0 S")
+    g = conductances(g, "g")
     return _divider(r_o, sensor_side, bits).counts(g).astype(np.int64)
 
 
@@ -284,13 +279,6 @@ def _read_lines(source: PathOrLines, what: str) -> tuple[list[str], str, bool]:
     lines = [ln.rstrip("\r\n") for ln in raw]
     name = getattr(source, "name", None) or "<lines>"
     return lines, str(name), terminated
-
-
-_SPLIT = re.compile(r"\s*[,;]\s*|\s+")
-
-
-def _fields(text: str) -> list[str]:
-    return _SPLIT.split(text.strip())
 
 
 def _parse_number(tok: str) -> float:
@@ -352,10 +340,11 @@ def load_schedule_csv(source: PathOrLines) -> tuple[NDArray[np.float64], NDArray
     return np.asarray(ts), np.asarray(ps)
 
 
-def _parse_daq_lines(lines: Sequence[str], name: str, terminated: bool, n_fields: int, comment: str
-                     ) -> tuple[list[int], NDArray[np.float64], list[SkippedLine]]:
-    """Numeric rows of a DAQ log; returns their line numbers, the (N, n_fields) values, skipped lines."""
-    rows: list[list[float]] = []
+def _parse_daq_lines(lines: Sequence[str], name: str, terminated: bool, n_fields: int, counts_from: int,
+                     comment: str) -> tuple[list[int], NDArray[np.float64], list[SkippedLine]]:
+    """Numeric rows of a DAQ log (each through :func:`psmat.protocol.parse_daq_fields`, the
+    wire's parser); returns their line numbers, the (N, n_fields) values, skipped lines."""
+    rows: list[NDArray[np.float64]] = []
     line_nos: list[int] = []
     skipped: list[SkippedLine] = []
     last = max((k for k, ln in enumerate(lines) if ln.split(comment, 1)[0].strip()), default=-1)
@@ -363,11 +352,8 @@ def _parse_daq_lines(lines: Sequence[str], name: str, terminated: bool, n_fields
         s = text.split(comment, 1)[0].strip()
         if not s:
             continue
-        toks = _fields(s)
         try:
-            if len(toks) != n_fields:
-                raise ValueError(f"expected {n_fields} values, got {len(toks)}")
-            vals = [_parse_number(tok) for tok in toks]
+            vals = parse_daq_fields(s, n_fields, counts_from=counts_from)
         except ValueError as exc:
             if k == last and not terminated:
                 skipped.append(SkippedLine(k + 1, text, f"trailing partial line ({exc})"))
@@ -388,7 +374,9 @@ def load_daq_log(path_or_lines: PathOrLines, schedule: Protocol | PathOrLines | 
     """Load a material-DAQ log and align it with the applied-pressure schedule.
 
     The DAQ (thesis §2.4.1) sends one text line every 500 ms with the readings of its
-    ``n_sensors`` sensors, separated by whitespace, commas or semicolons. Blank lines and
+    ``n_sensors`` sensors, separated by whitespace, commas or semicolons; each line goes
+    through :func:`psmat.protocol.parse_daq_fields`, the parser the live reader uses, so counts
+    are decimal digits (readings in volts and the time column any decimal number). Blank lines and
     ``comment`` lines are ignored; a last line cut short (no newline at the end of the file
     and not a full, numeric line — the acquisition stopped mid-line) is left out and listed in
     ``skipped``. Any other malformed line is an error.
@@ -448,11 +436,8 @@ def load_daq_log(path_or_lines: PathOrLines, schedule: Protocol | PathOrLines | 
     FileNotFoundError
         For a missing file.
     """
-    if isinstance(n_sensors, bool) or int(n_sensors) != n_sensors or int(n_sensors) < 1:
-        raise ValueError(f"n_sensors must be an integer >= 1, got {n_sensors!r}")
-    n_sensors = int(n_sensors)
-    if not (math.isfinite(dt) and dt > 0):
-        raise ValueError(f"dt must be finite and > 0 s, got {dt!r}")
+    n_sensors = positive_int("n_sensors", n_sensors)
+    dt = positive("dt", dt)  # s
     if unit not in ("counts", "volts"):
         raise ValueError(f"unit must be 'counts' or 'volts', got {unit!r}")
     _check_divider(float(r_o), float(v_ref), bits, sensor_side)
@@ -461,7 +446,8 @@ def load_daq_log(path_or_lines: PathOrLines, schedule: Protocol | PathOrLines | 
 
     lines, src_name, terminated = _read_lines(path_or_lines, "DAQ log")
     n_fields = n_sensors + (1 if time_column else 0)
-    line_nos, vals, skipped = _parse_daq_lines(lines, src_name, terminated, n_fields, comment)
+    counts_from = (1 if time_column else 0) if unit == "counts" else n_fields
+    line_nos, vals, skipped = _parse_daq_lines(lines, src_name, terminated, n_fields, counts_from, comment)
     readings = vals[:, 1:] if time_column else vals
 
     # range of the readings, reported with the line that breaks it
