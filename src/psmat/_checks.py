@@ -249,8 +249,8 @@ def conductances(G: Any, name: str = "G") -> NDArray[np.float64]:
     g = real_dtype(name, G).astype(np.float64, copy=False)
     bad = ~np.isfinite(g)
     if bad.any():
-        raise ValueError(f"{name} must be finite; non-finite value {g[first_bad(bad)]!r} at index {first_bad(bad)}")
+        raise ValueError(f"{name} must be finite; non-finite value {float(g[first_bad(bad)])!r} at index {first_bad(bad)}")
     bad = g < 0
     if bad.any():
-        raise ValueError(f"{name} must be >= 0 (S); negative value {g[first_bad(bad)]!r} at index {first_bad(bad)}")
+        raise ValueError(f"{name} must be >= 0 (S); negative value {float(g[first_bad(bad)])!r} at index {first_bad(bad)}")
     return g

@@ -1,42 +1,21 @@
 """Validation of the measurement-chain constants (SPEC §2), shared by ``Circuit`` and ``Calibration``.
 
-One home for the checks, so that a circuit and a calibration accept and reject the same
-constants with the same messages; neither module has to build the other to validate itself.
+Circuit-specific: which constants a reading circuit has and their ranges (``bits`` 1..16,
+``r_mux`` a scalar or one per pair, ``r_adc = inf`` for an ideal ADC), so that a circuit and
+a calibration accept and reject the same constants with the same messages. The generic
+checks it is built from live in :mod:`psmat._checks`.
 """
 
 from __future__ import annotations
 
-import math
 from typing import Any
 
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import NDArray
 
-__all__ = ["check_constants", "first_bad", "positive_scalar", "real_array"]
+from ._checks import first_bad, positive_scalar, real_dtype
 
-
-def first_bad(mask: NDArray[np.bool_]) -> tuple[int, ...]:
-    """Index (as a tuple) of the first True element of ``mask`` in C order."""
-    flat = int(np.flatnonzero(mask)[0])
-    return tuple(int(k) for k in np.unravel_index(flat, mask.shape))
-
-
-def real_array(name: str, value: ArrayLike) -> NDArray[Any]:
-    """Convert to an ndarray of a real numeric dtype; complex/object/str/bool → TypeError."""
-    arr = np.asarray(value)
-    if arr.dtype.kind not in "iuf":
-        raise TypeError(f"{name} must be a real numeric array, got dtype {arr.dtype}")
-    return arr
-
-
-def positive_scalar(name: str, value: Any, *, allow_inf: bool = False) -> float:
-    """Validate a strictly positive real scalar (finite unless ``allow_inf``)."""
-    if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, float, np.integer, np.floating)):
-        raise TypeError(f"{name} must be a real number, got {type(value).__name__}")
-    v = float(value)
-    if math.isnan(v) or v <= 0 or (math.isinf(v) and not allow_inf):
-        raise ValueError(f"{name} must be {'> 0' if allow_inf else 'finite and > 0'}, got {value!r}")
-    return v
+__all__ = ["check_constants"]
 
 
 def check_constants(
@@ -77,7 +56,7 @@ def check_constants(
         raise TypeError(f"bits must be an integer, got {type(bits).__name__}")
     if not 1 <= int(bits) <= 16:
         raise ValueError(f"bits must be in 1..16, got {bits}")
-    rm = real_array("r_mux", r_mux).astype(np.float64)
+    rm = real_dtype("r_mux", r_mux).astype(np.float64)
     if rm.ndim not in (0, 2):
         raise ValueError(f"r_mux must be a scalar or an (R, C) array, got shape {rm.shape}")
     bad = ~np.isfinite(rm) | (rm < 0)

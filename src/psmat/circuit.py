@@ -36,9 +36,8 @@ from typing import Any, Literal
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from ._checks import conductances, first_bad, real_dtype
 from ._circuit_checks import check_constants
-from ._circuit_checks import first_bad as _first_bad
-from ._circuit_checks import real_array as _real_array
 from .calibration import Calibration
 
 __all__ = [
@@ -61,18 +60,6 @@ OPEN: int = 2
 FIRST_PROTOTYPE_R_ADC: float = 123e3
 #: ADC input resistance of the improved prototype (thesis §2.2.2: "about 6.9 MΩ").
 IMPROVED_PROTOTYPE_R_ADC: float = 6.9e6
-
-
-def _check_conductance(G: ArrayLike) -> NDArray[np.float64]:
-    """Validate equivalent conductances: real, finite, >= 0 (S)."""
-    g = _real_array("G", G).astype(np.float64, copy=False)
-    bad = ~np.isfinite(g)
-    if bad.any():
-        raise ValueError(f"G must be finite; non-finite value {g[_first_bad(bad)]!r} at index {_first_bad(bad)}")
-    bad = g < 0
-    if bad.any():
-        raise ValueError(f"G must be >= 0 (S); negative value {g[_first_bad(bad)]!r} at index {_first_bad(bad)}")
-    return g
 
 
 class Circuit:
@@ -251,7 +238,7 @@ class Circuit:
         ndarray of float64
             ``V_x = V_ref R_x / (R_o + R_x)`` (V); high side ``V_ref R_b / (R_path + R_b)``.
         """
-        g = _check_conductance(G)
+        g = conductances(G)
         self._broadcast(g, "G")
         gp = self._path_conductance(g)
         if self._high:  # V_x = V_ref R_b G_path/(1 + R_b G_path)
@@ -266,9 +253,9 @@ class Circuit:
         v : array_like
             Node voltages (V), real; NaN is rejected.
         """
-        x = _real_array("v", v).astype(np.float64, copy=False)
+        x = real_dtype("v", v).astype(np.float64, copy=False)
         if np.isnan(x).any():
-            raise ValueError(f"v contains NaN at index {_first_bad(np.isnan(x))}")
+            raise ValueError(f"v contains NaN at index {first_bad(np.isnan(x))}")
         return np.clip(np.rint(x / self._v_ref * self.full_scale), 0, self.full_scale).astype(np.uint16)
 
     def counts(
@@ -295,7 +282,7 @@ class Circuit:
             Counts in ``[0, 2**bits - 1]``, shape of ``G`` (broadcast with ``r_mux``).
         """
         v = self.voltage(G)
-        sv = _real_array("noise_v", noise_v).astype(np.float64, copy=False)
+        sv = real_dtype("noise_v", noise_v).astype(np.float64, copy=False)
         if not np.all(np.isfinite(sv)) or np.any(sv < 0):
             raise ValueError("noise_v must be finite and >= 0 (V)")
         if np.any(sv > 0):
@@ -315,7 +302,7 @@ class Circuit:
         G : array_like
             Equivalent conductances (S), finite and >= 0.
         """
-        g = _check_conductance(G)
+        g = conductances(G)
         self._broadcast(g, "G")
         gp = self._path_conductance(g)
         r, gn = (self._r_b, gp) if self._high else (self._r_o, gp + 1.0 / self._r_adc)
@@ -336,7 +323,7 @@ class Circuit:
         ndarray of float64
             ``|dG/dV_x| sigma_v`` (S).
         """
-        sv = _real_array("sigma_v", sigma_v).astype(np.float64, copy=False)
+        sv = real_dtype("sigma_v", sigma_v).astype(np.float64, copy=False)
         if not np.all(np.isfinite(sv)) or np.any(sv < 0):
             raise ValueError("sigma_v must be finite and >= 0 (V)")
         return sv / self.sensitivity(G)
@@ -402,9 +389,9 @@ class Circuit:
             reading (OPEN; low side ``v >= V_ref``) unless ``extrapolate_open``.
         flags : ndarray of uint8, only if ``return_flags``
         """
-        x = _real_array("v", v).astype(np.float64, copy=False)
+        x = real_dtype("v", v).astype(np.float64, copy=False)
         if np.isnan(x).any():
-            raise ValueError(f"v contains NaN at index {_first_bad(np.isnan(x))}")
+            raise ValueError(f"v contains NaN at index {first_bad(np.isnan(x))}")
         self._broadcast(x, "v")
         g, gpath = self._invert(x)
         short, open_ = self._range_ends(x <= 0, x >= self._v_ref)
@@ -412,22 +399,22 @@ class Circuit:
         return (g, flags) if return_flags else g
 
     def _check_counts(self, counts: ArrayLike) -> NDArray[np.float64]:
-        c = _real_array("counts", counts)
+        c = real_dtype("counts", counts)
         if c.dtype.kind == "f":
             bad = np.isnan(c)
             if bad.any():
-                raise ValueError(f"counts contain NaN at index {_first_bad(bad)}")
+                raise ValueError(f"counts contain NaN at index {first_bad(bad)}")
             bad = c != np.round(c)
             if bad.any():
-                raise ValueError(f"counts must be integer-valued; {c[_first_bad(bad)]!r} at index {_first_bad(bad)}")
+                raise ValueError(f"counts must be integer-valued; {c[first_bad(bad)]!r} at index {first_bad(bad)}")
         bad = c < 0
         if bad.any():
-            raise ValueError(f"counts must be >= 0; {c[_first_bad(bad)]!r} at index {_first_bad(bad)}")
+            raise ValueError(f"counts must be >= 0; {c[first_bad(bad)]!r} at index {first_bad(bad)}")
         bad = c > self.full_scale
         if bad.any():
             raise ValueError(
                 f"counts must be <= full scale {self.full_scale} ({self._bits} bits); "
-                f"{c[_first_bad(bad)]!r} at index {_first_bad(bad)}"
+                f"{c[first_bad(bad)]!r} at index {first_bad(bad)}"
             )
         return c.astype(np.float64)
 

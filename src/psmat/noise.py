@@ -17,6 +17,7 @@ from typing import Literal
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from ._checks import conductances
 from .circuit import Circuit
 
 __all__ = [
@@ -48,18 +49,6 @@ TABLE_2_4_RELATIVE: NDArray[np.float64] = _const(list(TABLE_2_4_SIGMA_G_S * TABL
 _LOG_R = np.log(TABLE_2_4_R_OHM)
 
 
-def _check_G(G: ArrayLike) -> NDArray[np.float64]:
-    g = np.asarray(G)
-    if g.dtype.kind not in "iuf":
-        raise TypeError(f"G must be a real numeric array, got dtype {g.dtype}")
-    g = g.astype(np.float64, copy=False)
-    bad = ~np.isfinite(g) | (g < 0)
-    if bad.any():
-        idx = tuple(int(k) for k in np.unravel_index(int(np.flatnonzero(bad)[0]), g.shape))
-        raise ValueError(f"G must be finite and >= 0 (S); got {g[idx]!r} at index {idx}")
-    return g
-
-
 def relative_sigma(G: ArrayLike) -> NDArray[np.float64]:
     """Relative standard deviation ``σ_G/G`` of the Table 2.4 / Fig. 2.12 model.
 
@@ -74,7 +63,7 @@ def relative_sigma(G: ArrayLike) -> NDArray[np.float64]:
         ``σ_G/G`` (dimensionless), linear in ``log(1/G)`` between the table resistances,
         constant below 100 Ω and above 220 kΩ (``G = 0`` takes the 220 kΩ value).
     """
-    g = _check_G(G)
+    g = conductances(G)
     with np.errstate(divide="ignore"):
         log_r = -np.log(g)  # log R; +inf for an open cell, which np.interp holds at the end value
     return np.interp(log_r, _LOG_R, TABLE_2_4_RELATIVE)
@@ -85,7 +74,7 @@ def sigma_G(G: ArrayLike) -> NDArray[np.float64]:
 
     Zero for an open cell (``G = 0``): the model is relative.
     """
-    g = _check_G(G)
+    g = conductances(G)
     return relative_sigma(g) * g
 
 
@@ -132,7 +121,7 @@ def add_noise(
     ``"voltage"`` model a draw whose voltage reaches the reading of a zero-resistance cell
     (or 0 V) has no finite conductance and is returned as NaN.
     """
-    g = _check_G(G)
+    g = conductances(G)
     gen = np.random.default_rng(rng)
     if model == "table":
         out = g + gen.standard_normal(g.shape) * sigma_G(g)

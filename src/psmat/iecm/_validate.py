@@ -1,8 +1,10 @@
-"""Input checks shared by the IECM entry points: clear errors instead of garbage."""
+"""The IECM's conductance frames: clear errors instead of garbage (generic checks: psmat._checks)."""
 
 from __future__ import annotations
 
 import numpy as np
+
+from .._checks import finite_values, nonnegative
 
 __all__ = ["as_frames"]
 
@@ -36,21 +38,10 @@ def as_frames(x, name: str, *, allow_zero: bool, max_ndim: int = 3,
         a = a[None]
     if a.shape[0] == 0:
         raise ValueError(f"{name} has no frames")
-    bad = ~np.isfinite(a)
-    if bad.any():
-        idx = tuple(int(i) for i in np.argwhere(bad)[0])
-        raise ValueError(f"{name} has {int(bad.sum())} non-finite value(s) (NaN/inf), first at {_fmt(idx, single)}")
-    neg = a < 0 if allow_zero else a <= 0
-    if neg.any():
-        idx = tuple(int(i) for i in np.argwhere(neg)[0])
-        what = "negative" if allow_zero else "zero or negative"
-        raise ValueError(
-            f"{name} has {int(neg.sum())} {what} conductance(s), first at {_fmt(idx, single)} "
-            f"= {a[idx]!r}; conductances are in S and must be > 0"
-            + ("" if allow_zero else " (an open or saturated reading must be masked before IECM)")
-        )
+    at = (lambda idx: f"cell {idx[1:]}") if single else (lambda idx: f"frame {idx[0]}, cell {idx[1:]}")
+    finite_values(a, name, where=at)
+    nonnegative(a, name, allow_zero=allow_zero, noun="conductance(s)", where=at,
+                hint="; conductances are in S and must be > 0"
+                + ("" if allow_zero else " (an open or saturated reading must be masked before IECM)"))
     return a, single
 
-
-def _fmt(idx: tuple[int, ...], single: bool) -> str:
-    return f"cell {idx[1:]}" if single else f"frame {idx[0]}, cell {idx[1:]}"

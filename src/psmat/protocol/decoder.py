@@ -46,7 +46,7 @@ from typing import Any, Literal, Union
 import numpy as np
 from numpy.typing import NDArray
 
-from ._checks import as_bytes, shape2
+from .._checks import as_bytes, shape2
 from .crc import crc16
 from .v1 import IMU_SHAPE, V1_MAX_COUNT
 from .v2 import CRC_SIZE, HEADER_SIZE, MAX_PAYLOAD, SYNC, VERSION, Opcode, PacketType, Status

@@ -19,7 +19,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import ArrayLike
 
-from ._checks import float32_frame, int_frame, shape2
+from .._checks import float32_frame, int_frame, shape2
 
 __all__ = [
     "INIT", "V1_MAX_COUNT", "IMU_SHAPE",

@@ -29,7 +29,7 @@ from typing import Any, Literal, Mapping
 
 from numpy.typing import ArrayLike
 
-from ._checks import as_bytes, float32_frame, int_frame, uint
+from .._checks import as_bytes, float32_frame, int_frame, uint
 from .crc import crc16
 
 __all__ = [

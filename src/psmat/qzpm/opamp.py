@@ -14,13 +14,14 @@ from __future__ import annotations
 
 import numpy as np
 
+from .._checks import positive
+
 __all__ = ["from_output_voltage", "output_voltage"]
 
 
 def _check_circuit(r_d: float, r_f: float, v_ref: float) -> None:
-    for name, v in (("r_d", r_d), ("r_f", r_f)):
-        if not (np.isfinite(v) and v > 0):
-            raise ValueError(f"{name} must be a positive finite resistance in Ohm, got {v!r}")
+    positive("r_d", r_d)  # Ohm
+    positive("r_f", r_f)
     if not (np.isfinite(v_ref) and v_ref != 0):
         raise ValueError(f"v_ref must be a finite non-zero voltage in V, got {v_ref!r}")
 

@@ -16,46 +16,29 @@ from typing import Any
 import numpy as np
 
 from .. import _core
+from .._checks import nonnegative, real_array
 
 __all__ = ["Readings", "QzpmSolution", "SWITCH_MODES", "forward", "jacobian", "solve", "closed_form"]
 
 SWITCH_MODES = ("shared", "separate")
-
-
-def _real(x, name: str) -> np.ndarray:
-    a = np.asarray(x)
-    if a.dtype == object or not (np.issubdtype(a.dtype, np.floating) or np.issubdtype(a.dtype, np.integer)):
-        raise TypeError(f"{name} must be a real numeric array (S), got dtype {a.dtype}")
-    a = np.array(a, dtype=np.float64, order="C")  # a copy; keeps 0-d scalars 0-d
-    bad = ~np.isfinite(a)
-    if bad.any():
-        raise ValueError(f"{name} has {int(bad.sum())} non-finite value(s) (NaN/inf), first at {tuple(int(i) for i in np.argwhere(bad)[0])}")
-    return a
-
-
-def _positive(a: np.ndarray, name: str, *, allow_zero: bool) -> None:
-    neg = a < 0 if allow_zero else a <= 0
-    if neg.any():
-        idx = tuple(int(i) for i in np.argwhere(neg)[0])
-        what = "negative" if allow_zero else "zero or negative"
-        raise ValueError(f"{name} has {int(neg.sum())} {what} value(s), first at {idx} = {a[idx]!r}; conductances are in S")
+_IN_S = "; conductances are in S"
 
 
 def _cells(g) -> np.ndarray:
-    a = _real(g, "g")
+    a = real_array(g, "g", unit="S")
     if a.ndim != 2 or a.shape[0] < 1 or a.shape[1] < 1:
         raise ValueError(f"g must have shape (R, C), got {a.shape}")
-    _positive(a, "g", allow_zero=True)
+    nonnegative(a, "g", hint=_IN_S)
     return a
 
 
 def _switches(x, n: int, name: str) -> np.ndarray:
-    a = _real(x, name)
+    a = real_array(x, name, unit="S")
     if a.ndim == 0:
         a = np.full(n, float(a))
     if a.shape != (n,):
         raise ValueError(f"{name} must be a scalar or have shape ({n},), got {a.shape}")
-    _positive(a, name, allow_zero=False)
+    nonnegative(a, name, allow_zero=False, hint=_IN_S)
     return a
 
 
@@ -86,9 +69,9 @@ class Readings:
 
     def validated(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, bool]:
         """Checked float64 copies with a leading batch axis, and whether the input was single."""
-        p = _real(self.pairs, "readings.pairs")
-        r = _real(self.rows, "readings.rows")
-        c = _real(self.cols, "readings.cols")
+        p = real_array(self.pairs, "readings.pairs", unit="S")
+        r = real_array(self.rows, "readings.rows", unit="S")
+        c = real_array(self.cols, "readings.cols", unit="S")
         if p.ndim not in (2, 3):
             raise ValueError(f"readings.pairs must have shape (R, C) or (T, R, C), got {p.shape}")
         single = p.ndim == 2
@@ -99,7 +82,7 @@ class Readings:
             want = f"({R},) and ({C},)" if single else f"({T}, {R}) and ({T}, {C})"
             raise ValueError(f"readings.rows / readings.cols must have shapes {want}, got {np.shape(self.rows)} and {np.shape(self.cols)}")
         for a, name in ((p, "readings.pairs"), (r, "readings.rows"), (c, "readings.cols")):
-            _positive(a, name, allow_zero=False)
+            nonnegative(a, name, allow_zero=False, hint=_IN_S)
         return p, r, c, single
 
 

@@ -34,6 +34,8 @@ from typing import Any, NamedTuple
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from .._checks import positive, positive_int
+
 __all__ = [
     "Segment",
     "Protocol",
@@ -127,27 +129,14 @@ class Protocol:
 
 
 # --------------------------------------------------------------------------- helpers
-def _positive(name: str, value: float) -> float:
-    v = float(value)
-    if not (math.isfinite(v) and v > 0):
-        raise ValueError(f"{name} must be finite and > 0, got {value!r}")
-    return v
-
-
 def _n_samples(name: str, duration_s: float, dt: float) -> int:
     """Whole number of samples in ``duration_s`` (s) at period ``dt`` (s)."""
-    duration_s = _positive(name, duration_s)
+    duration_s = positive(name, duration_s)
     n = duration_s / dt
     k = round(n)
     if k < 1 or abs(n - k) > 1e-9 * max(1.0, n):
         raise ValueError(f"{name} = {duration_s} s is not a whole number of samples of dt = {dt} s")
     return int(k)
-
-
-def _count(name: str, value: int, minimum: int = 1) -> int:
-    if isinstance(value, bool) or int(value) != value or int(value) < minimum:
-        raise ValueError(f"{name} must be an integer >= {minimum}, got {value!r}")
-    return int(value)
 
 
 def _build(name: str, plateaus: Sequence[tuple[str, float, int, int, int]], dt: float,
@@ -241,9 +230,9 @@ def fast_cyclic(level_psi: float = 5.0, cycles: int = 20, on_s: float = 120.0, o
         ``name="fast_cyclic"``; segments alternate ``"load"`` and ``"rest"``, ``cycle`` = cycle
         number. The run starts with the first load pulse and ends with the last rest.
     """
-    dt = _positive("dt", dt)
-    level = _positive("level_psi", level_psi)
-    cycles = _count("cycles", cycles)
+    dt = positive("dt", dt)
+    level = positive("level_psi", level_psi)
+    cycles = positive_int("cycles", cycles)
     n_on, n_off = _n_samples("on_s", on_s, dt), _n_samples("off_s", off_s, dt)
     plateaus = []
     for k in range(cycles):
@@ -275,7 +264,7 @@ def long_staircase(levels: Sequence[float] = (0, 5, 15, 30, 15, 5, 0), step_s: f
         ``name="long_staircase"``; one ``"step"`` segment per level, ``cycle`` = step number
         (0-based; the thesis' tables number them from 1: "2) 5 PSI" is ``cycle`` 1).
     """
-    dt = _positive("dt", dt)
+    dt = positive("dt", dt)
     lv = [float(v) for v in levels]
     if not lv:
         raise ValueError("levels must not be empty")
@@ -320,10 +309,10 @@ def descending_hysteresis(step_psi: float = 2.0, step_s: float = 6.0, p_max: flo
         ``"down"`` or ``"rest"`` (0 psi), ``cycle`` = loop number (0: peak 32 psi),
         ``repetition``. The loop labelled by its peak P (Table 2.9) is the 0→P→0 excursion.
     """
-    dt = _positive("dt", dt)
-    step_psi, p_max = _positive("step_psi", step_psi), _positive("p_max", p_max)
-    dec = _positive("peak_step_psi", peak_step_psi)
-    repetitions = _count("repetitions", repetitions)
+    dt = positive("dt", dt)
+    step_psi, p_max = positive("step_psi", step_psi), positive("p_max", p_max)
+    dec = positive("peak_step_psi", peak_step_psi)
+    repetitions = positive_int("repetitions", repetitions)
     n = _n_samples("step_s", step_s, dt)
     n_loops = int(math.floor(p_max / dec + 1e-9))
     peaks = [p_max - k * dec for k in range(n_loops) if p_max - k * dec > 1e-9]
@@ -369,10 +358,10 @@ def ascending_hysteresis(step_psi: float = 2.0, step_s: float = 6.0, p_max: floa
     Protocol
         ``name="ascending_hysteresis"``; segments as in :func:`descending_hysteresis`.
     """
-    dt = _positive("dt", dt)
-    step_psi, p_max = _positive("step_psi", step_psi), _positive("p_max", p_max)
-    inc = _positive("valley_step_psi", valley_step_psi)
-    repetitions = _count("repetitions", repetitions)
+    dt = positive("dt", dt)
+    step_psi, p_max = positive("step_psi", step_psi), positive("p_max", p_max)
+    inc = positive("valley_step_psi", valley_step_psi)
+    repetitions = positive_int("repetitions", repetitions)
     n = _n_samples("step_s", step_s, dt)
     valleys = []
     k = 1
