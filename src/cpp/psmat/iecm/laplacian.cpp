@@ -36,31 +36,34 @@ bool connected(const Shape& s, const ConstVecRef& g, std::vector<Index>& parent)
 }
 }  // namespace
 
+bool cell_laplacian(const Shape& s, const ConstVecRef& g, Eigen::MatrixXd& L) {
+  const Index R = s.rows, C = s.cols;
+  if (g.size() != s.cells()) return false;
+  L.setZero(s.nodes(), s.nodes());
+  for (Index i = 0; i < R; ++i)
+    for (Index p = 0; p < C; ++p) {
+      const double gip = g[i * C + p];
+      if (!(gip >= 0.0) || !std::isfinite(gip)) return false;  // negative or NaN/inf
+      L(i, i) += gip;
+      L(R + p, R + p) += gip;
+      L(i, R + p) = -gip;
+      L(R + p, i) = -gip;
+    }
+  return true;
+}
+
 NodalInverse::NodalInverse(Shape shape)
     : shape_(shape),
-      cmat_(shape.nodes() - 1, shape.nodes() - 1),
+      lap_(shape.nodes(), shape.nodes()),
       llt_(shape.nodes() - 1),
       m_(Eigen::MatrixXd::Zero(shape.nodes(), shape.nodes())) {}
 
 bool NodalInverse::compute(const ConstVecRef& g) {
-  const Index R = shape_.rows, C = shape_.cols, n = shape_.nodes();
+  const Index n = shape_.nodes();
   if (!connected(shape_, g, parent_)) return false;
-  // eq. 2.7: diagonal = sum of the conductances at the node, off-diagonal = -g between a
-  // row node and a column node; index k-1 for node k (node 0 is ground and dropped).
-  cmat_.setZero();
-  for (Index i = 0; i < R; ++i) {
-    for (Index p = 0; p < C; ++p) {
-      const double gip = g[i * C + p];
-      const Index col = R + p - 1;
-      cmat_(col, col) += gip;
-      if (i > 0) {
-        cmat_(i - 1, i - 1) += gip;
-        cmat_(i - 1, col) = -gip;
-        cmat_(col, i - 1) = -gip;
-      }
-    }
-  }
-  llt_.compute(cmat_);
+  // eq. 2.7: the cell Laplacian with node 0 (row 0, ground) dropped: node k is index k-1
+  if (!cell_laplacian(shape_, g, lap_)) return false;
+  llt_.compute(lap_.bottomRightCorner(n - 1, n - 1));
   if (llt_.info() != Eigen::Success) return false;
   auto inner = m_.bottomRightCorner(n - 1, n - 1);
   inner.setIdentity();

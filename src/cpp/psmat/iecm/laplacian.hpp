@@ -13,6 +13,13 @@
 
 namespace psmat::iecm {
 
+// Laplacian of the cell network, nothing grounded (eq. 2.7 before node 0 is dropped):
+// n x n, node order as above, L(i,i) = sum_p g[i,p], L(R+p,R+p) = sum_i g[i,p],
+// L(i,R+p) = L(R+p,i) = -g[i,p]. `L` is resized to n x n. Returns false (L unusable) for a
+// negative or non-finite g. One assembly for the IECM (grounded at node 0, NodalInverse) and
+// the QZPM readout (every line grounded through its switch, thesis eq. C.4-C.6).
+bool cell_laplacian(const Shape& s, const ConstVecRef& g, Eigen::MatrixXd& L);
+
 class NodalInverse {
  public:
   explicit NodalInverse(Shape shape);
@@ -37,7 +44,7 @@ class NodalInverse {
 
  private:
   Shape shape_;
-  Eigen::MatrixXd cmat_;  // (n-1) x (n-1)
+  Eigen::MatrixXd lap_;   // n x n cell Laplacian; Cmat is its lower-right (n-1) x (n-1) block
   Eigen::LLT<Eigen::MatrixXd> llt_;
   Eigen::MatrixXd m_;     // n x n
   std::vector<Index> parent_;  // union-find workspace of the connectivity check

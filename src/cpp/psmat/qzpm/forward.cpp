@@ -2,6 +2,8 @@
 
 #include <cmath>
 
+#include "psmat/iecm/laplacian.hpp"
+
 namespace psmat::qzpm {
 
 Eigen::VectorXd Readings::flat() const {
@@ -26,20 +28,11 @@ Network::Network(Shape shape)
       llt_(shape.nodes()) {}
 
 bool Network::compute(const ConstVecRef& g, const ConstVecRef& sw) {
-  const Index R = shape_.rows, C = shape_.cols;
   if (g.size() != shape_.cells() || sw.size() != shape_.nodes()) return false;
   for (Index k = 0; k < sw.size(); ++k)
     if (!(sw[k] > 0.0) || !std::isfinite(sw[k])) return false;
-  a_.setZero();
-  for (Index i = 0; i < R; ++i)
-    for (Index p = 0; p < C; ++p) {
-      const double gip = g[i * C + p];
-      if (!(gip >= 0.0) || !std::isfinite(gip)) return false;
-      a_(i, i) += gip;
-      a_(R + p, R + p) += gip;
-      a_(i, R + p) = -gip;
-      a_(R + p, i) = -gip;
-    }
+  // eq. C.4-C.6: the IECM's cell Laplacian plus each line's switch to "in" or ground
+  if (!iecm::cell_laplacian(shape_, g, a_)) return false;
   a_.diagonal() += sw;
   sw_ = sw;
   llt_.compute(a_);

@@ -5,7 +5,7 @@
 // line k has its own switch of conductance g_k (g_row for rows, g_col for columns) that ties
 // it to "in" when the line is selected and to ground otherwise. With
 //     A = L_cells + diag(g_row, g_col)        (n x n, n = R + C; SPD for g_k > 0, g >= 0)
-// (the cell Laplacian is the same as IECM's, but nothing is grounded: every line reaches
+// (L_cells is the IECM's, iecm::cell_laplacian, but no node is dropped: every line reaches
 // ground or "in" through its own switch, so A's diagonal holds g_k in both switch states),
 // selecting a set S of lines with coupling vector s = sum_{k in S} g_k e_k gives node
 // potentials V = v V_in, v = A^-1 s, and the admittance between "in" and ground
