@@ -10,7 +10,8 @@
 #include <string>
 #include <vector>
 
-#include "json_lite.hpp"
+#include <nlohmann/json.hpp>
+
 #include "psmat/iecm/forward.hpp"
 #include "psmat/types.hpp"
 
@@ -38,8 +39,20 @@ struct RefCase {
   VectorXd g, G, jac_row0, jac_col_last;  // row-major flattened
 };
 
-inline VectorXd to_vec(const std::vector<double>& v) {
-  return Eigen::Map<const VectorXd>(v.data(), static_cast<Index>(v.size()));
+// All numbers of a (nested) JSON array in row-major order; a non-number FAILS the test.
+inline void flatten_into(const nlohmann::json& v, std::vector<double>& out) {
+  if (v.is_array()) {
+    for (const auto& x : v) flatten_into(x, out);
+  } else {
+    REQUIRE(v.is_number());
+    out.push_back(v.get<double>());
+  }
+}
+
+inline VectorXd to_vec(const nlohmann::json& v) {
+  std::vector<double> flat;
+  flatten_into(v, flat);
+  return Eigen::Map<const VectorXd>(flat.data(), static_cast<Index>(flat.size()));
 }
 
 // Loads every case of iecm_forward.json. A missing or malformed file FAILS the calling test
@@ -51,17 +64,18 @@ inline std::vector<RefCase> load_forward_reference() {
     INFO("reference vectors expected at " << path << " (../shared beside the repository)");
     REQUIRE(probe.good());
   }
-  const json_lite::Value root = json_lite::load(path);
+  std::ifstream in(path);
+  const nlohmann::json root = nlohmann::json::parse(in);  // throws (fails the test) if malformed
   std::vector<RefCase> out;
-  for (const auto& [name, c] : root["cases"].object) {
+  for (const auto& [name, c] : root.at("cases").items()) {
     RefCase rc;
     rc.name = name;
-    const auto& gj = c["g"];
-    rc.shape = Shape{static_cast<Index>(gj.size()), static_cast<Index>(gj[0].size())};
-    rc.g = to_vec(gj.flatten());
-    rc.G = to_vec(c["G"].flatten());
-    rc.jac_row0 = to_vec(c["jacobian_row0"].flatten());
-    rc.jac_col_last = to_vec(c["jacobian_col_last"].flatten());
+    const auto& gj = c.at("g");
+    rc.shape = Shape{static_cast<Index>(gj.size()), static_cast<Index>(gj.at(0).size())};
+    rc.g = to_vec(gj);
+    rc.G = to_vec(c.at("G"));
+    rc.jac_row0 = to_vec(c.at("jacobian_row0"));
+    rc.jac_col_last = to_vec(c.at("jacobian_col_last"));
     REQUIRE(rc.g.size() == rc.shape.cells());
     REQUIRE(rc.G.size() == rc.shape.cells());
     REQUIRE(rc.jac_row0.size() == rc.shape.cells());
