@@ -2,15 +2,17 @@
 
 Three panels, refreshed a few tens of times per second:
 
-1. **raw** - equivalent conductance ``G`` (mS) of the newest frame, from the counts through
-   :meth:`psmat.Circuit.conductance` (SPEC §2); open readings (an unloaded cell beyond what
-   the ADC resolves) are shown as 0;
-2. **pressure** - crosstalk removed with a warm-started :class:`psmat.iecm.Stream`
-   (SPEC §3), unloaded leakage ``g_rest`` subtracted, then the inverse sensor model
-   (:meth:`psmat.sensor.MPICreep.inverse`, SPEC §4) with its operator state carried from
-   frame to frame; in kPa, the current CoP marked;
+1. **raw** - equivalent conductance ``G`` (mS) of the newest frame (SPEC §2);
+2. **pressure** - crosstalk removed (SPEC §3), unloaded leakage ``g_rest`` subtracted, the
+   inverse sensor model applied (SPEC §4); in kPa, the current CoP marked;
 3. **CoP** - the last ``history_s`` seconds of the centre of pressure (SPEC §7, the
    convention of :func:`psmat.balance.cop`): M-L (x, columns) and A-P (y, rows) in cm.
+
+The numbers are those of the one processing chain, :class:`psmat.process.Processor`: the view
+pushes the frames it shows with the time between them, and the chain carries the IECM warm
+start and the sensor model's state from push to push. Open readings, short readings and
+frames that failed their check on the wire follow the chain's policy (:mod:`psmat.process`);
+the last two are counted in the status line as invalid / unusable and leave no CoP point.
 
 Keeping up: every redraw takes all the frames that arrived since the previous one; every
 ``decimate``-th of them is a candidate, and as many of the newest candidates are processed
@@ -19,9 +21,6 @@ divided by the measured cost per frame). When the machine cannot keep up with th
 view therefore *decimates* - it processes the newest frames and skips older ones (the
 sensor model is then stepped with the real time between the frames it sees) - and the
 status line reports the effective processing rate beside the rate of frames received.
-
-Frames that failed their check on the wire, and frames with a short reading, are not
-processed (counted in the status line as invalid / unusable).
 """
 
 from __future__ import annotations
@@ -35,9 +34,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..acquire.errors import DeviceDisconnected
-from ..balance import cop as _cop
-from ..circuit import OPEN, SHORT, Circuit
-from ..process import PSI_KPA, open_floor
+from ..circuit import Circuit
+from ..process import Processor
 from ..sensor import MPICreep
 
 __all__ = ["LiveView", "ViewResult", "run_view", "FrameSource"]
@@ -142,7 +140,8 @@ class LiveView:
     Attributes
     ----------
     G : ndarray (R, C)
-        Newest processed equivalent conductance, S (0 where open, NaN before the first frame).
+        Newest processed equivalent conductance, S (open readings at the open floor, NaN
+        before the first frame).
     pressure_kpa : ndarray (R, C)
         Newest compensated pressure, kPa (NaN before the first frame, or without IECM).
     cop_t, cop_cm : ndarray (N,), (N, 2)
@@ -159,8 +158,8 @@ class LiveView:
                  pitch_cm: float = 2.0, budget_s: float = 0.04, port: str | None = None, fig: Any = None) -> None:
         if int(decimate) != decimate or decimate < 1:
             raise ValueError(f"decimate must be a positive integer, got {decimate!r}")
-        if not (history_s > 0 and budget_s > 0 and pitch_cm > 0 and g_rest >= 0):
-            raise ValueError("history_s, budget_s and pitch_cm must be > 0 and g_rest >= 0")
+        if not (history_s > 0 and budget_s > 0):
+            raise ValueError("history_s and budget_s must be > 0")
         self.device = device
         shape = shape or getattr(device, "shape", None) or (16, 16)
         if len(shape) != 2 or min(shape) < 2:
@@ -171,16 +170,12 @@ class LiveView:
         self.history_s = float(history_s)
         desc = getattr(device, "description", None) or {}
         self.rate_hz = float(rate_hz or desc.get("rate") or 100.0)
-        self.circuit = circuit or Circuit()
-        self.sensor = sensor or MPICreep.thesis()
-        self.g_rest = float(g_rest)
-        self.pitch_cm = float(pitch_cm)
+        self._chain = Processor(self.shape, circuit=circuit, sensor=sensor, g_rest=g_rest, pitch_cm=pitch_cm,
+                                method="newton" if self.use_iecm else None, threads=1)
+        self.pitch_cm = self._chain.pitch_cm
         self.budget_s = float(budget_s)
         self.port = str(port if port is not None else getattr(device, "port", "?"))
-        self._floor = open_floor(self.circuit)
-        self._stream: Any = None
-        self._state = self.sensor.rest_state(self.shape) if self.use_iecm else None
-        self._t_prev: float | None = None     # frame time of the previous processed frame (s)
+        self._t_prev: float | None = None     # frame time of the previous pushed frame (s)
         self._cost_s = 1e-3                    # measured processing cost per frame (EMA, s)
         self.G = np.full(self.shape, np.nan)
         self.pressure_kpa = np.full(self.shape, np.nan)
@@ -273,67 +268,46 @@ class LiveView:
 
     def _process(self, batch: Any, first_index: int, budget_s: float) -> bool:
         frames = np.asarray(batch.frames)
+        valid = np.asarray(batch.valid, bool)
         idx = first_index + np.arange(len(frames))
-        candidates = np.flatnonzero((idx % self.decimate == 0) & np.asarray(batch.valid, bool))
-        self.unusable += int((~np.asarray(batch.valid, bool)).sum())
+        candidates = np.flatnonzero((idx % self.decimate == 0) & valid)
+        self.unusable += int((~valid).sum())
         if candidates.size == 0:
             return False
-        G_all, flags = self.circuit.conductance(frames[candidates], return_flags=True)
-        short = np.any(flags == SHORT, axis=(1, 2))
-        self.unusable += int(short.sum())
-        keep = np.flatnonzero(~short)
-        if keep.size == 0:
-            return False
-        n_fit = max(1, int(budget_s / max(self._cost_s, 1e-6)))
-        n_fit = min(n_fit, 200)
-        if keep.size > n_fit:
-            self.skipped += int(keep.size - n_fit)
-            keep = keep[-n_fit:]
-        times = self._frame_times(batch, first_index)[candidates[keep]]
-        seqs = np.asarray(batch.seq)[candidates[keep]]
-        G, fl = G_all[keep], flags[keep]
+        n_fit = min(max(1, int(budget_s / max(self._cost_s, 1e-6))), 200)
+        if candidates.size > n_fit:
+            self.skipped += int(candidates.size - n_fit)
+            candidates = candidates[-n_fit:]
+        times = self._frame_times(batch, first_index)[candidates]
         t0 = time.perf_counter()
-        if self.use_iecm:
-            pressure = self._compensate(np.where(fl == OPEN, self._floor, G), times)
-            cops = _cop(pressure, self.pitch_cm)
-            self.pressure_kpa = pressure[-1]
-        else:
-            cops = _cop(np.where(fl == OPEN, 0.0, G), self.pitch_cm)
-        cost = (time.perf_counter() - t0) / len(keep)
+        out = self._chain.push(frames[candidates], self._periods(times))
+        cost = (time.perf_counter() - t0) / len(candidates)
         self._cost_s = 0.8 * self._cost_s + 0.2 * cost if self.processed else cost
-        self.G = np.where(fl[-1] == OPEN, 0.0, G[-1])
-        self.last_seq = int(seqs[-1])
-        self.processed += len(keep)
-        for t, (x, y) in zip(times, cops):
+        ok = out.usable
+        self.unusable += int((~ok).sum())  # a short reading
+        if not ok.any():
+            return False
+        last = int(np.flatnonzero(ok)[-1])
+        self.G = out.G[last]
+        if self.use_iecm:
+            self.pressure_kpa = out.pressure_kpa[last]
+        self.last_seq = int(np.asarray(batch.seq)[candidates[last]])
+        self.processed += int(ok.sum())
+        cops = out.cop_cm if self.use_iecm else out.cop_raw_cm
+        for t, (x, y) in zip(times[ok], cops[ok]):
             self._trace.append((float(t), float(x), float(y)))
-        t_new = float(times[-1])
+        t_new = float(times[last])
         while self._trace and (self._trace[0][0] < t_new - self.history_s or self._trace[0][0] > t_new):
             self._trace.popleft()
         return True
 
-    def _compensate(self, G: NDArray[np.float64], times: NDArray[np.float64]) -> NDArray[np.float64]:
-        """IECM (warm-started stream) and the inverse sensor model, frame by frame: kPa (T, R, C)."""
-        from .. import iecm
-
-        if self._stream is None:
-            self._stream = iecm.Stream(self.shape, "newton", threads=1, max_pending=256)
-        out = np.empty_like(G)
-        g = np.empty_like(G)
-        for k in range(len(G)):
-            self._stream.push(G[k])
-        for k in range(len(G)):
-            r = self._stream.pop(timeout=10.0)
-            if r is None:
-                raise RuntimeError("IECM stream produced no result within 10 s")
-            g[k] = r[1]
-        u = np.maximum(g - self.g_rest, 0.0)
-        for k in range(len(G)):
-            dt = (times[k] - self._t_prev) if self._t_prev is not None else 1.0 / self.rate_hz
-            if not (np.isfinite(dt) and dt > 0):
-                dt = 1.0 / self.rate_hz
-            out[k] = self.sensor.inverse(u[k][None], float(dt), self._state)[0] * PSI_KPA
-            self._t_prev = float(times[k])
-        return out
+    def _periods(self, times: NDArray[np.float64]) -> NDArray[np.float64]:
+        """Time since the previously pushed frame, s, for each frame pushed now (1/rate_hz for the
+        first frame, or where the clock did not advance)."""
+        prev = np.concatenate([[np.nan if self._t_prev is None else self._t_prev], times[:-1]])
+        periods = times - prev
+        self._t_prev = float(times[-1])
+        return np.where(np.isfinite(periods) & (periods > 0), periods, 1.0 / self.rate_hz)
 
     # ------------------------------------------------------------------ figure
     def _build_figure(self, fig: Any) -> None:
@@ -355,7 +329,7 @@ class LiveView:
         self.im_raw = self.ax_raw.imshow(blank, origin="lower", cmap="viridis", extent=extent, vmin=0, vmax=1,
                                          interpolation="nearest")
         self.cb_raw = fig.colorbar(self.im_raw, ax=self.ax_raw, shrink=0.85, label="G (mS)")
-        self.ax_raw.set_title("raw: equivalent conductance G\n(crosstalk included, open = 0)", fontsize=10)
+        self.ax_raw.set_title("raw: equivalent conductance G\n(crosstalk included, open = open floor)", fontsize=10)
         self._label_mat_axes(self.ax_raw)
         self.ax_p = self.im_p = self.cb_p = self.cop_marker = None
         if self.use_iecm:
@@ -491,13 +465,8 @@ class LiveView:
         return str(path)
 
     def close(self) -> None:
-        """Close the IECM stream (the device is its owner's to close)."""
-        if self._stream is not None:
-            try:
-                self._stream.close()
-            except Exception:  # noqa: BLE001
-                pass
-            self._stream = None
+        """Stop the processing chain's IECM worker (the device is its owner's to close)."""
+        self._chain.close()
 
 
 def run_view(view: LiveView, *, seconds: float | None = None, interval_s: float = 0.05,
