@@ -20,9 +20,13 @@ from psmat.twin import PsmSource, SerialTwin  # noqa: E402
 
 
 def _drive(view: LiveView, received: int, processed: int, timeout_s: float = 60.0) -> None:
-    """Update and draw until the view received and processed that many frames (hang guard: fail)."""
+    """Update and draw until the view received and processed that many frames (hang guard: fail).
+
+    At least 3 rounds: the status line is written by update, so the last one has seen the 2
+    draws that a display rate needs (a slow first draw on a loaded machine once left it 1).
+    """
     deadline = time.monotonic() + timeout_s
-    while view.received < received or view.processed < processed:
+    while view.received < received or view.processed < processed or view.draws < 3:
         if time.monotonic() > deadline:
             pytest.fail(f"{view.received} frames received, {view.processed} processed within {timeout_s:g} s")
         view.update(timeout=0.05)
