@@ -1,4 +1,4 @@
-"""The NumPy/SciPy baseline (independent IECM cross-check), the synthetic scenes and the benchmark CLI."""
+"""The NumPy/SciPy baseline (independent IECM cross-check) and the benchmark CLI (its frames: tests/test_twin_conductance.py)."""
 
 from __future__ import annotations
 
@@ -9,7 +9,7 @@ import sys
 import numpy as np
 import pytest
 
-from psmat import scenes
+from psmat import twin
 from psmat.bench.baseline_numpy import (
     forward_numpy,
     jacobian_numpy,
@@ -41,7 +41,7 @@ def test_forward_batch_equals_frames(iecm_reference):
 def test_forward_physics():
     # One 1 S cell, the rest tiny: G of that cell is close to 1 S and always below the cell
     # in parallel with everything else; G <= g + (paths through the rest) and G >= g.
-    g = scenes.random_array(5, 4, rng=3)
+    g = twin.random_array((5, 4), seed=3)
     G = forward_numpy(g)
     assert np.all(G >= g * (1 - 1e-12))
     # 2x2 closed form: cell (0,0) in parallel with the series path (0,1)-(1,1)-(1,0).
@@ -73,7 +73,7 @@ def test_jacobian_matches_reference_and_finite_differences(iecm_reference):
 
 @pytest.fixture(scope="module")
 def small_case():
-    g = scenes.random_array(4, 4, low=1e-4, high=1e-2, rng=11)
+    g = twin.random_array((4, 4), (1e-4, 1e-2), seed=11)
     return g, forward_numpy(g)
 
 
@@ -113,71 +113,6 @@ def test_least_squares_rejects_bad_options(small_case):
         solve_least_squares_scipy(G, residual="nope")
     with pytest.raises(ValueError, match="one"):
         solve_least_squares_scipy(np.stack([G, G]))
-
-
-# ----------------------------------------------------------------------------- scenes
-
-@pytest.mark.parametrize("n", [16, 32, 64])
-def test_two_feet_ranges(n):
-    g = scenes.two_feet(n, n, rng=0)
-    assert g.shape == (n, n) and g.dtype == np.float64
-    assert g.min() >= 1e-6 * (1 - 1e-12)
-    assert 5e-3 <= g.max() <= 2e-2                       # loaded cells reach ~1e-2 S
-    loaded = g >= 1e-3
-    assert 0.08 <= loaded.mean() <= 0.4                   # two feet on a 32 cm mat
-    quiet = g < 1.0001e-5
-    assert quiet.mean() >= 0.4                            # a quiet background around them
-    # Same feet in cm at finer pitch: loaded area grows ~ with the cell count.
-    if n > 16:
-        coarse = (scenes.two_feet(16, 16, rng=0) >= 1e-3).sum()
-        assert loaded.sum() == pytest.approx(coarse * (n / 16) ** 2, rel=0.35)
-
-
-def test_two_feet_seeded_and_cop_offset():
-    a = scenes.two_feet(rng=5)
-    np.testing.assert_array_equal(a, scenes.two_feet(rng=np.random.default_rng(5)))
-    assert not np.array_equal(a, scenes.two_feet(rng=6))
-    # The CoP of the pressure moves by exactly the requested offset (no clipping at 1 cm).
-    p0 = scenes.feet_pressure(16, 16)
-    pitch = scenes.default_pitch(16, 16)
-    X, Y = np.meshgrid((np.arange(16) + 0.5) * pitch, (np.arange(16) + 0.5) * pitch)
-    w = scenes._cop_weights(p0, X, Y, np.array([[0.7, -1.2]]))[0]
-    p = p0 * w
-    shift = np.array([np.sum(p * X), np.sum(p * Y)]) / p.sum() - np.array([np.sum(p0 * X), np.sum(p0 * Y)]) / p0.sum()
-    np.testing.assert_allclose(shift, [0.7, -1.2], atol=1e-10)
-    assert p.sum() == pytest.approx(p0.sum(), rel=1e-12)
-    # Pressure integrates to the body weight.
-    assert p0.sum() * 1e3 * (pitch * 1e-2) ** 2 == pytest.approx(700.0, rel=1e-12)
-    moved = scenes.two_feet(cop_offset_cm=(0.0, 1.0), rng=5)
-    assert moved.shape == a.shape and not np.allclose(moved, a)
-
-
-def test_swaying_feet_consecutive_frames_close():
-    g, cop = scenes.swaying_feet(500, 16, 16, rng=1, return_cop=True)
-    assert g.shape == (500, 16, 16) and cop.shape == (500, 2)
-    assert g.min() >= 1e-6 * (1 - 1e-12) and g.max() <= 2e-2
-    step = np.abs(np.diff(g, axis=0)) / g[:-1]
-    assert step.max() < 0.05                               # consecutive frames are close
-    assert np.median(step.max(axis=(1, 2))) < 0.01
-    assert np.abs(np.diff(cop, axis=0)).max() < 0.1        # < 1 mm per frame at 100 Hz
-    assert 0.3 < np.ptp(cop[:, 1]) < 4.0                    # ~1 cm excursions
-    # Background cells do not move; the load does.
-    quiet = scenes.feet_pressure(16, 16) == 0
-    assert quiet.mean() > 0.4
-    np.testing.assert_array_equal(g[:, quiet], np.broadcast_to(g[0, quiet], (500, quiet.sum())))
-    assert np.ptp(g[:, ~quiet], axis=0).max() > 0
-    np.testing.assert_array_equal(g, scenes.swaying_feet(500, 16, 16, rng=1))
-
-
-def test_random_array():
-    g = scenes.random_array(16, 16, rng=0)
-    assert g.shape == (16, 16) and 1e-5 <= g.min() and g.max() <= 1e-2
-    lin = scenes.random_array(3, 7, low=1.0, high=2.0, log=False, rng=0)
-    assert lin.shape == (3, 7) and 1.0 <= lin.min() and lin.max() <= 2.0
-    with pytest.raises(ValueError):
-        scenes.random_array(1, 4)
-    with pytest.raises(ValueError):
-        scenes.random_array(4, 4, low=0.0)
 
 
 # ----------------------------------------------------------------------------- benchmark CLI

@@ -8,7 +8,7 @@ import pytest
 
 @pytest.fixture(scope="module")
 def recording(tmp_path_factory):
-    from psmat.demo_sway import record_sway
+    from psmat.workflows.sway_demo import record_sway
 
     path = tmp_path_factory.mktemp("demo") / "demo.h5"
     return record_sway(seconds=3, session=path, progress=False, log=lambda *a: None)
@@ -33,7 +33,7 @@ def test_the_figure_states_the_cause_the_rms_and_the_mat_in_cm(recording):
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from psmat.demo_sway import sway_figure
+    from psmat.workflows.sway_demo import sway_figure
 
     res = recording.res
     fig = sway_figure(recording)

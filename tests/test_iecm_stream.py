@@ -93,10 +93,10 @@ def _noisy_twin_frames(T=50):
     """16x16 G as a mat measures it (1 mV, 12 bits): slower to solve than to push."""
     from psmat.circuit import OPEN
     from psmat.process import open_floor
-    from psmat.scenes import swaying_feet
+    from psmat.twin import swaying_feet
 
     c = psmat.Circuit()
-    g = swaying_feet(T, 16, 16, rng=0)
+    g = swaying_feet(T, (16, 16), seed=0)
     G, flags = c.conductance(c.counts(psmat.iecm.forward(g), noise_v=1e-3, rng=1), return_flags=True)
     return np.where(flags == OPEN, open_floor(c), G)
 

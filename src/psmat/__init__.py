@@ -3,18 +3,18 @@
 Submodules: :mod:`psmat.iecm` (crosstalk removal), :class:`psmat.Circuit` (measurement
 chain counts <-> conductance), :class:`psmat.Calibration` (a box's R_adc and R_mux, as data)
 and :mod:`psmat.calibration_estimate` (their estimates from open/short-circuit recordings),
-:mod:`psmat.noise` (Table 2.4 noise model), :mod:`psmat.scenes` (synthetic conductance
-images), :mod:`psmat.sensor` (Velostat hysteresis + creep), :mod:`psmat.protocol` (wire
-formats), :mod:`psmat.io` (session files, force platforms), :mod:`psmat.twin` (the simulated
-mat), :mod:`psmat.acquire` (reading devices over serial), :mod:`psmat.process` (counts →
-pressure → CoP), :mod:`psmat.qzpm` (IECM for the QZPM readout, App. C),
+:mod:`psmat.noise` (Table 2.4 noise model), :mod:`psmat.sensor` (Velostat hysteresis +
+creep), :mod:`psmat.protocol` (wire formats), :mod:`psmat.io` (session files, force
+platforms), :mod:`psmat.twin` (the simulated mat: the one synthetic world of tests,
+benchmarks and demos), :mod:`psmat.acquire` (reading devices over serial),
+:mod:`psmat.process` (counts → pressure → CoP), :mod:`psmat.qzpm` (IECM for the QZPM readout, App. C),
 :mod:`psmat.experiments` (the thesis' crosstalk studies).
 """
 
-from . import acquire, balance, calibration_estimate, experiments, iecm, io, noise, protocol, qzpm, scenes, sensor, twin
+from . import acquire, balance, calibration_estimate, experiments, iecm, io, noise, protocol, qzpm, sensor, twin
 from .calibration import Calibration
 from .circuit import Circuit
 
 
 __version__ = "0.1.0"
-__all__ = ["acquire", "balance", "calibration_estimate", "experiments", "iecm", "io", "noise", "protocol", "qzpm", "scenes", "sensor", "twin", "Circuit", "Calibration", "__version__"]
+__all__ = ["acquire", "balance", "calibration_estimate", "experiments", "iecm", "io", "noise", "protocol", "qzpm", "sensor", "twin", "Circuit", "Calibration", "__version__"]

@@ -4,9 +4,10 @@
 
 What is measured (SPEC §10)
 ---------------------------
-Frames are a swaying-feet recording (:func:`psmat.scenes.swaying_feet`: two feet on a
-quiet background, CoP sway ~1 cm, 100 Hz; 32 cm mat, so 2 / 1 / 0.5 cm pitch for
-16 / 32 / 64 cells). ``G`` is computed from the true ``g`` by the independent NumPy forward
+Frames are a swaying-feet recording from the digital twin (:func:`psmat.twin.swaying_feet`:
+quiet standing, CoP sway SD 2.5 mm M-L / 3.5 mm A-P, through the thesis' sensor model with
+15 % cell-to-cell gains, unloaded cells at the leakage 1e-7 S; 100 Hz; 32 cm mat, so
+2 / 1 / 0.5 cm pitch for 16 / 32 / 64 cells). ``G`` is computed from the true ``g`` by the independent NumPy forward
 model (:func:`psmat.bench.baseline_numpy.forward_numpy`), noise-free.
 
 * **streaming** — ``solve(G, warm_start=True, threads=K)``: every frame starts from the
@@ -39,11 +40,8 @@ too.
 from __future__ import annotations
 
 import argparse
-import datetime
 import json
 import multiprocessing as mp
-import os
-import platform
 import sys
 import time
 import traceback
@@ -51,8 +49,9 @@ import warnings
 
 import numpy as np
 
-from .. import scenes
+from .. import twin
 from .baseline_numpy import forward_numpy, jacobian_numpy, solve_fixed_point_numpy, solve_least_squares_scipy
+from .iecm_report import format_table, jsonable, machine_info
 
 __all__ = ["run", "format_table", "machine_info", "main", "TARGETS", "NOISY_TARGETS"]
 
@@ -75,46 +74,6 @@ NOISY_MAX_ITER = 50
 
 # ----------------------------------------------------------------------------- helpers
 
-def machine_info() -> dict:
-    """CPU model, cores, versions and date of this run."""
-    model = platform.processor() or platform.machine()
-    try:
-        with open("/proc/cpuinfo") as f:
-            for line in f:
-                if line.lower().startswith("model name"):
-                    model = line.split(":", 1)[1].strip()
-                    break
-    except OSError:
-        pass
-    try:
-        usable = len(os.sched_getaffinity(0))
-    except (AttributeError, OSError):
-        usable = os.cpu_count() or 1
-    try:
-        import scipy
-
-        scipy_version = scipy.__version__
-    except ImportError:  # pragma: no cover - scipy is a bench/test requirement
-        scipy_version = "not installed"
-    try:
-        from importlib.metadata import version
-
-        psmat_version = version("psmat")
-    except Exception:  # pragma: no cover
-        psmat_version = "unknown"
-    return {
-        "cpu": model,
-        "logical_cpus": os.cpu_count(),
-        "usable_cpus": usable,
-        "platform": platform.platform(),
-        "python": platform.python_version(),
-        "numpy": np.__version__,
-        "scipy": scipy_version,
-        "psmat": psmat_version,
-        "date": datetime.datetime.now().astimezone().isoformat(timespec="seconds"),
-    }
-
-
 def _scene(size: int, frames: int, seed: int, noise_v: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
     """True g and G (independent NumPy forward), both (T, size, size), in S.
 
@@ -122,7 +81,7 @@ def _scene(size: int, frames: int, seed: int, noise_v: float = 0.0) -> tuple[np.
     SPEC §2 (psmat.Circuit, improved prototype) with that voltage noise (V) and 12-bit
     quantisation, inverted back to G.
     """
-    g = scenes.swaying_feet(frames, size, size, rng=seed)
+    g = twin.swaying_feet(frames, (size, size), seed=seed)
     G = forward_numpy(g)
     if noise_v > 0:
         from ..circuit import Circuit
@@ -557,49 +516,6 @@ def run(sizes=(16, 32, 64), frames: int | None = None, threads=None, *, quick: b
             "rows": rows, "notes": notes}
 
 
-def _fmt(x: float, spec: str) -> str:
-    return "—" if x is None or not np.isfinite(x) else format(x, spec)
-
-
-def format_table(result: dict) -> str:
-    """Markdown table of the rows, the machine and the notes."""
-    m = result["machine"]
-    lines = [
-        f"IECM benchmark — {m['date']}",
-        f"machine: {m['cpu']}, {m['usable_cpus']} usable of {m['logical_cpus']} logical CPUs; "
-        f"{m['platform']}; Python {m['python']}, NumPy {m['numpy']}, SciPy {m['scipy']}, psmat {m['psmat']}",
-        f"frames: two feet swaying on a quiet background (psmat.scenes.swaying_feet, seed "
-        f"{result['settings']['seed']}), noise-free; error = max |ĝ-g|/g over cells with g >= "
-        f"{ERROR_THRESHOLD_S:g} S / over all cells",
-        "",
-        "| size | mode | solver | threads | frames | fps | fps/core | err g>=1e-4 | err all | iters | fact. | target |",
-        "| --- | --- | --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | --- |",
-    ]
-    notes = []
-    for r in result["rows"]:
-        tgt = ""
-        if r["target"]:
-            tgt = ("met " if r["target_met"] else "MISSED ") + r["target"]
-        fact = r.get("factorizations", float("nan"))
-        ref = ""
-        if r["note"]:
-            notes.append(r["note"])
-            ref = f" [{len(notes)}]"
-        lines.append(
-            f"| {r['size']}x{r['size']} | {r['mode']} | {r['solver']}{ref} | {r['threads']} | {r['frames']} | "
-            f"{_fmt(r['fps'], '.4g')} | {_fmt(r['fps_per_core'], '.4g')} | {_fmt(r['err_loaded'], '.1e')} | "
-            f"{_fmt(r['err_all'], '.1e')} | {_fmt(r['iterations'], '.1f')} | {_fmt(fact, '.2f')} | {tgt} |")
-    lines.append("")
-    for k, n in enumerate(notes, 1):
-        lines.append(f"[{k}] {n}")
-    for n in result["notes"]:
-        lines.append(f"- {n}")
-    lines.append("- streaming: consecutive frames, each warm-started from the previous solution, split in "
-                 "one contiguous chunk per thread, chunk starts primed with the previous frame's solution; "
-                 "cold: every frame from g0 = G. fps/core = fps / threads.")
-    return "\n".join(lines)
-
-
 def _int_list(text: str) -> list[int]:
     try:
         vals = [int(v) for v in text.split(",") if v.strip()]
@@ -644,22 +560,5 @@ def main(argv: list[str] | None = None) -> int:
     print(f"- wall time of the whole benchmark: {time.perf_counter() - t_start:.0f} s")
     if a.json:
         with open(a.json, "w") as f:
-            json.dump(_jsonable(res), f, indent=1)
+            json.dump(jsonable(res), f, indent=1)
     return 0
-
-
-def _jsonable(o):
-    """Plain JSON: NumPy scalars/arrays to Python, NaN/inf to null."""
-    if isinstance(o, dict):
-        return {str(k): _jsonable(v) for k, v in o.items()}
-    if isinstance(o, (list, tuple)):
-        return [_jsonable(v) for v in o]
-    if isinstance(o, np.ndarray):
-        return _jsonable(o.tolist())
-    if isinstance(o, np.generic):
-        o = o.item()
-    if isinstance(o, float) and not np.isfinite(o):
-        return None
-    if o is None or isinstance(o, (bool, int, float, str)):
-        return o
-    return str(o)

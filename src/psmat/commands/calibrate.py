@@ -40,7 +40,7 @@ def run(args: argparse.Namespace) -> int:
     import sys
 
     from ..acquire import open_device
-    from ..calibrate_steps import run_calibration
+    from ..workflows.calibrate_steps import run_calibration
 
     if bool(args.port) == bool(args.simulate):
         print("psmat calibrate: give a PORT or --simulate", file=sys.stderr)

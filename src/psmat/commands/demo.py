@@ -35,7 +35,7 @@ def run(args: argparse.Namespace) -> int:
     rows, cols = args.shape
     if not args.crosstalk:
         from ..acquire import find_devices
-        from ..demo_sway import run_sway_demo
+        from ..workflows.sway_demo import run_sway_demo
 
         if args.port is None and not args.twin:
             found = find_devices()
@@ -47,7 +47,7 @@ def run(args: argparse.Namespace) -> int:
         run_sway_demo(args.out, seconds=args.seconds, rate_hz=args.rate, session=args.session,
                       bds_trial=args.bds_trial, port=args.port, shape=args.shape, seed=args.seed)
         return 0
-    from ..demo import run_crosstalk_demo
+    from ..workflows.crosstalk_demo import run_crosstalk_demo
 
     res = run_crosstalk_demo(args.out, rows=rows, cols=cols, noise_v=args.noise_mv * 1e-3,
                              seed=args.seed, show=args.show)

@@ -22,7 +22,7 @@ import numpy as np
 
 from .. import iecm
 from ..noise import sigma_G as table_sigma_G
-from ..scenes import random_array
+from ..twin import random_array
 from ._common import UncertaintyComparison, fmt, format_table, plt, timed
 
 __all__ = ["RandomArrayUncertainty", "uncertainty_random", "compare_uncertainty"]
@@ -133,7 +133,7 @@ def uncertainty_random(
         Log-uniform draw (default) or uniform in g.
     """
     with timed() as t:
-        g = random_array(shape[0], shape[1], g_range[0], g_range[1], log=log, rng=seed)
+        g = random_array(shape, g_range, log=log, seed=seed)
         G, sG, prop, mc = compare_uncertainty(g, draws=draws, seed=None if seed is None else seed + 1)
     return RandomArrayUncertainty(
         g=g, G=G, sigma_G=sG, sigma_prop=prop, sigma_mc=mc, draws=int(draws), seed=seed, seconds=t[0],

@@ -1,7 +1,8 @@
 """`psmat demo`: crosstalk removal on a simulated 16x16 mat, end to end, with a figure.
 
-Two feet on a quiet background (``psmat.scenes``) -> equivalent conductances through the
-array's crosstalk (IECM forward model, eq. 2.5) -> the measurement chain with 1 mV noise and
+Two feet standing on the twin's mat (:func:`psmat.twin.swaying_feet`: the pressure field
+through the thesis' sensor model, unloaded cells at the leakage g_rest) -> equivalent
+conductances through the array's crosstalk (IECM forward model, eq. 2.5) -> the measurement chain with 1 mV noise and
 12-bit quantisation (``psmat.Circuit``, SPEC §2) -> counts -> back to G -> IECM -> cell
 conductances with their propagated uncertainty (eq. 2.11). Prints the ghost level and the
 centre-of-pressure error before and after, and writes a figure.
@@ -13,9 +14,9 @@ from pathlib import Path
 
 import numpy as np
 
-from . import iecm, scenes
-from .balance import cop
-from .circuit import Circuit
+from .. import iecm, twin
+from ..balance import cop
+from ..circuit import Circuit
 
 __all__ = ["run_crosstalk_demo"]
 
@@ -23,9 +24,9 @@ __all__ = ["run_crosstalk_demo"]
 def run_crosstalk_demo(out: str | Path = "psmat_demo.png", *, rows: int = 16, cols: int = 16,
                        noise_v: float = 1e-3, seed: int = 0, show: bool = False) -> dict:
     """Run the demo; returns the figures it printed (and writes the PNG to ``out``)."""
-    rng = np.random.default_rng(seed)
-    pitch = scenes.default_pitch(rows, cols)
-    g_true = scenes.two_feet(rows, cols, cop_offset_cm=(0.8, -1.2), rng=rng)
+    pitch = twin.mat_pitch_cm((rows, cols))
+    g_true = twin.swaying_feet(1, (rows, cols), seed=seed)[0]
+    rng = np.random.default_rng(np.random.SeedSequence(seed).spawn(1)[0])  # noise independent of the twin's gains
     circuit = Circuit()  # improved prototype: R_o 2.2 kOhm, R_mux 145 Ohm, R_adc 6.9 MOhm
     counts = circuit.counts(iecm.forward(g_true), noise_v=noise_v, rng=rng)
     G_meas, flags = circuit.conductance(counts, return_flags=True)
@@ -66,7 +67,7 @@ def _figure(g_true, G_meas, g_hat, sigma, pitch, out, res, show):
 
     R, C = g_true.shape
     extent = (-pitch / 2, (C - 0.5) * pitch, -pitch / 2, (R - 0.5) * pitch)  # cell (i, p) at (p, i)·pitch, SPEC §7
-    norm = LogNorm(vmin=1e-6, vmax=2e-2)
+    norm = LogNorm(vmin=1e-7, vmax=1e-2)  # the twin's unloaded cells are at g_rest = 1e-7 S
     fig, ax = plt.subplots(1, 4, figsize=(17, 4.4), constrained_layout=True)
     panels = [
         (g_true, "true cell conductance g"),
@@ -74,7 +75,7 @@ def _figure(g_true, G_meas, g_hat, sigma, pitch, out, res, show):
         (g_hat, f"after IECM ({100 * res['ghost_fraction_iecm']:.1f} % ghost)"),
     ]
     for a, (img, title) in zip(ax[:3], panels):
-        im = a.imshow(np.clip(img, 1e-6, None), norm=norm, cmap="viridis", extent=extent, origin="lower",
+        im = a.imshow(np.clip(img, 1e-7, None), norm=norm, cmap="viridis", extent=extent, origin="lower",
                       interpolation="nearest")
         a.set_title(title, fontsize=10)
         a.set_xlabel("x, medial-lateral (cm)")

@@ -20,9 +20,9 @@ from typing import Any
 
 import numpy as np
 
-from . import calibration_estimate
-from .calibration import Calibration
-from .circuit import Circuit
+from .. import calibration_estimate
+from ..calibration import Calibration
+from ..circuit import Circuit
 
 __all__ = ["run_calibration"]
 

@@ -70,12 +70,12 @@ def record_sway(*, seconds: float = 8.0, rate_hz: int = 100, session: str | Path
     """
     from tqdm.auto import tqdm
 
-    from .acquire import open_device
-    from .circuit import Circuit
-    from .io import SessionWriter, load_session
-    from .process import process_session
-    from .sensor import MPICreep
-    from .twin import PsmSource, SerialTwin
+    from ..acquire import open_device
+    from ..circuit import Circuit
+    from ..io import SessionWriter, load_session
+    from ..process import process_session
+    from ..sensor import MPICreep
+    from ..twin import PsmSource, SerialTwin
 
     session = Path(session)
     if session.exists():
@@ -154,8 +154,8 @@ def _xy(v) -> str:
 def _cop_with_known_gains(proc, sensor, g_rest: float, gain: np.ndarray) -> np.ndarray:
     """CoP (T, 2) cm of the chain's g with each cell's gain divided out before the inverse
     model: the twin's cells are ``g = gain · direct(p) + g_rest`` (MatPhysics)."""
-    from .balance import cop
-    from .units import PSI_KPA
+    from ..balance import cop
+    from ..units import PSI_KPA
 
     u = np.maximum(proc.g - g_rest, 0.0) / gain  # NaN frames stay NaN: the model skips them
     p = sensor.inverse(u, proc.params["dt_s"]) * PSI_KPA
