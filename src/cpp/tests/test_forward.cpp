@@ -17,6 +17,23 @@ double series_g(std::initializer_list<double> gs) {           // conductances in
 }
 }  // namespace
 
+TEST_CASE("cell_laplacian: 2x2 by hand, the one assembly of IECM and QZPM (eq. 2.7, C.4-C.6)") {
+  // rows 0, 1 then columns 2, 3; cell (i, p) joins node i and node 2 + p
+  const VectorXd g = (VectorXd(4) << 1.0, 2.0, 3.0, 4.0).finished();
+  MatrixXd L;
+  REQUIRE(psmat::iecm::cell_laplacian(Shape{2, 2}, g, L));
+  const MatrixXd want = (MatrixXd(4, 4) << 3, 0, -1, -2,
+                                           0, 7, -3, -4,
+                                           -1, -3, 4, 0,
+                                           -2, -4, 0, 6).finished();
+  CHECK(L == want);
+  VectorXd bad = g;
+  bad[3] = -1.0;
+  CHECK_FALSE(psmat::iecm::cell_laplacian(Shape{2, 2}, bad, L));
+  bad[3] = std::numeric_limits<double>::quiet_NaN();
+  CHECK_FALSE(psmat::iecm::cell_laplacian(Shape{2, 2}, bad, L));
+}
+
 TEST_CASE("forward: 2x2 solved by hand") {
   // Nodes r0, r1 (rows) and c0, c1 (columns); cells a = g00 (r0-c0), b = g01 (r0-c1),
   // c = g10 (r1-c0), d = g11 (r1-c1). The network is the ring r0-c0-r1-c1-r0, so between
