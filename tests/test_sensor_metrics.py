@@ -18,13 +18,12 @@ from psmat.sensor.metrics import (
     hysteresis,
     hysteresis_loops,
     material_table,
-    plot_hysteresis_loops,
     pulse_means,
-    radar_chart,
     table_summary,
     variability,
     variability_by_level,
 )
+from psmat.sensor.plots import plot_hysteresis_loops, radar_chart
 from psmat.sensor.pneumatic import (
     PneumaticRun,
     SkippedLine,
