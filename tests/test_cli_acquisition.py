@@ -69,7 +69,7 @@ def test_info_reports_a_corrupt_file(tmp_path, capsys):
 
 @pytest.mark.slow
 def test_demo_improves_the_cop_against_the_force_platform(tmp_path):
-    from psmat.demo_sway import run_sway_demo
+    from psmat.workflows.sway_demo import run_sway_demo
 
     res = run_sway_demo(tmp_path / "demo.png", seconds=3, session=tmp_path / "demo.h5", progress=False,
                         log=lambda *a: None)

@@ -2,7 +2,7 @@
 
 ``x = Σ p·x_cell / Σ p`` over cell centres: x is medial–lateral along the columns, y
 anterior–posterior along the rows, in cm. The origin is the centre of cell (0, 0), so cell
-(i, p) sits at ``(p·pitch, i·pitch)`` — the convention of :mod:`psmat.twin.pressure`.
+(i, p) sits at ``(p·pitch, i·pitch)`` — the convention of :mod:`psmat.twin.field`.
 """
 
 from __future__ import annotations
