@@ -42,6 +42,7 @@ from . import _checks, iecm
 from .balance import cop as _cop
 from .circuit import OPEN, SHORT, Circuit
 from .sensor import MPICreep
+from .sensor.stepping import inverse_stepped, steps_over_gaps
 from .units import PSI_KPA
 
 __all__ = ["Processed", "Processor", "process_counts", "process_session", "open_floor", "PSI_KPA"]
@@ -172,36 +173,18 @@ class Processor:
         G = np.where(flags == OPEN, self.floor, G)
         usable = valid & ~np.any(flags == SHORT, axis=(1, 2))
         G[~usable] = np.nan
-        steps = self._steps(periods, usable)
+        steps, self._since = steps_over_gaps(periods, usable, self._since)
         g = np.full_like(G, np.nan)
         pressure = np.full_like(G, np.nan)
         info = None
         if self.method is not None and usable.any():
             g[usable], info = self._iecm(G[usable], progress)
             u = np.maximum(g[usable] - self.g_rest, 0.0)
-            pressure[usable] = self._inverse(u, steps) * PSI_KPA
+            pressure[usable] = inverse_stepped(self.sensor, u, steps, self._state) * PSI_KPA
         params = {"dt_s": float(dt) if np.ndim(dt) == 0 else periods.tolist(), **self._params,
                   "frames_missing": int((~usable).sum())}
         return Processed(G=G, g=g, pressure_kpa=pressure, cop_cm=_cop(pressure, self.pitch_cm),
                          cop_raw_cm=_cop(G, self.pitch_cm), usable=usable, params=params, solve_info=info)
-
-    def _steps(self, periods: NDArray[np.float64], usable: NDArray[np.bool_]) -> NDArray[np.float64]:
-        """Sensor-model step of each usable frame: the time since the previous usable one, s."""
-        steps = []
-        since = self._since
-        for period, ok in zip(periods.tolist(), usable.tolist()):
-            since += period
-            if ok:
-                steps.append(since)
-                since = 0.0
-        self._since = since
-        return np.array(steps, np.float64)
-
-    def _inverse(self, u: NDArray[np.float64], steps: NDArray[np.float64]) -> NDArray[np.float64]:
-        """Inverse sensor model (psi), one call per run of equal steps, the operator state carried."""
-        cuts = np.flatnonzero(np.diff(steps) != 0) + 1
-        return np.concatenate([self.sensor.inverse(part, float(step[0]), self._state)
-                               for part, step in zip(np.split(u, cuts), np.split(steps, cuts))])
 
     def _iecm(self, G: NDArray[np.float64], progress: bool | None) -> tuple[NDArray[np.float64], iecm.SolveInfo]:
         """Crosstalk removal of the usable frames (S), warm-started across pushes."""

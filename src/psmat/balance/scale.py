@@ -21,6 +21,7 @@ from scipy import optimize
 
 from .. import _checks
 from ..sensor import MPICreep
+from ..sensor.stepping import inverse_over_gaps
 from ..units import PSI_PA
 
 __all__ = ["scale_factor", "mean_force_n"]
@@ -35,22 +36,31 @@ def _cells(g: ArrayLike) -> np.ndarray:
     return a.reshape(a.shape[0], -1)
 
 
-def mean_force_n(g: ArrayLike, dt: float, f: float = 1.0, sensor: MPICreep | None = None,
+def _periods(dt: float | ArrayLike, T: int) -> np.ndarray:
+    if np.ndim(dt) == 0:
+        return np.full(T, _checks.positive("dt", dt))
+    per = _checks.vector("dt", dt)
+    if per.shape != (T,) or np.any(per <= 0):
+        raise ValueError(f"dt must be one frame period or {T} positive periods (s), got shape {per.shape}")
+    return per
+
+
+def mean_force_n(g: ArrayLike, dt: float | ArrayLike, f: float = 1.0, sensor: MPICreep | None = None,
                  cell_area_cm2: float = 4.0) -> float:
-    """Left side of eq. 3.3 (N): the trial's mean of ``Σ M(f·g)·A``; NaN frames are left out."""
+    """Left side of eq. 3.3 (N): the trial's mean of ``Σ M(f·g)·A`` over its complete frames."""
     cells = _cells(g)
-    return _mean_force(cells, _checks.positive("dt", dt), f, sensor or MPICreep.thesis(),
+    return _mean_force(cells, _periods(dt, cells.shape[0]), f, sensor or MPICreep.thesis(),
                        _checks.positive("cell_area_cm2", cell_area_cm2))
 
 
-def _mean_force(cells: np.ndarray, dt: float, f: float, sensor: MPICreep, area_cm2: float) -> float:
-    p_psi = sensor.inverse(f * cells, dt)  # one run over the whole trial, state carried
-    force = np.nansum(p_psi, axis=1) * PSI_PA * area_cm2 * 1e-4
-    frames = np.all(np.isfinite(cells), axis=1)
-    return float(force[frames].mean())
+def _mean_force(cells: np.ndarray, periods: np.ndarray, f: float, sensor: MPICreep, area_cm2: float) -> float:
+    # one run over the whole trial, state carried, the creep stepped over missing frames (as psmat.process)
+    p_psi = inverse_over_gaps(sensor, f * cells, periods)
+    force = p_psi.sum(axis=1) * PSI_PA * area_cm2 * 1e-4
+    return float(np.nanmean(force))
 
 
-def scale_factor(g: ArrayLike, dt: float, weight_n: float, sensor: MPICreep | None = None,
+def scale_factor(g: ArrayLike, dt: float | ArrayLike, weight_n: float, sensor: MPICreep | None = None,
                  cell_area_cm2: float = 4.0, *, bracket: tuple[float, float] = (1e-3, 1e3),
                  xtol: float = 1e-10) -> float:
     """Solve eq. 3.3 for ``f``.
@@ -59,9 +69,10 @@ def scale_factor(g: ArrayLike, dt: float, weight_n: float, sensor: MPICreep | No
     ----------
     g : array, (T, R, C)
         Cell conductances of one trial (S), after IECM (and the unloaded leakage removed);
-        NaN frames (missing) are skipped.
-    dt : float
-        Frame period (s): the sensor model's creep depends on it.
+        frames with NaN are missing: left out of the mean, the sensor model stepped over them
+        (the policy of :mod:`psmat.process`).
+    dt : float or (T,) array
+        Frame period (s), or each frame's time since the previous one: the creep depends on it.
     weight_n : float
         Body weight W (N).
     sensor : MPICreep, optional
@@ -85,7 +96,7 @@ def scale_factor(g: ArrayLike, dt: float, weight_n: float, sensor: MPICreep | No
         inverse model saturates at ``p_max``), with the force reached at the bracket's ends.
     """
     cells = _cells(g)
-    dt = _checks.positive("dt", dt)
+    periods = _periods(dt, cells.shape[0])
     w = _checks.positive("weight_n", weight_n)
     area = _checks.positive("cell_area_cm2", cell_area_cm2)
     lo, hi = _checks.pair("bracket", bracket, labels="low, high")
@@ -100,7 +111,7 @@ def scale_factor(g: ArrayLike, dt: float, weight_n: float, sensor: MPICreep | No
         raise ValueError("g is zero everywhere: no f can carry the weight")
 
     def excess(f: float) -> float:
-        return _mean_force(cells, dt, f, sensor, area) - w
+        return _mean_force(cells, periods, f, sensor, area) - w
 
     e_lo, e_hi = excess(lo), excess(hi)
     if e_lo > 0 or e_hi < 0:

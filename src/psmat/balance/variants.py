@@ -1,0 +1,97 @@
+"""The thesis' processing variants of the mat (Tables 3.2 and 3.4, SPEC §7) as named recipes
+on the products of the one chain (:mod:`psmat.process`).
+
+=========  ==============================================================================
+PROP       crosstalk removed (IECM), pressure taken proportional to the cell conductance g
+PROP-C     as PROP without IECM: the raw equivalent conductance G
+CHC        IECM, then the inverse sensor model (hysteresis and creep compensated)
+SCHC       CHC on ``f·g``, ``f`` from the body weight (eq. 3.3, :func:`scale_factor`)
+X-8x8      any of them on the emulated 8×8 mat (:mod:`psmat.balance.emulate`), the four
+           choices of rows and columns kept apart (the thesis averages their metrics)
+=========  ==============================================================================
+
+The force platform (FP) is the reference and not a recipe here. For X-8x8 the per-cell
+recipes commute with the selection, so the 8×8 image is a selection of the 16×16 one;
+SCHC-8x8 solves eq. 3.3 again on the selected cells, each standing for the area it
+represents on the coarser mat, ``(2·pitch)²``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from ..sensor import MPICreep
+from ..sensor.stepping import inverse_over_gaps
+from .cop import cop
+from .emulate import subgrids
+from .scale import scale_factor
+
+__all__ = ["BASE_VARIANTS", "VARIANTS", "VariantTrace", "variant_traces"]
+
+BASE_VARIANTS = ("PROP", "PROP-C", "CHC", "SCHC")
+VARIANTS = BASE_VARIANTS + tuple(f"{v}-8x8" for v in BASE_VARIANTS)
+
+
+@dataclass
+class VariantTrace:
+    """CoP of one variant: ``cop_cm`` (K, T, 2), K = 1, or 4 for an emulated 8×8 (one per choice)."""
+
+    name: str
+    cop_cm: NDArray[np.float64]
+    factor: NDArray[np.float64] | None = None  # SCHC's f, one per trace
+
+
+def variant_traces(G: ArrayLike, g: ArrayLike, periods: float | ArrayLike, *, weight_n: float | None,
+                   sensor: MPICreep | None = None, pitch_cm: float = 2.0, cell_area_cm2: float = 4.0,
+                   names: tuple[str, ...] = VARIANTS) -> dict[str, VariantTrace]:
+    """The CoP of each named variant from the chain's G and g (T, R, C); missing frames NaN.
+
+    Parameters
+    ----------
+    G, g : arrays (T, R, C)
+        Equivalent conductances and cell conductances after IECM (S), as
+        :class:`psmat.process.Processed` holds them (NaN on missing frames).
+    periods : float or (T,)
+        Frame period(s) (s), for the sensor model's creep.
+    weight_n : float or None
+        Body weight (N), needed by SCHC and SCHC-8x8 only.
+    sensor : MPICreep, optional
+        The nominal sensor model (default the thesis' Table 2.11).
+    pitch_cm, cell_area_cm2 : float
+        Cell pitch and cell area of the full mat.
+    names : tuple of str
+        Which variants (default all of :data:`VARIANTS`).
+    """
+    unknown = [n for n in names if n not in VARIANTS]
+    if unknown:
+        raise ValueError(f"unknown variant(s) {unknown}; known: {', '.join(VARIANTS)}")
+    if any(n.startswith("SCHC") for n in names) and weight_n is None:
+        raise ValueError("SCHC needs the body weight (weight_n)")
+    G = np.asarray(G, dtype=np.float64)
+    g = np.asarray(g, dtype=np.float64)
+    sensor = sensor or MPICreep.thesis()
+    out: dict[str, VariantTrace] = {}
+    for name in names:
+        base, coarse = name.removesuffix("-8x8"), name.endswith("-8x8")
+        if coarse:
+            choices = [(s.images, s.offset_cm, s.pitch_cm) for s in subgrids(G if base == "PROP-C" else g, pitch_cm)]
+            area = cell_area_cm2 * 4.0
+        else:
+            choices = [(G if base == "PROP-C" else g, np.zeros(2), pitch_cm)]
+            area = cell_area_cm2
+        cops, factors = [], []
+        for img, offset, pitch in choices:
+            if base in ("PROP", "PROP-C"):
+                p = img
+            elif base == "CHC":
+                p = inverse_over_gaps(sensor, img, periods)
+            else:
+                f = scale_factor(img, periods, float(weight_n), sensor, area)
+                factors.append(f)
+                p = inverse_over_gaps(sensor, f * img, periods)
+            cops.append(cop(p, pitch) + offset)
+        out[name] = VariantTrace(name, np.stack(cops), np.array(factors) if factors else None)
+    return out
