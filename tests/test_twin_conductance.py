@@ -122,3 +122,13 @@ def test_random_array_spreads_over_the_decades():
     assert 0.85 < np.mean(lin > 1e-3) < 0.95
     np.testing.assert_array_equal(g, twin.random_array((16, 16), seed=0))
     assert not np.array_equal(g, twin.random_array((16, 16), seed=1))
+
+
+def test_a_scene_gives_its_pressure_in_kpa_too() -> None:
+    # SPEC §1: psi inside, kPa at the API; 1 psi = 6.894757 kPa
+    from psmat.twin import quiet_standing
+
+    s = quiet_standing(0.2, 50.0, seed=1)
+    np.testing.assert_allclose(s.pressure_kpa, s.pressure * 6.894757, rtol=1e-15)
+    # the cells carry the weight: Σ p·A = force, 1 kPa on 4 cm² is 0.4 N
+    np.testing.assert_allclose(s.pressure_kpa.sum(axis=(1, 2)) * 0.4, s.cell_force_n(), rtol=1e-12)

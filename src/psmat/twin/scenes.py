@@ -30,6 +30,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from .._checks import fraction, nonneg_int, pair, positive, positive_int, shape2, vector
 from .anatomy import check_foot_size, check_side, seat_groups, single_foot_groups, two_feet_groups
+from ..units import PSI_KPA
 from .field import Lobes, cell_cop_cm, cell_force_n, mat_centre_cm
 from .steering import steer
 from .sway import check_band, sway_noise, time_base
@@ -71,6 +72,11 @@ class PressureScene:
     def pitch_cm(self) -> float:
         """Cell pitch in cm."""
         return float(self.meta["pitch_cm"])
+
+    @property
+    def pressure_kpa(self) -> NDArray[np.float64]:
+        """Cell pressures in kPa (SPEC §1: SI at the API; :attr:`pressure` is in psi, the sensor model's unit)."""
+        return self.pressure * PSI_KPA
 
     def field(self, k: int) -> Lobes:
         """The continuous pressure field of frame ``k`` (for checks and re-rendering)."""
