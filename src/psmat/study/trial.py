@@ -1,0 +1,138 @@
+"""One session of a balance study (thesis §3.2, SPEC §7, §9): the mat through the one chain,
+every variant, aligned with the force platform, sway metrics and Eu per variant.
+
+:func:`process_trial` takes plain arguments and returns plain rows, so a worker process or a
+Dask worker runs it as is; it never raises for a bad session — the rows carry a ``status``.
+"""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ..balance import align, eu, sway
+from ..balance.variants import VARIANTS, variant_traces
+from ..sensor import MPICreep
+
+__all__ = ["METRICS", "COLUMNS", "process_trial", "DEFAULT_PARAMS"]
+
+METRICS = ("sd_ml_cm", "sd_ap_cm", "range_ml_cm", "range_ap_cm", "path_cm", "velocity_cm_s", "area95_cm2",
+           "mean_freq_hz")
+COLUMNS = ("subject", "trial", "variant") + METRICS + ("eu_cm", "eu_ml_cm", "eu_ap_cm", "lag_s", "r_align",
+                                                        "factor", "frames", "frames_missing", "status")
+DEFAULT_PARAMS: dict[str, Any] = {
+    "variants": list(VARIANTS),
+    "method": "newton",  # IECM
+    "pitch_cm": 2.0,
+    "cell_area_cm2": 4.0,
+    "window_s": None,  # None: the whole overlap of mat and platform
+    "max_lag_s": None,
+    "align_on": "PROP",
+    "sensor": None,  # MPICreep parameters (dict); None: the thesis' Table 2.11
+}
+
+
+def _row(subject: str, trial: str, variant: str, status: str, **values: Any) -> dict[str, Any]:
+    row = {c: np.nan for c in COLUMNS}
+    row.update(subject=subject, trial=trial, variant=variant, status=status, **values)
+    return row
+
+
+def _fill(t: np.ndarray, c: np.ndarray) -> np.ndarray:
+    """Missing CoP samples (NaN) linearly interpolated in time from their neighbours."""
+    ok = np.all(np.isfinite(c), axis=1)
+    return np.column_stack([np.interp(t, t[ok], c[ok, k]) for k in range(2)])
+
+
+def _metrics(t: np.ndarray, c: np.ndarray, fs: float, t_ref: np.ndarray | None, c_ref: np.ndarray | None
+             ) -> dict[str, float]:
+    """Sway metrics of c, and Eu against c_ref at the same times (both mean-removed)."""
+    out = sway(c, fs).as_dict()
+    if t_ref is not None and c_ref is not None:
+        ref = np.column_stack([np.interp(t, t_ref, c_ref[:, k]) for k in range(2)])
+        a, b = c - c.mean(axis=0), ref - ref.mean(axis=0)
+        out.update(eu_cm=eu(a, b), eu_ml_cm=eu(a[:, 0], b[:, 0]), eu_ap_cm=eu(a[:, 1], b[:, 1]))
+    return out
+
+
+def process_trial(session: str | os.PathLike[str], forceplate: str | os.PathLike[str] | None, subject: str,
+                  trial: str, weight_kg: float | None, params: dict[str, Any] | None = None) -> list[dict[str, Any]]:
+    """Rows (one per variant and one for FP) of a session; ``status`` says what went wrong, if anything."""
+    p = {**DEFAULT_PARAMS, **(params or {})}
+    names = tuple(p["variants"])
+    try:
+        return _process(Path(session), None if forceplate is None else Path(forceplate), subject, trial, weight_kg,
+                        p, names)
+    except Exception as exc:  # noqa: BLE001 - one bad session must not stop a study
+        status = f"error: {type(exc).__name__}: {exc}".replace("\n", " ")
+        return [_row(subject, trial, v, status) for v in ("FP",) + names]
+
+
+def _process(session: Path, forceplate: Path | None, subject: str, trial: str, weight_kg: float | None,
+             p: dict[str, Any], names: tuple[str, ...]) -> list[dict[str, Any]]:
+    from ..io import load_forceplate_csv, load_session
+    from ..process import Processor, _circuit_of
+
+    s = load_session(session)
+    if s.kind != "psm":
+        raise ValueError(f"a {s.kind!r} session, not a mat (psm) session")
+    if s.n_frames < 8:
+        raise ValueError(f"{s.n_frames} frames: too short")
+    clock = s.device_time_us * 1e-6 if s.device_time_us is not None and np.all(s.device_time_us >= 0) else s.host_time_s
+    t = np.asarray(clock, np.float64)
+    if not np.all(np.isfinite(t)):  # frames whose time was lost to damage: on the regular grid
+        k = np.arange(t.size)
+        good = np.isfinite(t)
+        t = np.interp(k, k[good], t[good])
+    periods = np.diff(t, prepend=t[0] - np.median(np.diff(t)))
+    fs = 1.0 / float(np.median(np.diff(t)))
+    sensor = MPICreep(**p["sensor"]) if p["sensor"] else MPICreep.thesis()
+    with Processor(s.frame_shape, circuit=_circuit_of(s.calibration), sensor=sensor, pitch_cm=p["pitch_cm"],
+                   method=p["method"], threads=1) as proc:
+        out = proc.push(s.counts, periods, valid=s.valid, progress=False)
+    missing = int((~out.usable).sum())
+    weight_n = None if weight_kg is None else float(weight_kg) * 9.80665
+    traces = variant_traces(out.G, out.g, periods, weight_n=weight_n if weight_n else None, sensor=sensor,
+                            pitch_cm=p["pitch_cm"], cell_area_cm2=p["cell_area_cm2"],
+                            names=tuple(n for n in names if weight_n or not n.startswith("SCHC")))
+    base = {"frames": s.n_frames, "frames_missing": missing}
+    if forceplate is None:
+        rows = [_row(subject, trial, "FP", "no force-platform file", **base)]
+        for v in names:
+            if v not in traces:
+                rows.append(_row(subject, trial, v, "no body weight", **base))
+                continue
+            m = np.mean([list(sway(_fill(t, c), fs).as_dict().values()) for c in traces[v].cop_cm], axis=0)
+            rows.append(_row(subject, trial, v, "no force-platform file: no Eu, no lag", **base,
+                             **dict(zip(METRICS, m))))
+        return rows
+    fp = load_forceplate_csv(forceplate)
+    t_fp, c_fp = fp.t, fp.cop_cm
+    fs_fp = 1.0 / float(np.median(np.diff(t_fp)))
+    ref = traces[p["align_on"]].cop_cm[0]
+    ok = np.all(np.isfinite(ref), axis=1)
+    a = align(t_fp, c_fp, t[ok], ref[ok], max_lag_s=p["max_lag_s"])
+    lo, hi = max(t[0] + a.lag_s, t_fp[0]), min(t[-1] + a.lag_s, t_fp[-1])
+    if p["window_s"] is not None and hi - lo > p["window_s"]:
+        mid = 0.5 * (lo + hi)
+        lo, hi = mid - 0.5 * p["window_s"], mid + 0.5 * p["window_s"]
+    in_mat = (t + a.lag_s >= lo) & (t + a.lag_s <= hi)
+    in_fp = (t_fp >= lo) & (t_fp <= hi)
+    if in_mat.sum() < 8 or in_fp.sum() < 8:
+        raise ValueError("mat and platform overlap by fewer than 8 samples after alignment")
+    common = {**base, "lag_s": a.lag_s, "r_align": a.r}
+    rows = [_row(subject, trial, "FP", "ok", **common, **_metrics(t_fp[in_fp], c_fp[in_fp], fs_fp, None, None),
+                 eu_cm=0.0, eu_ml_cm=0.0, eu_ap_cm=0.0)]
+    tm = t[in_mat] + a.lag_s
+    for v in names:
+        if v not in traces:
+            rows.append(_row(subject, trial, v, "no body weight: subject missing from subjects.csv", **common))
+            continue
+        per_choice = [_metrics(tm, _fill(tm, c[in_mat]), fs, t_fp, c_fp) for c in traces[v].cop_cm]
+        mean = {k: float(np.mean([d[k] for d in per_choice])) for k in per_choice[0]}
+        f = traces[v].factor
+        rows.append(_row(subject, trial, v, "ok", **common, **mean, factor=float(np.mean(f)) if f is not None else np.nan))
+    return rows
