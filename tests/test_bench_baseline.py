@@ -100,8 +100,7 @@ def test_fixed_point_batch_and_oracle_stop(small_case):
 def test_least_squares_recovers_small_array(small_case, param):
     g, G = small_case
     g_hat, res = solve_least_squares_scipy(G, param=param, residual="relative")
-    assert res.success
-    assert res.wall_time > 0
+    assert res.success and res.njev >= 1  # it iterated: the initial guess is not the solution
     np.testing.assert_allclose(g_hat, g, rtol=1e-7)
 
 

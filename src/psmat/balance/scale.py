@@ -21,7 +21,7 @@ from scipy import optimize
 
 from .. import _checks
 from ..sensor import MPICreep
-from ..sensor.stepping import inverse_over_gaps
+from ..sensor.stepping import inverse_stepped, steps_over_gaps
 from ..units import PSI_PA
 
 __all__ = ["scale_factor", "mean_force_n"]
@@ -49,15 +49,21 @@ def mean_force_n(g: ArrayLike, dt: float | ArrayLike, f: float = 1.0, sensor: MP
                  cell_area_cm2: float = 4.0) -> float:
     """Left side of eq. 3.3 (N): the trial's mean of ``Σ M(f·g)·A`` over its complete frames."""
     cells = _cells(g)
-    return _mean_force(cells, _periods(dt, cells.shape[0]), f, sensor or MPICreep.thesis(),
+    usable, steps = _usable_steps(cells, _periods(dt, cells.shape[0]))
+    return _mean_force(cells[usable], steps, f, sensor or MPICreep.thesis(),
                        _checks.positive("cell_area_cm2", cell_area_cm2))
 
 
-def _mean_force(cells: np.ndarray, periods: np.ndarray, f: float, sensor: MPICreep, area_cm2: float) -> float:
-    # one run over the whole trial, state carried, the creep stepped over missing frames (as psmat.process)
-    p_psi = inverse_over_gaps(sensor, f * cells, periods)
-    force = p_psi.sum(axis=1) * PSI_PA * area_cm2 * 1e-4
-    return float(np.nanmean(force))
+def _usable_steps(cells: np.ndarray, periods: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Complete frames and their sensor-model steps over the missing ones (as psmat.process)."""
+    usable = np.all(np.isfinite(cells), axis=1)
+    return usable, steps_over_gaps(periods, usable)[0]
+
+
+def _mean_force(cells: np.ndarray, steps: np.ndarray, f: float, sensor: MPICreep, area_cm2: float) -> float:
+    """Mean force (N) of the complete frames ``cells`` (U, n) stepped by ``steps`` (U,): one run over the trial."""
+    p_psi = inverse_stepped(sensor, f * cells, steps)
+    return float(np.mean(p_psi.sum(axis=1)) * PSI_PA * area_cm2 * 1e-4)
 
 
 def scale_factor(g: ArrayLike, dt: float | ArrayLike, weight_n: float, sensor: MPICreep | None = None,
@@ -110,8 +116,11 @@ def scale_factor(g: ArrayLike, dt: float | ArrayLike, weight_n: float, sensor: M
     if cells.shape[1] == 0:
         raise ValueError("g is zero everywhere: no f can carry the weight")
 
+    usable, steps = _usable_steps(cells, periods)  # once: every evaluation of the root reuses them
+    cells = cells[usable]
+
     def excess(f: float) -> float:
-        return _mean_force(cells, periods, f, sensor, area) - w
+        return _mean_force(cells, steps, f, sensor, area) - w
 
     e_lo, e_hi = excess(lo), excess(hi)
     if e_lo > 0 or e_hi < 0:

@@ -95,9 +95,9 @@ def _process(session: Path, forceplate: Path | None, subject: str, trial: str, w
         out = proc.push(s.counts, periods, valid=s.valid, progress=False)
     missing = int((~out.usable).sum())
     weight_n = None if weight_kg is None else float(weight_kg) * 9.80665
-    traces = variant_traces(out.G, out.g, periods, weight_n=weight_n if weight_n else None, sensor=sensor,
+    traces = variant_traces(out.G, out.g, periods, weight_n=weight_n, sensor=sensor,
                             pitch_cm=p["pitch_cm"], cell_area_cm2=p["cell_area_cm2"],
-                            names=tuple(n for n in names if weight_n or not n.startswith("SCHC")))
+                            names=tuple(n for n in names if weight_n is not None or not n.startswith("SCHC")))
     base = {"frames": s.n_frames, "frames_missing": missing}
     if forceplate is None:
         rows = [_row(subject, trial, "FP", "no force-platform file", **base)]
