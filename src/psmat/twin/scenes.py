@@ -8,7 +8,8 @@ the load between their groups so that the field's CoP follows a target
 * :func:`quiet_standing` — two feet, band-limited sway of a few mm.
 * :func:`single_leg_sway` — one foot, larger sway.
 * :func:`trajectory_sway` — the CoP follows a recorded force-platform trajectory (e.g.
-  the BDS data set; :func:`psmat.io.forceplate.load_bds`), total force following ``Fz``.
+  the BDS data set; :func:`psmat.io.forceplate.load_bds`), total force following ``Fz``,
+  on two feet or on one (:func:`stance_groups`).
 * :func:`sitting` — two ischial tuberosities and the thighs on a cushion (SPEC §8), slow
   lean.
 
@@ -35,7 +36,11 @@ from .field import Lobes, cell_cop_cm, cell_force_n, mat_centre_cm
 from .steering import steer
 from .sway import check_band, sway_noise, time_base
 
-__all__ = ["PressureScene", "quiet_standing", "single_leg_sway", "trajectory_sway", "sitting"]
+__all__ = ["PressureScene", "quiet_standing", "single_leg_sway", "trajectory_sway", "stance_groups", "sitting",
+           "STANCES"]
+
+#: Stances of :func:`trajectory_sway`: both feet, or only the right or the left foot.
+STANCES = ("two", "right", "left")
 
 
 @dataclass
@@ -339,6 +344,62 @@ def single_leg_sway(
     )
 
 
+def stance_groups(
+    stance: str,
+    shape: tuple[int, int],
+    pitch_cm: float,
+    position_cm: tuple[float, float] | None = None,
+    *,
+    foot_length_cm: float = 24.0,
+    foot_width_cm: float = 9.0,
+    stance_cm: float = 15.0,
+    toe_out_deg: float = 7.0,
+    heel_fraction: float = 0.6,
+) -> tuple[list[tuple[str, Lobes]], NDArray[np.float64], dict[str, Any]]:
+    """The load groups of :func:`trajectory_sway` for a stance, placed on the mat.
+
+    Parameters
+    ----------
+    stance : {"two", "right", "left"}
+        Both feet (left/right rearfoot/forefoot, :func:`~psmat.twin.anatomy.two_feet_groups`)
+        or one foot (its medial/lateral rearfoot/forefoot,
+        :func:`~psmat.twin.anatomy.single_foot_groups`).
+    shape, pitch_cm
+        Mat size in cells and cell pitch in cm.
+    position_cm : (float, float), optional
+        The nominal CoP of the stance, mat coordinates in cm; default the mat centre.
+    foot_length_cm, foot_width_cm, stance_cm, toe_out_deg, heel_fraction
+        As :func:`quiet_standing` (``stance_cm`` and ``toe_out_deg`` for two feet only).
+
+    Returns
+    -------
+    groups : list of (name, Lobes)
+        Unit-force groups.
+    nominal : ndarray, shape (4,)
+        Nominal share of the load of each group (sum 1): the CoP at ``position_cm``.
+    meta : dict
+        ``stance``, ``position_cm`` and the foot parameters used.
+    """
+    if stance not in STANCES:
+        raise ValueError(f"stance must be one of {', '.join(map(repr, STANCES))}, got {stance!r}")
+    pitch = positive("pitch_cm", pitch_cm)
+    mid = mat_centre_cm(shape2(shape), pitch)
+    pos = mid if position_cm is None else np.array(pair("position_cm", position_cm, nonneg=False, labels="x, y"))
+    if stance == "two":
+        groups, nominal, feet = _two_feet_args(
+            shape2(shape), pitch, foot_length_cm, foot_width_cm, stance_cm, toe_out_deg, heel_fraction
+        )
+        dx, dy = pos - mid
+        groups = [(n, l.shifted(dx, dy)) for n, l in groups]
+    else:
+        length, width, _ = check_foot_size(foot_length_cm, foot_width_cm, 0.0)
+        h = fraction("heel_fraction", heel_fraction)
+        nominal = np.array([h, h, 1.0 - h, 1.0 - h]) / 2.0
+        groups = single_foot_groups(pos, stance, length, width, nominal)
+        feet = {"foot_length_cm": length, "foot_width_cm": width}
+    return groups, nominal, {"stance": stance, "position_cm": pos, **feet}
+
+
 def trajectory_sway(
     t: ArrayLike,
     cop_ml_cm: ArrayLike,
@@ -349,6 +410,8 @@ def trajectory_sway(
     pitch_cm: float = 2.0,
     *,
     centre: bool = True,
+    stance: str = "two",
+    position_cm: tuple[float, float] | None = None,
     foot_length_cm: float = 24.0,
     foot_width_cm: float = 9.0,
     stance_cm: float = 15.0,
@@ -361,13 +424,16 @@ def trajectory_sway(
 
     The recording is resampled (linear interpolation — the mat samples the field at its
     frame times) to ``t[0] + k / rate_hz`` up to ``t[-1]``. The trajectory is relative: with
-    ``centre=True`` its mean is moved to the mat centre (``meta["offset_cm"]`` is the shift
-    added to the input), otherwise the input is taken as the displacement from the mat
-    centre. M-L maps to ``x`` (positive = the subject's right), A-P to ``y`` (positive =
-    anterior, towards the toes). Two feet stay in place (as :func:`quiet_standing`); the
-    load moves between the feet and between heel and forefoot so that the field's CoP
-    equals the target exactly, and the total force equals ``fz``. Targets out of the feet's
-    reach are moved to the nearest reachable point: ``meta["clipped"]``, ``meta["clip_cm"]``.
+    ``centre=True`` its mean is moved to ``position_cm`` (``meta["offset_cm"]`` is the shift
+    added to the input), otherwise the input is taken as the displacement from
+    ``position_cm``. M-L maps to ``x`` (positive = the subject's right), A-P to ``y``
+    (positive = anterior, towards the toes). The feet stay in place (:func:`stance_groups`):
+    with ``stance="two"`` both feet (as :func:`quiet_standing`) and the load moves between
+    the feet and between heel and forefoot; with ``"right"`` or ``"left"`` that foot alone
+    (single-leg stance, as :func:`single_leg_sway`) and the load moves between its medial
+    and lateral rearfoot and forefoot. The field's CoP equals the target exactly and the
+    total force equals ``fz``. Targets out of the feet's reach are moved to the nearest
+    reachable point: ``meta["clipped"]``, ``meta["clip_cm"]``.
 
     Parameters
     ----------
@@ -383,9 +449,13 @@ def trajectory_sway(
     shape, pitch_cm
         Mat size in cells and cell pitch in cm.
     centre : bool
-        Centre the trajectory's mean on the mat (default) or use it as offsets from the centre.
+        Centre the trajectory's mean on ``position_cm`` (default) or use it as offsets from it.
+    stance : {"two", "right", "left"}
+        Both feet, or only the right or the left foot on the mat.
+    position_cm : (float, float), optional
+        Where the stance's nominal CoP stands, mat coordinates in cm; default the mat centre.
     foot_length_cm, foot_width_cm, stance_cm, toe_out_deg, heel_fraction, min_fraction, supersample
-        As :func:`quiet_standing`.
+        As :func:`quiet_standing` (``stance_cm`` and ``toe_out_deg`` for two feet only).
 
     Returns
     -------
@@ -414,15 +484,16 @@ def trajectory_sway(
         raise ValueError(f"fz_n must be > 0 N (someone standing on the mat), min is {fz.min()!r}")
     rate = positive("rate_hz", rate_hz)
     shape, pitch, lo, s = _mat_args(shape, pitch_cm, min_fraction, supersample)
-    groups, nominal, feet = _two_feet_args(
-        shape, pitch, foot_length_cm, foot_width_cm, stance_cm, toe_out_deg, heel_fraction
+    groups, nominal, feet = stance_groups(
+        stance, shape, pitch, position_cm, foot_length_cm=foot_length_cm, foot_width_cm=foot_width_cm,
+        stance_cm=stance_cm, toe_out_deg=toe_out_deg, heel_fraction=heel_fraction,
     )
 
     n = int(math.floor((tt[-1] - tt[0]) * rate + 1e-9)) + 1
     t_out = tt[0] + np.arange(n) / rate
     t_out = np.minimum(t_out, tt[-1])
     ml_o, ap_o, fz_o = (np.interp(t_out, tt, v) for v in (ml, ap, fz))
-    mid = mat_centre_cm(shape, pitch)
+    mid = feet["position_cm"]
     offset = mid - (np.array([ml.mean(), ap.mean()]) if centre else 0.0)
     target = np.column_stack([ml_o, ap_o]) + offset
     return _render(
