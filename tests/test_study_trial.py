@@ -1,13 +1,14 @@
 """One session of a balance study end to end (simulation): a BDS trajectory drives the twin
 through a mat the processing does not know (twice as conductive as the nominal sensor model,
-15 % cell gains, its own clock); the platform file has its own clock and rate."""
+15 % cell gains, its own clock); the platform file has its own clock and rate. Also the
+aligned traces the figures draw, and a study's calibration file for the session's box."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
-from psmat import twin
+from psmat import Calibration, Circuit, twin
 from psmat.io import SessionWriter, bds_trial
 from psmat.sensor import THESIS_TABLE_2_11, MPICreep
 from psmat.study.trial import COLUMNS, process_trial
@@ -36,7 +37,7 @@ def trial(tmp_path_factory):
     mat_clock = 500.0 + np.arange(len(counts)) * 0.02  # the mat's own clock
     lag = float(scene.t[0] - 500.0)  # cop(t) = cop_ref(t + lag)
     session = d / "S01_right.h5"
-    with SessionWriter(session, (16, 16), {"rows": 16, "cols": 16}, metadata={"subject": "S01", "trial": "right"}) as w:
+    with SessionWriter(session, (16, 16), {"rows": 16, "cols": 16, "serial": "BOX7"}, metadata={"subject": "S01", "trial": "right"}) as w:
         w.append(counts, mat_clock, np.ones(len(counts), bool))
     plate = d / "S01_right.csv"
     # the platform in the mat's axes (trajectory_sway: M-L -> x, A-P -> y), its own 100 Hz
@@ -77,3 +78,58 @@ def test_bad_sessions_are_rows_with_a_status_not_exceptions(trial, tmp_path) -> 
     bad.write_bytes(b"\x89HDF\r\n\x1a\n" + b"\0" * 100)
     rows = process_trial(bad, plate, "S02", "left", 70.0, {"variants": ["PROP"]})
     assert len(rows) == 2 and all(r["status"].startswith("error: SessionFormatError") for r in rows)
+
+
+def test_traces_are_the_aligned_window_the_metrics_come_from(trial) -> None:
+    session, plate, weight_kg, lag = trial
+    params = {"variants": ["PROP", "SCHC-8x8"]}
+    rows, traces = process_trial(session, plate, "S01", "right", weight_kg, params, traces=True)
+    np.testing.assert_equal(rows, process_trial(session, plate, "S01", "right", weight_kg, params))
+    by = {r["variant"]: r for r in rows}
+    assert set(traces) == {"t_s", "FP", "PROP", "SCHC-8x8"}
+    t = traces["t_s"]
+    assert all(traces[k].shape == (t.size, 2) for k in ("FP", "PROP", "SCHC-8x8"))
+    # the mat's own frames (clock 500 s + 20 ms steps) moved onto the platform's clock by the lag
+    frame = (t - by["FP"]["lag_s"] - 500.0) / 0.02
+    np.testing.assert_allclose(frame, np.round(frame), atol=1e-6)
+    np.testing.assert_array_equal(np.diff(np.round(frame)), 1.0)
+    # FP is the platform file itself at those times, absolute
+    data = np.loadtxt(plate, delimiter=",", skiprows=1)
+    for k in range(2):
+        np.testing.assert_allclose(traces["FP"][:, k], np.interp(t, data[:, 0], data[:, 1 + k]), rtol=1e-12)
+    # the full-mat trace is the one whose spread the row reports (SPEC §7: SD, ddof 1, per axis)
+    assert np.std(traces["PROP"][:, 0], ddof=1) == pytest.approx(by["PROP"]["sd_ml_cm"], rel=1e-9)
+    assert np.std(traces["PROP"][:, 1], ddof=1) == pytest.approx(by["PROP"]["sd_ap_cm"], rel=1e-9)
+    # absolute mat coordinates (not mean-removed): on the 32 cm mat, away from its corner
+    assert np.all((traces["PROP"] > 1.0) & (traces["PROP"] < 31.0))
+    # no platform, no alignment: no traces; a failed session: none either
+    assert process_trial(session, None, "S01", "right", weight_kg, params, traces=True)[1] == {}
+    assert process_trial(plate, plate, "S01", "right", weight_kg, params, traces=True)[1] == {}
+
+
+def test_a_calibration_file_gives_the_box_its_r_adc_and_r_mux(trial, tmp_path) -> None:
+    """The twin's box is the nominal circuit (R_mux 145 Ω): a calibration file saying so changes
+    nothing; one that misstates R_mux (none, or 50 % more) distorts G -> g and the mat follows
+    the platform less closely (larger Eu, eq. 3.1)."""
+    session, plate, weight_kg, lag = trial
+    params = {"variants": ["PROP"]}
+    stored = process_trial(session, plate, "S01", "right", weight_kg, params)
+    nominal = Circuit()
+    same = tmp_path / "BOX7.json"
+    Calibration("BOX7", r_adc=nominal.r_adc, r_mux=nominal.r_mux).save(same)
+    np.testing.assert_equal(process_trial(session, plate, "S01", "right", weight_kg, params, calibration=same), stored)
+    for r_mux in (0.0, 1.5 * nominal.r_mux):
+        other = tmp_path / f"mux{r_mux:g}.json"
+        Calibration("BOX7", r_adc=nominal.r_adc, r_mux=r_mux).save(other)
+        rows = process_trial(session, plate, "S01", "right", weight_kg, params, calibration=other)
+        assert [r["status"] for r in rows] == ["ok", "ok"]
+        assert rows[1]["eu_cm"] > 1.5 * stored[1]["eu_cm"]
+    wrong = tmp_path / "BOX9.json"
+    Calibration("BOX9", r_adc=nominal.r_adc, r_mux=nominal.r_mux).save(wrong)
+    rows = process_trial(session, plate, "S01", "right", weight_kg, params, calibration=wrong)
+    assert {r["status"] for r in rows} == {"error: ValueError: BOX9.json is box 'BOX9'; the session was recorded "
+                                           "with box 'BOX7'"}
+    broken = tmp_path / "broken.json"
+    broken.write_text("{")
+    rows = process_trial(session, plate, "S01", "right", weight_kg, params, calibration=broken)
+    assert all(r["status"].startswith("error: ValueError:") and "not a valid calibration" in r["status"] for r in rows)

@@ -1,15 +1,16 @@
 """One session of a balance study (thesis §3.2, SPEC §7, §9): the mat through the one chain,
 every variant, aligned with the force platform, sway metrics and Eu per variant.
 
-:func:`process_trial` takes plain arguments and returns plain rows, so a worker process or a
-Dask worker runs it as is; it never raises for a bad session — the rows carry a ``status``.
+:func:`process_trial` takes plain arguments and returns plain rows (and, with ``traces=True``,
+the aligned CoP traces for the figures), so a worker process or a Dask worker runs it as is; it
+never raises for a bad session — the rows carry a ``status``.
 """
 
 from __future__ import annotations
 
 import os
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -17,7 +18,10 @@ from ..balance import align, eu, sway
 from ..balance.variants import VARIANTS, variant_traces
 from ..sensor import MPICreep
 
-__all__ = ["METRICS", "COLUMNS", "process_trial", "DEFAULT_PARAMS"]
+if TYPE_CHECKING:
+    from ..circuit import Circuit
+
+__all__ = ["METRICS", "COLUMNS", "process_trial", "DEFAULT_PARAMS", "Rows", "Traces"]
 
 METRICS = ("sd_ml_cm", "sd_ap_cm", "range_ml_cm", "range_ap_cm", "path_cm", "velocity_cm_s", "area95_cm2",
            "mean_freq_hz")
@@ -33,6 +37,11 @@ DEFAULT_PARAMS: dict[str, Any] = {
     "align_on": "PROP",
     "sensor": None,  # MPICreep parameters (dict); None: the thesis' Table 2.11
 }
+
+
+Rows = list[dict[str, Any]]
+#: {"t_s": (N,) platform-clock times (s), "FP": (N, 2) cm, "<variant>": (N, 2) cm}, M-L then A-P
+Traces = dict[str, np.ndarray]
 
 
 def _row(subject: str, trial: str, variant: str, status: str, **values: Any) -> dict[str, Any]:
@@ -59,22 +68,70 @@ def _metrics(t: np.ndarray, c: np.ndarray, fs: float, t_ref: np.ndarray | None, 
 
 
 def process_trial(session: str | os.PathLike[str], forceplate: str | os.PathLike[str] | None, subject: str,
-                  trial: str, weight_kg: float | None, params: dict[str, Any] | None = None) -> list[dict[str, Any]]:
-    """Rows (one per variant and one for FP) of a session; ``status`` says what went wrong, if anything."""
+                  trial: str, weight_kg: float | None, params: dict[str, Any] | None = None, *,
+                  calibration: str | os.PathLike[str] | None = None,
+                  traces: bool = False) -> Rows | tuple[Rows, Traces]:
+    """Rows (one for FP and one per variant) of a session; ``status`` says what went wrong, if anything.
+
+    Parameters
+    ----------
+    session, forceplate : path
+        The mat session (``.h5``) and its force-platform CSV (None: no platform file).
+    subject, trial : str
+        Written into every row.
+    weight_kg : float or None
+        Body weight (kg) for SCHC's eq. 3.3; None: the SCHC variants get a status instead.
+    params : dict, optional
+        Overrides of :data:`DEFAULT_PARAMS`.
+    calibration : path, optional
+        A calibration file (``psmat calibrate``, JSON) of the box the session was recorded with,
+        whose ``r_adc`` and ``r_mux`` replace those of the circuit stored in the session
+        (:meth:`psmat.Circuit.calibrated`: its ``r_o``, ``v_ref`` and ``bits`` must agree);
+        its serial must match the session's ``device["serial"]`` when both name one.
+    traces : bool
+        Also return the aligned traces: ``t_s`` the mat's frames inside the aligned window on
+        the platform's clock (s), ``FP`` the platform's CoP interpolated at those times, and each
+        computed variant's CoP there (the first of the four choices for the 8×8 ones), cm,
+        absolute (not mean-removed). Empty when there is no platform file or the session failed.
+
+    Returns
+    -------
+    rows : list of dict
+        Keys :data:`COLUMNS`; NaN where a value could not be computed.
+    traces : dict
+        Only with ``traces=True`` (see above).
+    """
     p = {**DEFAULT_PARAMS, **(params or {})}
     names = tuple(p["variants"])
+    found: Traces = {}
     try:
-        return _process(Path(session), None if forceplate is None else Path(forceplate), subject, trial, weight_kg,
-                        p, names)
+        rows = _process(Path(session), None if forceplate is None else Path(forceplate), subject, trial, weight_kg,
+                        p, names, None if calibration is None else Path(calibration), found)
     except Exception as exc:  # noqa: BLE001 - one bad session must not stop a study
         status = f"error: {type(exc).__name__}: {exc}".replace("\n", " ")
-        return [_row(subject, trial, v, status) for v in ("FP",) + names]
+        rows, found = [_row(subject, trial, v, status) for v in ("FP",) + names], {}
+    return (rows, found) if traces else rows
+
+
+def _circuit(stored: dict | None, device: dict[str, Any], calibration: Path | None) -> Circuit:
+    """The session's stored circuit, with the given calibration file's R_adc and R_mux if any (its serial checked)."""
+    from ..calibration import Calibration
+    from ..process import _circuit_of
+
+    circuit = _circuit_of(stored)
+    if calibration is None:
+        return circuit
+    cal = Calibration.load(calibration)
+    serial = device.get("serial")
+    if cal.serial and serial is not None and str(serial) != cal.serial:
+        raise ValueError(f"{calibration.name} is box {cal.serial!r}; the session was recorded with box {serial!r}")
+    return circuit.calibrated(cal)
 
 
 def _process(session: Path, forceplate: Path | None, subject: str, trial: str, weight_kg: float | None,
-             p: dict[str, Any], names: tuple[str, ...]) -> list[dict[str, Any]]:
+             p: dict[str, Any], names: tuple[str, ...], calibration: Path | None, found: Traces) -> Rows:
     from ..io import load_forceplate_csv, load_session
-    from ..process import Processor, _circuit_of
+    from ..process import Processor
 
     s = load_session(session)
     if s.kind != "psm":
@@ -90,8 +147,9 @@ def _process(session: Path, forceplate: Path | None, subject: str, trial: str, w
     periods = np.diff(t, prepend=t[0] - np.median(np.diff(t)))
     fs = 1.0 / float(np.median(np.diff(t)))
     sensor = MPICreep(**p["sensor"]) if p["sensor"] else MPICreep.thesis()
-    with Processor(s.frame_shape, circuit=_circuit_of(s.calibration), sensor=sensor, pitch_cm=p["pitch_cm"],
-                   method=p["method"], threads=1) as proc:
+    circuit = _circuit(s.calibration, s.device, calibration)
+    with Processor(s.frame_shape, circuit=circuit, sensor=sensor, pitch_cm=p["pitch_cm"], method=p["method"],
+                   threads=1) as proc:
         out = proc.push(s.counts, periods, valid=s.valid, progress=False)
     missing = int((~out.usable).sum())
     weight_n = None if weight_kg is None else float(weight_kg) * 9.80665
@@ -127,12 +185,16 @@ def _process(session: Path, forceplate: Path | None, subject: str, trial: str, w
     rows = [_row(subject, trial, "FP", "ok", **common, **_metrics(t_fp[in_fp], c_fp[in_fp], fs_fp, None, None),
                  eu_cm=0.0, eu_ml_cm=0.0, eu_ap_cm=0.0)]
     tm = t[in_mat] + a.lag_s
+    aligned: Traces = {"t_s": tm, "FP": np.column_stack([np.interp(tm, t_fp, c_fp[:, k]) for k in range(2)])}
     for v in names:
         if v not in traces:
             rows.append(_row(subject, trial, v, "no body weight: subject missing from subjects.csv", **common))
             continue
-        per_choice = [_metrics(tm, _fill(tm, c[in_mat]), fs, t_fp, c_fp) for c in traces[v].cop_cm]
+        filled = [_fill(tm, c[in_mat]) for c in traces[v].cop_cm]
+        per_choice = [_metrics(tm, c, fs, t_fp, c_fp) for c in filled]
         mean = {k: float(np.mean([d[k] for d in per_choice])) for k in per_choice[0]}
         f = traces[v].factor
         rows.append(_row(subject, trial, v, "ok", **common, **mean, factor=float(np.mean(f)) if f is not None else np.nan))
+        aligned[v] = filled[0]
+    found.update(aligned)
     return rows
