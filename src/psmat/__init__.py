@@ -8,13 +8,14 @@ creep), :mod:`psmat.protocol` (wire formats), :mod:`psmat.io` (session files, fo
 platforms), :mod:`psmat.twin` (the simulated mat: the one synthetic world of tests,
 benchmarks and demos), :mod:`psmat.acquire` (reading devices over serial),
 :mod:`psmat.process` (counts → pressure → CoP), :mod:`psmat.qzpm` (IECM for the QZPM readout, App. C),
-:mod:`psmat.experiments` (the thesis' crosstalk studies).
+:mod:`psmat.experiments` (the thesis' crosstalk studies), :mod:`psmat.balance` (sway, alignment,
+the chapter 3 variants) and :mod:`psmat.study` (a balance study folder run in batch).
 """
 
-from . import acquire, balance, calibration_estimate, experiments, iecm, io, noise, protocol, qzpm, sensor, twin
+from . import acquire, balance, calibration_estimate, experiments, iecm, io, noise, protocol, qzpm, sensor, study, twin
 from .calibration import Calibration
 from .circuit import Circuit
 
 
 __version__ = "0.1.0"
-__all__ = ["acquire", "balance", "calibration_estimate", "experiments", "iecm", "io", "noise", "protocol", "qzpm", "sensor", "twin", "Circuit", "Calibration", "__version__"]
+__all__ = ["acquire", "balance", "calibration_estimate", "experiments", "iecm", "io", "noise", "protocol", "qzpm", "sensor", "study", "twin", "Circuit", "Calibration", "__version__"]

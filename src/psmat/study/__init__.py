@@ -1,5 +1,6 @@
 """Studies processed in batch (SPEC §6 study layout, §12): discovery, running, results."""
 
 from .layout import StudyItem, StudyLayout, Subject, find_study, read_subjects
+from .run import RunReport, run_study
 
-__all__ = ["Subject", "StudyItem", "StudyLayout", "find_study", "read_subjects"]
+__all__ = ["Subject", "StudyItem", "StudyLayout", "find_study", "read_subjects", "RunReport", "run_study"]

@@ -1,0 +1,78 @@
+"""``psmat study``: a balance study folder (SPEC §6 layout) in batch.
+
+``psmat study run DIR`` processes every session into ``DIR/results/`` (metrics.csv, summary,
+figures, report), resuming where an earlier run stopped; ``--scheduler tcp://HOST:8786`` runs
+the sessions on a Dask distributed cluster (``pip install 'psmat[cluster]'``; the folder must
+be on a filesystem the workers share). ``psmat study simulate DIR`` writes a simulated study
+(SPEC §7): BDS force-platform trajectories through mats the processing does not know.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+
+from . import _args
+
+NAME = "study"
+HELP = "run a balance study folder (metrics, summary, figures, report) or simulate one"
+
+
+def add_arguments(p: argparse.ArgumentParser) -> None:
+    sub = p.add_subparsers(dest="action", required=True, metavar="{run,simulate}")
+    r = sub.add_parser("run", help="process every session of DIR into DIR/results/ (resumable)",
+                       description="Process every session of a study folder into DIR/results/; finished sessions "
+                                   "are reused, so a killed run resumes where it stopped.")
+    r.add_argument("dir", metavar="DIR", help="the study folder (subjects.csv, sessions/, forceplate/)")
+    r.add_argument("--workers", type=_args.positive_int, default=None,
+                   help="processes, one session each (default: every core; 1: in this process)")
+    r.add_argument("--scheduler", metavar="ADDRESS", default=None,
+                   help="a Dask distributed scheduler, e.g. tcp://host:8786 (DIR on a shared filesystem)")
+    r.add_argument("--quiet", action="store_true", help="no progress bar")
+    s = sub.add_parser("simulate", help="write a simulated balance study into DIR",
+                       description="Write a simulated balance study (SPEC §7): three trials per volunteer "
+                                   "(right-leg, left-leg, rotation) driven by BDS force-platform trajectories.")
+    s.add_argument("dir", metavar="DIR", help="the study folder to create")
+    s.add_argument("--volunteers", type=_args.positive_int, required=True, help="number of volunteers")
+    s.add_argument("--seconds", type=_args.seconds, required=True, help="length of each trial (s)")
+    s.add_argument("--seed", type=int, required=True, help="seed of every random draw")
+    s.add_argument("--rate", type=_args.rate_hz, default=100.0, help="the mats' frame rate (Hz, default 100)")
+    s.add_argument("--bds", nargs="+", metavar="FILE", default=None,
+                   help="BDS trial files to draw trajectories from (default: the shared data set)")
+
+
+def run(args: argparse.Namespace) -> int:
+    return _run(args) if args.action == "run" else _simulate(args)
+
+
+def _run(args: argparse.Namespace) -> int:
+    from ..study import run_study
+
+    if args.workers is not None and args.scheduler is not None:
+        print("psmat study run: give --workers or --scheduler, not both", file=sys.stderr)
+        return 1
+    try:
+        report = run_study(args.dir, workers=args.workers, scheduler=args.scheduler, progress=not args.quiet)
+    except (OSError, ValueError, ImportError, RuntimeError) as exc:
+        print(f"psmat study run: {_line(exc)}", file=sys.stderr)
+        return 1
+    print(report)
+    return 0
+
+
+def _simulate(args: argparse.Namespace) -> int:
+    from ..study.simulate import simulate_study
+
+    try:
+        root = simulate_study(args.dir, volunteers=args.volunteers, seconds=args.seconds, seed=args.seed,
+                              rate_hz=args.rate, bds_paths=args.bds, progress=True)
+    except (OSError, ValueError) as exc:
+        print(f"psmat study simulate: {_line(exc)}", file=sys.stderr)
+        return 1
+    print(f"simulated study in {root}")
+    return 0
+
+
+def _line(exc: BaseException) -> str:
+    """An error as one line."""
+    return " ".join(str(exc).split()) or type(exc).__name__

@@ -1,0 +1,372 @@
+"""``psmat study run``: every session of a study folder through :func:`process_trial`, as
+independent tasks, into ``DIR/results/`` (SPEC §6 layout, §9 ``metrics.csv``, §12).
+
+**Where the cores go.** Each session is one task on one core: a session's IECM warm start
+(each frame's solve starts from the previous frame's) and its sensor model's state are
+sequential in time, so the parallelism is across sessions, and the processing chain runs with
+``threads=1``. The tasks run in processes (joblib's loky pool, one per core by default), not
+threads, because much of a session is Python (alignment, sway metrics, the scale factor's root
+search) that the GIL would serialise. A task's result depends only on its inputs, so the
+tables are bit-identical whatever the number of workers, or on a Dask cluster.
+
+**Resumable.** Each session's result is written atomically under ``results/sessions/`` as it
+finishes, keyed by the content of its inputs and the parameters (:mod:`psmat.study.cache`);
+a killed run resumes with the sessions it had not finished, and a changed weight, file,
+calibration or parameter reruns only the sessions it touches. A session whose processing
+failed (status ``error: …``) is not stored: it is tried again next run. ``metrics.csv`` is
+written after the sessions, then :func:`psmat.study.results.write_results` (summary, figures,
+report) — skipped when ``metrics.csv``, the problems and the traces are those it last wrote
+from (``results/.outputs.json``). One run per study at a time (``results/.lock``).
+
+**On a cluster** (``scheduler="tcp://host:8786"``, the extra ``psmat[cluster]``): the same
+tasks go to a Dask distributed scheduler and come back as they complete; this process writes
+the results. Tasks carry file paths, not file contents, so the study folder must be on a
+filesystem the workers share (the same path on every worker), and the workers need psmat
+installed.
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import math
+import os
+from collections.abc import Iterator, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from ..balance.variants import VARIANTS
+from .cache import SessionStore, Stored, TraceFiles, canonical_json, file_sha256, normalise_rows, result_key, \
+    study_lock, write_text_atomic
+from .layout import StudyItem, StudyLayout, find_study
+from .trial import COLUMNS, DEFAULT_PARAMS, Rows, Traces, process_trial
+
+__all__ = ["RunReport", "SessionTask", "run_study", "run_task", "write_metrics", "TRIALS"]
+
+#: the thesis' trials in the order of its tables (SPEC §9); other trial names sort after them
+TRIALS = ("right-leg", "left-leg", "rotation")
+
+
+@dataclass(frozen=True)
+class SessionTask:
+    """One session as a task: plain values only, so it travels to any worker by pickle."""
+
+    stem: str
+    session: str
+    forceplate: str | None
+    subject: str
+    trial: str
+    weight_kg: float | None
+    calibration: str | None
+    params: dict[str, Any]
+    key: str
+    inputs: dict[str, Any]
+    notes: tuple[str, ...] = ()
+
+
+def run_task(task: SessionTask) -> tuple[str, Rows, Traces]:
+    """Process one session (in whichever process runs it): (stem, rows, traces)."""
+    rows, traces = process_trial(task.session, task.forceplate, task.subject, task.trial, task.weight_kg,
+                                 task.params, calibration=task.calibration, traces=True)
+    return task.stem, rows, traces
+
+
+@dataclass
+class RunReport:
+    """What a run did: sessions computed now, reused from ``results/sessions``, failed; the
+    problems found (inputs, failed sessions, stale results); where the results are."""
+
+    root: Path
+    sessions: int
+    computed: int
+    reused: int
+    failed: int
+    problems: list[str]
+    metrics: Path
+    outputs: dict[str, Path] = field(default_factory=dict)
+
+    @property
+    def results(self) -> Path:
+        return self.root / "results"
+
+    def __str__(self) -> str:
+        files = [self.metrics, *self.outputs.values()]
+        top = [p.name for p in files if p.parent == self.metrics.parent]
+        below = sorted({p.parent.name for p in files if p.parent != self.metrics.parent})
+        lines = [f"{self.sessions} sessions: {self.computed} computed, {self.reused} reused, {self.failed} failed",
+                 f"results in {self.results}: {', '.join(top + [f'{d}/' for d in below])}"]
+        return "\n".join(lines + [f"problem: {p}" for p in self.problems])
+
+
+def run_study(root: str | os.PathLike[str], *, workers: int | None = None, scheduler: str | None = None,
+              params: dict[str, Any] | None = None, progress: bool = True) -> RunReport:
+    """Process every session of the study folder ``root`` into ``root/results/``.
+
+    Parameters
+    ----------
+    root : path
+        A study folder (SPEC §6).
+    workers : int, optional
+        Processes (default: every core); 1 runs the sessions in this process.
+    scheduler : str, optional
+        Address of a Dask distributed scheduler (``tcp://host:8786``) to run the sessions on
+        instead; needs ``psmat[cluster]`` and the study folder on a shared filesystem.
+    params : dict, optional
+        Overrides of :data:`psmat.study.trial.DEFAULT_PARAMS` (they are part of every key).
+    progress : bool
+        A progress bar over sessions on stderr.
+
+    Returns
+    -------
+    RunReport
+
+    Raises
+    ------
+    FileNotFoundError
+        ``root`` is not a study folder.
+    ValueError
+        Unknown parameters or variants, a bad ``workers``, or both ``workers`` and ``scheduler``.
+    ImportError
+        ``scheduler`` without Dask distributed installed.
+    RuntimeError
+        Another run is writing the same study.
+    """
+    from tqdm.auto import tqdm
+
+    from .. import __version__
+
+    p = _checked_params(params)
+    if scheduler is not None and workers is not None:
+        raise ValueError("give workers or a scheduler, not both (the cluster's workers run the sessions)")
+    if workers is not None and (isinstance(workers, bool) or not isinstance(workers, int) or workers < 1):
+        raise ValueError(f"workers must be an integer >= 1, got {workers!r}")
+    layout = find_study(root)
+    with study_lock(layout.results):
+        store = SessionStore(layout.results / "sessions")
+        problems = list(layout.problems)
+        if n := store.remove_temporaries():
+            problems.append(f"removed {n} incomplete temporary file(s) an interrupted run left in {store.folder}")
+        tasks = {t.stem: t for t in (_task(item, layout, p, __version__) for item in layout.items)}
+        stale = sorted(set(store.stems()) - set(tasks))
+        if stale:
+            problems.append(f"{store.folder} holds results of {len(stale)} session(s) no longer in the study, "
+                            f"ignored (not deleted): {', '.join(stale)}")
+        done: dict[str, Stored] = {}
+        for stem, t in tasks.items():
+            if (s := store.load(stem, t.key)) is not None:
+                done[stem] = s
+        reused = len(done)
+        failed: set[str] = set()
+        todo = [t for stem, t in tasks.items() if stem not in done]
+        with tqdm(total=len(tasks), initial=reused, unit="session", desc="sessions", disable=not progress) as bar:
+            for stem, rows, traces in _execute(todo, workers, scheduler):
+                t = tasks[stem]
+                rows = _with_notes(rows, t.notes)
+                if all(r["status"].startswith("error:") for r in rows):
+                    failed.add(stem)
+                    done[stem] = Stored(normalise_rows(rows), None)
+                else:
+                    done[stem] = store.save(stem, t.key, t.inputs, rows, traces)
+                bar.update(1)
+        order = sorted(tasks, key=lambda s: _order(tasks[s]))
+        keep = _first_of_each(order, tasks, problems)
+        rows = [r for stem in keep for r in done[stem].rows]
+        metrics = layout.results / "metrics.csv"
+        write_metrics(metrics, rows)
+        problems += _session_problems(layout.items, order, done, failed)
+        traces = TraceFiles({(tasks[s].subject, tasks[s].trial): t for s in keep if (t := done[s].traces)})
+        outputs = _write_outputs(layout.results, rows, traces, problems, __version__)
+    return RunReport(layout.root, len(tasks), len(tasks) - reused - len(failed), reused, len(failed), problems,
+                     metrics, outputs)
+
+
+def write_metrics(path: Path, rows: Sequence[dict[str, Any]]) -> None:
+    """``metrics.csv`` (SPEC §9): the columns of :data:`COLUMNS`, floats as ``repr`` (exact, so a
+    rerun is byte-identical), NaN as an empty field; written atomically."""
+    buf = io.StringIO()
+    w = csv.writer(buf, lineterminator="\n")
+    w.writerow(COLUMNS)
+    for r in rows:
+        w.writerow([_cell(r[c]) for c in COLUMNS])
+    write_text_atomic(path, buf.getvalue())
+
+
+def _write_outputs(results: Path, rows: Rows, traces: TraceFiles, problems: list[str], version: str
+                   ) -> dict[str, Path]:
+    """:func:`psmat.study.results.write_results` (summary, figures, report), skipped when its
+    inputs (metrics.csv, the problems, the traces files) are those of the outputs on disk."""
+    import hashlib
+    import json
+
+    from .results import write_results  # matplotlib: imported when a study is run, not with psmat
+
+    digest = hashlib.sha256(canonical_json({
+        "psmat": version, "metrics": file_sha256(results / "metrics.csv"), "problems": problems,
+        "traces": sorted([*k, traces.path(k).name] for k in traces)}).encode()).hexdigest()
+    index = results / ".outputs.json"
+    try:
+        doc = json.loads(index.read_text(encoding="utf-8"))
+        if doc["digest"] == digest:
+            done = {name: results / rel for name, rel in doc["outputs"].items()}
+            if all(p.is_file() for p in done.values()):
+                return done
+    except (OSError, ValueError, KeyError, TypeError, AttributeError):
+        pass
+    outputs = write_results(results, rows, traces, problems)
+    rel = {name: Path(p).resolve().relative_to(results.resolve()).as_posix() for name, p in outputs.items()}
+    write_text_atomic(index, json.dumps({"digest": digest, "outputs": rel}, indent=1) + "\n")
+    return outputs
+
+
+def _cell(v: Any) -> str:
+    if isinstance(v, float):
+        return "" if math.isnan(v) else repr(v)
+    return str(v)
+
+
+def _checked_params(params: dict[str, Any] | None) -> dict[str, Any]:
+    """The whole parameter dict (defaults filled in) as plain JSON values; ValueError if unknown."""
+    import json
+
+    given = dict(params or {})
+    unknown = sorted(set(given) - set(DEFAULT_PARAMS))
+    if unknown:
+        raise ValueError(f"unknown parameter(s) {', '.join(unknown)}; known: {', '.join(DEFAULT_PARAMS)}")
+    p = {**DEFAULT_PARAMS, **given}
+    bad = [v for v in p["variants"] if v not in VARIANTS]
+    if bad or not p["variants"]:
+        raise ValueError(f"unknown variant(s) {bad or '(none given)'}; known: {', '.join(VARIANTS)}")
+    try:
+        return json.loads(canonical_json(p))
+    except ValueError as exc:
+        raise ValueError(f"params: {exc}") from None
+
+
+def _from_stem(stem: str) -> tuple[str, str]:
+    """(subject, trial) from a file name ``<subject>_<trial>`` (SPEC §6), for sessions whose metadata lacks them."""
+    subject, _, trial = stem.partition("_")
+    return subject, trial
+
+
+def _serial(session: Path) -> str | None:
+    """The box serial in a session's device description (None if unreadable or absent)."""
+    from ..io import SessionFormatError, load_session
+
+    try:
+        serial = load_session(session).device.get("serial")
+    except (SessionFormatError, OSError):
+        return None
+    return None if serial in (None, "") else str(serial)
+
+
+def _sha(path: Path | None) -> str | None:
+    try:
+        return file_sha256(path)
+    except OSError:
+        return None
+
+
+def _task(item: StudyItem, layout: StudyLayout, params: dict[str, Any], version: str) -> SessionTask:
+    """The task of one session and the inputs its key is made of (see :mod:`psmat.study.cache`)."""
+    from ..io import journal_path
+
+    named = _from_stem(item.stem)
+    subject, trial = item.subject or named[0], item.trial or named[1]
+    notes = tuple(f"session metadata has no {what}: {what} {value!r} taken from the file name"
+                  for what, have, value in (("subject", item.subject, subject), ("trial", item.trial, trial))
+                  if have is None)
+    who = layout.subjects.get(item.subject) if item.subject is not None else None
+    weight = None if who is None else who.weight_kg
+    serial = _serial(item.session)
+    cal = layout.calibrations.get(serial) if serial is not None else None
+    jpath = journal_path(item.session)
+    inputs = {"psmat": version, "params": params, "stem": item.stem, "subject": subject, "trial": trial,
+              "weight_kg": weight, "session_sha256": _sha(item.session),
+              "journal_sha256": _sha(jpath) if jpath.is_file() else None,
+              "forceplate_sha256": _sha(item.forceplate), "calibration": None if cal is None else cal.name,
+              "calibration_sha256": _sha(cal)}
+    return SessionTask(item.stem, str(item.session), None if item.forceplate is None else str(item.forceplate),
+                       subject, trial, weight, None if cal is None else str(cal), params, result_key(inputs), inputs,
+                       notes)
+
+
+def _with_notes(rows: Rows, notes: tuple[str, ...]) -> Rows:
+    """The problems :func:`process_trial` cannot see, added to the status of rows that were computed."""
+    if not notes:
+        return rows
+    extra = "; ".join(notes)
+    return [{**r, "status": r["status"] if r["status"].startswith("error:")
+             else extra if r["status"] == "ok" else f"{r['status']}; {extra}"} for r in rows]
+
+
+def _order(t: SessionTask) -> tuple[Any, ...]:
+    """metrics.csv order: subject, then trial (the thesis' trials first, in its order), then file."""
+    rank = TRIALS.index(t.trial) if t.trial in TRIALS else len(TRIALS)
+    return t.subject, rank, t.trial, t.stem
+
+
+def _first_of_each(order: Sequence[str], tasks: dict[str, SessionTask], problems: list[str]) -> list[str]:
+    """The first session of each subject × trial (SPEC §9: one row per subject × trial × variant);
+    any other is named in ``problems`` and left out of the tables (its result stays stored)."""
+    first: dict[tuple[str, str], str] = {}
+    for stem in order:
+        who = (tasks[stem].subject, tasks[stem].trial)
+        if who in first:
+            problems.append(f"{stem}: {who[0]} {who[1]} again (first {first[who]}); left out of metrics.csv")
+        first.setdefault(who, stem)
+    return list(first.values())
+
+
+def _session_problems(items: Sequence[StudyItem], order: Sequence[str], done: dict[str, Stored],
+                      failed: set[str]) -> list[str]:
+    """One line per problem of a session (what find_study saw, else a failed session's error)."""
+    by_stem = {i.stem: i for i in items}
+    out = []
+    for stem in order:
+        problems = list(by_stem[stem].problems)
+        if stem in failed and not problems:
+            problems.append(done[stem].rows[0]["status"])
+        out += [f"{stem}: {p}" for p in problems]
+    return out
+
+
+def _error_rows(t: SessionTask, exc: BaseException) -> Rows:
+    status = f"error: {type(exc).__name__}: {exc}".replace("\n", " ")
+    return [{**dict.fromkeys(COLUMNS, math.nan), "subject": t.subject, "trial": t.trial, "variant": v,
+             "status": status} for v in ("FP", *t.params["variants"])]
+
+
+def _execute(todo: list[SessionTask], workers: int | None, scheduler: str | None
+             ) -> Iterator[tuple[str, Rows, Traces]]:
+    """(stem, rows, traces) of each task, in the order they finish."""
+    if not todo:
+        return
+    if scheduler is not None:
+        yield from _on_dask(todo, scheduler)
+        return
+    from joblib import Parallel, cpu_count, delayed
+
+    n = min(workers or cpu_count(), len(todo))
+    if n == 1:
+        yield from map(run_task, todo)
+        return
+    yield from Parallel(n_jobs=n, backend="loky", return_as="generator_unordered")(delayed(run_task)(t) for t in todo)
+
+
+def _on_dask(todo: list[SessionTask], address: str) -> Iterator[tuple[str, Rows, Traces]]:
+    """The tasks on a Dask distributed cluster, gathered as they complete (a task that raises on
+    a worker, e.g. a worker lost, becomes error rows: it is tried again next run)."""
+    try:
+        from distributed import Client, as_completed
+    except ImportError:
+        raise ImportError("a scheduler needs Dask distributed: pip install 'psmat[cluster]'") from None
+    with Client(address) as client:
+        futures = {client.submit(run_task, t, key=f"psmat-study-{t.key}"): t for t in todo}
+        for fut in as_completed(futures):
+            t = futures[fut]
+            try:
+                yield fut.result()
+            except Exception as exc:  # noqa: BLE001 - the run goes on; the status says what happened
+                yield t.stem, _error_rows(t, exc), {}
+            fut.release()

@@ -1,0 +1,258 @@
+"""``run_study`` (SPEC §12) on a small study built by hand: two volunteers × two trials, 6 s at
+50 Hz on a 16×16 twin, each volunteer on their own box and clock. The tables are compared byte
+for byte across reruns, a SIGKILL and resume, worker counts and a real Dask cluster; the
+cache is checked through what each change reruns."""
+
+from __future__ import annotations
+
+import csv
+import json
+import os
+import shutil
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from psmat import Calibration, Circuit, twin
+from psmat.balance.variants import VARIANTS
+from psmat.io import SessionWriter, bds_trial
+from psmat.sensor import THESIS_TABLE_2_11, MPICreep
+from psmat.study import run_study
+from psmat.study.cache import study_lock
+from psmat.study.trial import COLUMNS, process_trial
+
+SUBJECTS = ("V01", "V02")
+TRIALS = ("right-leg", "left-leg")
+SECONDS, RATE = 6.0, 50.0
+
+
+def _mat_model(k: float) -> MPICreep:
+    """The nominal sensor model k times more conductive (every conductance term scaled)."""
+    p = dict(THESIS_TABLE_2_11)
+    for name in ("rho", "a1", "a2", "a3"):
+        p[name] = p[name] * k
+    p["w"] = tuple(v * k for v in p["w"])
+    return MPICreep(**p)
+
+
+def build_study(root: Path) -> Path:
+    """SPEC §6 layout: a BDS trajectory per session through volunteer v's mat (1.5 + v times the
+    nominal conductance, 10 % cell gains) on box BOX<v>, on its own clock; platform at 100 Hz."""
+    for d in ("sessions", "forceplate"):
+        (root / d).mkdir(parents=True)
+    lines = ["subject,weight_kg,height_cm,age,sex"]
+    for v, sid in enumerate(SUBJECTS):
+        fz_mean = []
+        for k, trial in enumerate(TRIALS):
+            rec = bds_trial(1 + 3 * v + k)
+            keep = rec.t <= rec.t[0] + SECONDS
+            t, ml, ap, fz = rec.t[keep], rec.cop_ml_cm[keep], rec.cop_ap_cm[keep], rec.fz_n[keep]
+            scene = twin.trajectory_sway(t, ml, ap, fz, RATE)
+            mat = twin.MatPhysics((16, 16), dt=1 / RATE, sensor=_mat_model(1.5 + v), variability=0.1, seed=10 * v + k)
+            counts = mat.counts(np.minimum(scene.pressure, 32.0))
+            clock = 300.0 + 17.0 * v + np.arange(len(counts)) / RATE
+            with SessionWriter(root / "sessions" / f"{sid}_{trial}.h5", (16, 16),
+                               {"rows": 16, "cols": 16, "serial": f"BOX{v + 1}"},
+                               metadata={"subject": sid, "trial": trial}) as w:
+                w.append(counts, clock, np.ones(len(counts), bool))
+            np.savetxt(root / "forceplate" / f"{sid}_{trial}.csv", np.c_[t, ml, ap, fz], delimiter=",",
+                       header="time,x,y,Fz", comments="")
+            fz_mean.append(float(np.mean(fz)))
+        lines.append(f"{sid},{np.mean(fz_mean) / 9.80665:.3f},170,30,F")
+    (root / "subjects.csv").write_text("\n".join(lines) + "\n")
+    return root
+
+
+@pytest.fixture(scope="module")
+def study(tmp_path_factory):
+    """The study and its first, uninterrupted run in one process (workers=1)."""
+    root = build_study(tmp_path_factory.mktemp("study") / "study")
+    report = run_study(root, workers=1, progress=False)
+    return root, report, (root / "results" / "metrics.csv").read_bytes()
+
+
+def _copy(root: Path, dst: Path, results: bool) -> Path:
+    shutil.copytree(root, dst, ignore=None if results else shutil.ignore_patterns("results"))
+    return dst
+
+
+def _rows(path: Path) -> list[dict[str, str]]:
+    with open(path, newline="") as fh:
+        return list(csv.DictReader(fh))
+
+
+def _by_session(path: Path) -> dict[tuple[str, str], list[dict[str, str]]]:
+    out: dict[tuple[str, str], list[dict[str, str]]] = {}
+    for r in _rows(path):
+        out.setdefault((r["subject"], r["trial"]), []).append(r)
+    return out
+
+
+def test_metrics_csv_has_a_row_per_subject_trial_variant_and_a_rerun_reuses_every_session(study, tmp_path) -> None:
+    root, report, metrics = study
+    assert (report.sessions, report.computed, report.reused, report.failed) == (4, 4, 0, 0)
+    assert report.problems == []
+    with open(root / "results" / "metrics.csv", newline="") as fh:
+        assert next(csv.reader(fh)) == list(COLUMNS)
+    rows = _rows(root / "results" / "metrics.csv")
+    assert [(r["subject"], r["trial"], r["variant"]) for r in rows] == [
+        (s, t, v) for s in SUBJECTS for t in TRIALS for v in ("FP",) + VARIANTS]
+    assert {r["status"] for r in rows} == {"ok"}
+    # the numbers are process_trial's for that session and weight, written exactly (repr)
+    weight = float(_rows(root / "subjects.csv")[1]["weight_kg"])
+    direct = process_trial(root / "sessions" / "V02_left-leg.h5", root / "forceplate" / "V02_left-leg.csv", "V02",
+                           "left-leg", weight)
+    for mine, want in zip(_by_session(root / "results" / "metrics.csv")[("V02", "left-leg")], direct):
+        for c in COLUMNS[3:-1]:
+            assert (float(mine[c]) if mine[c] else np.nan) == pytest.approx(want[c], rel=0, abs=0, nan_ok=True), c
+    # summary, figures and report beside it (psmat.study.results)
+    assert {"summary", "pairwise", "report", "sigma_bars", "cop_traces_right-leg"} <= set(report.outputs)
+    assert all(p.is_file() and p.is_relative_to(root / "results") for p in report.outputs.values())
+    written = {p: p.stat().st_mtime_ns for p in report.outputs.values()}
+    # a rerun reuses every session, writes the same bytes and leaves the report as it was
+    again = run_study(root, workers=1, progress=False)
+    assert (again.computed, again.reused, again.failed) == (0, 4, 0)
+    assert (root / "results" / "metrics.csv").read_bytes() == metrics
+    assert again.outputs == report.outputs and all(p.stat().st_mtime_ns == t for p, t in written.items())
+    # a session taken out: its stored result is reported, not used, not deleted
+    copy = _copy(root, tmp_path / "copy", results=True)
+    (copy / "sessions" / "V01_left-leg.h5").unlink()
+    fewer = run_study(copy, workers=1, progress=False)
+    assert (fewer.computed, fewer.reused) == (0, 3)
+    assert any("no longer in the study" in p and "V01_left-leg" in p for p in fewer.problems)
+    assert (copy / "results" / "sessions" / "V01_left-leg.json").is_file()
+    assert ("V01", "left-leg") not in _by_session(copy / "results" / "metrics.csv")
+
+
+def test_a_killed_run_resumes_with_the_unfinished_sessions_only(study, tmp_path) -> None:
+    root, _, metrics = study
+    copy = _copy(root, tmp_path / "killed", results=False)
+    results = copy / "results" / "sessions"
+    proc = subprocess.Popen([sys.executable, "-m", "psmat", "study", "run", str(copy), "--workers", "1", "--quiet"],
+                            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    try:
+        deadline = time.monotonic() + 120
+        while not list(results.glob("*.json")) and proc.poll() is None and time.monotonic() < deadline:
+            time.sleep(0.01)
+        os.kill(proc.pid, signal.SIGKILL)
+    finally:
+        proc.wait()
+    assert proc.returncode == -signal.SIGKILL
+    finished = {p: p.stat().st_mtime_ns for p in results.glob("*.json")}
+    assert 1 <= len(finished) < 4, sorted(p.name for p in finished)
+    assert not (copy / "results" / "metrics.csv").exists()
+    resumed = run_study(copy, workers=1, progress=False)
+    assert (resumed.computed, resumed.reused, resumed.failed) == (4 - len(finished), len(finished), 0)
+    assert all(p.stat().st_mtime_ns == t for p, t in finished.items())  # not rewritten
+    assert (copy / "results" / "metrics.csv").read_bytes() == metrics  # the uninterrupted run's bytes
+
+
+def test_a_changed_weight_reruns_its_subject_and_a_changed_parameter_everything(study, tmp_path) -> None:
+    root, _, metrics = study
+    copy = _copy(root, tmp_path / "weight", results=True)
+    subjects = _rows(copy / "subjects.csv")
+    subjects[1]["weight_kg"] = str(float(subjects[1]["weight_kg"]) + 8.0)
+    with open(copy / "subjects.csv", "w", newline="") as fh:
+        w = csv.DictWriter(fh, fieldnames=list(subjects[0]))
+        w.writeheader()
+        w.writerows(subjects)
+    report = run_study(copy, workers=1, progress=False)
+    assert (report.computed, report.reused) == (2, 2)
+    assert (copy / "results" / "summary.csv").read_bytes() != (root / "results" / "summary.csv").read_bytes()
+    before, after = _by_session(root / "results" / "metrics.csv"), _by_session(copy / "results" / "metrics.csv")
+    for trial in TRIALS:
+        assert after[("V01", trial)] == before[("V01", trial)]
+        new = {r["variant"]: r for r in after[("V02", trial)]}
+        old = {r["variant"]: r for r in before[("V02", trial)]}
+        assert new["PROP"] == old["PROP"]  # no weight in PROP
+        # eq. 3.3: a heavier body needs a larger f for the same trial (M monotone in f)
+        assert float(new["SCHC"]["factor"]) > float(old["SCHC"]["factor"])
+    # a parameter is part of every session's key: all rerun; only the variants asked for
+    fewer = run_study(copy, workers=1, progress=False, params={"variants": ["PROP"]})
+    assert (fewer.computed, fewer.reused) == (4, 0)
+    rows = _by_session(copy / "results" / "metrics.csv")
+    for (s, t), rs in rows.items():
+        assert [r["variant"] for r in rs] == ["FP", "PROP"]
+        assert rs == [r for r in before[(s, t)] if r["variant"] in ("FP", "PROP")]
+
+
+def test_a_calibration_file_for_a_box_reruns_the_sessions_of_that_box(study, tmp_path) -> None:
+    root, _, _ = study
+    copy = _copy(root, tmp_path / "cal", results=True)
+    (copy / "calibration").mkdir()
+    Calibration("BOX2", r_adc=Circuit().r_adc, r_mux=0.0).save(copy / "calibration" / "BOX2.json")
+    report = run_study(copy, workers=1, progress=False)
+    assert (report.computed, report.reused) == (2, 2)
+    stored = json.loads((copy / "results" / "sessions" / "V02_right-leg.json").read_text())
+    assert stored["inputs"]["calibration"] == "BOX2.json"
+    before, after = _by_session(root / "results" / "metrics.csv"), _by_session(copy / "results" / "metrics.csv")
+    assert after[("V01", "right-leg")] == before[("V01", "right-leg")]
+    assert after[("V02", "right-leg")][1]["sd_ml_cm"] != before[("V02", "right-leg")][1]["sd_ml_cm"]
+
+
+def test_processes_and_a_dask_cluster_give_the_same_bytes(study, tmp_path) -> None:
+    distributed = pytest.importorskip("distributed")
+    root, _, metrics = study
+    two = _copy(root, tmp_path / "loky", results=False)
+    report = run_study(two, workers=2, progress=False)
+    assert (report.computed, report.reused) == (4, 0)
+    assert (two / "results" / "metrics.csv").read_bytes() == metrics
+    dask = _copy(root, tmp_path / "dask", results=False)
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as c:
+        report = run_study(dask, scheduler=c.scheduler_address, progress=False)
+    assert (report.computed, report.reused) == (4, 0)
+    assert (dask / "results" / "metrics.csv").read_bytes() == metrics
+    for name in ("V01_right-leg", "V02_left-leg"):
+        mine, ref = (json.loads((d / "results" / "sessions" / f"{name}.json").read_text()) for d in (dask, root))
+        assert mine["key"] == ref["key"]  # the key is made of contents, not of where the folder lies
+        a, b = (np.load(d / "results" / "sessions" / m["traces"]) for d, m in ((dask, mine), (root, ref)))
+        assert sorted(a.files) == sorted(b.files) and all(np.array_equal(a[k], b[k]) for k in a.files)
+
+
+def test_bad_input_is_reported_and_does_not_stop_the_run(study, tmp_path) -> None:
+    root, _, _ = study
+    copy = _copy(root, tmp_path / "bad", results=True)
+    (copy / "forceplate" / "V01_left-leg.csv").unlink()
+    (copy / "subjects.csv").write_text("subject,weight_kg\nV01,60\n")
+    (copy / "sessions" / "V01_right-leg.h5").write_bytes(b"\x89HDF\r\n\x1a\n" + b"\0" * 100)
+    report = run_study(copy, workers=1, progress=False)
+    # every session's inputs changed (V01's weight too): computed, except the corrupt one
+    assert (report.sessions, report.computed, report.reused, report.failed) == (4, 3, 0, 1)
+    rows = _by_session(copy / "results" / "metrics.csv")
+    assert list(rows) == [(s, t) for s in SUBJECTS for t in TRIALS]
+    assert all(len(rs) == 1 + len(VARIANTS) for rs in rows.values())
+    assert all(r["status"].startswith("error: SessionFormatError") for r in rows[("V01", "right-leg")])
+    no_plate = {r["variant"]: r["status"] for r in rows[("V01", "left-leg")]}
+    assert no_plate["FP"] == "no force-platform file"
+    assert no_plate["CHC"] == "no force-platform file: no Eu, no lag"
+    for trial in TRIALS:
+        status = {r["variant"]: r["status"] for r in rows[("V02", trial)]}
+        assert status["PROP"] == "ok" and status["SCHC-8x8"] == "no body weight: subject missing from subjects.csv"
+    problems = "\n".join(report.problems)
+    assert "V01_right-leg: unreadable session" in problems
+    assert "V01_left-leg: no force-platform file" in problems
+    assert "V02_left-leg: subject 'V02' is not in subjects.csv" in problems
+    # a failed session is not stored: the next run tries it again
+    again = run_study(copy, workers=1, progress=False)
+    assert (again.computed, again.reused, again.failed) == (0, 3, 1)
+
+
+def test_bad_arguments_and_a_second_run_at_once_are_one_clear_error(study, tmp_path) -> None:
+    root, _, _ = study
+    with pytest.raises(FileNotFoundError, match="study folder not found"):
+        run_study(tmp_path / "nowhere", progress=False)
+    with pytest.raises(ValueError, match="unknown parameter.*windw_s"):
+        run_study(root, params={"windw_s": 10.0}, progress=False)
+    with pytest.raises(ValueError, match="unknown variant.*SCHC-4x4"):
+        run_study(root, params={"variants": ["SCHC-4x4"]}, progress=False)
+    with pytest.raises(ValueError, match="workers must be an integer >= 1"):
+        run_study(root, workers=0, progress=False)
+    with pytest.raises(ValueError, match="not both"):
+        run_study(root, workers=2, scheduler="tcp://127.0.0.1:8786", progress=False)
+    with study_lock(root / "results"), pytest.raises(RuntimeError, match="another psmat study run"):
+        run_study(root, workers=1, progress=False)
