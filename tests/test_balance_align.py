@@ -90,3 +90,23 @@ def test_manual_lag_without_overlap_is_refused(platform) -> None:
     t, c = mat_view(platform, 0.0, rate_hz=50.0, start=0.0, seconds=20.0)
     with pytest.raises(ValueError, match="do not overlap"):
         align(*platform, t, c, lag_s=500.0)
+
+
+def test_a_quiet_start_does_not_pull_the_peak_a_cycle_away() -> None:
+    # The Rotation trial (thesis §3.2.1): quiet standing, then circles at about half a cycle
+    # per second. Scored on the whole traces' standardisation, a lag that drops the quiet start
+    # and matches the next cycle beat the true lag; the correlation on each lag's own overlap
+    # peaks at the true one.
+    rng = np.random.default_rng(3)
+    fs = 100.0
+    t_ref = np.arange(0.0, 30.0, 1 / fs)
+    on = np.clip((t_ref - 6.0) / 2.0, 0.0, 1.0)  # quiet for 6 s, circles ramp in over 2 s
+    w = 2 * np.pi * 0.45
+    ref = np.column_stack([3.0 * on * np.cos(w * t_ref), 3.0 * on * np.sin(w * t_ref)])
+    ref += 0.05 * rng.standard_normal(ref.shape)
+    lag = 0.8
+    t = np.arange(0.0, 26.0, 1 / 50.0)  # the mat: its own clock and rate, smaller and offset
+    c = np.column_stack([np.interp(t + lag, t_ref, ref[:, k]) for k in range(2)]) * 0.7 + [5.0, -2.0]
+    a = align(t_ref, ref, t, c)
+    assert a.lag_s == pytest.approx(lag, abs=0.005)
+    assert a.r > 0.99

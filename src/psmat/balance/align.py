@@ -2,9 +2,9 @@
 
 The two instruments start on their own clocks and sample at their own rates; the mat also
 sees a smaller, offset trajectory (its gain and its origin differ). :func:`align` resamples
-both traces to a common rate, standardises each component (mean 0, SD 1, so gains and
-offsets drop out), maximises the sum of the two components' normalised cross-correlations
-over the lag, refines the peak below one sample (a parabola through the three samples
+both traces to a common rate, maximises over the lag the sum of the two components' Pearson
+correlations on that lag's overlap (so gains and offsets drop out, and a quiet stretch at
+one end cannot pull the peak), refines the peak below one sample (a parabola through the three samples
 around it, then the Pearson correlation maximised on the continuous lag), and reports the
 lag and the correlation there. ``lag_s`` given by the user overrides the search.
 
@@ -92,6 +92,30 @@ def _pearson(t_ref, c_ref, t, c, lag: float) -> tuple[float, float, float]:
     return r[0], r[1], float(tr[keep][-1] - tr[keep][0])
 
 
+def _overlap_pearson(A: NDArray[np.float64], B: NDArray[np.float64], n: NDArray[np.int64]) -> NDArray[np.float64]:
+    """Sum over the two components of the Pearson correlation of A and B on each lag's overlap.
+
+    Each lag's own overlap, not the whole traces' standardisation: a lag that drops a quiet
+    start must not score above the true one. The overlap sums (Σa, Σb, Σa², Σb², Σab) come
+    from cross-correlations with a window of ones, in the order of
+    ``signal.correlation_lags(len(A), len(B))``.
+    """
+    def xc(a: NDArray[np.float64], b: NDArray[np.float64]) -> NDArray[np.float64]:
+        return signal.correlate(a, b, mode="full", method="fft")
+
+    one_a, one_b = np.ones(len(A)), np.ones(len(B))
+    total = np.zeros(n.size)
+    for k in range(2):
+        a, b = A[:, k], B[:, k]
+        sa, sb = xc(a, one_b), xc(one_a, b)
+        cov = n * xc(a, b) - sa * sb
+        va = n * xc(a * a, one_b) - sa * sa
+        vb = n * xc(one_a, b * b) - sb * sb
+        den = np.sqrt(np.clip(va, 0.0, None) * np.clip(vb, 0.0, None))
+        total += np.where(den > 1e-9 * n * n, cov / np.where(den > 0, den, 1.0), 0.0)
+    return total
+
+
 def align(t_ref: ArrayLike, cop_ref: ArrayLike, t: ArrayLike, cop: ArrayLike, *, fs_hz: float | None = None,
           max_lag_s: float | None = None, lag_s: float | None = None, min_overlap: float = 0.5) -> Alignment:
     """Align a mat CoP trace with the force platform's.
@@ -130,7 +154,6 @@ def align(t_ref: ArrayLike, cop_ref: ArrayLike, t: ArrayLike, cop: ArrayLike, *,
     min_overlap = _checks.fraction("min_overlap", min_overlap, 0.0, 1.0)
     A, B = _resample(tr, cr, fs), _resample(tm, cm, fs)
     lags = signal.correlation_lags(len(A), len(B))
-    xc = sum(signal.correlate(A[:, k], B[:, k], mode="full", method="fft") for k in range(2))
     overlap = np.minimum(len(A), lags + len(B)) - np.maximum(0, lags)
     ok = overlap >= max(8, min_overlap * min(len(A), len(B)))
     base = tr[0] - tm[0]
@@ -138,7 +161,7 @@ def align(t_ref: ArrayLike, cop_ref: ArrayLike, t: ArrayLike, cop: ArrayLike, *,
         ok &= np.abs(lags / fs) <= _checks.positive("max_lag_s", max_lag_s)
     if not ok.any():
         raise ValueError("no lag satisfies max_lag_s and min_overlap: the traces cannot be aligned")
-    score = np.where(ok, xc / np.maximum(overlap, 1), -np.inf)
+    score = np.where(ok, _overlap_pearson(A, B, overlap), -np.inf)
     j = int(np.argmax(score))
     shift = float(lags[j])
     if 0 < j < len(score) - 1 and np.isfinite(score[j - 1]) and np.isfinite(score[j + 1]):
