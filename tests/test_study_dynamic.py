@@ -172,12 +172,12 @@ def test_failed_sessions_are_ignored_and_reported(study) -> None:
 def test_per_trial_models_need_another_volunteer_with_that_trial() -> None:
     rows, traces = _study(volunteers=3, seconds=20.0, trials=("right-leg", "rotation"))
     rows = [r for r in rows if not (r["trial"] == "rotation" and r["subject"] != "V01")]
-    new, _ = dynamic_rows(rows, traces, by_trial=True)
+    new, _ = dynamic_rows(rows, traces)  # one model per trial type by default
     status = {(r["subject"], r["trial"]): r["status"] for r in new}
     assert status[("V01", "rotation")] == ("not corrected: no other volunteer with a 'rotation' trial to fit on "
                                            "(fewer than 2 volunteers)")
     assert all(s == "ok" for k, s in status.items() if k[1] == "right-leg")
-    pooled, _ = dynamic_rows(rows, traces)  # pooled over trial types, V01's rotation is corrected
+    pooled, _ = dynamic_rows(rows, traces, by_trial=False)  # pooled over trial types: V01's rotation too
     assert all(r["status"] == "ok" for r in pooled)
 
 
@@ -187,3 +187,5 @@ def test_bad_arguments_are_one_line_errors(study) -> None:
         dynamic_rows(rows, traces, model="spline")
     with pytest.raises(ValueError, match="folds must be an integer >= 2"):
         dynamic_rows(rows, traces, folds=1)
+    with pytest.raises(ValueError, match="rate_hz must be a positive number of Hz"):
+        dynamic_rows(rows, traces, rate_hz=0.0)

@@ -18,13 +18,16 @@ resampled to one rate, with three candidate models of fixed size:
 
 Volunteers are split in folds (default leave-one-volunteer-out); each fold's traces are
 corrected by a model fitted on the other folds' volunteers only, so no volunteer's own platform
-trace ever enters its own correction. The model is pooled over trial types by default
-(``by_trial=True`` fits one per trial type).
+trace ever enters its own correction. One model is fitted per trial type by default
+(``by_trial=False`` pools the trial types).
 
-The defaults — FIR of ±0.1 s, ridge 1e-3, pooled, leave one volunteer out — are the best or
-level-best of the schemes compared on held-out simulated volunteers by
-``python -m psmat.experiments.dynamic_correction`` (which prints the comparison). The correction
-is linear and the same for every volunteer: it cannot undo a volunteer's own scale error.
+The defaults — FIR of ±0.1 s, ridge 1e-3, one model per trial type, leave one volunteer out —
+are the best or level-best of the schemes compared on held-out volunteers of the study's own
+simulation by ``python -m psmat.experiments.dynamic_correction`` (which prints the comparison):
+the FIR lowers Eu where a gain does not, and a model per trial type brings σ closer to the
+platform's than a pooled one (single-leg and rotation trials need different gains). The
+correction is linear and the same for every volunteer: it cannot undo a volunteer's own scale
+error.
 """
 
 from __future__ import annotations
@@ -170,7 +173,7 @@ def _fold_of(subjects: Sequence[str], folds: int | None) -> dict[str, int]:
 
 
 def dynamic_rows(rows: Sequence[Mapping[str, Any]], traces: Mapping[Key, Mapping[str, Any]], *, base: str = "SCHC",
-                 folds: int | None = None, model: str = "fir", by_trial: bool = False, rate_hz: float | None = None,
+                 folds: int | None = None, model: str = "fir", by_trial: bool = True, rate_hz: float | None = None,
                  fir_half_s: float = 0.1, ridge: float = 1e-3
                  ) -> tuple[list[dict[str, Any]], dict[Key, dict[str, NDArray[np.float64]]]]:
     """Rows and traces of the variant ``<base>-DYN``: each session's base trace corrected by a
@@ -192,7 +195,7 @@ def dynamic_rows(rows: Sequence[Mapping[str, Any]], traces: Mapping[Key, Mapping
     model : {"gain", "fir", "tf"}
         See the module docstring; ``fir_half_s`` (s) and ``ridge`` size and regularise it.
     by_trial : bool
-        One model per trial type instead of one pooled over the trial types.
+        One model per trial type (default), or one pooled over the trial types.
     rate_hz : float, optional
         Fitting rate (Hz); default the median of the sessions' rates.
 
@@ -211,6 +214,8 @@ def dynamic_rows(rows: Sequence[Mapping[str, Any]], traces: Mapping[Key, Mapping
         raise ValueError(f"unknown model {model!r}; choose one of {MODELS}")
     if folds is not None and (isinstance(folds, bool) or not isinstance(folds, (int, np.integer)) or folds < 2):
         raise ValueError(f"folds must be an integer >= 2 or None (leave one volunteer out), got {folds!r}")
+    if rate_hz is not None and not (np.isfinite(rate_hz) and rate_hz > 0):
+        raise ValueError(f"rate_hz must be a positive number of Hz or None, got {rate_hz!r}")
     name = f"{base}-DYN"
     by_key: dict[Key, dict[str, Mapping[str, Any]]] = {}
     for r in rows:
