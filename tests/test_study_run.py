@@ -1,7 +1,8 @@
-"""``run_study`` (SPEC §12) on a small study built by hand: two volunteers × two trials, 6 s at
-50 Hz on a 16×16 twin, each volunteer on their own box and clock. The tables are compared byte
-for byte across reruns, a SIGKILL and resume, worker counts and a real Dask cluster; the
-cache is checked through what each change reruns."""
+"""``run_study`` (SPEC §12) on a small simulated study (``simulate_study``): two volunteers,
+their right-leg and left-leg trials (the rotation trials removed to keep it small), 6 s at
+50 Hz on 16×16 mats, each volunteer on their own box and clock; ``truth/`` deleted first,
+as a lab has none. The tables are compared byte for byte across reruns, a SIGKILL and resume,
+worker counts and a real Dask cluster; the cache is checked through what each change reruns."""
 
 from __future__ import annotations
 
@@ -18,62 +19,33 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from psmat import Calibration, Circuit, twin
+from psmat import Calibration
 from psmat.balance.variants import VARIANTS
-from psmat.io import SessionWriter, bds_trial
-from psmat.sensor import THESIS_TABLE_2_11, MPICreep
-from psmat.study import run_study
+from psmat.io import load_session
+from psmat.study import run_study, simulate_study
 from psmat.study.cache import study_lock
 from psmat.study.trial import COLUMNS, process_trial
 
 SUBJECTS = ("V01", "V02")
 TRIALS = ("right-leg", "left-leg")
-SECONDS, RATE = 6.0, 50.0
-
-
-def _mat_model(k: float) -> MPICreep:
-    """The nominal sensor model k times more conductive (every conductance term scaled)."""
-    p = dict(THESIS_TABLE_2_11)
-    for name in ("rho", "a1", "a2", "a3"):
-        p[name] = p[name] * k
-    p["w"] = tuple(v * k for v in p["w"])
-    return MPICreep(**p)
-
-
-def build_study(root: Path) -> Path:
-    """SPEC §6 layout: a BDS trajectory per session through volunteer v's mat (1.5 + v times the
-    nominal conductance, 10 % cell gains) on box BOX<v>, on its own clock; platform at 100 Hz."""
-    for d in ("sessions", "forceplate"):
-        (root / d).mkdir(parents=True)
-    lines = ["subject,weight_kg,height_cm,age,sex"]
-    for v, sid in enumerate(SUBJECTS):
-        fz_mean = []
-        for k, trial in enumerate(TRIALS):
-            rec = bds_trial(1 + 3 * v + k)
-            keep = rec.t <= rec.t[0] + SECONDS
-            t, ml, ap, fz = rec.t[keep], rec.cop_ml_cm[keep], rec.cop_ap_cm[keep], rec.fz_n[keep]
-            scene = twin.trajectory_sway(t, ml, ap, fz, RATE)
-            mat = twin.MatPhysics((16, 16), dt=1 / RATE, sensor=_mat_model(1.5 + v), variability=0.1, seed=10 * v + k)
-            counts = mat.counts(np.minimum(scene.pressure, 32.0))
-            clock = 300.0 + 17.0 * v + np.arange(len(counts)) / RATE
-            with SessionWriter(root / "sessions" / f"{sid}_{trial}.h5", (16, 16),
-                               {"rows": 16, "cols": 16, "serial": f"BOX{v + 1}"},
-                               metadata={"subject": sid, "trial": trial}) as w:
-                w.append(counts, clock, np.ones(len(counts), bool))
-            np.savetxt(root / "forceplate" / f"{sid}_{trial}.csv", np.c_[t, ml, ap, fz], delimiter=",",
-                       header="time,x,y,Fz", comments="")
-            fz_mean.append(float(np.mean(fz)))
-        lines.append(f"{sid},{np.mean(fz_mean) / 9.80665:.3f},170,30,F")
-    (root / "subjects.csv").write_text("\n".join(lines) + "\n")
-    return root
 
 
 @pytest.fixture(scope="module")
 def study(tmp_path_factory):
     """The study and its first, uninterrupted run in one process (workers=1)."""
-    root = build_study(tmp_path_factory.mktemp("study") / "study")
+    root = simulate_study(tmp_path_factory.mktemp("study") / "study", volunteers=2, seconds=6.0, seed=12,
+                          rate_hz=50.0)
+    shutil.rmtree(root / "truth")
+    for sid in SUBJECTS:
+        (root / "sessions" / f"{sid}_rotation.h5").unlink()
+        (root / "forceplate" / f"{sid}_rotation.csv").unlink()
     report = run_study(root, workers=1, progress=False)
     return root, report, (root / "results" / "metrics.csv").read_bytes()
+
+
+def _box(root: Path, stem: str) -> Path:
+    """The study's calibration file of the box a session was recorded with."""
+    return root / "calibration" / f"{load_session(root / 'sessions' / f'{stem}.h5').device['serial']}.json"
 
 
 def _copy(root: Path, dst: Path, results: bool) -> Path:
@@ -103,10 +75,10 @@ def test_metrics_csv_has_a_row_per_subject_trial_variant_and_a_rerun_reuses_ever
     assert [(r["subject"], r["trial"], r["variant"]) for r in rows] == [
         (s, t, v) for s in SUBJECTS for t in TRIALS for v in ("FP",) + VARIANTS]
     assert {r["status"] for r in rows} == {"ok"}
-    # the numbers are process_trial's for that session and weight, written exactly (repr)
+    # the numbers are process_trial's for that session, weight and box, written exactly (repr)
     weight = float(_rows(root / "subjects.csv")[1]["weight_kg"])
     direct = process_trial(root / "sessions" / "V02_left-leg.h5", root / "forceplate" / "V02_left-leg.csv", "V02",
-                           "left-leg", weight)
+                           "left-leg", weight, calibration=_box(root, "V02_left-leg"))
     for mine, want in zip(_by_session(root / "results" / "metrics.csv")[("V02", "left-leg")], direct):
         for c in COLUMNS[3:-1]:
             assert (float(mine[c]) if mine[c] else np.nan) == pytest.approx(want[c], rel=0, abs=0, nan_ok=True), c
@@ -184,15 +156,24 @@ def test_a_changed_weight_reruns_its_subject_and_a_changed_parameter_everything(
 def test_a_calibration_file_for_a_box_reruns_the_sessions_of_that_box(study, tmp_path) -> None:
     root, _, _ = study
     copy = _copy(root, tmp_path / "cal", results=True)
-    (copy / "calibration").mkdir()
-    Calibration("BOX2", r_adc=Circuit().r_adc, r_mux=0.0).save(copy / "calibration" / "BOX2.json")
+    box = _box(copy, "V02_right-leg")
+    assert box.is_file() and box != _box(copy, "V01_right-leg")
+    cal = Calibration.load(box)
+    cal.r_mux = 0.0
+    cal.short_stats = None
+    cal.save(box)
     report = run_study(copy, workers=1, progress=False)
     assert (report.computed, report.reused) == (2, 2)
     stored = json.loads((copy / "results" / "sessions" / "V02_right-leg.json").read_text())
-    assert stored["inputs"]["calibration"] == "BOX2.json"
+    assert stored["inputs"]["calibration"] == box.name
     before, after = _by_session(root / "results" / "metrics.csv"), _by_session(copy / "results" / "metrics.csv")
     assert after[("V01", "right-leg")] == before[("V01", "right-leg")]
     assert after[("V02", "right-leg")][1]["sd_ml_cm"] != before[("V02", "right-leg")][1]["sd_ml_cm"]
+    # without the study's file the circuit stored in the session is used: the same box, the same numbers
+    box.unlink()
+    report = run_study(copy, workers=1, progress=False)
+    assert (report.computed, report.reused) == (2, 2)
+    assert _by_session(copy / "results" / "metrics.csv") == before
 
 
 def test_processes_and_a_dask_cluster_give_the_same_bytes(study, tmp_path) -> None:

@@ -1,6 +1,8 @@
-"""Studies processed in batch (SPEC §6 study layout, §12): discovery, running, results."""
+"""Studies processed in batch (SPEC §6 study layout, §12): discovery, running, results, simulation."""
 
 from .layout import StudyItem, StudyLayout, Subject, find_study, read_subjects
 from .run import RunReport, run_study
+from .simulate import simulate_study
 
-__all__ = ["Subject", "StudyItem", "StudyLayout", "find_study", "read_subjects", "RunReport", "run_study"]
+__all__ = ["Subject", "StudyItem", "StudyLayout", "find_study", "read_subjects", "RunReport", "run_study",
+           "simulate_study"]
