@@ -44,3 +44,28 @@ def test_a_gap_is_stepped_as_one_long_step() -> None:
 def test_steps_must_match_the_samples() -> None:
     with pytest.raises(ValueError, match="one value per sample"):
         inverse_stepped(MPICreep.thesis(), np.ones((4, 2)) * 1e-3, [0.01, 0.01])
+
+
+def test_a_clock_with_jitter_is_one_call_bit_identical_to_a_call_per_sample() -> None:
+    # A device clock stamps every frame a little differently (µs ticks, crystal error), so no
+    # two consecutive steps are equal: the per-sample periods of MPICreep.direct/inverse give
+    # exactly what a call per sample gives (before, inverse_stepped made one call per run of
+    # equal steps — one per frame on such a clock, the study's bottleneck).
+    m = MPICreep.thesis()
+    rng = np.random.default_rng(1)
+    p = np.abs(rng.normal(8.0, 3.0, (200, 4)))
+    steps = 0.01 * (1 + 1e-4 * rng.standard_normal(200))
+    state = m.rest_state((4,))
+    by_sample = np.concatenate([m.direct(p[k:k + 1], float(steps[k]), state) for k in range(200)])
+    np.testing.assert_array_equal(m.direct(p, steps), by_sample)
+    state = m.rest_state((4,))
+    inv_by_sample = np.concatenate([m.inverse(by_sample[k:k + 1], float(steps[k]), state) for k in range(200)])
+    np.testing.assert_array_equal(inverse_stepped(m, by_sample, steps), inv_by_sample)
+    np.testing.assert_allclose(inv_by_sample, p, rtol=1e-9)
+
+
+@pytest.mark.parametrize("dt, match", [(np.full(3, 0.01), "one per sample"), (np.array([0.01, -0.01] * 5), "positive"),
+                                       (np.full((10, 1), 0.01), "one per sample"), (float("nan"), "positive")])
+def test_bad_periods_are_one_clear_error(dt, match) -> None:
+    with pytest.raises(ValueError, match=match):
+        MPICreep.thesis().direct(np.ones((10, 2)), dt)

@@ -65,6 +65,34 @@ void check_state(const MPICreep& m, const MPICreepState& s, Index cells) {
       s.yc.rows() != static_cast<Index>(m.params().l.size()) || s.p_prev.size() != cells)
     throw std::invalid_argument("state does not match this model and number of cells");
 }
+
+// MPICreep.direct / .inverse over a (T, cells) stream; Dt is one period (double) or one per
+// sample (VectorXd), both accepted by the core.
+template <class Dt>
+RowMatrixXd direct_stream(const MPICreep& c, const CArray& p, const Dt& dt, MPICreepState& state) {
+  const auto P = as_stream(p);
+  check_state(c, state, P.cols());
+  RowMatrixXd g(P.rows(), P.cols());
+  {
+    py::gil_scoped_release release;
+    c.direct(P, dt, state, g);
+  }
+  return g;
+}
+
+template <class Dt>
+py::tuple inverse_stream(const MPICreep& c, const CArray& g, const Dt& dt, MPICreepState& state) {
+  const auto Gs = as_stream(g);
+  check_state(c, state, Gs.cols());
+  RowMatrixXd p(Gs.rows(), Gs.cols());
+  Index clipped = 0;
+  {
+    py::gil_scoped_release release;
+    c.inverse(Gs, dt, state, p, &clipped);
+  }
+  return py::make_tuple(p, clipped);
+}
+
 }  // namespace
 
 void register_sensor(py::module_& m) {
@@ -98,33 +126,11 @@ void register_sensor(py::module_& m) {
       .def_property_readonly("weights", [](const MPICreep& c) { return Eigen::VectorXd(c.weights()); })
       .def("rest_state", &MPICreep::rest_state, py::arg("cells"))
       .def("check_invertible", &MPICreep::check_invertible)
-      .def(
-          "direct",
-          [](const MPICreep& c, const CArray& p, double dt, MPICreepState& state) {
-            const auto P = as_stream(p);
-            check_state(c, state, P.cols());
-            RowMatrixXd g(P.rows(), P.cols());
-            {
-              py::gil_scoped_release release;
-              c.direct(P, dt, state, g);
-            }
-            return g;
-          },
-          py::arg("p"), py::arg("dt"), py::arg("state"))
-      .def(
-          "inverse",
-          [](const MPICreep& c, const CArray& g, double dt, MPICreepState& state) {
-            const auto Gs = as_stream(g);
-            check_state(c, state, Gs.cols());
-            RowMatrixXd p(Gs.rows(), Gs.cols());
-            Index clipped = 0;
-            {
-              py::gil_scoped_release release;
-              c.inverse(Gs, dt, state, p, &clipped);
-            }
-            return py::make_tuple(p, clipped);
-          },
-          py::arg("g"), py::arg("dt"), py::arg("state"));
+      // dt: one period for every sample, or one per sample (s) - a real clock, missing frames
+      .def("direct", &direct_stream<double>, py::arg("p"), py::arg("dt"), py::arg("state"))
+      .def("direct", &direct_stream<Eigen::VectorXd>, py::arg("p"), py::arg("dt"), py::arg("state"))
+      .def("inverse", &inverse_stream<double>, py::arg("g"), py::arg("dt"), py::arg("state"))
+      .def("inverse", &inverse_stream<Eigen::VectorXd>, py::arg("g"), py::arg("dt"), py::arg("state"));
 
   m.def(
       "play_inverse",

@@ -116,14 +116,19 @@ class MPICreep:
         shape = (cell_shape,) if isinstance(cell_shape, (int, np.integer)) else tuple(int(v) for v in cell_shape)
         return SensorState(shape, self._m.rest_state(int(np.prod(shape, dtype=np.int64))))
 
-    def _stream(self, x, name: str, dt: float, state: SensorState | None):
+    def _stream(self, x, name: str, dt, state: SensorState | None):
         a = np.asarray(x)
         if a.dtype == object or not (np.issubdtype(a.dtype, np.floating) or np.issubdtype(a.dtype, np.integer)):
             raise TypeError(f"{name} must be a real numeric array, got dtype {a.dtype}")
         if a.ndim < 1:
             raise ValueError(f"{name} must be a (T,) or (T, ...) stream, got a scalar")
-        if not (np.isfinite(dt) and dt > 0):
-            raise ValueError(f"dt must be a positive sampling period in s, got {dt!r}")
+        periods = np.atleast_1d(np.asarray(dt, dtype=np.float64))
+        if periods.ndim != 1 or periods.size not in (1, a.shape[0]):
+            raise ValueError(f"dt must be one sampling period or one per sample ({a.shape[0]}) in s, "
+                             f"got shape {np.shape(dt)}")
+        if not np.all(np.isfinite(periods) & (periods > 0)):
+            raise ValueError(f"dt must be a positive sampling period in s, got {dt!r}" if periods.size == 1
+                             else "dt must hold positive sampling periods in s")
         if np.isinf(a).any():
             raise ValueError(f"{name} contains infinite values")
         cells = a.shape[1:]
@@ -132,9 +137,9 @@ class MPICreep:
         elif state.cell_shape != cells:
             raise ValueError(f"state is for cells of shape {state.cell_shape}, the stream has {cells}")
         flat = np.ascontiguousarray(a, dtype=np.float64).reshape(a.shape[0], -1)
-        return flat, state
+        return flat, periods, state
 
-    def direct(self, p, dt: float, state: SensorState | None = None) -> np.ndarray:
+    def direct(self, p, dt: float | np.ndarray, state: SensorState | None = None) -> np.ndarray:
         """Conductance (S) for a pressure stream (psi), sampled every ``dt`` s.
 
         Parameters
@@ -142,26 +147,28 @@ class MPICreep:
         p : array_like, shape (T,) or (T, ...)
             Pressure in psi (>= 0). NaN samples give NaN and are skipped (the cell's state
             does not see them).
-        dt : float
-            Sampling period in s.
+        dt : float or (T,) array
+            Sampling period in s, or each sample's time since the one before it (a real
+            clock, or frames missing in between): sample k's creep step (eq. 2.23) is ``dt[k]``.
         state : SensorState, optional
             Operator state to start from and to update in place (a live stream in chunks);
             default: the sensor at rest.
         """
-        flat, state = self._stream(p, "p", dt, state)
+        flat, periods, state = self._stream(p, "p", dt, state)
         if np.any(flat < 0):
             raise ValueError("p must be >= 0 psi (the OSP operators are one-sided)")
-        g = self._m.direct(flat, float(dt), state._s)
+        g = self._m.direct(flat, periods, state._s)
         return np.asarray(g).reshape(np.shape(p))
 
-    def inverse(self, g, dt: float, state: SensorState | None = None, *, return_clipped: bool = False):
+    def inverse(self, g, dt: float | np.ndarray, state: SensorState | None = None, *, return_clipped: bool = False):
         """Pressure (psi) from a conductance stream (S): the exact inverse of :meth:`direct`.
 
         The polynomial term uses the current pressure (an algebraic loop), solved per sample,
         so ``direct(inverse(g)) == g`` to round-off. A conductance below what zero pressure
         gives (more creep than signal) returns p = 0, one above what ``p_max`` gives returns
         ``p_max`` (the model is identified and checked monotone on [0, p_max] only, SPEC §4);
-        their number with ``return_clipped``.
+        their number with ``return_clipped``. ``dt``: one sampling period or one per sample (s),
+        as in :meth:`direct`.
 
         Raises
         ------
@@ -171,7 +178,7 @@ class MPICreep:
         why = self.invertibility_problem()
         if why:
             raise ValueError(f"this sensor model is not invertible: {why}")
-        flat, state = self._stream(g, "g", dt, state)
-        p, clipped = self._m.inverse(flat, float(dt), state._s)
+        flat, periods, state = self._stream(g, "g", dt, state)
+        p, clipped = self._m.inverse(flat, periods, state._s)
         p = np.asarray(p).reshape(np.shape(g))
         return (p, int(clipped)) if return_clipped else p

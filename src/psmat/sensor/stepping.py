@@ -49,19 +49,15 @@ def steps_over_gaps(periods: ArrayLike, usable: ArrayLike, since: float = 0.0) -
 
 def inverse_stepped(model: MPICreep, g: ArrayLike, steps: ArrayLike, state: SensorState | None = None
                     ) -> NDArray[np.float64]:
-    """Pressure (psi) of samples (T, ...) each with its own time step (s): runs of equal steps
-    go to :meth:`MPICreep.inverse` together, the operator state carried through ``state``."""
+    """Pressure (psi) of samples (T, ...) each with its own time step (s), the operator state
+    carried through ``state``: one call of :meth:`MPICreep.inverse` with per-sample periods."""
     g = np.asarray(g, dtype=np.float64)
     steps = np.asarray(steps, np.float64)
     if steps.shape != (g.shape[0],):
         raise ValueError(f"steps must have one value per sample ({g.shape[0]}), got shape {steps.shape}")
     if g.shape[0] == 0:
         return g.copy()
-    if state is None:
-        state = model.rest_state(g.shape[1:])
-    cuts = np.flatnonzero(np.diff(steps) != 0) + 1
-    return np.concatenate([model.inverse(part, float(step[0]), state)
-                           for part, step in zip(np.split(g, cuts), np.split(steps, cuts))])
+    return model.inverse(g, steps, state)
 
 
 def inverse_over_gaps(model: MPICreep, g: ArrayLike, periods: float | ArrayLike) -> NDArray[np.float64]:

@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <sstream>
 #include <stdexcept>
 
@@ -41,11 +42,35 @@ MPICreepState MPICreep::rest_state(Index cells) const {
   return s;
 }
 
+void MPICreep::decay_at(const ConstVecRef& dt, Index t, std::vector<double>& decay, double& dt_of_decay) const {
+  const double d = dt.size() == 1 ? dt[0] : dt[t];
+  if (d == dt_of_decay) return;
+  decay.resize(p_.l.size());
+  for (size_t j = 0; j < p_.l.size(); ++j) decay[j] = std::exp(-p_.l[j] * d);
+  dt_of_decay = d;
+}
+
+namespace {
+void check_periods(const ConstVecRef& dt, Index T) {
+  if (dt.size() != 1 && dt.size() != T)
+    throw std::invalid_argument("dt must hold one period or one per sample");
+  for (Index k = 0; k < dt.size(); ++k)
+    if (!(dt[k] > 0) || !std::isfinite(dt[k])) throw std::invalid_argument("dt must be positive and finite (s)");
+}
+}  // namespace
+
 void MPICreep::direct(const ConstRowMatRef& p, double dt, MPICreepState& st, RowMatRef g) const {
+  const Eigen::VectorXd one = Eigen::VectorXd::Constant(1, dt);
+  direct(p, one, st, g);
+}
+
+void MPICreep::direct(const ConstRowMatRef& p, const ConstVecRef& dt, MPICreepState& st, RowMatRef g) const {
   const Index T = p.rows(), n = p.cols(), N = p_.n_ops, Nc = static_cast<Index>(p_.l.size());
-  std::vector<double> decay(static_cast<size_t>(Nc));
-  for (Index j = 0; j < Nc; ++j) decay[static_cast<size_t>(j)] = std::exp(-p_.l[static_cast<size_t>(j)] * dt);
+  check_periods(dt, T);
+  std::vector<double> decay;
+  double dt_of_decay = std::numeric_limits<double>::quiet_NaN();
   for (Index t = 0; t < T; ++t) {
+    decay_at(dt, t, decay, dt_of_decay);
     for (Index c = 0; c < n; ++c) {
       const double x = p(t, c);
       if (std::isnan(x)) {
@@ -70,12 +95,20 @@ void MPICreep::direct(const ConstRowMatRef& p, double dt, MPICreepState& st, Row
 
 void MPICreep::inverse(const ConstRowMatRef& g, double dt, MPICreepState& st, RowMatRef p,
                        Index* clipped) const {
+  const Eigen::VectorXd one = Eigen::VectorXd::Constant(1, dt);
+  inverse(g, one, st, p, clipped);
+}
+
+void MPICreep::inverse(const ConstRowMatRef& g, const ConstVecRef& dt, MPICreepState& st, RowMatRef p,
+                       Index* clipped) const {
   const Index T = g.rows(), n = g.cols(), N = p_.n_ops, Nc = static_cast<Index>(p_.l.size());
-  std::vector<double> decay(static_cast<size_t>(Nc));
-  for (Index j = 0; j < Nc; ++j) decay[static_cast<size_t>(j)] = std::exp(-p_.l[static_cast<size_t>(j)] * dt);
+  check_periods(dt, T);
+  std::vector<double> decay;
+  double dt_of_decay = std::numeric_limits<double>::quiet_NaN();
   Index n_clipped = 0;
   std::vector<double> ycn(static_cast<size_t>(Nc));
   for (Index t = 0; t < T; ++t) {
+    decay_at(dt, t, decay, dt_of_decay);
     for (Index c = 0; c < n; ++c) {
       const double gv = g(t, c);
       if (std::isnan(gv)) {

@@ -48,14 +48,21 @@ class MPICreep {
   MPICreepState rest_state(Index cells) const;
 
   // Direct model over a (T, cells) pressure stream. A NaN sample gives a NaN output and
-  // leaves that cell's state untouched (the sample is skipped).
+  // leaves that cell's state untouched (the sample is skipped). `dt` is the sampling period
+  // (s): one for every sample, or one per sample (T,) - sample k's creep step (eq. 2.23) is
+  // dt[k], the time since the sample before it (a stream on a real clock, or one stepped over
+  // missing frames).
   void direct(const ConstRowMatRef& p, double dt, MPICreepState& state, RowMatRef g) const;
+  void direct(const ConstRowMatRef& p, const ConstVecRef& dt, MPICreepState& state, RowMatRef g) const;
 
   // Exact inverse: pressure from a (T, cells) conductance stream. NaN in, NaN out, state of
   // that cell untouched. A conductance below what zero pressure gives (g - creep < 0) is
   // returned as p = 0, one above what p_max gives as p = p_max (the model is identified and
   // checked monotone on [0, p_max] only); both are counted in `clipped` (if given).
+  // `dt` as in direct().
   void inverse(const ConstRowMatRef& g, double dt, MPICreepState& state, RowMatRef p,
+               Index* clipped = nullptr) const;
+  void inverse(const ConstRowMatRef& g, const ConstVecRef& dt, MPICreepState& state, RowMatRef p,
                Index* clipped = nullptr) const;
 
   // Invertibility (SPEC §4): every slope the play part can take, a1 + sum_{i<=j} b_i, must
@@ -68,6 +75,9 @@ class MPICreep {
   std::string check_invertible() const;
 
  private:
+  // e^{-l_j dt} of eq. 2.23 for the period of sample t, recomputed only when it changes.
+  void decay_at(const ConstVecRef& dt, Index t, std::vector<double>& decay, double& dt_of_decay) const;
+
   MPICreepParams p_;
   Eigen::VectorXd r_, b_;
 };
