@@ -133,3 +133,26 @@ def test_a_calibration_file_gives_the_box_its_r_adc_and_r_mux(trial, tmp_path) -
     broken.write_text("{")
     rows = process_trial(session, plate, "S01", "right", weight_kg, params, calibration=broken)
     assert all(r["status"].startswith("error: ValueError:") and "not a valid calibration" in r["status"] for r in rows)
+
+
+def test_a_lost_frame_does_not_move_the_session_to_the_host_clock(trial, tmp_path) -> None:
+    # A frame lost on the wire is stored with device time -1 (SPEC §6). The lag must still be
+    # measured on the device clock, the lost frame's time taken from the frame grid; before,
+    # one such frame sent the whole session to the host clock (a lag of about -1.7e9 s here).
+    from psmat.io import load_session
+
+    session, plate, weight_kg, lag = trial
+    s = load_session(session)
+    device_us = np.round((s.host_time_s - 500.0) * 1e6).astype(np.int64)  # device clock starts at 0
+    valid = s.valid.copy()
+    device_us[[0, 100]], valid[[0, 100]] = -1, False  # the first frame too: its time from the grid
+    host = 1.7e9 + np.arange(s.n_frames) * 0.02 + 0.003 * np.random.default_rng(0).random(s.n_frames)
+    lost = tmp_path / "S01_right.h5"
+    counts = s.counts.copy()
+    counts[[0, 100]] = 0
+    with SessionWriter(lost, (16, 16), {"rows": 16, "cols": 16}, metadata={"subject": "S01", "trial": "right"}) as w:
+        w.append(counts, host, valid, seq=np.where(valid, np.arange(s.n_frames), -1), device_time_us=device_us)
+    rows = process_trial(lost, plate, "S01", "right", weight_kg, {"variants": ["PROP"]})
+    assert [r["status"] for r in rows] == ["ok", "ok"]
+    assert rows[0]["frames_missing"] == 2
+    assert rows[0]["lag_s"] == pytest.approx(lag + 500.0, abs=0.005)  # platform clock minus device clock

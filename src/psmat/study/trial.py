@@ -138,12 +138,20 @@ def _process(session: Path, forceplate: Path | None, subject: str, trial: str, w
         raise ValueError(f"a {s.kind!r} session, not a mat (psm) session")
     if s.n_frames < 8:
         raise ValueError(f"{s.n_frames} frames: too short")
-    clock = s.device_time_us * 1e-6 if s.device_time_us is not None and np.all(s.device_time_us >= 0) else s.host_time_s
+    dev = s.device_time_us
+    # the device clock when the box stamps frames (v2); a lost frame's -1 is a gap in it, not a
+    # reason to fall back to the host clock
+    clock = np.where(dev >= 0, dev * 1e-6, np.nan) if dev is not None and np.any(dev >= 0) else s.host_time_s
     t = np.asarray(clock, np.float64)
-    if not np.all(np.isfinite(t)):  # frames whose time was lost to damage: on the regular grid
+    if not np.all(np.isfinite(t)):  # frames whose time was lost: on the regular grid
         k = np.arange(t.size)
-        good = np.isfinite(t)
-        t = np.interp(k, k[good], t[good])
+        good = np.flatnonzero(np.isfinite(t))
+        if good.size < 2:
+            raise ValueError("fewer than two frames carry a time stamp")
+        step = float(np.median(np.diff(t[good]) / np.diff(good)))
+        t = np.interp(k, good, t[good])
+        t[: good[0]] = t[good[0]] - (good[0] - k[: good[0]]) * step  # lost at the start or the end:
+        t[good[-1] + 1:] = t[good[-1]] + (k[good[-1] + 1:] - good[-1]) * step  # extend the grid
     periods = np.diff(t, prepend=t[0] - np.median(np.diff(t)))
     fs = 1.0 / float(np.median(np.diff(t)))
     sensor = MPICreep(**p["sensor"]) if p["sensor"] else MPICreep.thesis()
