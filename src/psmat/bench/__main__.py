@@ -12,6 +12,7 @@ def main(argv: list[str] | None = None) -> int:
         "iecm": "IECM crosstalk removal: frames/s and accuracy vs the thesis' NumPy/SciPy approach",
         "sensor": "sensor model: direct/inverse throughput and identification vs NumPy and scipy dual_annealing",
         "acquire": "acquisition through the pty twin: 165 Hz for 10 min, and a corrupted link vs a thesis-style reader",
+        "study": "a thesis-size simulated balance study end to end vs a plain multiprocessing pool over sessions",
     }
     if not argv or argv[0] in ("-h", "--help"):
         p = argparse.ArgumentParser(prog="python -m psmat.bench", description="psmat benchmarks (SPEC §10).")
@@ -31,6 +32,10 @@ def main(argv: list[str] | None = None) -> int:
         from .acquire import main as acquire_main
 
         return acquire_main(rest)
+    if name == "study":
+        from .study import main as study_main
+
+        return study_main(rest)
     print(f"python -m psmat.bench: unknown benchmark {name!r}; choose from {sorted(benches)}", file=sys.stderr)
     return 2
 

@@ -1,0 +1,156 @@
+"""Balance-study benchmark (SPEC §10, issue 12 item 6): ``python -m psmat.bench study``.
+
+``python -m psmat.bench study [--volunteers 42] [--seconds 60] [--rate 100] [--workers 2]
+[--dir PATH] [--seed K] [--no-baseline] [--json PATH]``
+
+What is measured
+----------------
+A simulated balance study (:func:`psmat.study.simulate.simulate_study`: three trials per
+volunteer through mats the processing does not know; SPEC §7) of the thesis' size by default —
+42 volunteers × 3 trials × 60 s at 100 Hz = 756 000 frames, 16×16 — is processed end to end:
+
+* **psmat** — :func:`psmat.study.run.run_study` with ``workers`` processes: every variant of
+  SPEC §7 (each session through the one chain, IECM on noisy frames, the inverse sensor
+  model, eq. 3.3, the 8×8 emulation, alignment, metrics), the per-session result files,
+  ``metrics.csv``, the summary, figures and report. The results folder is emptied first, so
+  nothing is reused.
+* **resume** — the same call again: every session is found finished (the cost of the cache).
+* **baseline** — the thesis' approach: a plain ``multiprocessing.Pool(workers)`` mapping the
+  same per-session function over the sessions, nothing written, in the same run.
+
+The simulation itself is timed apart and is not part of the SPEC §10 figure (≤ 10 min end to
+end on 2 cores). ``--dir`` keeps the simulated study between runs (it is reused when it
+holds the same number of sessions). The two figures are compared in the same process, on the
+same machine, one after the other.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import multiprocessing as mp
+import shutil
+import sys
+import tempfile
+import time
+from pathlib import Path
+from typing import Any
+
+from .iecm import machine_info
+
+__all__ = ["main", "run"]
+
+TARGET_S = 600.0  # SPEC §10: a thesis-size study in <= 10 min on 2 cores
+
+
+def _pool_task(item: tuple[str, str | None, str, str, float | None]) -> int:
+    """One session by the baseline: the per-session function, nothing written; its row count."""
+    from ..study.trial import process_trial
+
+    session, plate, subject, trial, weight = item
+    return len(process_trial(session, plate, subject, trial, weight))
+
+
+def _frames(layout: Any) -> int:
+    from ..io import load_session
+
+    return sum(load_session(i.session).n_frames for i in layout.items)
+
+
+def run(volunteers: int = 42, seconds: float = 60.0, rate_hz: float = 100.0, workers: int = 2, seed: int = 0,
+        study_dir: str | None = None, baseline: bool = True) -> dict[str, Any]:
+    """Simulate (or reuse) a study and time its processing; the figures as a dict."""
+    from ..study.layout import find_study
+    from ..study.run import run_study
+    from ..study.simulate import simulate_study
+
+    tmp = None
+    if study_dir is None:
+        tmp = tempfile.mkdtemp(prefix="psmat-bench-study-")
+        root = Path(tmp) / "study"
+    else:
+        root = Path(study_dir)
+    try:
+        out: dict[str, Any] = {"volunteers": volunteers, "seconds": seconds, "rate_hz": rate_hz, "workers": workers,
+                               "seed": seed, "machine": machine_info()}
+        reuse = (root / "sessions").is_dir() and len(list((root / "sessions").glob("*.h5"))) == 3 * volunteers
+        t0 = time.perf_counter()
+        if not reuse:
+            if root.exists():
+                raise SystemExit(f"{root} exists and does not hold a {volunteers}-volunteer study; give another --dir")
+            simulate_study(root, volunteers=volunteers, seconds=seconds, seed=seed, rate_hz=rate_hz, progress=True)
+        out["simulate_s"] = None if reuse else time.perf_counter() - t0
+        layout = find_study(root)
+        out["sessions"] = len(layout.items)
+        out["frames"] = _frames(layout)
+
+        shutil.rmtree(root / "results", ignore_errors=True)
+        t0 = time.perf_counter()
+        report = run_study(root, workers=workers, progress=True)
+        out["psmat_s"] = time.perf_counter() - t0
+        out["psmat_report"] = {"computed": report.computed, "reused": report.reused, "failed": report.failed}
+        t0 = time.perf_counter()
+        again = run_study(root, workers=workers, progress=False)
+        out["resume_s"] = time.perf_counter() - t0
+        out["resume_computed"] = again.computed
+
+        if baseline:
+            items = [(str(i.session), None if i.forceplate is None else str(i.forceplate), i.subject or "",
+                      i.trial or "", None if i.subject not in layout.subjects else layout.subjects[i.subject].weight_kg)
+                     for i in layout.items]
+            t0 = time.perf_counter()
+            with mp.get_context("spawn").Pool(workers) as pool:
+                rows = sum(pool.map(_pool_task, items, chunksize=1))
+            out["baseline_s"] = time.perf_counter() - t0
+            out["baseline_rows"] = rows
+        return out
+    finally:
+        if tmp is not None:
+            shutil.rmtree(tmp, ignore_errors=True)
+
+
+def format_report(r: dict[str, Any]) -> str:
+    """The benchmark's figures as a plain-text table."""
+    frames = r["frames"]
+    lines = [
+        f"balance study (simulation): {r['volunteers']} volunteers x 3 trials x {r['seconds']:g} s at "
+        f"{r['rate_hz']:g} Hz = {r['sessions']} sessions, {frames} frames, 16x16; {r['workers']} workers",
+        f"machine: {r['machine']}",
+    ]
+    if r.get("simulate_s") is not None:
+        lines.append(f"simulation (not part of the target): {r['simulate_s']:.1f} s")
+    lines += [
+        f"{'run':<44}{'time (s)':>10}{'frames/s':>11}",
+        f"{'psmat study run (all variants, results written)':<44}{r['psmat_s']:>10.1f}{frames / r['psmat_s']:>11.0f}",
+        f"{'psmat study run again (every session reused)':<44}{r['resume_s']:>10.2f}{'':>11}",
+    ]
+    if "baseline_s" in r:
+        lines.append(f"{'baseline: multiprocessing.Pool over sessions':<44}{r['baseline_s']:>10.1f}"
+                     f"{frames / r['baseline_s']:>11.0f}")
+    scale = 756_000 / frames
+    verdict = "met" if r["psmat_s"] * scale <= TARGET_S else "missed"
+    lines.append(f"SPEC §10 target: 756 000 frames in <= {TARGET_S:.0f} s on 2 cores; this run scaled to 756 000 "
+                 f"frames: {r['psmat_s'] * scale:.0f} s ({verdict}{'' if scale == 1 else ', extrapolated linearly'})")
+    return "\n".join(lines)
+
+
+def main(argv: list[str] | None = None) -> int:
+    p = argparse.ArgumentParser(prog="python -m psmat.bench study", description=__doc__.split("\n\n")[0])
+    p.add_argument("--volunteers", type=int, default=42)
+    p.add_argument("--seconds", type=float, default=60.0)
+    p.add_argument("--rate", type=float, default=100.0, help="mat frame rate (Hz)")
+    p.add_argument("--workers", type=int, default=2)
+    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--dir", default=None, help="keep the simulated study here (reused when it matches)")
+    p.add_argument("--no-baseline", action="store_true", help="skip the multiprocessing.Pool baseline")
+    p.add_argument("--json", default=None, help="also write the figures as JSON")
+    a = p.parse_args(argv)
+    if a.volunteers < 1 or a.seconds <= 0 or a.rate <= 0 or a.workers < 1:
+        print("python -m psmat.bench study: --volunteers, --seconds, --rate and --workers must be positive",
+              file=sys.stderr)
+        return 2
+    r = run(a.volunteers, a.seconds, a.rate, a.workers, a.seed, a.dir, not a.no_baseline)
+    print(format_report(r))
+    if a.json:
+        Path(a.json).write_text(json.dumps(r, indent=2, default=str))
+    return 0
