@@ -6,6 +6,9 @@ PROP       crosstalk removed (IECM), pressure taken proportional to the cell con
 PROP-C     as PROP without IECM: the raw equivalent conductance G
 CHC        IECM, then the inverse sensor model (hysteresis and creep compensated)
 SCHC       CHC on ``f·g``, ``f`` from the body weight (eq. 3.3, :func:`scale_factor`)
+SCHC-EQ    SCHC on the equilibrated ``f·g/a``: per-cell gains ``a`` learned from the trial
+           itself (:mod:`psmat.balance.equilibrate`; beyond the thesis, not in the default
+           :data:`VARIANTS`, in :data:`KNOWN_VARIANTS`)
 X-8x8      any of them on the emulated 8×8 mat (:mod:`psmat.balance.emulate`), the four
            choices of rows and columns kept apart (the thesis averages their metrics)
 =========  ==============================================================================
@@ -13,7 +16,10 @@ X-8x8      any of them on the emulated 8×8 mat (:mod:`psmat.balance.emulate`), 
 The force platform (FP) is the reference and not a recipe here. For X-8x8 the per-cell
 recipes commute with the selection, so the 8×8 image is a selection of the 16×16 one;
 SCHC-8x8 solves eq. 3.3 again on the selected cells, each standing for the area it
-represents on the coarser mat, ``(2·pitch)²``.
+represents on the coarser mat, ``(2·pitch)²``. There is no SCHC-EQ-8x8: the emulated 8×8 mat
+sees a quarter of the cells, so the force it adds up changes as the load moves between selected
+and skipped cells, and the equilibration would read that sampling error as cell gains (measured:
+maps of 0.5–2.5 and CoP moved by 1–2 cm on a twin trial whose gains are 15 %).
 """
 
 from __future__ import annotations
@@ -27,12 +33,17 @@ from ..sensor import MPICreep
 from ..sensor.stepping import inverse_over_gaps
 from .cop import cop
 from .emulate import subgrids
+from .equilibrate import equilibrate
 from .scale import scale_factor
 
-__all__ = ["BASE_VARIANTS", "VARIANTS", "VariantTrace", "variant_traces"]
+__all__ = ["BASE_VARIANTS", "VARIANTS", "EXTRA_VARIANTS", "KNOWN_VARIANTS", "VariantTrace", "variant_traces"]
 
 BASE_VARIANTS = ("PROP", "PROP-C", "CHC", "SCHC")
+#: The thesis' variants: what a study computes by default.
 VARIANTS = BASE_VARIANTS + tuple(f"{v}-8x8" for v in BASE_VARIANTS)
+#: Variants beyond the thesis, computed when asked for by name.
+EXTRA_VARIANTS = ("SCHC-EQ",)
+KNOWN_VARIANTS = VARIANTS + EXTRA_VARIANTS
 
 
 @dataclass
@@ -41,7 +52,7 @@ class VariantTrace:
 
     name: str
     cop_cm: NDArray[np.float64]
-    factor: NDArray[np.float64] | None = None  # SCHC's f, one per trace
+    factor: NDArray[np.float64] | None = None  # SCHC's (SCHC-EQ's) f, one per trace
 
 
 def variant_traces(G: ArrayLike, g: ArrayLike, periods: float | ArrayLike, *, weight_n: float | None,
@@ -57,17 +68,17 @@ def variant_traces(G: ArrayLike, g: ArrayLike, periods: float | ArrayLike, *, we
     periods : float or (T,)
         Frame period(s) (s), for the sensor model's creep.
     weight_n : float or None
-        Body weight (N), needed by SCHC and SCHC-8x8 only.
+        Body weight (N), needed by the SCHC variants only.
     sensor : MPICreep, optional
         The nominal sensor model (default the thesis' Table 2.11).
     pitch_cm, cell_area_cm2 : float
         Cell pitch and cell area of the full mat.
     names : tuple of str
-        Which variants (default all of :data:`VARIANTS`).
+        Which variants (default :data:`VARIANTS`; any of :data:`KNOWN_VARIANTS`).
     """
-    unknown = [n for n in names if n not in VARIANTS]
+    unknown = [n for n in names if n not in KNOWN_VARIANTS]
     if unknown:
-        raise ValueError(f"unknown variant(s) {unknown}; known: {', '.join(VARIANTS)}")
+        raise ValueError(f"unknown variant(s) {unknown}; known: {', '.join(KNOWN_VARIANTS)}")
     if any(n.startswith("SCHC") for n in names) and weight_n is None:
         raise ValueError("SCHC needs the body weight (weight_n)")
     G = np.asarray(G, dtype=np.float64)
@@ -88,6 +99,10 @@ def variant_traces(G: ArrayLike, g: ArrayLike, periods: float | ArrayLike, *, we
                 p = img
             elif base == "CHC":
                 p = inverse_over_gaps(sensor, img, periods)
+            elif base == "SCHC-EQ":
+                eq = equilibrate(img, periods, float(weight_n), sensor=sensor, cell_area_cm2=area)
+                factors.append(eq.factor)
+                p = inverse_over_gaps(sensor, eq.apply(img), periods)
             else:
                 f = scale_factor(img, periods, float(weight_n), sensor, area)
                 factors.append(f)
