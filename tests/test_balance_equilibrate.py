@@ -170,3 +170,18 @@ def test_a_trial_shorter_than_two_blocks_is_refused() -> None:
     g, weight = _two_cell_trial(seconds=0.4)
     with pytest.raises(ValueError, match="less than two blocks"):
         equilibrate(g, 0.02, weight, sensor=LINEAR)
+
+
+# --- the measurement script ------------------------------------------------------------------
+
+def test_the_measurement_prints_schc_against_schc_eq(capsys) -> None:
+    from psmat.experiments.equilibration import main
+
+    main(["--trials", "3", "--seeds", "5", "--seconds", "8"])
+    out = capsys.readouterr().out
+    row = [line for line in out.splitlines() if line.startswith("|   3 |    5 |")]
+    assert len(row) == 1 and "(ok)" in out and "Means over the cases, SCHC → SCHC-EQ: Eu" in out
+    # the gain bias columns hold two numbers each, before and after, in mm: about 2 mm before (as
+    # the twin test above finds on this mat's gains)
+    before = float(row[0].split("|")[-3].split("→")[0])
+    assert 0.5 < before < 5.0
