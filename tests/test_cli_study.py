@@ -31,17 +31,33 @@ def test_study_run_writes_the_results_and_says_where(simulated, capsys) -> None:
     with open(simulated / "results" / "metrics.csv", newline="") as fh:
         rows = list(csv.DictReader(fh))
     assert [(r["subject"], r["trial"], r["variant"]) for r in rows] == [
-        ("V01", t, v) for t in ("right-leg", "left-leg", "rotation") for v in ("FP",) + VARIANTS]
-    assert (simulated / "results" / "report.md").is_file() and (simulated / "results" / "summary.csv").is_file()
+        ("V01", t, v) for t in ("right-leg", "left-leg", "rotation") for v in ("FP",) + VARIANTS + ("SCHC-DYN",)]
+    # one volunteer: no other to fit SCHC-DYN on, said in its status
+    assert all(r["status"] != "ok" for r in rows if r["variant"] == "SCHC-DYN")
+    assert (simulated / "results" / "summary.csv").is_file()
+    # the sessions say a simulator wrote them (their metadata; truth/ is not read): so does the report
+    assert (simulated / "results" / "report.md").read_text().startswith("# Balance study results (simulation)")
     # run again: nothing to compute
     assert main(["study", "run", str(simulated), "--quiet"]) == 0
     assert capsys.readouterr().out.startswith("3 sessions: 0 computed, 3 reused, 0 failed\n")
+
+
+def test_variants_beyond_the_thesis_are_asked_for_by_name(simulated, tmp_path, capsys) -> None:
+    import shutil
+
+    copy = tmp_path / "copy"
+    shutil.copytree(simulated, copy)
+    assert main(["study", "run", str(copy), "--workers", "1", "--quiet", "--variants", "default,SCHC-EQ"]) == 0
+    with open(copy / "results" / "metrics.csv", newline="") as fh:
+        variants = [r["variant"] for r in csv.DictReader(fh) if r["trial"] == "rotation"]
+    assert variants == ["FP", *VARIANTS, "SCHC-EQ", "SCHC-DYN"]
 
 
 ERRORS = [
     (["study", "run", "{missing}"], "psmat study run: study folder not found"),
     (["study", "run", "{study}", "--workers", "2", "--scheduler", "tcp://127.0.0.1:8786"], "not both"),
     (["study", "run", "{study}", "--workers", "0"], "--workers: must be >= 1"),
+    (["study", "run", "{study}", "--variants", "default,SCHC-XX"], "unknown variant(s) ['SCHC-XX']"),
     (["study"], "required: {run,simulate}"),
     (["study", "simulate", "{missing}", "--volunteers", "0", "--seconds", "4", "--seed", "1"],
      "--volunteers: must be >= 1"),

@@ -28,6 +28,10 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                    help="processes, one session each (default: every core; 1: in this process)")
     r.add_argument("--scheduler", metavar="ADDRESS", default=None,
                    help="a Dask distributed scheduler, e.g. tcp://host:8786 (DIR on a shared filesystem)")
+    r.add_argument("--variants", metavar="NAMES", default=None,
+                   help="comma-separated variants to compute (default: the thesis' PROP, PROP-C, CHC, SCHC and "
+                        "their 8x8; 'default' stands for those, e.g. default,SCHC-EQ adds the per-cell "
+                        "equilibration)")
     r.add_argument("--quiet", action="store_true", help="no progress bar")
     s = sub.add_parser("simulate", help="write a simulated balance study into DIR",
                        description="Write a simulated balance study (SPEC §7): three trials per volunteer "
@@ -51,8 +55,15 @@ def _run(args: argparse.Namespace) -> int:
     if args.workers is not None and args.scheduler is not None:
         print("psmat study run: give --workers or --scheduler, not both", file=sys.stderr)
         return 1
+    params = None
+    if args.variants is not None:
+        from ..balance.variants import VARIANTS
+
+        names = [n.strip() for n in args.variants.split(",") if n.strip()]
+        params = {"variants": [v for n in names for v in (VARIANTS if n == "default" else (n,))]}
     try:
-        report = run_study(args.dir, workers=args.workers, scheduler=args.scheduler, progress=not args.quiet)
+        report = run_study(args.dir, workers=args.workers, scheduler=args.scheduler, params=params,
+                           progress=not args.quiet)
     except (OSError, ValueError, ImportError, RuntimeError) as exc:
         print(f"psmat study run: {_line(exc)}", file=sys.stderr)
         return 1

@@ -46,6 +46,7 @@ class StudyItem:
     subject: str | None
     trial: str | None
     problems: list[str] = field(default_factory=list)
+    simulated: bool = False  # the session's metadata says a simulator wrote it
 
     @property
     def ok(self) -> bool:
@@ -65,6 +66,11 @@ class StudyLayout:
     @property
     def results(self) -> Path:
         return self.root / "results"
+
+    @property
+    def simulated(self) -> bool:
+        """Every session says a simulator wrote it (its metadata, not ``truth/``)."""
+        return bool(self.items) and all(i.simulated for i in self.items)
 
 
 def read_subjects(path: str | os.PathLike[str]) -> dict[str, Subject]:
@@ -94,17 +100,18 @@ def read_subjects(path: str | os.PathLike[str]) -> dict[str, Subject]:
     return out
 
 
-def _session_meta(path: Path) -> tuple[str | None, str | None, str | None]:
-    """(subject, trial, problem) from a session's metadata (the loader checks the whole file)."""
+def _session_meta(path: Path) -> tuple[str | None, str | None, str | None, bool]:
+    """(subject, trial, problem, simulated) from a session's metadata (the loader checks the whole file)."""
     from ..io import SessionFormatError, load_session
 
     try:
         meta = load_session(path).metadata
     except (SessionFormatError, OSError) as exc:
-        return None, None, f"unreadable session: {exc}"
+        return None, None, f"unreadable session: {exc}", False
     subject = meta.get("subject")
     trial = meta.get("trial")
-    return (None if subject is None else str(subject)), (None if trial is None else str(trial)), None
+    return ((None if subject is None else str(subject)), (None if trial is None else str(trial)), None,
+            meta.get("simulated") is True)
 
 
 def find_study(root: str | os.PathLike[str]) -> StudyLayout:
@@ -135,8 +142,8 @@ def find_study(root: str | os.PathLike[str]) -> StudyLayout:
     cal = {p.stem: p for p in sorted((root / "calibration").glob("*.json"))}
     items = []
     for s in sorted(sessions.glob("*.h5")):
-        subject, trial, problem = _session_meta(s)
-        item = StudyItem(s.stem, s, plates.get(s.stem), subject, trial)
+        subject, trial, problem, simulated = _session_meta(s)
+        item = StudyItem(s.stem, s, plates.get(s.stem), subject, trial, simulated=simulated)
         if problem:
             item.problems.append(problem)
         else:

@@ -18,6 +18,11 @@ written after the sessions, then :func:`psmat.study.results.write_results` (summ
 report) — skipped when ``metrics.csv``, the problems and the traces are those it last wrote
 from (``results/.outputs.json``). One run per study at a time (``results/.lock``).
 
+**Across volunteers.** After the sessions, ``SCHC-DYN`` (:mod:`psmat.study.dynamic`, beyond the
+thesis) corrects each session's SCHC trace by a model fitted on the other volunteers, so it is
+computed for the study as a whole, never cached per session. A study whose sessions all say in
+their metadata that a simulator wrote them is labelled "simulation" in its figures and report.
+
 **On a cluster** (``scheduler="tcp://host:8786"``, the extra ``psmat[cluster]``): the same
 tasks go to a Dask distributed scheduler and come back as they complete; this process writes
 the results. Tasks carry file paths, not file contents, so the study folder must be on a
@@ -31,12 +36,12 @@ import csv
 import io
 import math
 import os
-from collections.abc import Iterator, Sequence
+from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from ..balance.variants import VARIANTS
+from ..balance.variants import KNOWN_VARIANTS
 from .cache import SessionStore, Stored, TraceFiles, canonical_json, file_sha256, normalise_rows, result_key, \
     study_lock, write_text_atomic
 from .layout import StudyItem, StudyLayout, find_study
@@ -172,11 +177,15 @@ def run_study(root: str | os.PathLike[str], *, workers: int | None = None, sched
         order = sorted(tasks, key=lambda s: _order(tasks[s]))
         keep = _first_of_each(order, tasks, problems)
         rows = [r for stem in keep for r in done[stem].rows]
+        problems += _session_problems(layout.items, order, done, failed)
+        traces: Mapping[tuple[str, str], Traces] = TraceFiles(
+            {(tasks[s].subject, tasks[s].trial): t for s in keep if (t := done[s].traces)})
+        if "SCHC" in p["variants"]:  # beyond the thesis (issue 12, 4b): SCHC-DYN across volunteers
+            rows, traces = _with_dynamic(rows, traces)
         metrics = layout.results / "metrics.csv"
         write_metrics(metrics, rows)
-        problems += _session_problems(layout.items, order, done, failed)
-        traces = TraceFiles({(tasks[s].subject, tasks[s].trial): t for s in keep if (t := done[s].traces)})
-        outputs = _write_outputs(layout.results, rows, traces, problems, __version__)
+        outputs = _write_outputs(layout.results, rows, traces, problems, __version__,
+                                 "simulation" if layout.simulated else None)
     return RunReport(layout.root, len(tasks), len(tasks) - reused - len(failed), reused, len(failed), problems,
                      metrics, outputs)
 
@@ -192,17 +201,56 @@ def write_metrics(path: Path, rows: Sequence[dict[str, Any]]) -> None:
     write_text_atomic(path, buf.getvalue())
 
 
-def _write_outputs(results: Path, rows: Rows, traces: TraceFiles, problems: list[str], version: str
-                   ) -> dict[str, Path]:
+def _with_dynamic(rows: Rows, traces: Mapping[tuple[str, str], Traces]
+                  ) -> tuple[Rows, Mapping[tuple[str, str], Traces]]:
+    """The study's rows and traces with ``SCHC-DYN`` (:func:`psmat.study.dynamic.dynamic_rows`:
+    fitted on the other volunteers, so it is computed after every session, never cached per
+    session); each session's new row follows its own rows."""
+    from .dynamic import dynamic_rows
+
+    dyn_rows, dyn_traces = dynamic_rows(rows, traces)
+    by_key = {(r["subject"], r["trial"]): r for r in dyn_rows}
+    out: Rows = []
+    for i, r in enumerate(rows):
+        out.append(r)
+        key = (r["subject"], r["trial"])
+        last = i + 1 == len(rows) or (rows[i + 1]["subject"], rows[i + 1]["trial"]) != key
+        if last and key in by_key:
+            out.append(by_key.pop(key))
+    out += list(by_key.values())
+    return out, _MergedTraces(traces, dyn_traces)
+
+
+class _MergedTraces(Mapping[tuple[str, str], Traces]):
+    """The sessions' traces (read on access) with the study-level variants' added."""
+
+    def __init__(self, base: Mapping[tuple[str, str], Traces], extra: Mapping[tuple[str, str], Traces]) -> None:
+        self._base, self._extra = base, extra
+
+    def __getitem__(self, key: tuple[str, str]) -> Traces:
+        return {**self._base[key], **self._extra.get(key, {})}
+
+    def __iter__(self) -> Iterator[tuple[str, str]]:
+        return iter(self._base)
+
+    def __len__(self) -> int:
+        return len(self._base)
+
+    def path(self, key: tuple[str, str]) -> Path:
+        return self._base.path(key)  # type: ignore[attr-defined]
+
+
+def _write_outputs(results: Path, rows: Rows, traces: Mapping[tuple[str, str], Traces], problems: list[str],
+                   version: str, label: str | None = None) -> dict[str, Path]:
     """:func:`psmat.study.results.write_results` (summary, figures, report), skipped when its
-    inputs (metrics.csv, the problems, the traces files) are those of the outputs on disk."""
+    inputs (metrics.csv, the problems, the traces files, the label) are those of the outputs on disk."""
     import hashlib
     import json
 
     from .results import write_results  # matplotlib: imported when a study is run, not with psmat
 
     digest = hashlib.sha256(canonical_json({
-        "psmat": version, "metrics": file_sha256(results / "metrics.csv"), "problems": problems,
+        "psmat": version, "metrics": file_sha256(results / "metrics.csv"), "problems": problems, "label": label,
         "traces": sorted([*k, traces.path(k).name] for k in traces)}).encode()).hexdigest()
     index = results / ".outputs.json"
     try:
@@ -213,7 +261,7 @@ def _write_outputs(results: Path, rows: Rows, traces: TraceFiles, problems: list
                 return done
     except (OSError, ValueError, KeyError, TypeError, AttributeError):
         pass
-    outputs = write_results(results, rows, traces, problems)
+    outputs = write_results(results, rows, traces, problems, label=label)
     rel = {name: Path(p).resolve().relative_to(results.resolve()).as_posix() for name, p in outputs.items()}
     write_text_atomic(index, json.dumps({"digest": digest, "outputs": rel}, indent=1) + "\n")
     return outputs
@@ -234,9 +282,9 @@ def _checked_params(params: dict[str, Any] | None) -> dict[str, Any]:
     if unknown:
         raise ValueError(f"unknown parameter(s) {', '.join(unknown)}; known: {', '.join(DEFAULT_PARAMS)}")
     p = {**DEFAULT_PARAMS, **given}
-    bad = [v for v in p["variants"] if v not in VARIANTS]
+    bad = [v for v in p["variants"] if v not in KNOWN_VARIANTS]
     if bad or not p["variants"]:
-        raise ValueError(f"unknown variant(s) {bad or '(none given)'}; known: {', '.join(VARIANTS)}")
+        raise ValueError(f"unknown variant(s) {bad or '(none given)'}; known: {', '.join(KNOWN_VARIANTS)}")
     try:
         return json.loads(canonical_json(p))
     except ValueError as exc:
