@@ -1,4 +1,5 @@
-"""The thesis' experiments on IECM, reproduced in simulation (thesis §2.3, Appendix C).
+"""The thesis' experiments on IECM, reproduced in simulation (thesis §2.3, Appendix C), and
+the balance study's measurements beyond the thesis (issue 12, item 4).
 
 One module per study; each function is seeded, takes a size argument so it can run small,
 and returns a result object with the arrays, a ``.table()`` text (Markdown) and a
@@ -15,6 +16,13 @@ and returns a result object with the arrays, a ``.table()`` text (Markdown) and 
 * :func:`qzpm_tables` / :func:`figure_c4` — Appendix C, Tables C.1/C.2, Fig. C.4:
   IECM adapted to the QZPM readout vs the closed-form QZPM (:mod:`.qzpm_acceptance`;
   needs :mod:`psmat.qzpm`).
+
+Beyond the thesis, on simulated balance trials (run as ``python -m``; they print their tables):
+
+* ``python -m psmat.experiments.equilibration`` — SCHC-EQ (a per-cell equilibration,
+  :mod:`psmat.balance.equilibrate`) against SCHC.
+* ``python -m psmat.experiments.dynamic_correction`` — SCHC-DYN (a linear correction fitted
+  on other volunteers, :mod:`psmat.study.dynamic`) against SCHC, and the models compared.
 
 Figures: :func:`save_figure` writes PNGs to ``$PSMAT_FIGURES`` or ``notebooks/figures``.
 The notebooks in ``notebooks/`` run each study; ``docs/thesis_results.md`` compares the
