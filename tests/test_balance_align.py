@@ -110,3 +110,18 @@ def test_a_quiet_start_does_not_pull_the_peak_a_cycle_away() -> None:
     a = align(t_ref, ref, t, c)
     assert a.lag_s == pytest.approx(lag, abs=0.005)
     assert a.r > 0.99
+
+
+@pytest.mark.parametrize("rate_hz, lag, gain, offset", [(10.0, 3.4321, 0.45, (1.5, -4.0)), (100.0, -12.3456, 0.8, (-6.0, 2.5))])
+def test_the_thesis_rates_with_gains_and_offsets(platform, rate_hz, lag, gain, offset) -> None:
+    # thesis §3.2.1: the first prototype, the commercial mat and the platform at 10 Hz; the
+    # second prototype at 100 Hz. The platform is decimated to the mat's rate when it is 10 Hz.
+    t_ref, c_ref = platform
+    step = int(round(100.0 / rate_hz))
+    ref = (t_ref[::step], c_ref[::step])
+    # the mat's 45 s lie inside the platform's 60 s: from 5 s on the platform's clock
+    t, c = mat_view(platform, lag, rate_hz=rate_hz, start=5.0 - lag, seconds=45.0, gain=gain, offset=offset)
+    a = align(*ref, t, c)
+    # below one sample: a tenth of the 10 Hz period, or of the 100 Hz one
+    assert a.lag_s == pytest.approx(lag, abs=0.1 / rate_hz)
+    assert a.r > 0.99
