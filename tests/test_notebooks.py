@@ -11,6 +11,7 @@ import os
 from pathlib import Path
 
 import pytest
+from conftest import SHARED_DIR
 
 nbformat = pytest.importorskip("nbformat")
 nbclient = pytest.importorskip("nbclient")
@@ -44,6 +45,9 @@ def test_notebook_runs(path, tmp_path):
     # the kernel imports the installed package, like every other test (not ../src, which
     # holds no compiled extension in a fresh checkout)
     env.setdefault("JUPYTER_PLATFORM_DIRS", "1")
+    # the kernel runs in tmp_path, where psmat.io.bds_dir cannot find shared/ by walking up
+    if (SHARED_DIR / "data" / "bds").is_dir():
+        env.setdefault("PSMAT_BDS_DIR", str(SHARED_DIR / "data" / "bds"))
     client = nbclient.NotebookClient(
         nb, timeout=120, kernel_name="python3", resources={"metadata": {"path": str(tmp_path)}}
     )
