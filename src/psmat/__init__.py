@@ -12,10 +12,10 @@ benchmarks and demos), :mod:`psmat.acquire` (reading devices over serial),
 the chapter 3 variants) and :mod:`psmat.study` (a balance study folder run in batch).
 """
 
-from . import acquire, balance, calibration_estimate, experiments, iecm, io, noise, protocol, qzpm, sensor, study, twin
+from . import acquire, balance, calibration_estimate, experiments, iecm, io, noise, posture, protocol, qzpm, sensor, study, twin
 from .calibration import Calibration
 from .circuit import Circuit
 
 
 __version__ = "0.1.0"
-__all__ = ["acquire", "balance", "calibration_estimate", "experiments", "iecm", "io", "noise", "protocol", "qzpm", "sensor", "study", "twin", "Circuit", "Calibration", "__version__"]
+__all__ = ["acquire", "balance", "calibration_estimate", "experiments", "iecm", "io", "noise", "posture", "protocol", "qzpm", "sensor", "study", "twin", "Circuit", "Calibration", "__version__"]
