@@ -160,7 +160,7 @@ def _series(trace: Mapping[str, Any] | None, base: str) -> _Series | str:
 def _row(base_row: Mapping[str, Any], variant: str, status: str, **values: Any) -> dict[str, Any]:
     row = {c: np.nan for c in COLUMNS}
     row.update({c: base_row[c] for c in ("subject", "trial", "lag_s", "r_align", "factor", "frames",
-                                         "frames_missing") if c in base_row})
+                                         "frames_missing", "frames_unconverged") if c in base_row})
     row.update(variant=variant, status=status, **values)
     return row
 
@@ -204,7 +204,8 @@ def dynamic_rows(rows: Sequence[Mapping[str, Any]], traces: Mapping[Key, Mapping
     new_rows : list of dict
         One row per session that has a ``base`` row, variant ``<base>-DYN``: the sway metrics of
         the corrected trace and its Eu against FP (both mean-removed, on the trace's window);
-        ``lag_s``, ``r_align``, ``factor``, ``frames`` and ``frames_missing`` as the base's row;
+        ``lag_s``, ``r_align``, ``factor``, ``frames``, ``frames_missing`` and
+        ``frames_unconverged`` as the base's row;
         ``status`` ``"ok"`` or why the session was not corrected.
     new_traces : dict
         ``{(subject, trial): {"t_s", "FP", "<base>-DYN"}}`` for the corrected sessions; the

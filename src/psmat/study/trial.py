@@ -9,6 +9,7 @@ never raises for a bad session — the rows carry a ``status``.
 from __future__ import annotations
 
 import os
+import warnings
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -26,7 +27,8 @@ __all__ = ["METRICS", "COLUMNS", "process_trial", "DEFAULT_PARAMS", "Rows", "Tra
 METRICS = ("sd_ml_cm", "sd_ap_cm", "range_ml_cm", "range_ap_cm", "path_cm", "velocity_cm_s", "area95_cm2",
            "mean_freq_hz")
 COLUMNS = ("subject", "trial", "variant") + METRICS + ("eu_cm", "eu_ml_cm", "eu_ap_cm", "lag_s", "r_align",
-                                                        "factor", "frames", "frames_missing", "status")
+                                                        "factor", "frames", "frames_missing", "frames_unconverged",
+                                                        "status")
 DEFAULT_PARAMS: dict[str, Any] = {
     "variants": list(VARIANTS),
     "method": "newton",  # IECM
@@ -158,13 +160,16 @@ def _process(session: Path, forceplate: Path | None, subject: str, trial: str, w
     circuit = _circuit(s.calibration, s.device, calibration)
     with Processor(s.frame_shape, circuit=circuit, sensor=sensor, pitch_cm=p["pitch_cm"], method=p["method"],
                    threads=1) as proc:
-        out = proc.push(s.counts, periods, valid=s.valid, progress=False)
+        with warnings.catch_warnings():  # counted in the rows, not warned once per session per worker
+            warnings.filterwarnings("ignore", message=r"IECM \(", category=RuntimeWarning)
+            out = proc.push(s.counts, periods, valid=s.valid, progress=False)
     missing = int((~out.usable).sum())
+    unconverged = 0 if out.solve_info is None else int(np.sum(~np.asarray(out.solve_info.converged)))
     weight_n = None if weight_kg is None else float(weight_kg) * 9.80665
     traces = variant_traces(out.G, out.g, periods, weight_n=weight_n, sensor=sensor,
                             pitch_cm=p["pitch_cm"], cell_area_cm2=p["cell_area_cm2"],
                             names=tuple(n for n in names if weight_n is not None or not n.startswith("SCHC")))
-    base = {"frames": s.n_frames, "frames_missing": missing}
+    base = {"frames": s.n_frames, "frames_missing": missing, "frames_unconverged": unconverged}
     if forceplate is None:
         rows = [_row(subject, trial, "FP", "no force-platform file", **base)]
         for v in names:
