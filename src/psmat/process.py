@@ -45,7 +45,7 @@ from .sensor import MPICreep
 from .sensor.stepping import inverse_stepped, steps_over_gaps
 from .units import PSI_KPA
 
-__all__ = ["Processed", "Processor", "process_counts", "process_session", "open_floor", "PSI_KPA"]
+__all__ = ["Processed", "Processor", "process_counts", "process_session", "session_circuit", "open_floor", "PSI_KPA"]
 
 #: IECM positivity bound (S), iecm.solve's default, passed explicitly so the warnings quote it.
 _G_FLOOR = 1e-12
@@ -299,6 +299,33 @@ def _circuit_of(cal: dict | None) -> Circuit:
     keys = {"r_o_ohm": "r_o", "r_mux_ohm": "r_mux", "r_adc_ohm": "r_adc", "v_ref_volt": "v_ref", "bits": "bits",
             "sensor_side": "sensor_side"}
     return Circuit(**{arg: cal[k] for k, arg in keys.items() if k in cal})
+
+
+def session_circuit(stored: dict | None, device: dict[str, Any],
+                    calibration: str | os.PathLike[str] | None = None) -> Circuit:
+    """The circuit of a recorded session, with a box calibration file's R_adc and R_mux if one is given.
+
+    Parameters
+    ----------
+    stored : dict or None
+        The session's stored calibration (``Session.calibration``).
+    device : dict
+        The session's device description; its ``serial`` must match the calibration file's.
+    calibration : path, optional
+        A calibration file (``psmat calibrate``, JSON) whose ``r_adc`` and ``r_mux`` replace the
+        stored ones (:meth:`Circuit.calibrated`).
+    """
+    from .calibration import Calibration
+
+    circuit = _circuit_of(stored)
+    if calibration is None:
+        return circuit
+    cal = Calibration.load(calibration)
+    serial = device.get("serial")
+    if cal.serial and serial is not None and str(serial) != cal.serial:
+        raise ValueError(f"{os.path.basename(calibration)} is box {cal.serial!r}; the session was recorded with "
+                         f"box {serial!r}")
+    return circuit.calibrated(cal)
 
 
 def process_session(path: str | os.PathLike[str], *, circuit: Circuit | None = None,

@@ -11,16 +11,13 @@ from __future__ import annotations
 import os
 import warnings
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 
 from ..balance import align, eu, sway
 from ..balance.variants import VARIANTS, variant_traces
 from ..sensor import MPICreep
-
-if TYPE_CHECKING:
-    from ..circuit import Circuit
 
 __all__ = ["METRICS", "COLUMNS", "process_trial", "DEFAULT_PARAMS", "Rows", "Traces"]
 
@@ -115,25 +112,10 @@ def process_trial(session: str | os.PathLike[str], forceplate: str | os.PathLike
     return (rows, found) if traces else rows
 
 
-def _circuit(stored: dict | None, device: dict[str, Any], calibration: Path | None) -> Circuit:
-    """The session's stored circuit, with the given calibration file's R_adc and R_mux if any (its serial checked)."""
-    from ..calibration import Calibration
-    from ..process import _circuit_of
-
-    circuit = _circuit_of(stored)
-    if calibration is None:
-        return circuit
-    cal = Calibration.load(calibration)
-    serial = device.get("serial")
-    if cal.serial and serial is not None and str(serial) != cal.serial:
-        raise ValueError(f"{calibration.name} is box {cal.serial!r}; the session was recorded with box {serial!r}")
-    return circuit.calibrated(cal)
-
-
 def _process(session: Path, forceplate: Path | None, subject: str, trial: str, weight_kg: float | None,
              p: dict[str, Any], names: tuple[str, ...], calibration: Path | None, found: Traces) -> Rows:
     from ..io import load_forceplate_csv, load_session
-    from ..process import Processor
+    from ..process import Processor, session_circuit
 
     s = load_session(session)
     if s.kind != "psm":
@@ -157,7 +139,7 @@ def _process(session: Path, forceplate: Path | None, subject: str, trial: str, w
     periods = np.diff(t, prepend=t[0] - np.median(np.diff(t)))
     fs = 1.0 / float(np.median(np.diff(t)))
     sensor = MPICreep(**p["sensor"]) if p["sensor"] else MPICreep.thesis()
-    circuit = _circuit(s.calibration, s.device, calibration)
+    circuit = session_circuit(s.calibration, s.device, calibration)
     with Processor(s.frame_shape, circuit=circuit, sensor=sensor, pitch_cm=p["pitch_cm"], method=p["method"],
                    threads=1) as proc:
         with warnings.catch_warnings():  # counted in the rows, not warned once per session per worker
