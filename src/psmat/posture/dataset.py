@@ -1,0 +1,343 @@
+"""A posture study folder → one :class:`~psmat.posture.recording.Recording` per session (SPEC §6, §8).
+
+Thesis §4.3: "Conductance measured by the PSM has been processed to remove crosstalk ... and
+subsampled to the sampling frequency of the spine measurement device". Per session:
+
+1. the mat's counts go through the one processing chain (:class:`psmat.process.Processor`, IECM
+   ``newton``) with the session's circuit, or the box's calibration file
+   ``DIR/calibration/<serial>.json`` when there is one (:func:`psmat.process.session_circuit`) → g (S);
+2. the IMU angles come from the session's ``imu`` stream (recorded together, one host clock), or,
+   for a mat recorded apart from its IMUs, from the thesis-style text log ``DIR/imu/<stem>.txt``
+   aligned to the mat by the cross-correlation of the summed mat signal and the summed angles
+   (Fig. 4.11, :func:`psmat.posture.align.align_mat_imu`, lag reported in ``meta``);
+3. g is averaged over each IMU sample's interval (the mat frames whose host time falls within
+   half an IMU period of the sample); pitch (the third Euler angle) in rad is the target.
+
+Samples where the IMU frame failed its check or no usable mat frame fell in the interval are
+filled by linear interpolation between their neighbours when inside the recording (counted in
+``meta["samples_interpolated"]``) and cut when at its ends.
+
+The products are cached per session in ``DIR/results/posture/inputs/<stem>.npz``, keyed by the
+bytes of the inputs, the parameters and the psmat version (as :mod:`psmat.study.cache`), so a
+second run reads them back and a changed session recomputes only itself.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import tempfile
+from collections.abc import Iterator, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from .recording import Recording
+
+__all__ = ["DEFAULT_PARAMS", "session_recording", "load_posture_study", "PostureStudy", "mean_over_samples"]
+
+#: Parameters of the inputs (part of the cache key).
+DEFAULT_PARAMS: dict[str, Any] = {
+    "method": "newton",  # IECM method (psmat.iecm.solve)
+    "pitch_column": 2,  # Euler angle of the sagittal tilt: (heading, roll, pitch), SPEC §5
+    "max_lag_s": 30.0,  # alignment search range for recordings made apart, s
+}
+_INPUTS_SCHEMA = "psmat-posture-inputs/1"
+
+
+@dataclass
+class PostureStudy:
+    """What :func:`load_posture_study` found: the recordings and the problems (one line each)."""
+
+    recordings: list[Recording]
+    problems: list[str]
+    computed: int  # sessions computed in this call (the rest were read from the cache)
+
+
+def mean_over_samples(t_src: NDArray[np.float64], x_src: NDArray[Any], t_dst: NDArray[np.float64]
+                      ) -> tuple[NDArray[np.float64], NDArray[np.int64]]:
+    """Average the rows of ``x_src`` over the interval of each destination sample.
+
+    The interval of ``t_dst[k]`` runs from the midpoint with its predecessor to the midpoint with
+    its successor (half the neighbouring period at the ends). Rows with a NaN or a non-finite time
+    are left out.
+
+    Parameters
+    ----------
+    t_src : (N,) float
+        Source times (s), non-decreasing where finite.
+    x_src : (N, ...) array
+        Source rows.
+    t_dst : (M,) float
+        Destination times (s), increasing.
+
+    Returns
+    -------
+    mean : (M, ...) float64
+        The mean of the rows in each interval; NaN where none.
+    n : (M,) int
+        The rows averaged.
+    """
+    t_src = np.asarray(t_src, np.float64)
+    x = np.asarray(x_src, np.float64)
+    t_dst = np.asarray(t_dst, np.float64)
+    flat = x.reshape(len(x), -1)
+    keep = np.isfinite(t_src) & np.all(np.isfinite(flat), axis=1)
+    ts, xs = t_src[keep], flat[keep]
+    if ts.size > 1 and np.any(np.diff(ts) < 0):
+        raise ValueError("source times must be non-decreasing")
+    if t_dst.size == 0:
+        return np.empty((0, *x.shape[1:])), np.empty(0, np.int64)
+    if t_dst.size > 1 and np.any(np.diff(t_dst) <= 0):
+        raise ValueError("destination times must be increasing")
+    half = np.diff(t_dst) / 2 if t_dst.size > 1 else np.array([np.inf])
+    edges = np.concatenate([[t_dst[0] - half[0]], t_dst[:-1] + half, [t_dst[-1] + half[-1]]])
+    idx = np.searchsorted(ts, edges, side="left")
+    cs = np.concatenate([np.zeros((1, xs.shape[1])), np.cumsum(xs, axis=0)])
+    n = np.diff(idx)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        mean = (cs[idx[1:]] - cs[idx[:-1]]) / n[:, None]
+    mean[n == 0] = np.nan
+    return mean.reshape(len(t_dst), *x.shape[1:]), n.astype(np.int64)
+
+
+def _mat_g(session: Any, calibration: Path | None, method: str) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Host times (s) and crosstalk-free g (S, NaN on missing frames) of a mat session."""
+    from ..process import Processor, session_circuit
+
+    t = session.host_time_s
+    finite = np.isfinite(t)
+    if finite.sum() < 2:
+        raise ValueError("the mat session has fewer than two timed frames")
+    period = float(np.median(np.diff(t[finite])))
+    dt = np.diff(t, prepend=t[0] - period)
+    dt = np.where(np.isfinite(dt) & (dt > 0), dt, period)
+    circuit = session_circuit(session.calibration, session.device, calibration)
+    with Processor(session.frame_shape, circuit=circuit, method=method) as proc:
+        out = proc.push(session.counts, dt, session.valid, progress=False)
+    return t, out.g
+
+
+def _imu_together(session: Any, column: int) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.bool_]]:
+    imu = session.streams["imu"]
+    pitch = np.deg2rad(np.asarray(imu.counts[:, :, column], np.float64))
+    valid = imu.valid & np.isfinite(imu.host_time_s) & np.all(np.isfinite(pitch), axis=1)
+    return imu.host_time_s, pitch, valid
+
+
+def _imu_apart(log_path: Path, t_mat: NDArray[np.float64], g: NDArray[np.float64], column: int,
+               max_lag_s: float, meta: dict[str, Any]
+               ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.bool_]]:
+    """The IMU log's samples on the mat's host clock, by the Fig. 4.11 alignment."""
+    from ..io.imu_log import load_imu_log
+    from .align import align_mat_imu
+
+    log = load_imu_log(log_path)
+    pitch = np.deg2rad(np.asarray(log.angles_deg[:, :, column], np.float64))
+    valid = np.asarray(log.valid, bool) & np.all(np.isfinite(pitch), axis=1)
+    a = align_mat_imu(t_mat, g, log.t_s[valid], pitch[valid], max_lag_s=max_lag_s)
+    meta.update(aligned_by="cross-correlation of the summed mat signal and the summed angles (Fig. 4.11)",
+                lag_s=float(a.lag_s), r_align=float(a.r))
+    return np.asarray(log.t_s, np.float64) - a.lag_s, pitch, valid
+
+
+def _fill(x: NDArray[np.float64], ok: NDArray[np.bool_], t: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Linear interpolation in time over the rows that are not ok (ok rows untouched)."""
+    if ok.all():
+        return x
+    flat = x.reshape(len(x), -1).copy()
+    for j in range(flat.shape[1]):
+        flat[~ok, j] = np.interp(t[~ok], t[ok], flat[ok, j])
+    return flat.reshape(x.shape)
+
+
+def session_recording(path: str | os.PathLike[str], *, calibration: str | os.PathLike[str] | None = None,
+                      imu_log: str | os.PathLike[str] | None = None,
+                      params: dict[str, Any] | None = None) -> Recording:
+    """The :class:`Recording` of one posture session (see the module docstring).
+
+    Parameters
+    ----------
+    path : path
+        The session file (``.h5``): the mat at the root, the IMUs in its ``imu`` stream unless
+        ``imu_log`` is given.
+    calibration : path, optional
+        The box's calibration file (``psmat calibrate``).
+    imu_log : path, optional
+        The thesis-style IMU text log of a recording made apart from the mat; aligned by
+        cross-correlation (Fig. 4.11).
+    params : dict, optional
+        Overrides of :data:`DEFAULT_PARAMS`.
+    """
+    from ..io import load_session
+
+    p = {**DEFAULT_PARAMS, **(params or {})}
+    s = load_session(path)
+    if s.kind != "psm":
+        raise ValueError(f"{Path(path).name}: the session's root stream is {s.kind!r}, not the mat ('psm')")
+    meta: dict[str, Any] = {"session": Path(path).name, "simulated": s.metadata.get("simulated") is True}
+    t_mat, g = _mat_g(s, None if calibration is None else Path(calibration), p["method"])
+    if imu_log is not None:
+        t_imu, pitch, ok = _imu_apart(Path(imu_log), t_mat, g, p["pitch_column"], p["max_lag_s"], meta)
+    elif "imu" in s.streams:
+        t_imu, pitch, ok = _imu_together(s, p["pitch_column"])
+        meta["aligned_by"] = "one host clock (recorded together)"
+    else:
+        raise ValueError(f"{Path(path).name}: no 'imu' stream and no IMU log")
+    order = np.flatnonzero(np.isfinite(t_imu))
+    t_imu, pitch, ok = t_imu[order], pitch[order], ok[order]
+    image, n = mean_over_samples(t_mat, g, t_imu)
+    ok = ok & (n > 0)
+    if ok.sum() < 2:
+        raise ValueError(f"{Path(path).name}: the mat and the IMUs share fewer than two samples")
+    first, last = np.flatnonzero(ok)[[0, -1]]
+    sl = slice(first, last + 1)
+    t, ok = t_imu[sl], ok[sl]
+    meta.update(samples=int(ok.size), samples_interpolated=int((~ok).sum()),
+                mat_frames_per_sample=float(np.mean(n[sl][ok])), imu_rate_hz=float((ok.size - 1) / (t[-1] - t[0])))
+    subject = str(s.metadata.get("subject", ""))
+    day = int(s.metadata.get("day", 0) or 0)
+    return Recording(subject=subject, day=day, t_s=t, image=_fill(image[sl], ok, t).astype(np.float32),
+                     angles_rad=_fill(pitch[sl], ok, t), meta=meta)
+
+
+# ------------------------------------------------------------------ a whole study
+@dataclass(frozen=True)
+class _Task:
+    stem: str
+    session: Path
+    calibration: Path | None
+    imu_log: Path | None
+    params: dict[str, Any]
+    key: str
+
+
+def _tasks(root: Path, params: dict[str, Any], problems: list[str]) -> list[_Task]:
+    from ..study.cache import file_sha256, result_key
+    from ..io import journal_path, load_session, SessionFormatError
+    from ..io.session_layout import psmat_version
+
+    sessions = sorted((root / "sessions").glob("*.h5"))
+    if not sessions:
+        raise FileNotFoundError(f"{root}: no sessions/*.h5 (a posture study folder, SPEC §6)")
+    tasks = []
+    for path in sessions:
+        stem = path.stem
+        try:
+            device = load_session(path).device
+        except (SessionFormatError, OSError) as exc:
+            problems.append(f"{stem}: unreadable session: {exc}")
+            continue
+        cal = root / "calibration" / f"{device.get('serial')}.json"
+        cal = cal if cal.is_file() else None
+        log = root / "imu" / f"{stem}.txt"
+        log = log if log.is_file() else None
+        jp = journal_path(path)
+        inputs = {"product": _INPUTS_SCHEMA, "version": psmat_version(), "params": params, "stem": stem,
+                  "session": file_sha256(path), "journal": file_sha256(jp) if jp.exists() else None,
+                  "calibration": file_sha256(cal), "imu_log": file_sha256(log)}
+        tasks.append(_Task(stem, path, cal, log, params, result_key(inputs)))
+    return tasks
+
+
+def _run(task: _Task) -> tuple[str, Recording | None, str | None]:
+    try:
+        rec = session_recording(task.session, calibration=task.calibration, imu_log=task.imu_log, params=task.params)
+    except Exception as exc:  # noqa: BLE001 - one bad session must not stop a study
+        return task.stem, None, f"{task.stem}: {type(exc).__name__}: {exc}".replace("\n", " ")
+    return task.stem, rec, None
+
+
+def _cache_path(root: Path, stem: str) -> Path:
+    return root / "results" / "posture" / "inputs" / f"{stem}.npz"
+
+
+def _read_cached(path: Path, key: str) -> Recording | None:
+    try:
+        with np.load(path, allow_pickle=False) as z:
+            if str(z["key"]) != key:
+                return None
+            info = json.loads(str(z["info"]))
+            return Recording(subject=info["subject"], day=int(info["day"]), t_s=z["t_s"], image=z["image"],
+                             angles_rad=z["angles_rad"], meta=info["meta"])
+    except (OSError, KeyError, ValueError):
+        return None
+
+
+def _write_cached(path: Path, key: str, rec: Recording) -> None:
+    path.parent.mkdir(parents=True, exist_ok=True)
+    info = json.dumps({"subject": rec.subject, "day": rec.day, "meta": rec.meta})
+    fd, tmp = tempfile.mkstemp(prefix=".tmp-" + path.name + ".", suffix=".npz", dir=path.parent)
+    try:
+        with os.fdopen(fd, "wb") as fh:
+            np.savez(fh, key=np.array(key), info=np.array(info), t_s=rec.t_s, image=rec.image,
+                     angles_rad=rec.angles_rad)
+            fh.flush()
+            os.fsync(fh.fileno())
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+
+
+def _execute(todo: Sequence[_Task], workers: int | None) -> Iterator[tuple[str, Recording | None, str | None]]:
+    from joblib import Parallel, cpu_count, delayed
+
+    n = min(workers or cpu_count(), len(todo))
+    if n <= 1:
+        yield from map(_run, todo)
+        return
+    yield from Parallel(n_jobs=n, backend="loky", return_as="generator_unordered")(delayed(_run)(t) for t in todo)
+
+
+def load_posture_study(root: str | os.PathLike[str], *, workers: int | None = None,
+                       params: dict[str, Any] | None = None, progress: bool = True) -> PostureStudy:
+    """Every session of a posture study folder as a :class:`Recording`, in file order.
+
+    Parameters
+    ----------
+    root : path
+        The study folder (SPEC §6: ``sessions/``, optional ``calibration/`` and ``imu/``).
+    workers : int, optional
+        Processes, one session each (default: every core; 1: in this process).
+    params : dict, optional
+        Overrides of :data:`DEFAULT_PARAMS`.
+    progress : bool
+        A progress bar over sessions.
+
+    Returns
+    -------
+    PostureStudy
+        The recordings, the problems (a session that failed is left out and named there) and how
+        many sessions were computed rather than read from the cache.
+    """
+    from tqdm.auto import tqdm
+
+    root = Path(root)
+    p = {**DEFAULT_PARAMS, **(params or {})}
+    unknown = set(p) - set(DEFAULT_PARAMS)
+    if unknown:
+        raise ValueError(f"unknown posture input parameter(s) {sorted(unknown)}; known: {sorted(DEFAULT_PARAMS)}")
+    problems: list[str] = []
+    tasks = _tasks(root, p, problems)
+    found: dict[str, Recording] = {}
+    todo = []
+    for t in tasks:
+        rec = _read_cached(_cache_path(root, t.stem), t.key)
+        if rec is None:
+            todo.append(t)
+        else:
+            found[t.stem] = rec
+    by_stem = {t.stem: t for t in tasks}
+    with tqdm(total=len(todo), unit="session", desc="posture inputs", disable=not progress or not todo) as bar:
+        for stem, rec, problem in _execute(todo, workers):
+            if rec is None:
+                problems.append(str(problem))
+            else:
+                _write_cached(_cache_path(root, stem), by_stem[stem].key, rec)
+                found[stem] = rec
+            bar.update(1)
+    return PostureStudy([found[t.stem] for t in tasks if t.stem in found], problems, len(todo))
