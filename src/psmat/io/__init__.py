@@ -1,7 +1,8 @@
 """Recorded sessions and external data files (SPEC §6).
 
 * :mod:`psmat.io.session` — a recording as one HDF5 file (raw frames, timing, validity,
-  device, calibration, metadata, processed products), crash-safe while it is written.
+  device, calibration, metadata, processed products; several devices as streams on one
+  host clock), crash-safe while it is written.
 * :mod:`psmat.io.forceplate` — force-platform centre-of-pressure files (generic CSV and
   the BDS public data set).
 """
@@ -19,16 +20,19 @@ from .session import (
     COUNTER_NAMES,
     FORMAT_NAME,
     FORMAT_VERSION,
+    STREAMS_FORMAT_VERSION,
     Product,
     Session,
     SessionFormatError,
     SessionWriter,
+    StreamWriter,
     export_csv,
     info,
     journal_path,
     load_session,
     repair_session,
     save_product,
+    stream_csv_path,
 )
 
 __all__ = [
@@ -40,6 +44,8 @@ __all__ = [
     "Session",
     "SessionFormatError",
     "SessionWriter",
+    "STREAMS_FORMAT_VERSION",
+    "StreamWriter",
     "bds_dir",
     "bds_files",
     "bds_trial",
@@ -52,4 +58,5 @@ __all__ = [
     "load_session",
     "repair_session",
     "save_product",
+    "stream_csv_path",
 ]

@@ -3,7 +3,10 @@
 A session holds the raw frames of one device (a pressure mat, the spine IMUs or the
 material DAQ), per-frame timing and validity, the description of the device, the
 calibration that was used, subject/trial metadata, the reader's error counters and any
-processed products (G, g, pressure, CoP, …) with the parameters that made them.
+processed products (G, g, pressure, CoP, …) with the parameters that made them. Other
+devices recorded at the same time on the same host clock (the spine IMUs with the mat)
+are **streams** of the session, each with its own frames, timing, validity, device and
+counters.
 
 Writing::
 
@@ -15,14 +18,24 @@ Writing::
         w.set_counters(dropped_frames=reader.dropped)
     s = load_session("s01_t1.h5")
 
+Two devices, one file (each device's reader thread appends to its own stream)::
+
+    with SessionWriter("p01_d1.h5", (16, 16), device=mat_desc, metadata=meta) as w:
+        imu = w.add_stream("imu", kind="imu", shape=(5, 3), device=imu_desc)
+        w.append(counts, host_time_s, valid, seq=seq, device_time_us=t_us)     # mat thread
+        imu.append(angles_deg, host_time_s, valid, seq=seq, device_time_us=t_us)  # IMU thread
+    s = load_session("p01_d1.h5")
+    s.streams["imu"].counts     # (T, 5, 3) float32 degrees, s.streams["imu"].host_time_s on s's clock
+
 This module gathers the public names of ``psmat.io.session_*``: :mod:`.session_layout`
 (names, classes, the HDF5 file writer), :mod:`.session_journal` (the crash record),
-:mod:`.session_writer` (:class:`SessionWriter`), :mod:`.session_reader`
+:mod:`.session_writer` (:class:`SessionWriter`, :class:`StreamWriter`), :mod:`.session_reader`
 (:func:`load_session`, :func:`repair_session`), :mod:`.session_products`
-(:func:`save_product`), :mod:`.session_export` (:func:`export_csv`, :func:`info`).
+(:func:`save_product`), :mod:`.session_export` (:func:`export_csv`, :func:`info`,
+:func:`stream_csv_path`).
 
-On-disk layout (format ``psmat-session``, version 2)
-=====================================================
+On-disk layout (format ``psmat-session``, version 2; 3 with streams)
+=====================================================================
 
 Plain HDF5 (superblock v3, ``libver="latest"``, so every metadata object carries a
 checksum): any HDF5 reader (h5py, MATLAB ``h5read``, R ``rhdf5``, HDFView, ``h5dump``)
@@ -51,10 +64,33 @@ dataset             shape               dtype      unit     content
                                                             resyncs, bytes_discarded
 ``/products/NAME``  any                 any        any      processed product (e.g. G, g, pressure, cop),
                                                             Fletcher-32 when it has elements
+``/streams/NAME/``  group                                   another device of the same recording (below)
 ==================  ==================  =========  =======  ==============================================
 
+Streams (format version 3). A session that recorded several devices (``psmat record PORT
+--also imu=PORT2``) keeps the first one at the root as above and each other one in a group
+``/streams/NAME`` (``NAME`` an ASCII identifier, e.g. ``imu``, not one of the names of this
+layout), holding the same per-frame datasets with the same chunking and Fletcher-32 checksums:
+
+=============================  ===========  ===================================================
+in ``/streams/NAME/``          shape        content
+=============================  ===========  ===================================================
+``counts`` or ``angles``       (T_k, ...)   the stream's frames, as the root's for its kind
+``host_time_s``                (T_k,)       host clock when received, the same clock as ``/host_time_s``
+``valid``, ``seq``,            (T_k,)       as at the root
+``device_time_us``
+``counters``                   (4,)         the stream's reader error counters
+``device`` (group)                          the stream's device description (``json`` attribute)
+=============================  ===========  ===================================================
+
+Attributes of ``/streams/NAME``: ``kind``, ``frame_shape``, ``frame_dataset``, ``n_frames``.
+Metadata and calibration are the root's; products live at the root. A file with streams
+has ``format_version`` 3, so that a psmat that knows only version 2 refuses it instead of
+loading the first device and silently leaving the others out; a one-device file stays
+version 2.
+
 Attributes of ``/`` (the root group): ``format`` = ``"psmat-session"``, ``format_version``
-(int), ``kind`` (``"psm"``, ``"imu"`` or ``"daq"``), ``frame_shape`` (int array),
+(int: 2, or 3 with ``/streams``), ``kind`` (``"psm"``, ``"imu"`` or ``"daq"``), ``frame_shape`` (int array),
 ``frame_dataset`` (``"counts"`` or ``"angles"``), ``created_utc`` (ISO 8601),
 ``psmat_version``, ``complete`` (1), ``n_frames``, ``closed_utc``; after
 :func:`repair_session` also ``repaired_utc`` and ``repair_notes``.
@@ -91,13 +127,22 @@ the file). Format 1 also wrote the HDF5 file in SWMR mode during the recording; 
 dropped: it could not hold the first promise alone (frames between flushes live only in
 the journal), and reading a killed SWMR file meant parsing the superblock by hand and
 matching HDF5's error strings, while the journal is plain bytes with a CRC per record.
+
+Each stream has a journal of its own, ``PATH.NAME.journal``, of the same format, written by
+its own :class:`StreamWriter` (so the reader threads of two devices never wait for each
+other, and every record of a journal has one size, which is what lets the loader skip
+exactly one damaged record); its header names the stream and carries the recording's random
+id, which ties it to ``PATH.journal``. A killed recording loads from the root
+journal and every stream journal tied to it; :func:`repair_session` writes them all into
+the file; a stream journal whose header is unreadable is left out with a note.
 """
 
-from .session_export import export_csv, info
+from .session_export import export_csv, info, stream_csv_path
 from .session_layout import (
     COUNTER_NAMES,
     FORMAT_NAME,
     FORMAT_VERSION,
+    STREAMS_FORMAT_VERSION,
     Product,
     Session,
     SessionFormatError,
@@ -105,20 +150,23 @@ from .session_layout import (
 )
 from .session_products import save_product
 from .session_reader import load_session, repair_session
-from .session_writer import SessionWriter
+from .session_writer import SessionWriter, StreamWriter
 
 __all__ = [
     "COUNTER_NAMES",
     "FORMAT_NAME",
     "FORMAT_VERSION",
+    "STREAMS_FORMAT_VERSION",
     "Product",
     "Session",
     "SessionFormatError",
     "SessionWriter",
+    "StreamWriter",
     "export_csv",
     "info",
     "journal_path",
     "load_session",
     "repair_session",
     "save_product",
+    "stream_csv_path",
 ]

@@ -26,18 +26,33 @@ def _cell_names(kind: str, shape: tuple[int, ...]) -> list[str]:
     return [f"c_{i}_{p}" for i in range(r) for p in range(c)]
 
 
+def stream_csv_path(path: str | os.PathLike[str], name: str) -> Path:
+    """Where :func:`export_csv` writes stream ``name`` of a session exported to ``path``: ``STEM.NAME.SUFFIX``."""
+    p = Path(path)
+    return p.with_name(f"{p.stem}.{name}{p.suffix}")
+
+
 def export_csv(session: Session | str | os.PathLike[str], path: str | os.PathLike[str], *,
                missing: str | None = None) -> Path:
-    """Write one CSV row per frame: ``time_s, valid, seq``, then the frame values.
+    """Write one CSV row per frame: ``time_s, valid, seq``, then the frame values; return ``path``.
 
     Cell columns are ``c_{i}_{p}`` (row-major) for a mat, ``s{k}_{heading|roll|pitch}_deg``
     for the IMUs, ``s{k}_count`` for the material DAQ. ``valid`` is 1/0; ``seq`` is empty
     when unknown. Values are written exactly (integers; shortest round-trip floats).
     ``missing``: if given (e.g. ``""``), the cells of invalid frames are written as this
-    string instead of the stored placeholder values.
+    string instead of the stored placeholder values. Each stream of a multi-device session
+    goes to a CSV of its own, :func:`stream_csv_path` (``s.csv`` → ``s.imu.csv``), its
+    ``time_s`` on the same host clock.
     """
     s = session if isinstance(session, Session) else load_session(session)
     out = Path(path)
+    _write_csv(s, out, missing)
+    for name, st in s.streams.items():
+        _write_csv(st, stream_csv_path(out, name), missing)
+    return out
+
+
+def _write_csv(s: Session, out: Path, missing: str | None) -> None:
     flat = s.counts.reshape(s.n_frames, -1)
     is_float = flat.dtype.kind == "f"
     seq = s.seq
@@ -54,13 +69,42 @@ def export_csv(session: Session | str | os.PathLike[str], path: str | os.PathLik
                 w.writerow(head + [np.format_float_positional(x, unique=True, trim="-") for x in flat[k]])
             else:
                 w.writerow(head + flat[k].tolist())
-    return out
+
+
+def _kv(d: Mapping[str, Any]) -> str:
+    return ", ".join(f"{k}={v}" for k, v in d.items()) if d else "(none)"
+
+
+def _frame_lines(s: Session, pad: str) -> list[str]:
+    """Frames, rate, validity, counters, sequence and device clock of one device."""
+    n = s.n_frames
+    rate = s.rate_hz
+    lines = [
+        f"{pad}frames        {n}, duration {s.duration_s:.3f} s, rate "
+        + (f"{rate:.2f} Hz (from host times)" if math.isfinite(rate) else "n/a")
+    ]
+    n_bad = int(n - np.count_nonzero(s.valid))
+    pct = 100.0 * n_bad / n if n else 0.0
+    lines.append(f"{pad}invalid       {n_bad} frames ({pct:.2f} %)")
+    c = s.counters
+    counters = ", ".join(f"{k} {c.get(k, 0)}" for k in COUNTER_NAMES) if c else "unknown (damaged)"
+    lines.append(f"{pad}counters      {counters}")
+    if s.seq is not None:
+        known = s.seq[s.seq >= 0]
+        gaps = int(np.sum(np.clip(np.diff(known) - 1, 0, None))) if known.size > 1 else 0
+        lines.append(f"{pad}seq           {int(known[0]) if known.size else '-'}..{int(known[-1]) if known.size else '-'}, "
+                     f"{gaps} frames missing by sequence number")
+    if s.device_time_us is not None:
+        known = s.device_time_us[s.device_time_us >= 0]
+        if known.size > 1:
+            lines.append(f"{pad}device clock  {(known[-1] - known[0]) / 1e6:.3f} s span")
+    lines.append(f"{pad}device        {_kv(s.device)}")
+    return lines
 
 
 def info(session: Session | str | os.PathLike[str]) -> str:
-    """A human-readable summary of a session (or of the session file at a path)."""
+    """A human-readable summary of a session (or of the session file at a path), its streams listed after it."""
     s = session if isinstance(session, Session) else load_session(session)
-    n = s.n_frames
     lines = [f"psmat session: {s.path if s.path is not None else '(in memory)'}"]
     state = "complete" if s.complete else "INTERRUPTED recording"
     if s.recovered:
@@ -68,43 +112,24 @@ def info(session: Session | str | os.PathLike[str]) -> str:
     lines.append(f"  kind          {s.kind}, frame shape {s.frame_shape}, format v{s.format_version} ({state})")
     if s.created_utc:
         lines.append(f"  created       {s.created_utc}")
-    rate = s.rate_hz
-    lines.append(
-        f"  frames        {n}, duration {s.duration_s:.3f} s, rate "
-        + (f"{rate:.2f} Hz (from host times)" if math.isfinite(rate) else "n/a")
-    )
-    n_bad = int(n - np.count_nonzero(s.valid))
-    pct = 100.0 * n_bad / n if n else 0.0
-    lines.append(f"  invalid       {n_bad} frames ({pct:.2f} %)")
-    c = s.counters
-    counters = ", ".join(f"{k} {c.get(k, 0)}" for k in COUNTER_NAMES) if c else "unknown (damaged)"
-    lines.append(f"  counters      {counters}")
-    if s.seq is not None:
-        known = s.seq[s.seq >= 0]
-        gaps = int(np.sum(np.clip(np.diff(known) - 1, 0, None))) if known.size > 1 else 0
-        lines.append(f"  seq           {int(known[0]) if known.size else '-'}..{int(known[-1]) if known.size else '-'}, "
-                     f"{gaps} frames missing by sequence number")
-    if s.device_time_us is not None:
-        known = s.device_time_us[s.device_time_us >= 0]
-        if known.size > 1:
-            lines.append(f"  device clock  {(known[-1] - known[0]) / 1e6:.3f} s span")
-
-    def kv(d: Mapping[str, Any]) -> str:
-        return ", ".join(f"{k}={v}" for k, v in d.items()) if d else "(none)"
-
-    lines.append(f"  device        {kv(s.device)}")
+    lines += _frame_lines(s, "  ")
     if s.calibration is None:
         lines.append("  calibration   (none)")
     else:
         cal = {k: v for k, v in s.calibration.items() if not isinstance(v, (list, dict))}
-        lines.append(f"  calibration   {kv(cal)}")
-    lines.append(f"  metadata      {kv(s.metadata)}")
+        lines.append(f"  calibration   {_kv(cal)}")
+    lines.append(f"  metadata      {_kv(s.metadata)}")
     if s.products:
         lines.append("  products")
         for name, p in sorted(s.products.items()):
-            lines.append(f"    {name:<12}{p.data.shape} {p.data.dtype} [{p.unit}] params: {kv(p.params)}")
+            lines.append(f"    {name:<12}{p.data.shape} {p.data.dtype} [{p.unit}] params: {_kv(p.params)}")
     else:
         lines.append("  products      (none)")
+    if s.streams:
+        lines.append(f"  streams       {len(s.streams)} more device(s) on the same host clock")
+        for name, st in s.streams.items():
+            lines.append(f"  stream {name}: kind {st.kind}, frame shape {st.frame_shape}")
+            lines += _frame_lines(st, "    ")
     for note in s.notes:
         lines.append(f"  note          {note}")
     return "\n".join(lines)

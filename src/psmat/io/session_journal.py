@@ -3,8 +3,9 @@
 Format (little-endian; :mod:`psmat.io.session` explains its role):
 
 * ``b"PSMATJ02"``, ``uint32`` header length ``H``, ``H`` bytes of UTF-8 JSON (kind, frame
-  shape and dtype, chunk size, device, calibration, metadata, record size), ``uint32``
-  CRC-32 of those ``H`` bytes;
+  shape and dtype, chunk size, device, calibration, metadata, record size, ``session``: a
+  random id of the recording; for the journal ``PATH.NAME.journal`` of a stream also
+  ``stream`` = NAME, with the session's id), ``uint32`` CRC-32 of those ``H`` bytes;
 * then records of ``32 + P + 4`` bytes: ``uint8 type`` (0 frame, 1 counters), ``uint8
   valid``, 6 pad bytes, ``float64 host_time_s``, ``int64 seq``, ``int64 device_time_us``,
   ``P`` payload bytes (the frame, or the counters as int64, zero padded), ``uint32`` CRC-32
@@ -29,7 +30,8 @@ from numpy.typing import NDArray
 
 from ..frames import FrameBatch
 
-from .session_layout import COUNTER_NAMES, FORMAT_NAME, FORMAT_VERSION, KINDS, Header, SessionFormatError
+from .session_layout import (COUNTER_NAMES, FORMAT_NAME, FORMAT_VERSION, KINDS, Header, SessionFormatError,
+                             stream_journal_candidates)
 
 MAGIC = b"PSMATJ02"
 FRAME, COUNTERS = 0, 1
@@ -57,8 +59,12 @@ def payload_bytes(h: Header) -> int:
     return max(int(np.prod(h.frame_shape)) * h.spec.dtype.itemsize, 8 * len(COUNTER_NAMES))
 
 
-def encode_header(h: Header) -> bytes:
-    """The journal's first bytes: magic, length, JSON, CRC-32 of the JSON."""
+def encode_header(h: Header, session: str, stream: str | None = None) -> bytes:
+    """The journal's first bytes: magic, length, JSON, CRC-32 of the JSON.
+
+    ``session``: the id of the recording, the same in the journals of all its streams;
+    ``stream``: the stream's name (None for the root device).
+    """
     p = payload_bytes(h)
     doc = {
         "format": FORMAT_NAME + "-journal",
@@ -74,7 +80,10 @@ def encode_header(h: Header) -> bytes:
         "calibration": h.calibration,
         "metadata": h.metadata,
         "created_utc": h.created_utc,
+        "session": session,
     }
+    if stream is not None:
+        doc["stream"] = stream
     hb = json.dumps(doc, allow_nan=True).encode("utf-8")
     return MAGIC + len(hb).to_bytes(4, "little") + hb + zlib.crc32(hb).to_bytes(4, "little")
 
@@ -124,6 +133,8 @@ def format_ranges(idx: NDArray[Any] | list[int]) -> str:
 class Journal:
     """An opened journal: its header, then its records read block by block with :meth:`blocks`.
 
+    ``stream`` is the stream's name for a stream's journal, None for the root device's;
+    ``session`` the recording's id (None in a journal of a psmat before streams).
     After a full pass of :meth:`blocks`: ``skipped_frames`` holds the write-order indices of
     frame records that failed their CRC (a damaged record whose type byte does not say
     "counters" is counted as a frame), ``skipped_counters`` the number of damaged counters
@@ -137,6 +148,8 @@ class Journal:
     body_offset: int
     n_records: int
     tail_bytes: int
+    stream: str | None = None
+    session: str | None = None
     skipped_frames: list[int] = field(default_factory=list)
     skipped_counters: int = 0
     counters: dict[str, int] | None = None
@@ -169,12 +182,15 @@ class Journal:
             if rec.itemsize != int(doc["record_bytes"]):
                 raise ValueError(f"record size {doc['record_bytes']}, the frame shape needs {rec.itemsize}")
             version = int(doc["format_version"])
+            stream, session = doc.get("stream"), doc.get("session")
+            if not all(x is None or isinstance(x, str) for x in (stream, session)):
+                raise ValueError(f"stream {stream!r} of session {session!r}")
         except (UnicodeDecodeError, ValueError, KeyError, TypeError) as e:
             raise SessionFormatError(f"{path}: journal header is not a psmat journal header ({e})") from None
         body = 12 + hlen + 4
         n = (size - body) // rec.itemsize
         return cls(path=path, header=h, format_version=version, record=rec, body_offset=body, n_records=n,
-                   tail_bytes=size - body - n * rec.itemsize)
+                   tail_bytes=size - body - n * rec.itemsize, stream=stream, session=session)
 
     def blocks(self) -> Iterator[FrameBatch]:
         """The intact frame records, in write order, a block at a time (damaged records skipped)."""
@@ -232,3 +248,25 @@ class Journal:
         if self.tail_bytes:
             notes.append(f"journal tail of {self.tail_bytes} bytes discarded (incomplete last record)")
         return notes
+
+
+def stream_journals(path: Path, session: str | None) -> tuple[dict[str, Journal], list[str]]:
+    """The journals ``PATH.NAME.journal`` of the streams of the recording whose id is ``session``.
+
+    A journal whose header names another stream or session (e.g. the journal of a session
+    ``PATH.NAME``, or one left by an earlier recording) is not this session's and is passed
+    over; one whose header is unreadable is left out with a note (its stream is lost).
+    """
+    out: dict[str, Journal] = {}
+    notes: list[str] = []
+    if session is None:  # a journal written before streams existed
+        return out, notes
+    for name, q in stream_journal_candidates(path).items():
+        try:
+            j = Journal.open(q)
+        except (SessionFormatError, OSError) as e:
+            notes.append(f"stream journal {q.name} unusable, left out ({e})")
+            continue
+        if j.stream == name and j.session == session:
+            out[name] = j
+    return out, notes

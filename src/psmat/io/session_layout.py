@@ -7,12 +7,13 @@ this module is the one place that creates it.
 from __future__ import annotations
 
 import datetime as _dt
+import glob
 import json
 import os
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, NamedTuple
 
 import h5py
 import numpy as np
@@ -22,6 +23,9 @@ from ..frames import FrameBatch
 
 FORMAT_NAME = "psmat-session"
 FORMAT_VERSION = 2
+#: the version of a file with more than one device (group ``/streams``): an older psmat,
+#: which reads up to 2, refuses it rather than silently loading the first device only
+STREAMS_FORMAT_VERSION = 3
 COUNTER_NAMES: tuple[str, ...] = ("dropped_frames", "bad_frames", "resyncs", "bytes_discarded")
 PER_FRAME: tuple[str, ...] = ("host_time_s", "valid", "seq", "device_time_us")
 
@@ -54,10 +58,42 @@ class SessionFormatError(ValueError):
     """A file is not a (readable) psmat session; the message names the file and the problem."""
 
 
-def journal_path(path: str | os.PathLike[str]) -> Path:
-    """The journal side file of a session file: ``PATH.journal``."""
+# names a stream may not take: the datasets and groups of a session (a stream's name is
+# also part of its journal's and its CSV's file name)
+RESERVED_NAMES = frozenset({"counts", "angles", *PER_FRAME, "counters", "products", "device", "calibration",
+                            "metadata", "streams", "journal", "partial"})
+
+
+def check_stream_name(name: Any) -> str:
+    """``name`` if it is a valid stream name (an ASCII identifier, not reserved), else ValueError."""
+    if not isinstance(name, str) or not (name.isascii() and name.isidentifier()) or len(name) > 64:
+        raise ValueError(f"a stream name is an ASCII identifier of at most 64 characters (e.g. 'imu'), got {name!r}")
+    if name in RESERVED_NAMES:
+        raise ValueError(f"stream name {name!r} is reserved (one of {sorted(RESERVED_NAMES)})")
+    return name
+
+
+def journal_path(path: str | os.PathLike[str], stream: str | None = None) -> Path:
+    """The journal side file of a session file: ``PATH.journal``, or ``PATH.NAME.journal`` for stream ``NAME``."""
     p = Path(path)
-    return p.with_name(p.name + ".journal")
+    return p.with_name(p.name + ("" if stream is None else f".{stream}") + ".journal")
+
+
+def stream_journal_candidates(path: str | os.PathLike[str]) -> dict[str, Path]:
+    """Files ``PATH.NAME.journal`` with a valid stream name ``NAME``, by name.
+
+    Candidates only: ``s.h5.x.journal`` may as well be the journal of a session ``s.h5.x``;
+    the journal's header says whose stream it is.
+    """
+    p = Path(path)
+    out = {}
+    for q in sorted(p.parent.glob(glob.escape(p.name) + ".*.journal")):
+        name = q.name[len(p.name) + 1 : -len(".journal")]
+        try:
+            out[check_stream_name(name)] = q
+        except ValueError:
+            continue
+    return out
 
 
 def partial_path(path: str | os.PathLike[str]) -> Path:
@@ -98,6 +134,30 @@ class Header:
         return KINDS[self.kind]
 
 
+def frame_shape_of(kind: str, shape: int | tuple[int, ...]) -> tuple[int, ...]:
+    """``shape`` as a tuple, checked against what a ``kind`` device sends (ValueError otherwise)."""
+    if kind not in KINDS:
+        raise ValueError(f"kind must be one of {sorted(KINDS)}, got {kind!r}")
+    fshape = (int(shape),) if isinstance(shape, (int, np.integer)) else tuple(int(x) for x in shape)
+    if kind == "psm" and len(fshape) != 2:
+        raise ValueError(f"a psm frame shape is (R, C), got {fshape}")
+    if kind == "imu" and (len(fshape) != 2 or fshape[1] != 3):
+        raise ValueError(f"an imu frame shape is (n_sensors, 3), got {fshape}")
+    if kind == "daq" and len(fshape) != 1:
+        raise ValueError(f"a daq frame shape is (n_sensors,), got {fshape}")
+    if any(x < 1 for x in fshape):
+        raise ValueError(f"frame shape must be positive, got {fshape}")
+    return fshape
+
+
+class StreamBlocks(NamedTuple):
+    """What :func:`write_session_file` writes for one stream: header, frame blocks, counters."""
+
+    header: Header
+    blocks: Iterable[FrameBatch]
+    counters: Mapping[str, int]
+
+
 @dataclass(eq=False)
 class Session:
     """A recorded session as loaded by :func:`psmat.io.load_session`.
@@ -126,6 +186,11 @@ class Session:
         True when the frames were recovered from the journal side file.
     notes : list[str]
         What the loader found or had to do (recovery, damaged records or chunks), for the record.
+        The root session's notes also hold each stream's, prefixed ``stream NAME:``.
+    streams : dict[str, Session]
+        The other devices recorded with this one, on the same host clock, by stream name
+        (e.g. ``"imu"``); empty for a one-device session. Each is a Session of its own kind
+        (no products, no streams; the metadata is the root's).
     """
 
     path: Path | None
@@ -145,6 +210,7 @@ class Session:
     complete: bool = True
     recovered: bool = False
     notes: list[str] = field(default_factory=list)
+    streams: dict[str, Session] = field(default_factory=dict)
 
     @property
     def frames(self) -> NDArray[Any]:
@@ -180,7 +246,8 @@ class Session:
     def __repr__(self) -> str:
         return (
             f"Session(kind={self.kind!r}, frames={self.n_frames}, shape={self.frame_shape}, "
-            f"duration_s={self.duration_s:.3f}, products={sorted(self.products)}, path={str(self.path)!r})"
+            f"duration_s={self.duration_s:.3f}, products={sorted(self.products)}, streams={sorted(self.streams)}, "
+            f"path={str(self.path)!r})"
         )
 
 
@@ -293,35 +360,57 @@ def write_product(f: h5py.File, name: str, array: Any, params: Mapping[str, Any]
     set_flat_attrs(ds, json.loads(pj), skip=("unit", "params_json", "created_utc"))
 
 
-def _create_layout(f: h5py.File, h: Header) -> dict[str, h5py.Dataset]:
+def _create_frames(g: h5py.Group, h: Header) -> dict[str, h5py.Dataset]:
+    """A device's part of the layout in ``g`` (``/`` or ``/streams/NAME``): kind, frame and per-frame datasets."""
     spec = h.spec
-    put_attr(f, "format", FORMAT_NAME)
-    put_attr(f, "format_version", FORMAT_VERSION)
-    put_attr(f, "kind", h.kind)
-    put_attr(f, "frame_shape", np.asarray(h.frame_shape, dtype=np.int64))
-    put_attr(f, "frame_dataset", spec.dataset)
-    put_attr(f, "created_utc", h.created_utc)
-    put_attr(f, "psmat_version", psmat_version())
+    put_attr(g, "kind", h.kind)
+    put_attr(g, "frame_shape", np.asarray(h.frame_shape, dtype=np.int64))
+    put_attr(g, "frame_dataset", spec.dataset)
     c = h.chunk_frames
     # SPEC §6: every frame dataset carries Fletcher-32 checksums, one per chunk of c frames
-    d = f.create_dataset(spec.dataset, shape=(0, *h.frame_shape), maxshape=(None, *h.frame_shape),
+    d = g.create_dataset(spec.dataset, shape=(0, *h.frame_shape), maxshape=(None, *h.frame_shape),
                          dtype=spec.dtype, chunks=(c, *h.frame_shape), fletcher32=True)
     put_attr(d, "unit", spec.unit)
     put_attr(d, "axes", spec.axes)
     out = {spec.dataset: d}
     for name, (dt, unit, desc, _fill) in PER_FRAME_SPEC.items():
-        ds = f.create_dataset(name, shape=(0,), maxshape=(None,), dtype=dt, chunks=(c,), fletcher32=True)
+        ds = g.create_dataset(name, shape=(0,), maxshape=(None,), dtype=dt, chunks=(c,), fletcher32=True)
         put_attr(ds, "unit", unit)
         put_attr(ds, "description", desc)
         out[name] = ds
-    for gname, d_ in (("device", h.device), ("calibration", h.calibration), ("metadata", h.metadata)):
+    return out
+
+
+def _create_dict_groups(g: h5py.Group, groups: Mapping[str, dict[str, Any] | None]) -> None:
+    for gname, d_ in groups.items():
         if d_ is None:
             continue
-        g = f.create_group(gname)
-        put_attr(g, "json", to_json(d_))
-        set_flat_attrs(g, d_)
-    f.create_group("products")
-    return out
+        sub = g.create_group(gname)
+        put_attr(sub, "json", to_json(d_))
+        set_flat_attrs(sub, d_)
+
+
+def _write_frames(g: h5py.Group, header: Header, blocks: Iterable[FrameBatch], counters: Mapping[str, int]) -> int:
+    """The frames, per-frame datasets, device description and counters of one device into ``g``."""
+    ds = _create_frames(g, header)
+    dname = header.spec.dataset
+    n = 0
+    for b in blocks:
+        m = len(b)
+        if m == 0:
+            continue
+        cols = {dname: b.frames, "host_time_s": b.host_time_s, "valid": b.valid.astype(np.uint8),
+                "seq": b.seq, "device_time_us": b.device_time_us}
+        for name, arr in cols.items():
+            ds[name].resize(n + m, axis=0)
+            ds[name][n : n + m] = arr
+        n += m
+    k = g.create_dataset("counters", data=np.array([int(counters.get(c, 0)) for c in COUNTER_NAMES], np.int64),
+                         chunks=(len(COUNTER_NAMES),), fletcher32=True)
+    put_attr(k, "unit", "1")
+    put_attr(k, "names", list(COUNTER_NAMES))
+    put_attr(g, "n_frames", np.int64(n))
+    return n
 
 
 def write_session_file(
@@ -332,17 +421,19 @@ def write_session_file(
     *,
     products: Mapping[str, Product] | None = None,
     attrs: Mapping[str, str] | None = None,
+    streams: Mapping[str, StreamBlocks] | None = None,
 ) -> int:
-    """Write a complete session file at ``path``, atomically; return the number of frames.
+    """Write a complete session file at ``path``, atomically; return the number of frames of the root device.
 
     The file is built as ``PATH.partial``, marked complete, fsync'd, then renamed over
     ``path``: a session file that exists is always a complete one. ``attrs`` are extra
-    string attributes of ``/`` (e.g. ``repaired_utc``).
+    string attributes of ``/`` (e.g. ``repaired_utc``); ``streams`` the other devices, by
+    stream name (group ``/streams/NAME``).
     """
     tmp = partial_path(path)
     tmp.unlink(missing_ok=True)
     try:
-        n = _write_file(tmp, header, blocks, counters, products or {}, attrs or {})
+        n = _write_file(tmp, header, blocks, counters, products or {}, attrs or {}, streams or {})
     except BaseException:
         tmp.unlink(missing_ok=True)
         raise
@@ -353,29 +444,25 @@ def write_session_file(
 
 
 def _write_file(tmp: Path, header: Header, blocks: Iterable[FrameBatch], counters: Mapping[str, int],
-                products: Mapping[str, Product], attrs: Mapping[str, str]) -> int:
-    n = 0
+                products: Mapping[str, Product], attrs: Mapping[str, str], streams: Mapping[str, StreamBlocks]) -> int:
     with h5py.File(tmp, "w", libver="latest") as f:  # latest: checksums on every metadata object too
-        ds = _create_layout(f, header)
-        dname = header.spec.dataset
-        for b in blocks:
-            m = len(b)
-            if m == 0:
-                continue
-            cols = {dname: b.frames, "host_time_s": b.host_time_s, "valid": b.valid.astype(np.uint8),
-                    "seq": b.seq, "device_time_us": b.device_time_us}
-            for name, arr in cols.items():
-                ds[name].resize(n + m, axis=0)
-                ds[name][n : n + m] = arr
-            n += m
-        k = f.create_dataset("counters", data=np.array([int(counters.get(c, 0)) for c in COUNTER_NAMES], np.int64),
-                             chunks=(len(COUNTER_NAMES),), fletcher32=True)
-        put_attr(k, "unit", "1")
-        put_attr(k, "names", list(COUNTER_NAMES))
+        put_attr(f, "format", FORMAT_NAME)
+        put_attr(f, "format_version", STREAMS_FORMAT_VERSION if streams else FORMAT_VERSION)
+        put_attr(f, "created_utc", header.created_utc)
+        put_attr(f, "psmat_version", psmat_version())
+        _create_dict_groups(f, {"device": header.device, "calibration": header.calibration,
+                                "metadata": header.metadata})
+        f.create_group("products")
+        n = _write_frames(f, header, blocks, counters)
+        if streams:
+            sg = f.create_group("streams")
+            for name, st in streams.items():
+                g = sg.create_group(check_stream_name(name))
+                _create_dict_groups(g, {"device": st.header.device})
+                _write_frames(g, st.header, st.blocks, st.counters)
         for name, p in products.items():
             write_product(f, name, p.data, p.params, p.unit)
         put_attr(f, "complete", np.uint8(1))
-        put_attr(f, "n_frames", np.int64(n))
         put_attr(f, "closed_utc", utc_now())
         for key, val in attrs.items():
             put_attr(f, key, val)

@@ -18,18 +18,20 @@ from numpy.typing import NDArray
 
 from ..frames import FrameBatch
 
-from .session_journal import Journal, format_ranges
+from .session_journal import Journal, format_ranges, stream_journals
 from .session_layout import (
     COUNTER_NAMES,
     FORMAT_NAME,
-    FORMAT_VERSION,
     KINDS,
     PER_FRAME,
     PER_FRAME_SPEC,
+    STREAMS_FORMAT_VERSION,
     Header,
     Session,
     SessionFormatError,
+    StreamBlocks,
     attr_str,
+    check_stream_name,
     fsync_dir,
     journal_path,
     utc_now,
@@ -47,8 +49,9 @@ def load_session(path: str | os.PathLike[str], *, use_journal: bool = True) -> S
     Parameters
     ----------
     path : str or Path
-        The session file (``.h5``). Its journal ``PATH.journal`` is read when the file is
-        missing (the writer was killed before it closed) or unreadable.
+        The session file (``.h5``). Its journal ``PATH.journal`` (and its streams' journals
+        ``PATH.NAME.journal``) is read when the file is missing (the writer was killed
+        before it closed) or unreadable.
     use_journal : bool
         False: read the HDF5 file only.
 
@@ -57,7 +60,9 @@ def load_session(path: str | os.PathLike[str], *, use_journal: bool = True) -> S
     Session
         ``notes`` says what the loader found: frames recovered from the journal, journal
         records skipped (which frames), damaged chunks (which dataset, which frames; those
-        frames are loaded with ``valid=False``).
+        frames are loaded with ``valid=False``). ``streams`` holds the other devices
+        recorded with it, each checked the same way (its notes also in the root's, prefixed
+        ``stream NAME:``).
 
     Raises
     ------
@@ -91,26 +96,45 @@ def load_session(path: str | os.PathLike[str], *, use_journal: bool = True) -> S
 
 
 def repair_session(path: str | os.PathLike[str]) -> Session:
-    """Turn an interrupted recording into a complete file (from its journal), then reload it.
+    """Turn an interrupted recording into a complete file (from its journals), then reload it.
 
-    The recovered frames are written to ``PATH.partial``, which replaces ``path``
-    atomically; the journal is removed afterwards. A complete file is returned unchanged.
+    The recovered frames (of every stream) are written to ``PATH.partial``, which replaces
+    ``path`` atomically; the journals are removed afterwards. A complete file is returned
+    unchanged.
     """
     path = Path(path)
     s = load_session(path)
     if s.complete:
         return s
-    n = s.n_frames
-    block = FrameBatch(s.counts, s.host_time_s, s.valid,
-                       s.seq if s.seq is not None else np.full(n, -1, np.int64),
-                       s.device_time_us if s.device_time_us is not None else np.full(n, -1, np.int64))
-    h = Header(kind=s.kind, frame_shape=s.frame_shape, device=s.device, calibration=s.calibration,
-               metadata=s.metadata, created_utc=s.created_utc or utc_now())
-    write_session_file(path, h, [block], s.counters, products=s.products,
-                       attrs={"repaired_utc": utc_now(), "repair_notes": "; ".join(s.notes)})
-    journal_path(path).unlink(missing_ok=True)
+    streams = {name: StreamBlocks(_header(st, s.created_utc), [_block(st)], st.counters)
+               for name, st in s.streams.items()}
+    write_session_file(path, _header(s, s.created_utc), [_block(s)], s.counters, products=s.products,
+                       attrs={"repaired_utc": utc_now(), "repair_notes": "; ".join(s.notes)}, streams=streams)
+    for p in (journal_path(path), *(journal_path(path, name) for name in s.streams)):
+        p.unlink(missing_ok=True)
     fsync_dir(path.parent)
     return load_session(path)
+
+
+def _header(s: Session, created: str) -> Header:
+    return Header(kind=s.kind, frame_shape=s.frame_shape, device=s.device, calibration=s.calibration,
+                  metadata=s.metadata, created_utc=created or utc_now())
+
+
+def _block(s: Session) -> FrameBatch:
+    n = s.n_frames
+    return FrameBatch(s.counts, s.host_time_s, s.valid,
+                      s.seq if s.seq is not None else np.full(n, -1, np.int64),
+                      s.device_time_us if s.device_time_us is not None else np.full(n, -1, np.int64))
+
+
+def _add_streams(s: Session, streams: dict[str, Session], notes: list[str]) -> Session:
+    """Attach ``streams`` to the root session ``s``; their notes (and ``notes``) join the root's."""
+    s.streams = streams
+    s.notes.extend(notes)
+    for name, st in streams.items():
+        s.notes.extend(f"stream {name}: {n}" for n in st.notes)
+    return s
 
 
 # ====================================================================== journal
@@ -122,9 +146,24 @@ def _from_journal(path: Path, jpath: Path, why: str) -> Session:
         raise SessionFormatError(f"{path}: {why}, and its journal is unusable ({e})") from None
     notes = [f"{why}: {len(b)} frames recovered from the journal {jpath.name}", *j.damage_notes()]
     h = j.header
-    return _session(path, h.kind, b, device=h.device, calibration=h.calibration, metadata=h.metadata,
-                    counters=j.counters or dict.fromkeys(COUNTER_NAMES, 0), version=j.format_version,
-                    created=h.created_utc, complete=False, recovered=True, notes=notes)
+    found, lost = stream_journals(path, j.session)
+    streams = {}
+    for name, sj in sorted(found.items()):
+        try:
+            sb = sj.read_all()
+        except (OSError, ValueError) as e:
+            lost.append(f"stream journal {sj.path.name} unusable, left out ({e})")
+            continue
+        streams[name] = _session(path, sj.header.kind, sb, device=sj.header.device, calibration=None,
+                                 metadata=dict(h.metadata), counters=sj.counters or dict.fromkeys(COUNTER_NAMES, 0),
+                                 version=STREAMS_FORMAT_VERSION, created=h.created_utc, complete=False, recovered=True,
+                                 notes=[f"{len(sb)} frames recovered from the journal {sj.path.name}",
+                                        *sj.damage_notes()])
+    s = _session(path, h.kind, b, device=h.device, calibration=h.calibration, metadata=h.metadata,
+                 counters=j.counters or dict.fromkeys(COUNTER_NAMES, 0),
+                 version=STREAMS_FORMAT_VERSION if streams else j.format_version,
+                 created=h.created_utc, complete=False, recovered=True, notes=notes)
+    return _add_streams(s, streams, lost)
 
 
 def _session(path: Path, kind: str, b: FrameBatch, **kw: Any) -> Session:
@@ -168,53 +207,75 @@ def _read_open(f: h5py.File, path: Path, notes: list[str]) -> Session:
             f"{path}: HDF5 file but not a psmat session (root attribute 'format' is {fmt!r}, expected {FORMAT_NAME!r})"
         )
     version = int(a.get("format_version", -1))
-    if version < 1 or version > FORMAT_VERSION:
+    if version < 1 or version > STREAMS_FORMAT_VERSION:
         raise SessionFormatError(
-            f"{path}: session format version {version} is not supported (this psmat reads 1..{FORMAT_VERSION})"
+            f"{path}: session format version {version} is not supported (this psmat reads 1..{STREAMS_FORMAT_VERSION})"
         )
+    complete = bool(int(a.get("complete", 0)))
+    kind, block = _read_device(f, path, complete, notes)
+    metadata = _group_json(f, "metadata", path) or {}
+    created = attr_str(a.get("created_utc", ""))
+    s = _session(
+        path, kind, block,
+        device=_group_json(f, "device", path) or {},
+        calibration=_group_json(f, "calibration", path),
+        metadata=metadata,
+        products=read_products(f, notes),
+        counters=_counters(f, notes),
+        version=version, created=created,
+        complete=complete, recovered=False, notes=notes,
+    )
+    streams: dict[str, Session] = {}
+    lost: list[str] = []
+    for name in f["streams"] if "streams" in f else ():
+        st_notes: list[str] = []
+        try:
+            g = f["streams"][check_stream_name(name)]
+            kind_k, block_k = _read_device(g, path, complete, st_notes)
+            streams[name] = _session(path, kind_k, block_k, device=_group_json(g, "device", path) or {},
+                                     calibration=None, metadata=dict(metadata), counters=_counters(g, st_notes),
+                                     version=version, created=created, complete=complete, recovered=False,
+                                     notes=st_notes)
+        except (SessionFormatError, *_DECODE_ERRORS) as e:  # a damaged stream costs that stream only
+            lost.append(f"stream {name!r} damaged and left out ({e})".replace("\n", " "))
+    return _add_streams(s, streams, lost)
+
+
+def _read_device(g: h5py.Group, path: Path, complete: bool, notes: list[str]) -> tuple[str, FrameBatch]:
+    """One device's frames from ``g`` (``/`` or ``/streams/NAME``): its kind and frames, damaged chunks invalid."""
+    a = g.attrs
     kind = attr_str(a["kind"])
     if kind not in KINDS or attr_str(a.get("frame_dataset", KINDS[kind].dataset)) != KINDS[kind].dataset:
-        raise SessionFormatError(f"{path}: corrupt session, unknown kind {kind!r} or frame dataset")
+        raise SessionFormatError(f"{path}: corrupt session, unknown kind {kind!r} or frame dataset in {g.name}")
     dname = KINDS[kind].dataset
-    missing = [n for n in (dname, *PER_FRAME) if n not in f]
+    missing = [n for n in (dname, *PER_FRAME) if n not in g]
     if missing:
-        raise SessionFormatError(f"{path}: corrupt session, missing dataset(s) {missing}")
-    lengths = {n: int(f[n].shape[0]) for n in (dname, *PER_FRAME)}
-    complete = bool(int(a.get("complete", 0)))
+        raise SessionFormatError(f"{path}: corrupt session, missing dataset(s) {missing} in {g.name}")
+    lengths = {n: int(g[n].shape[0]) for n in (dname, *PER_FRAME)}
     if complete:
         n = int(a.get("n_frames", lengths[dname]))
         if len(set(lengths.values())) != 1 or n != lengths[dname]:
             raise SessionFormatError(
-                f"{path}: corrupt session, per-frame datasets disagree in length {lengths} (n_frames={n})"
+                f"{path}: corrupt session, per-frame datasets of {g.name} disagree in length {lengths} (n_frames={n})"
             )
     else:  # a format-1 SWMR file whose writer was killed, its flag cleared (h5clear -s)
         n = min(lengths.values())
-        if "committed" in f:
-            n = min(n, int(f["committed"][0]))
+        if "committed" in g:
+            n = min(n, int(g["committed"][0]))
         notes.append(f"interrupted recording (not closed): {n} committed frames in the HDF5 file")
 
     fill = 0 if KINDS[kind].dtype.kind in "ui" else np.nan
-    frames, bad = _read_chunked(f[dname], n, fill, notes)
+    frames, bad = _read_chunked(g[dname], n, fill, notes)
     cols = {}
     for name in PER_FRAME:
-        cols[name], bad_k = _read_chunked(f[name], n, PER_FRAME_SPEC[name][3], notes)
+        cols[name], bad_k = _read_chunked(g[name], n, PER_FRAME_SPEC[name][3], notes)
         bad |= bad_k
-    unchecked = [n_ for n_ in (dname, *PER_FRAME) if not f[n_].fletcher32]
+    unchecked = [n_ for n_ in (dname, *PER_FRAME) if not g[n_].fletcher32]
     if unchecked:
         notes.append(f"{', '.join(unchecked)} carry no checksums (written by an older psmat): "
                      "damage there cannot be seen")
     valid = cols["valid"].astype(bool) & ~bad  # SPEC §6: a damaged frame is never returned as valid
-    block = FrameBatch(frames, cols["host_time_s"], valid, cols["seq"], cols["device_time_us"])
-    return _session(
-        path, kind, block,
-        device=_group_json(f, "device", path) or {},
-        calibration=_group_json(f, "calibration", path),
-        metadata=_group_json(f, "metadata", path) or {},
-        products=read_products(f, notes),
-        counters=_counters(f, notes),
-        version=version, created=attr_str(a.get("created_utc", "")),
-        complete=complete, recovered=False, notes=notes,
-    )
+    return kind, FrameBatch(frames, cols["host_time_s"], valid, cols["seq"], cols["device_time_us"])
 
 
 def _read_chunked(ds: h5py.Dataset, n: int, fill: Any, notes: list[str]) -> tuple[NDArray[Any], NDArray[np.bool_]]:
@@ -236,7 +297,7 @@ def _read_chunked(ds: h5py.Dataset, n: int, fill: Any, notes: list[str]) -> tupl
     return out, bad
 
 
-def _group_json(f: h5py.File, name: str, path: Path) -> dict[str, Any] | None:
+def _group_json(f: h5py.Group, name: str, path: Path) -> dict[str, Any] | None:
     if name not in f:
         return None
     g = f[name]
@@ -245,9 +306,9 @@ def _group_json(f: h5py.File, name: str, path: Path) -> dict[str, Any] | None:
     try:
         d = json.loads(attr_str(g.attrs["json"]))
     except json.JSONDecodeError as e:
-        raise SessionFormatError(f"{path}: /{name} attribute 'json' is not valid JSON ({e})") from None
+        raise SessionFormatError(f"{path}: {g.name} attribute 'json' is not valid JSON ({e})") from None
     if not isinstance(d, dict):
-        raise SessionFormatError(f"{path}: /{name} attribute 'json' is not a JSON object")
+        raise SessionFormatError(f"{path}: {g.name} attribute 'json' is not a JSON object")
     return d
 
 
@@ -261,17 +322,17 @@ def _attr_value(v: Any) -> Any:
     return v
 
 
-def _counters(f: h5py.File, notes: list[str]) -> dict[str, int]:
+def _counters(g: h5py.Group, notes: list[str]) -> dict[str, int]:
     """The reader's counters; empty, with a note, when their chunk is damaged."""
     counters = dict.fromkeys(COUNTER_NAMES, 0)
-    if "counters" not in f:
+    if "counters" not in g:
         return counters
-    ds = f["counters"]
+    ds = g["counters"]
     names = [attr_str(x) for x in ds.attrs.get("names", list(COUNTER_NAMES))]
     try:
         values = ds[()]
     except OSError:
-        notes.append("/counters: damaged (checksum failed), the reader's counters are unknown")
+        notes.append(f"{ds.name}: damaged (checksum failed), the reader's counters are unknown")
         return {}
     counters.update({k: int(v) for k, v in zip(names, values)})
     return counters
