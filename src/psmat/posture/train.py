@@ -55,6 +55,8 @@ class PostureResult:
     history : list of dict
         Per epoch: train and validation MSE (rad²), seconds, windows drawn; epoch 0 is the untrained model.
     best_epoch : int
+    resumed_from : int
+        Epochs read from a checkpoint (0: trained from the start).
     n_parameters : int
     standardiser : Standardiser
     model : PostureCNN
@@ -70,6 +72,7 @@ class PostureResult:
     split: Split
     history: list[dict[str, float]]
     best_epoch: int
+    resumed_from: int
     n_parameters: int
     standardiser: Standardiser
     model: PostureCNN
@@ -202,5 +205,6 @@ def train_posture(recordings: Sequence[Recording], out_dir: str | Path, *, split
     suffix = f" ({label})" if label else ""
     figs = [plot_predictions(data[k].targets.astype(np.float64), pred[k], out / "figures" / f"{split}_{k}.png",
                              title=f"{TITLES[split]}, {k} set{suffix}") for k in ("validation", "test")]
-    return PostureResult(rows, baseline_rows, sp, res.history, res.best_epoch, n_parameters(model), std, model, pred,
+    return PostureResult(rows, baseline_rows, sp, res.history, res.best_epoch, res.resumed_from, n_parameters(model),
+                         std, model, pred,
                          table, figs)
