@@ -67,12 +67,16 @@ class Device:
         their replies).
     read_timeout_s : float
         Longest wait of :meth:`read` when ``n`` is given without a timeout (s).
+    clock : HostClock
+        Stamps ``host_time_s`` of every frame; devices recorded together share one
+        (``clock=`` of :func:`open_device`), so that their times are on one host clock.
     """
 
     def __init__(self, port: str, kind: Literal["psm", "daq", "imu"] = "psm", protocol: str | int = "v2",
                  shape: tuple[int, ...] | None = None, baudrate: int = 1_000_000, buffer_frames: int = 60_000,
                  reconnect: bool = False, *, reconnect_attempts: int | None = 20, reconnect_delay_s: float = 0.1,
-                 reconnect_max_delay_s: float = 2.0, read_timeout_s: float = 1.0) -> None:
+                 reconnect_max_delay_s: float = 2.0, read_timeout_s: float = 1.0,
+                 clock: HostClock | None = None) -> None:
         if kind not in ("psm", "daq", "imu"):
             raise ValueError(f"kind must be 'psm', 'daq' or 'imu', got {kind!r}")
         proto = {"v1": 1, "v2": 2, 1: 1, 2: 2}.get(protocol)  # type: ignore[call-overload]
@@ -104,7 +108,7 @@ class Device:
         self.identified = False
         self._ring = FrameRing(buffer_frames, shape, self.dtype)
         self._decoder = StreamDecoder(kind, proto, shape)
-        self._clock = HostClock()
+        self.clock = clock if clock is not None else HostClock()
         self._ser: Any = None
         self._write_lock = threading.Lock()
         self._waiters: list[_Waiter] = []
@@ -507,7 +511,7 @@ class Device:
                         break
                     continue
                 if chunk:
-                    self._handle(self._decoder.feed(chunk), self._clock.now())
+                    self._handle(self._decoder.feed(chunk), self.clock.now())
         except Exception as exc:  # noqa: BLE001 - never let the reader die silently
             self._last_error = f"reader thread: {type(exc).__name__}: {exc}"
             self._gone = True
@@ -562,7 +566,7 @@ class Device:
         with self._write_lock:
             self._close_port()
         try:
-            self._handle(self._decoder.reset(), self._clock.now())
+            self._handle(self._decoder.reset(), self.clock.now())
         except Exception:  # noqa: BLE001
             pass
         if not self.reconnect:
@@ -644,7 +648,8 @@ def open_device(port: str, kind: Literal["psm", "daq", "imu"] = "psm", protocol:
         Ask IDENTIFY for :attr:`Device.description`, waiting up to ``identify_timeout`` s
         (0.5) per attempt, at most ``identify_attempts`` (3) times.
     **options
-        Further keywords of :class:`Device` (``read_timeout_s``, reconnection settings).
+        Further keywords of :class:`Device` (``read_timeout_s``, reconnection settings,
+        ``clock``: a :class:`HostClock` shared by devices recorded together).
 
     Returns
     -------

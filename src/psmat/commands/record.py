@@ -1,23 +1,57 @@
-"""``psmat record``: record a session file from a device (or the digital twin) (SPEC §6)."""
+"""``psmat record``: record a session file from one device or several (or their digital twins) (SPEC §6).
+
+The first device (``PORT``, ``--device``) is the session's root; each ``--also KIND=PORT``
+is one more device, recorded as the stream ``KIND`` of the same file (e.g. the spine IMUs
+with the mat, issue 13). All devices share one :class:`~psmat.acquire.HostClock`, so every
+stream's ``host_time_s`` is on the same host clock; each device's reader thread appends to
+its own stream.
+"""
 
 from __future__ import annotations
 
 import argparse
+from dataclasses import dataclass
+from typing import Any
 
 from . import _args
 
 NAME = "record"
-HELP = "record a session (HDF5) from a mat, IMU or material DAQ; Ctrl-C stops cleanly"
+HELP = "record a session (HDF5) from a mat, IMU or material DAQ, or several at once; Ctrl-C stops cleanly"
+
+KINDS = ("psm", "imu", "daq")
+
+
+@dataclass(frozen=True)
+class Also:
+    """One more device: its kind (also the stream's name) and port (None with ``--simulate``)."""
+
+    kind: str
+    port: str | None
+
+
+def also(text: str) -> Also:
+    """``KIND=PORT`` (a device) or ``KIND`` (its twin, with ``--simulate``); KIND one of psm, imu, daq."""
+    kind, sep, port = text.partition("=")
+    if kind not in KINDS:
+        raise argparse.ArgumentTypeError(f"a device is KIND=PORT with KIND one of {', '.join(KINDS)} "
+                                         f"(e.g. imu=/dev/ttyACM1), got {text!r}")
+    if sep and not port:
+        raise argparse.ArgumentTypeError(f"no port after {kind}= in {text!r}")
+    return Also(kind, port or None)
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
-    p.add_argument("port", nargs="?", help="serial port (omit with --simulate)")
+    p.add_argument("port", nargs="?", help="serial port of the first device (omit with --simulate)")
     p.add_argument("-o", "--out", required=True, help="session file to write (.h5)")
-    p.add_argument("--simulate", action="store_true", help="record the digital twin")
-    p.add_argument("--device", choices=("psm", "imu", "daq"), default="psm")
+    p.add_argument("--simulate", action="store_true", help="record the digital twin (one per device)")
+    p.add_argument("--device", choices=KINDS, default="psm", help="kind of the first device")
+    p.add_argument("--also", type=also, action="append", default=[], metavar="KIND=PORT",
+                   help="one more device recorded into the same file as stream KIND, on the same host clock "
+                        "(e.g. --also imu=/dev/ttyACM1; with --simulate just --also imu); repeatable, each kind once")
     p.add_argument("--protocol", choices=("v1", "v2"), default="v2")
     p.add_argument("--shape", type=_args.shape, default=(16, 16), help="PSM rows x cols, e.g. 16x16")
-    p.add_argument("--rate", type=_args.rate_hz, default=None, help="ask the device for this frame rate (Hz)")
+    p.add_argument("--rate", type=_args.rate_hz, default=None,
+                   help="ask the first device for this frame rate (Hz); the others keep theirs")
     p.add_argument("--seconds", type=_args.seconds, default=None, help="stop after this long (default: until Ctrl-C)")
     p.add_argument("--calibration", default=None, help="calibration JSON of the box (psmat calibrate)")
     p.add_argument("--subject", default="", help="subject id (metadata)")
@@ -26,64 +60,145 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--overwrite", action="store_true", help="replace an existing session file")
 
 
-def run(args: argparse.Namespace) -> int:
+def _check(args: argparse.Namespace) -> str | None:
+    """What is wrong with the command line that argparse cannot see, or None."""
     import os
-    import sys
-    import time
 
-    from tqdm.auto import tqdm
-
-    from ..acquire import DeviceDisconnected, open_device
-    from ..io import SessionWriter, journal_path
+    from ..io import journal_path
 
     if bool(args.port) == bool(args.simulate):
-        print("psmat record: give a PORT or --simulate", file=sys.stderr)
-        return 1
-    taken = [p for p in (args.out, journal_path(args.out)) if os.path.lexists(p)]
+        return "give a PORT or --simulate"
+    kinds = [a.kind for a in args.also]
+    if len(set(kinds)) != len(kinds):
+        return f"--also names each kind once, got {', '.join(kinds)}"
+    for a in args.also:
+        if args.simulate and a.port:
+            return f"with --simulate, --also takes a kind only (--also {a.kind}), not a port"
+        if not args.simulate and not a.port:
+            return f"--also {a.kind} needs the device's port: --also {a.kind}=PORT"
+    paths = [args.out, journal_path(args.out), *(journal_path(args.out, k) for k in kinds)]
+    taken = [p for p in paths if os.path.lexists(p)]
     if taken and not args.overwrite:
-        print(f"psmat record: {taken[0]} exists; add --overwrite to replace it", file=sys.stderr)
+        return f"{taken[0]} exists; add --overwrite to replace it"
+    return None
+
+
+@dataclass
+class _Source:
+    """One device being recorded: its stream name (None for the root), device, writer, frames read."""
+
+    name: str | None
+    dev: Any
+    writer: Any
+    frames: int = 0
+    ended: str | None = None
+
+    @property
+    def label(self) -> str:
+        return self.dev.kind if self.name is None else self.name
+
+
+def run(args: argparse.Namespace) -> int:
+    import contextlib
+    import sys
+
+    from ..acquire import HostClock, open_device
+    from ..io import SessionWriter
+
+    problem = _check(args)
+    if problem:
+        print(f"psmat record: {problem}", file=sys.stderr)
         return 1
-    shape = args.shape if args.device == "psm" else None
     calibration = None
     if args.calibration:
         from ..calibration import Calibration
 
         calibration = Calibration.load(args.calibration).to_dict()
-    twin = None
-    port = args.port
-    if args.simulate:
-        from ..twin import SerialTwin
-
-        twin = SerialTwin(args.device, args.rate, args.protocol, shape=shape or (16, 16)).start()
-        port = twin.port
-    status = 0
-    try:
-        with open_device(port, args.device, args.protocol, shape) as dev:
-            if args.rate and not args.simulate and args.device != "daq":
+    wanted = [Also(args.device, args.port), *args.also]
+    clock = HostClock()  # one host clock for every device's frames
+    with contextlib.ExitStack() as stack:  # closed in reverse: recording stopped, writer, devices, twins
+        ports = [w.port for w in wanted]
+        if args.simulate:
+            ports = [_twin(stack, w.kind, args, k) for k, w in enumerate(wanted)]
+        devs = []
+        for k, (w, port) in enumerate(zip(wanted, ports)):
+            dev = open_device(port, w.kind, args.protocol, args.shape if w.kind == "psm" else None, clock=clock)
+            stack.callback(dev.close)
+            if k == 0 and args.rate and not args.simulate and w.kind != "daq":
                 dev.set_rate(int(args.rate))
-            desc = dict(dev.description or {})
-            meta = {"subject": args.subject, "trial": args.trial, "note": args.note, "port": port,
-                    "simulated": bool(args.simulate)}
-            with SessionWriter(args.out, dev.shape, device=desc, calibration=calibration, metadata=meta,
-                               kind=args.device, overwrite=args.overwrite) as writer:
-                dev.record_to(writer)
-                dev.start()
-                t0 = time.monotonic()
-                with tqdm(unit=" frames", desc=f"recording {args.out}") as bar:
-                    try:
-                        while args.seconds is None or time.monotonic() - t0 < args.seconds:
-                            bar.update(len(dev.read(timeout=0.25)))
-                    except KeyboardInterrupt:
-                        pass
+            devs.append(dev)
+        root = devs[0]
+        meta = {"subject": args.subject, "trial": args.trial, "note": args.note, "port": ports[0],
+                "simulated": bool(args.simulate)}
+        if args.also:
+            meta["stream_ports"] = {w.kind: p for w, p in zip(args.also, ports[1:])}
+        writer = stack.enter_context(SessionWriter(args.out, root.shape, device=dict(root.description or {}),
+                                                   calibration=calibration, metadata=meta, kind=root.kind,
+                                                   overwrite=args.overwrite))
+        sources = [_Source(None, root, writer)]
+        for w, dev in zip(args.also, devs[1:]):
+            sources.append(_Source(w.kind, dev, writer.add_stream(w.kind, kind=dev.kind, shape=dev.shape,
+                                                                  device=dict(dev.description or {}))))
+        for src in sources:
+            src.dev.record_to(src.writer)
+            stack.callback(src.dev.stop_recording)  # the final counters, before the writer closes
+            stack.callback(src.dev.stop)
+        for src in sources:
+            src.dev.start()
+        status = _loop(sources, args)
+    for src in sources:  # the writer closed: every count is in the file
+        st = src.dev.stats
+        where = args.out if src.name is None else f"{args.out} [{src.name}]"
+        print(f"{where}: {src.writer.n_frames} frames recorded, {st.invalid} invalid, {st.dropped_wire} lost on the "
+              f"wire, {st.dropped_buffer} dropped by the host buffer"
+              + (f"; ended early: {src.ended}" if src.ended and len(sources) > 1 else ""))
+    return status
+
+
+def _twin(stack: Any, kind: str, args: argparse.Namespace, k: int) -> str:
+    """Start the digital twin of the ``k``-th device (stopped when ``stack`` closes); its port."""
+    from ..twin import SerialTwin
+
+    twin = SerialTwin(kind, args.rate if k == 0 else None, args.protocol, shape=args.shape,
+                      serial=f"TWIN{k + 1:04d}").start()
+    stack.callback(twin.stop)
+    return twin.port
+
+
+def _loop(sources: list[_Source], args: argparse.Namespace) -> int:
+    """Read every device until ``--seconds``, Ctrl-C or every device gone; one progress bar. Exit status.
+
+    A device that disconnects ends its stream, reported on stderr (exit status 1); the others go on.
+    """
+    import sys
+    import time
+
+    from tqdm.auto import tqdm
+
+    from ..acquire import DeviceDisconnected
+
+    status = 0
+    t0 = time.monotonic()
+    many = len(sources) > 1
+    with tqdm(unit=" frames", desc=f"recording {args.out}") as bar:
+        try:
+            while args.seconds is None or time.monotonic() - t0 < args.seconds:
+                live = [s for s in sources if s.ended is None]
+                if not live:
+                    break
+                for s in live:
+                    try:  # the first device paces the loop; the others give what they buffered meanwhile
+                        n = len(s.dev.read(timeout=0.25) if s is live[0] else s.dev.read())
                     except DeviceDisconnected as exc:
-                        print(f"\npsmat record: {exc}; the frames received so far are saved", file=sys.stderr)
+                        s.ended = str(exc)
                         status = 1
-                dev.stop()
-                dev.stop_recording()
-                st = dev.stats
-        print(f"{args.out}: {writer.n_frames} frames recorded, {st.invalid} invalid, {st.dropped_wire} lost on the wire, "
-              f"{st.dropped_buffer} dropped by the host buffer")
-    finally:
-        if twin is not None:
-            twin.stop()
+                        rest = "; the other devices go on" if many and len(live) > 1 else ""
+                        print(f"\npsmat record: {exc}; the frames received so far are saved{rest}", file=sys.stderr)
+                        continue
+                    s.frames += n
+                    bar.update(n)
+                if many:
+                    bar.set_postfix_str(", ".join(f"{s.label} {s.frames}" for s in sources), refresh=False)
+        except KeyboardInterrupt:
+            pass
     return status
