@@ -291,6 +291,27 @@ def test_a_damaged_stream_journal_record_costs_that_record(tmp_path: Path) -> No
     assert any(n.startswith("stream imu: 1 journal record failed the CRC") and "frame(s) 6 " in n for n in s.notes)
 
 
+def test_close_checks_every_stream_journal_it_reads_back(tmp_path: Path) -> None:
+    """A stream's journal damaged while recording: close() keeps every journal, the loader skips the record."""
+    mat, imu = mat_data(20), imu_data(10)
+    p = tmp_path / "c.h5"
+    w = SessionWriter(p, (4, 4), MAT_DEV, metadata=META, background=False)
+    s_imu = w.add_stream("imu", kind="imu", shape=(5, 3), device=IMU_DEV)
+    append_in_batches(w, mat, 20)
+    append_in_batches(s_imu, imu, 10)
+    jp = journal_path(p, "imu")
+    raw = jp.read_bytes()
+    hlen = int.from_bytes(raw[8:12], "little")
+    rsize = int(json.loads(raw[12 : 12 + hlen])["record_bytes"])
+    flip(jp, 12 + hlen + 4 + 3 * rsize + 40)
+    with pytest.raises(RuntimeError, match=r"c\.h5\.imu\.journal damaged.*9 of 10 frames.*journals .* were kept"):
+        w.close()
+    assert not p.exists() and journal_path(p).exists() and jp.exists()
+    s = load_session(p)
+    assert_holds(s, mat)
+    assert_holds(s.streams["imu"], {k: v[np.arange(10) != 3] for k, v in imu.items()})
+
+
 def test_journals_of_other_sessions_are_not_taken_as_streams(tmp_path: Path) -> None:
     """``killed.h5.x.journal`` is the journal of a session ``killed.h5.x``; an old ``.imu`` journal is stale."""
     import shutil

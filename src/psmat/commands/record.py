@@ -1,10 +1,9 @@
 """``psmat record``: record a session file from one device or several (or their digital twins) (SPEC §6).
 
-The first device (``PORT``, ``--device``) is the session's root; each ``--also KIND=PORT``
-is one more device, recorded as the stream ``KIND`` of the same file (e.g. the spine IMUs
-with the mat, issue 13). All devices share one :class:`~psmat.acquire.HostClock`, so every
-stream's ``host_time_s`` is on the same host clock; each device's reader thread appends to
-its own stream.
+The first device (PORT, --device) is the session's root; each --also KIND=PORT is one more
+device, recorded as the stream KIND of the same file (e.g. the spine IMUs with the mat,
+issue 13). All devices share one host clock, so every stream's host_time_s is on the same
+clock; each device's reader thread appends to its own stream.
 """
 
 from __future__ import annotations
