@@ -12,7 +12,7 @@ import pytest
 from psmat.acquire import DeviceDisconnected, open_device
 from psmat.io import SessionWriter, load_session
 from psmat.protocol import v1_frame_size, v2_frame_size
-from psmat.twin import Faults, SerialTwin
+from psmat.twin import Faults, ImuSource, SerialTwin
 from hang_guard import HANG_GUARD_S, read_until_gone, returns
 
 
@@ -67,8 +67,11 @@ def test_the_imu_and_material_daq_twins_through_the_same_api():
         batch = dev.read(n=10, timeout=HANG_GUARD_S)
     assert len(batch) >= 10 and batch.frames.shape[1:] == (5, 3) and batch.valid.all()
     assert np.all(np.diff(batch.seq) == 1)
-    # heading 90 deg, pitch bending most at the lowest sensor (the twin's spine model)
-    assert np.allclose(batch.frames[:, :, 0], 90.0)
+    # consecutive samples of the seated twin's IMUs (psmat.twin.seated), float32 as sent
+    served = ImuSource(20.0, 0).angles
+    first = np.flatnonzero(np.all(served == batch.frames[0], axis=(1, 2)))
+    assert first.size == 1
+    np.testing.assert_array_equal(batch.frames, served[first[0] + batch.seq - batch.seq[0]])
     # material DAQ: text lines of 10 counts, started by 's'
     with SerialTwin("daq", 20) as twin, open_device(twin.port, "daq") as dev:
         batch = dev.read(n=5, timeout=HANG_GUARD_S)

@@ -9,6 +9,11 @@ pressure becomes conductance only through the sensor model (:class:`MatPhysics`)
 * :mod:`psmat.twin.steering` — the group forces that put the field's CoP on a target.
 * :mod:`psmat.twin.scenes` — seeded scenes (quiet standing, single-leg sway, a recorded
   force-platform trajectory, sitting) returning :class:`PressureScene`.
+* :mod:`psmat.twin.seated` — the seated twin (SPEC §8): a person of thesis Table 4.2
+  (:mod:`~psmat.twin.seated_subject`) following the posture protocol
+  (:mod:`~psmat.twin.seated_protocol`), one trajectory driving the cushion's pressure
+  (:mod:`~psmat.twin.seated_spine`, :mod:`~psmat.twin.seated_seat`) and the five spine IMUs
+  (:mod:`~psmat.twin.seated_imu`).
 * :mod:`psmat.twin.mat` — :class:`MatPhysics`: pressure → sensor model with cell-to-cell
   variability → crosstalk F(g) → measurement chain → ADC counts.
 * :mod:`psmat.twin.conductance` — :func:`swaying_feet`: cell conductances of a person in quiet
@@ -25,6 +30,8 @@ from .conductance import swaying_feet
 from .field import MAT_SIZE_CM, PSI_PA, Lobes, cell_centres_cm, cell_cop_cm, cell_force_n, cell_pressure_psi, mat_pitch_cm
 from .mat import MatPhysics, MatTruth
 from .scenes import PressureScene, quiet_standing, single_leg_sway, sitting, trajectory_sway
+from .seated import SeatedSession, seated_session
+from .seated_subject import SeatedDay, SeatedSubject, draw_seated_day, draw_seated_subject
 from .serial_twin import Faults, SerialTwin, TwinStats
 from .sources import SCENES, CalibrationFixture, DaqSource, ImuSource, PsmSource, make_scene
 
@@ -57,4 +64,10 @@ __all__ = [
     "two_feet",
     "swaying_feet",
     "random_array",
+    "SeatedSession",
+    "SeatedSubject",
+    "SeatedDay",
+    "seated_session",
+    "draw_seated_subject",
+    "draw_seated_day",
 ]

@@ -13,8 +13,8 @@ Load groups
 The scene generators (:mod:`psmat.twin.scenes`) move the load between **groups** of lobes
 with unit force each: :func:`two_feet_groups` (left/right rearfoot/forefoot),
 :func:`single_foot_groups` (medial/lateral rearfoot/forefoot of one foot) and
-:func:`seat_groups` (left/right ischial tuberosity and thigh). Positions in cm, mat
-coordinates (:mod:`psmat.twin.field`).
+:func:`seat_groups` (left/right ischial tuberosity rolled forward and back, left/right thigh,
+sacrum). Positions in cm, mat coordinates (:mod:`psmat.twin.field`).
 """
 
 from __future__ import annotations
@@ -28,8 +28,8 @@ from numpy.typing import NDArray
 from .._checks import finite, fraction, positive
 from .field import Lobes, mat_centre_cm
 
-__all__ = ["foot", "two_feet", "two_feet_groups", "single_foot_groups", "seat_groups", "check_side",
-           "check_foot_size"]
+__all__ = ["foot", "two_feet", "two_feet_groups", "single_foot_groups", "seat_groups", "SEAT_GROUPS",
+           "check_side", "check_foot_size"]
 
 # Lobes in the foot's own frame for a 24 cm x 9 cm foot: u along the foot (cm, toes
 # positive, foot centre at 0: heel end -12, toe tip +12), v across it (cm, positive =
@@ -236,23 +236,81 @@ def single_foot_groups(
     return [(n, l) for (n, _), l in zip(parts, lobes)]
 
 
-def seat_groups(centre: NDArray[np.float64], tuberosity_distance_cm: float) -> list[tuple[str, Lobes]]:
-    """Left/right ischial tuberosity and thigh of a person sitting, symmetric about ``x = centre[0]``.
+#: Groups of the seat (:func:`seat_groups`), in this order.
+SEAT_GROUPS = ("ischial_left_front", "ischial_left_rear", "ischial_right_front", "ischial_right_rear",
+               "thigh_left", "thigh_right", "sacrum")
 
-    The tuberosities lie ``tuberosity_distance_cm`` apart at ``y = centre[1] − 4`` cm, the
-    thighs extend towards ``+y``. Each group carries a unit force.
+
+def seat_groups(
+    centre: NDArray[np.float64],
+    tuberosity_distance_cm: float,
+    *,
+    thigh_length_cm: float = 41.0,
+    thigh_splay_deg: float = 8.0,
+    soft_tissue: float = 1.0,
+    roll_cm: float = 1.5,
+    rotation_deg: float = 0.0,
+) -> list[tuple[str, Lobes]]:
+    """The load groups of a person sitting on the mat (:data:`SEAT_GROUPS`), each carrying a unit force.
+
+    The seat's own frame has its origin midway between the ischial tuberosities, ``u`` to the
+    person's right and ``w`` forward (towards the knees); ``rotation_deg`` turns it
+    counter-clockwise on the mat and ``centre`` (x, y) cm places its origin (at 0° the person
+    faces ``+y``, their right is ``+x``, as standing).
+
+    * Each **ischial tuberosity** is a bony lobe (4 cm semi-axes, 55 %) inside a broad buttock
+      lobe (8 × 6.5 cm, 45 %, 0.5 cm outwards and back), at ``u = ±d/2``; it comes twice, rolled
+      ``roll_cm`` forward (``_front``) and back (``_rear``): the pelvis rolls on its
+      tuberosities as it tilts, and the share between the two places the contact.
+    * Each **thigh** is an elongated lobe (semi-axes 0.2 × and 4.5 cm) whose centre lies
+      0.22 × ``thigh_length_cm`` along the thigh from a point 2 cm outside the tuberosity and
+      2 cm forward, turned ``thigh_splay_deg`` outwards (cross-legged sitting turns the thighs out).
+    * The **sacrum and coccyx**: one lobe on the midline, ``d/2 + 1.5`` cm behind the
+      tuberosities, 5 cm along ``w`` and 4 cm across; it carries load only when the pelvis
+      rolls back.
+
+    ``soft_tissue`` scales the buttock, thigh and sacral lobes' widths (a heavier person sits on
+    more flesh: the seated twin takes the square root of BMI / 22). Geometry: our choice after
+    the seated pressure maps of the literature (two ischial peaks 10–14 cm apart, the thighs in
+    front, the sacrum behind), the thesis giving none.
+
+    Parameters
+    ----------
+    centre : (x, y)
+        The seat's origin on the mat, cm.
+    tuberosity_distance_cm : float
+        Distance between the ischial tuberosities ``d``, cm.
+    thigh_length_cm, thigh_splay_deg, soft_tissue, roll_cm, rotation_deg : float
+        As above (cm, degrees, factor, cm, degrees).
+
+    Returns
+    -------
+    list of (name, Lobes)
+        In the order of :data:`SEAT_GROUPS`, mat coordinates.
     """
-    c = centre
-    xl = c[0] - tuberosity_distance_cm / 2.0
-    y_it = c[1] - 4.0
-    # Left ischial tuberosity: sharp bony lobe (60 %) in a broad buttock lobe (40 %).
-    left_it = Lobes([[xl, y_it], [xl - 0.5, y_it + 0.5]], [[3.0, 3.0], [7.0, 6.5]], [0.0, 0.0], [0.6, 0.4])
-    # Left thigh: an elongated lobe along +y, turned a little outwards.
-    thigh_angle = math.pi / 2 + math.radians(8.0)
-    left_thigh = Lobes([[xl - 1.5, c[1] + 6.5]], [[8.0, 4.5]], [thigh_angle], [1.0])
-    return [
-        ("left_ischial", left_it),
-        ("left_thigh", left_thigh),
-        ("right_ischial", left_it.mirrored(c[0])),
-        ("right_thigh", left_thigh.mirrored(c[0])),
-    ]
+    d = positive("tuberosity_distance_cm", tuberosity_distance_cm)
+    thigh = positive("thigh_length_cm", thigh_length_cm)
+    splay = math.radians(finite("thigh_splay_deg", thigh_splay_deg))
+    k = positive("soft_tissue", soft_tissue)
+    roll = finite("roll_cm", roll_cm)
+    rot = math.radians(finite("rotation_deg", rotation_deg))
+    # (u, w, semi-axis along, semi-axis across, direction of the first axis in the seat frame, share)
+    left_it = [(-d / 2, 0.0, 4.0, 4.0, 0.0, 0.55), (-d / 2 - 0.5, -0.5, 8.0 * k, 6.5 * k, 0.0, 0.45)]
+    along = 0.22 * thigh
+    left_thigh = [(-d / 2 - 2.0 - along * math.sin(splay), 2.0 + along * math.cos(splay), 0.2 * thigh, 4.5 * k,
+                   math.pi / 2 + splay, 1.0)]
+    sacrum = [(0.0, -(d / 2 + 1.5), 5.0 * k, 4.0 * k, math.pi / 2, 1.0)]
+
+    def place(parts: list[tuple[float, ...]], dw: float = 0.0, mirror: bool = False) -> Lobes:
+        a = np.array(parts, dtype=np.float64)
+        u, w, ang = a[:, 0], a[:, 1] + dw, a[:, 4]
+        if mirror:
+            u, ang = -u, np.pi - ang
+        c, s = math.cos(rot), math.sin(rot)
+        xy = np.column_stack([u * c - w * s, u * s + w * c]) + np.asarray(centre, dtype=np.float64)
+        return Lobes(xy, a[:, 2:4], ang + rot, a[:, 5] / a[:, 5].sum())
+
+    return list(zip(SEAT_GROUPS, [
+        place(left_it, roll), place(left_it, -roll), place(left_it, roll, True), place(left_it, -roll, True),
+        place(left_thigh), place(left_thigh, mirror=True), place(sacrum),
+    ]))

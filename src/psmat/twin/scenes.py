@@ -10,8 +10,9 @@ the load between their groups so that the field's CoP follows a target
 * :func:`trajectory_sway` — the CoP follows a recorded force-platform trajectory (e.g.
   the BDS data set; :func:`psmat.io.forceplate.load_bds`), total force following ``Fz``,
   on two feet or on one (:func:`stance_groups`).
-* :func:`sitting` — two ischial tuberosities and the thighs on a cushion (SPEC §8), slow
-  lean.
+* :func:`sitting` — the seat of the seated twin (ischial tuberosities, thighs, sacrum) on a
+  cushion (SPEC §8), the CoP leaning slowly; :func:`seat_scene` renders any seat's frames
+  (the seated twin's posture protocol, :mod:`psmat.twin.seated`, is one).
 
 All return a :class:`PressureScene`, whose ``cop_true_cm`` is the CoP of the continuous field
 (what a force platform under the mat would measure). The image's total force equals the load
@@ -30,14 +31,15 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from .._checks import fraction, nonneg_int, pair, positive, positive_int, shape2, vector
-from .anatomy import check_foot_size, check_side, seat_groups, single_foot_groups, two_feet_groups
+from .anatomy import check_foot_size, check_side, single_foot_groups, two_feet_groups
 from ..units import PSI_KPA
 from .field import Lobes, cell_cop_cm, cell_force_n, mat_centre_cm
+from .seated_seat import SeatLayout, render_seat, seat_layout, share_load
 from .steering import steer
 from .sway import check_band, sway_noise, time_base
 
 __all__ = ["PressureScene", "quiet_standing", "single_leg_sway", "trajectory_sway", "stance_groups", "sitting",
-           "STANCES"]
+           "seat_scene", "STANCES"]
 
 #: Stances of :func:`trajectory_sway`: both feet, or only the right or the left foot.
 STANCES = ("two", "right", "left")
@@ -503,6 +505,44 @@ def trajectory_sway(
     )
 
 
+def seat_scene(
+    scene: str,
+    layout: SeatLayout,
+    t: NDArray[np.float64],
+    force_n: NDArray[np.float64],
+    cop_seat_cm: NDArray[np.float64],
+    contact_cm: NDArray[np.float64],
+    thigh_share: float,
+    shape: tuple[int, int],
+    pitch: float,
+    supersample: int,
+    min_fraction: float,
+    extra: dict[str, Any],
+) -> PressureScene:
+    """A seat's frames (:mod:`psmat.twin.seated_seat`): the load shared for each frame, the cells rendered.
+
+    ``force_n`` (T,) N, ``cop_seat_cm`` (T, 2) the target CoP in the seat frame (u, w) cm,
+    ``contact_cm`` (T,) the tuberosities' rolling contact along ``w`` (cm); ``meta`` as the other
+    scenes' (``cop_target_cm`` in mat coordinates) plus ``rows`` (T, 3): the ischial, thigh and
+    sacral shares.
+    """
+    load = share_load(layout, force_n, cop_seat_cm, contact_cm, thigh_share, min_fraction)
+    pressure, cop_true, on_mat = render_seat(layout, load.weights_n, shape, pitch, supersample)
+    clipped = load.clip_cm > 1e-8
+    meta: dict[str, Any] = {
+        "scene": scene, "shape": shape, "pitch_cm": pitch, "supersample": supersample,
+        "groups": [n for n, _ in layout.groups], "group_lobes": [l for _, l in layout.groups],
+        "min_fraction": min_fraction, "weights_n": load.weights_n, "rows": load.rows,
+        "cop_target_cm": layout.to_mat(np.asarray(cop_seat_cm, dtype=np.float64)), "clipped": clipped,
+        "n_clipped": int(clipped.sum()), "clip_cm": np.where(clipped, load.clip_cm, 0.0),
+        "force_on_mat_fraction": on_mat, "mat_centre_cm": mat_centre_cm(shape, pitch),
+        "seat_origin_cm": layout.origin_cm, "seat_rotation_deg": layout.rotation_deg,
+    }
+    meta.update(extra)
+    return PressureScene(pressure=pressure, t=t, cop_true_cm=cop_true, force_n=np.asarray(force_n, dtype=np.float64).copy(),
+                         meta=meta)
+
+
 def sitting(
     duration_s: float,
     rate_hz: float,
@@ -520,14 +560,15 @@ def sitting(
     min_fraction: float = 0.02,
     supersample: int = 5,
 ) -> PressureScene:
-    """A person sitting on the mat (the meditation cushion, SPEC §8), leaning slowly.
+    """A person sitting on the mat (the meditation cushion, SPEC §8), the CoP leaning slowly.
 
-    Two ischial tuberosities (a sharp lobe each inside a broad buttock lobe) at
-    ``y = centre − 4 cm`` and the thighs extending towards ``+y``, symmetric about the mat's
-    vertical midline. The seat carries ``seat_fraction · weight_n``. The CoP leans
-    sinusoidally with amplitudes ``lean_cm`` (M-L, A-P) and period ``lean_period_s`` (random
-    phases from ``seed``) plus a little band-limited sway ``sway_cm``; the load moves between
-    the left/right tuberosities and thighs.
+    The seat of the seated twin (:func:`~psmat.twin.anatomy.seat_groups`, its load shared by
+    :mod:`psmat.twin.seated_seat`) with its tuberosities at ``y = centre − 4 cm``, unrotated,
+    symmetric about the mat's vertical midline, the thighs taking 36 % upright. The seat carries
+    ``seat_fraction · weight_n``. The CoP leans sinusoidally with amplitudes ``lean_cm``
+    (M-L, A-P) and period ``lean_period_s`` (random phases from ``seed``) plus a little
+    band-limited sway ``sway_cm``; leaning forward loads the thighs, back the sacrum. For a
+    posture (a spine, a protocol, the IMUs) see :mod:`psmat.twin.seated`.
 
     Parameters
     ----------
@@ -546,7 +587,9 @@ def sitting(
         Band of the extra sway in Hz.
     tuberosity_distance_cm : float
         Distance between the ischial tuberosities in cm.
-    min_fraction, supersample
+    min_fraction : float
+        Least share of a left/right pair's load either side keeps.
+    supersample : int
         As :func:`quiet_standing`.
 
     Returns
@@ -561,18 +604,20 @@ def sitting(
     period = positive("lean_period_s", lean_period_s)
     dist = positive("tuberosity_distance_cm", tuberosity_distance_cm)
     t = a.t
-    groups = seat_groups(a.centre, dist)
-    nominal = np.array([0.32, 0.18, 0.32, 0.18])
-    cop0 = (nominal[:, None] * np.array([l.cop_cm for _, l in groups])).sum(axis=0)
+    layout = seat_layout(a.centre - np.array([0.0, 4.0]), 0.0, dist)
+    thigh = 0.36
+    loc = layout.local_cm
+    cop0 = np.array([0.0, (1.0 - thigh) * loc[0:4, 1].mean() + thigh * loc[4, 1]])  # the upright shares' CoP
     rng = a.rng()
     phase = rng.uniform(0.0, 2.0 * np.pi, size=2)
     w = 2.0 * np.pi / period
     target = cop0 + np.column_stack(
         [lean[0] * np.sin(w * t + phase[0]), lean[1] * np.sin(w * t + phase[1])]
     ) + a.sway_noise(rng)
-    return a.render(
-        "sitting", groups, nominal, target,
-        {"seat_fraction": frac, "lean_cm": lean, "lean_period_s": period, "lean_phase_rad": phase,
-         "tuberosity_distance_cm": dist},
-        load_n=frac * a.weight,
+    return seat_scene(
+        "sitting", layout, t, np.full(t.size, frac * a.weight), target, np.zeros(t.size), thigh, a.shape, a.pitch,
+        a.supersample, a.min_fraction,
+        {"rate_hz": a.rate, "seed": a.seed, "weight_n": a.weight, "sway_cm": a.sway, "band_hz": a.band,
+         "seat_fraction": frac, "lean_cm": lean, "lean_period_s": period, "lean_phase_rad": phase,
+         "tuberosity_distance_cm": dist, "thigh_share": thigh},
     )

@@ -3,9 +3,12 @@
 * :class:`PsmSource` — a pressure scene (:mod:`psmat.twin.scenes`) played through the mat's
   physics (:class:`psmat.twin.mat.MatPhysics`): ADC counts per frame. Scenes: ``"sway"`` (a
   person whose CoP follows a recorded force-platform trajectory from the BDS data set, or
-  quiet standing when the data set is not found), ``"quiet"``, ``"single-leg"``, ``"sitting"``.
+  quiet standing when the data set is not found), ``"quiet"``, ``"single-leg"``, ``"sitting"``
+  (the seated twin following the thesis' posture protocol, :mod:`psmat.twin.seated`).
   The scene loops when it ends; the sensor state carries on.
-* :class:`ImuSource` — five pitch angles of a slowly flexing spine (degrees).
+* :class:`ImuSource` — the five spine IMUs' Euler angles (degrees) of the seated twin following
+  the protocol (the same person and session as the ``"sitting"`` scene of the same seed), with
+  the device's drift, noise and 1/16° steps (:mod:`psmat.twin.seated_imu`).
 * :class:`DaqSource` — the material DAQ's ten sensors on the pneumatic platform (counts).
 
 Sources are computed in blocks (one ``forward`` batch per block), so a tick costs a copy.
@@ -20,6 +23,9 @@ from numpy.typing import NDArray
 
 from . import scenes as _scenes
 from .mat import MatPhysics
+from .seated import seated_session
+from .seated_imu import draw_imu_device, imu_readings
+from .sway import time_base
 
 __all__ = ["PsmSource", "ImuSource", "DaqSource", "CalibrationFixture", "SCENES", "make_scene"]
 
@@ -43,8 +49,9 @@ def make_scene(name: str, duration_s: float, rate_hz: float, shape: tuple[int, i
             scene.meta["source"] = f"BDS{bds_trial:05d}"
             return scene
         name = "quiet"
-    makers = {"quiet": _scenes.quiet_standing, "single-leg": _scenes.single_leg_sway,
-              "sitting": _scenes.sitting}
+    if name == "sitting":
+        return seated_session(seed, shape=shape, pitch_cm=2.0).pressure(time_base(duration_s, rate_hz)[0], shape, 2.0)
+    makers = {"quiet": _scenes.quiet_standing, "single-leg": _scenes.single_leg_sway}
     if name not in makers:
         raise ValueError(f"unknown scene {name!r}; choose one of {', '.join(SCENES)}")
     return makers[name](duration_s, rate_hz, shape, seed=seed)
@@ -91,23 +98,33 @@ class PsmSource:
 
 @dataclass
 class ImuSource:
-    """Euler angles (5, 3) degrees per tick: a spine flexing slowly (pitch), little roll."""
+    """Euler angles (5, 3) degrees per tick — heading, roll, pitch of each spine IMU, sensor 1 the
+    cervical one — of the seated twin following the posture protocol (about 175 s, then again).
+
+    ``angles`` (T, 5, 3), when given, are served instead (in turn, looping).
+    """
 
     rate_hz: float = 10.0
     seed: int = 0
+    angles: NDArray[np.float32] | None = None
 
     def __post_init__(self) -> None:
-        rng = np.random.default_rng(self.seed)
-        self._phase = rng.uniform(0, 2 * np.pi, 5)
+        if self.angles is None:
+            session = seated_session(self.seed)
+            t = np.arange(int(session.duration_s * self.rate_hz)) / self.rate_hz
+            rng = np.random.default_rng([self.seed, 1])
+            device = draw_imu_device(rng, "TWINIMU1")
+            self.angles, _ = imu_readings(session.true_angles(t), self.rate_hz, device, rng)
+        self.angles = np.asarray(self.angles, dtype=np.float32)
+        if self.angles.ndim != 3 or self.angles.shape[1:] != (5, 3) or self.angles.shape[0] < 1:
+            raise ValueError(f"angles must be (T, 5, 3) degrees, got shape {self.angles.shape}")
         self._k = 0
 
     def next(self) -> NDArray[np.float32]:
-        t = self._k / self.rate_hz
+        """The angles of the next tick."""
+        a = self.angles[self._k % self.angles.shape[0]]
         self._k += 1
-        pitch = 5.0 * np.arange(1, 6) / 5 * np.sin(2 * np.pi * t / 8.0) + 0.5 * np.sin(0.7 * t + self._phase)
-        roll = 0.5 * np.sin(2 * np.pi * t / 13.0 + self._phase)
-        heading = np.full(5, 90.0)
-        return np.stack([heading, roll, pitch], axis=1).astype(np.float32)
+        return a
 
 
 @dataclass
