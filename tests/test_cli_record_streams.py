@@ -146,3 +146,19 @@ def test_a_stream_journal_left_behind_is_refused_without_overwrite(tmp_path: Pat
     assert left.read_bytes() == b"an interrupted take" and sorted(os.listdir(tmp_path)) == [left.name]
     assert main(["record", "--simulate", "--also", "imu", "-o", str(out), "--seconds", "0.5", "--overwrite"]) == 0
     assert not left.exists() and load_session(out).streams["imu"].n_frames > 0
+
+
+def test_info_csv_names_every_stream_file(tmp_path, capsys) -> None:
+    from psmat.io import SessionWriter
+
+    path = tmp_path / "s.h5"
+    with SessionWriter(path, (2, 2), device={"serial": "M"}) as w:
+        imu = w.add_stream("imu", kind="imu", shape=(5, 3), device={"serial": "I"})
+        w.append(np.ones((3, 2, 2)), [0.0, 0.01, 0.02], [True] * 3)
+        imu.append(np.full((1, 5, 3), 4.5), [0.005], [True])
+    assert main(["info", str(path), "--csv", str(tmp_path / "s.csv")]) == 0
+    out = capsys.readouterr().out
+    line = next(x for x in out.splitlines() if x.startswith("CSV [imu]: "))
+    printed = Path(line.split(": ", 1)[1])
+    assert printed.is_file() and printed != tmp_path / "s.csv"
+    assert "4.5" in printed.read_text()

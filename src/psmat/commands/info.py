@@ -16,13 +16,15 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     import sys
 
-    from ..io import SessionFormatError, export_csv, info, load_session
+    from ..io import SessionFormatError, export_csv, info, load_session, stream_csv_path
 
     try:
         s = load_session(args.session)  # SPEC §6: every loader error is one SessionFormatError
         print(info(s))
         if args.csv:
             print(f"CSV: {export_csv(s, args.csv)}")
+            for name in s.streams:
+                print(f"CSV [{name}]: {stream_csv_path(args.csv, name)}")
     except (SessionFormatError, OSError) as exc:  # FileNotFoundError is an OSError
         print(f"psmat info: {exc}", file=sys.stderr)
         return 1

@@ -3,6 +3,7 @@
 * :mod:`psmat.io.session` — a recording as one HDF5 file (raw frames, timing, validity,
   device, calibration, metadata, processed products; several devices as streams on one
   host clock), crash-safe while it is written.
+* :mod:`psmat.io.imu_log` — the spine IMUs' text logs (the thesis' format).
 * :mod:`psmat.io.forceplate` — force-platform centre-of-pressure files (generic CSV and
   the BDS public data set).
 """
@@ -16,6 +17,7 @@ from .forceplate import (
     load_bds,
     load_forceplate_csv,
 )
+from .imu_log import ImuLog, load_imu_log, write_imu_log
 from .session import (
     COUNTER_NAMES,
     FORMAT_NAME,
@@ -36,6 +38,9 @@ from .session import (
 )
 
 __all__ = [
+    "ImuLog",
+    "load_imu_log",
+    "write_imu_log",
     "COUNTER_NAMES",
     "FORMAT_NAME",
     "FORMAT_VERSION",
