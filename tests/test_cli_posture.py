@@ -1,0 +1,64 @@
+"""``psmat posture simulate`` (issue 13 item 3): a one-subject posture study written from the command
+line; errors are one line and exit status 1."""
+
+from __future__ import annotations
+
+import csv
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from psmat.cli import main
+from psmat.io import load_session
+
+
+@pytest.fixture(scope="module")
+def simulated(tmp_path_factory) -> Path:
+    root = tmp_path_factory.mktemp("cli") / "posture"
+    assert main(["posture", "simulate", str(root), "--subjects", "1", "--days", "2", "--seed", "3", "--seconds", "8",
+                 "--rate", "50", "--quiet"]) == 0
+    return root
+
+
+def test_posture_simulate_writes_the_study_and_says_where(simulated, capsys) -> None:
+    assert sorted(p.name for p in (simulated / "sessions").iterdir()) == ["P01_d1.h5", "P01_d2.h5"]
+    with open(simulated / "subjects.csv", newline="") as fh:
+        assert [r["subject"] for r in csv.DictReader(fh)] == ["P01"]
+    s = load_session(simulated / "sessions" / "P01_d2.h5")
+    assert s.metadata["day"] == 2 and s.device["rate"] == 50
+    assert np.median(np.diff(s.host_time_s)) == pytest.approx(0.02, rel=0.01)  # --rate 50
+    assert s.streams["imu"].counts.shape[1:] == (5, 3)
+    assert (simulated / "truth" / "README.txt").is_file()
+
+
+def test_the_command_prints_one_line(tmp_path, capsys) -> None:
+    root = tmp_path / "p"
+    assert main(["posture", "simulate", str(root), "--subjects", "1", "--days", "1", "--seed", "1", "--seconds",
+                 "6", "--quiet"]) == 0
+    out, err = capsys.readouterr()
+    assert out == f"simulated posture study in {root}: 1 subject(s) x 1 day(s)\n"
+    assert err == ""  # --quiet: no progress bar
+
+
+ERRORS = [
+    (["posture"], "required: {simulate}"),
+    (["posture", "simulate", "{missing}", "--seed", "1", "--subjects", "0"], "--subjects: must be >= 1"),
+    (["posture", "simulate", "{missing}", "--seed", "1", "--days", "two"], "--days: must be an integer"),
+    (["posture", "simulate", "{missing}", "--seed", "1", "--seconds", "2"], "at least 5 s"),
+    (["posture", "simulate", "{missing}", "--seed", "-1", "--seconds", "6"], "seed must be a non-negative integer"),
+    (["posture", "simulate", "{missing}", "--seconds", "6"], "required: --seed"),
+    (["posture", "simulate", "{study}", "--seed", "1", "--seconds", "6"], "not an empty folder"),
+]
+
+
+@pytest.mark.parametrize("argv, words", ERRORS, ids=[w for _, w in ERRORS])
+def test_errors_are_one_line_and_exit_status_1(simulated, tmp_path, capsys, argv, words) -> None:
+    missing = tmp_path / "nowhere"
+    argv = [a.format(missing=missing, study=simulated) for a in argv]
+    capsys.readouterr()
+    assert main(argv) == 1
+    out, err = capsys.readouterr()
+    lines = err.strip().splitlines()
+    assert len(lines) == 1 and words in lines[0], err
+    assert not missing.exists()
