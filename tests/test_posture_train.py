@@ -11,7 +11,7 @@ import pytest
 import posture_synth as ps
 from psmat.posture.baseline import ridge_pca_rows
 from psmat.posture.splits import ksi_leaky_split, ksi_split, lso_split, lso_subjects
-from psmat.posture.windows import WindowTargets, all_windows
+from psmat.posture.windows import WindowTargets
 
 W = 50
 

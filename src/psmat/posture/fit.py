@@ -128,7 +128,8 @@ def fit(model: nn.Module, train: WindowDataset, validation: WindowDataset, confi
         model.load_state_dict(ck["model"])
         opt.load_state_dict(ck["optimizer"])
         best_state, bad, epoch = ck["best_state"], int(ck["bad_epochs"]), int(ck["epoch"])
-        res.history, res.best_epoch, res.best_val_loss = list(ck["history"]), int(ck["best_epoch"]), float(ck["best_val"])
+        res.history, res.best_epoch = list(ck["history"]), int(ck["best_epoch"])
+        res.best_val_loss = float(ck["best_val"])
         res.stopped_early, res.resumed_from = bool(ck["stopped"]), epoch
     else:
         res.history = [{"epoch": 0, "train_loss": float("nan"), "val_loss": _val_loss(model, validation),

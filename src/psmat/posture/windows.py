@@ -69,7 +69,8 @@ class WindowTargets:
         return out
 
 
-def frame_masks(recordings: Sequence[Recording], windows: NDArray[np.int64], window: int = WINDOW) -> list[NDArray[np.bool_]]:
+def frame_masks(recordings: Sequence[Recording], windows: NDArray[np.int64],
+                window: int = WINDOW) -> list[NDArray[np.bool_]]:
     """Per recording, which frames the windows ``(N, 2)`` cover (``(T,)`` bool each)."""
     masks = []
     for r, rec in enumerate(recordings):
