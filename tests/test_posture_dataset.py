@@ -35,3 +35,87 @@ def test_mean_over_samples_rejects_unordered_times() -> None:
         mean_over_samples(np.array([0.0, 0.2, 0.1]), np.zeros((3, 1)), np.array([0.1]))
     with pytest.raises(ValueError, match="increasing"):
         mean_over_samples(np.array([0.0, 0.1]), np.zeros((2, 1)), np.array([0.1, 0.1]))
+
+
+# ------------------------------------------------------------------ a simulated study (simulation)
+SECONDS = 20.0
+
+
+@pytest.fixture(scope="module")
+def study(tmp_path_factory):
+    from psmat.posture.simulate import simulate_posture_study
+
+    return simulate_posture_study(tmp_path_factory.mktemp("posture") / "study", subjects=2, days=1, seed=11,
+                                  seconds=SECONDS)
+
+
+@pytest.fixture(scope="module")
+def loaded(study):
+    from psmat.posture.dataset import load_posture_study
+
+    return load_posture_study(study, workers=2, progress=False)
+
+
+def _truth(study, stem: str):
+    import json
+
+    z = np.load(study / "truth" / "sessions" / f"{stem}.npz")
+    noise = json.loads((study / "truth" / "study.json").read_text())["imu_device"]["noise_deg"]
+    return z, np.asarray(noise)
+
+
+def test_a_session_gives_the_imu_pitch_and_the_mat_load_on_one_time_base(study, loaded) -> None:
+    r = loaded.recordings[0]
+    z, noise = _truth(study, "P01_d1")
+    assert r.subject == "P01" and r.day == 1 and r.image.shape[1:] == (16, 16)
+    # the IMU samples, on the host clock, are the truth's samples
+    k = np.searchsorted(z["imu_t_host_s"], r.t_s)
+    np.testing.assert_allclose(z["imu_t_host_s"][k], r.t_s)
+    # pitch = what a perfect sensor reads + drift + BNO055 noise (truth/study.json) + 1/16 deg steps
+    read = z["angles_true_deg"][k, :, 2] + z["drift_deg"][k, :, 2]
+    err = np.rad2deg(r.angles_rad) - read
+    assert np.all(np.abs(err) < 6 * noise + 1 / 32)
+    assert np.all(err.std(axis=0) < 1.5 * noise)
+    # ~10 mat frames (100 Hz) averaged per 10 Hz sample, and their summed g follows the seat force
+    assert 9.5 < r.meta["mat_frames_per_sample"] < 10.5
+    force, _ = mean_over_samples(z["mat_t_host_s"], z["force_n"][:, None], r.t_s)
+    assert np.corrcoef(force[:, 0], r.image.sum(axis=(1, 2)))[0, 1] > 0.95
+    assert np.all(r.image >= 0)
+
+
+def test_a_study_is_cached_per_session_and_recomputes_only_what_changed(study, loaded) -> None:
+    from psmat.posture.dataset import load_posture_study
+
+    first = loaded
+    assert first.problems == [] and [r.subject for r in first.recordings] == ["P01", "P02"]
+    again = load_posture_study(study, workers=1, progress=False)
+    assert again.computed == 0
+    for a, b in zip(first.recordings, again.recordings):
+        np.testing.assert_array_equal(a.image, b.image)
+        np.testing.assert_array_equal(a.angles_rad, b.angles_rad)
+    # a changed calibration of P02's box reruns P02 only
+    cal = next((study / "calibration").glob("*P02*.json"))
+    cal.write_text(cal.read_text() + "\n")
+    assert load_posture_study(study, workers=1, progress=False).computed == 1
+
+
+def test_a_mat_recorded_apart_is_aligned_to_its_imu_log(study, loaded, tmp_path) -> None:
+    from psmat.io import SessionWriter, load_session, write_imu_log
+    from psmat.posture.dataset import session_recording
+
+    s = load_session(study / "sessions" / "P02_d1.h5")
+    mat_only = tmp_path / "P02_d1.h5"
+    with SessionWriter(mat_only, s.frame_shape, device=s.device, calibration=s.calibration,
+                       metadata=s.metadata) as w:
+        w.append(s.counts, s.host_time_s, s.valid, seq=s.seq, device_time_us=s.device_time_us)
+    imu = s.streams["imu"]
+    log = tmp_path / "P02_d1.txt"
+    write_imu_log(log, imu.counts)  # the thesis' log: no time column, sample k at k / 10 Hz
+    r = session_recording(mat_only, imu_log=log)
+    # t_imu = t_mat + lag: the log's 0 is the IMU's first sample, at host time imu.host_time_s[0]
+    assert r.meta["aligned_by"].startswith("cross-correlation")
+    assert abs(r.meta["lag_s"] - (-imu.host_time_s[0])) < 0.1  # one IMU sample
+    together = loaded.recordings[1]
+    n = min(r.n_samples, together.n_samples)
+    shift = int(np.argmin(np.abs(together.t_s - r.t_s[0])))
+    np.testing.assert_allclose(r.angles_rad[:n - shift], together.angles_rad[shift:n], atol=np.deg2rad(1e-4))
