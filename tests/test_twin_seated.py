@@ -25,7 +25,7 @@ from psmat.twin.scenes import seat_scene
 from psmat.twin.seated import SeatedSession, seated_session
 from psmat.twin.seated_imu import DRIFT_SD_DEG, DRIFT_TAU_S, EULER_LSB_DEG, ImuDevice, imu_readings
 from psmat.twin.seated_protocol import GRID_HZ, PostureState, posture_trajectory, protocol_phases
-from psmat.twin.seated_spine import HAT_SHARE, hat_offset_cm, seat_targets, sensor_sites
+from psmat.twin.seated_spine import HAT_SHARE, hat_offset_cm, seat_targets
 from psmat.twin.seated_subject import SeatedDay, draw_seated_subject
 from hang_guard import HANG_GUARD_S
 
@@ -37,7 +37,7 @@ def _day(**kw) -> SeatedDay:
     """A session sitting unturned with the tuberosities 4 cm behind the mat's centre, sensors mounted true."""
     base = dict(seat_origin_cm=(15.0, 11.0), seat_rotation_deg=0.0, top_sensor_cm=0.0, mount_deg=np.zeros((5, 3)),
                 room_heading_deg=90.0, forward_scale=1.0, back_scale=1.0, pelvis_offset_deg=0.0,
-                lateral_bias_deg=0.0)
+                lateral_bias_deg=0.0, slump_deg=0.0)
     base.update(kw)
     return SeatedDay(**base)
 
@@ -168,22 +168,29 @@ def test_a_straight_back_gives_equal_pitches_up_to_the_mountings(subject):
 
 
 def test_a_uniform_bend_puts_the_sensors_where_eq_4_4_does(subject):
-    # a back of constant curvature (pitch linear along it): eq. 4.4 is exact, so the points it gives
-    # from the five pitches are the curve's own points 90 mm apart (integrated here numerically)
+    # a back of constant curvature: pitch θ(v) = −20° + 45°·v along it (v = share of S3..C7)
     knots = (0.0, 0.2, 0.45, 0.7, 1.0)
     bent = dataclasses.replace(subject, upright_pitch_deg=tuple(-20.0 + 45.0 * v for v in knots))
     day = _day(top_sensor_cm=1.0)
     sess = _session(bent, day)
-    pitch = np.radians(sess.true_angles(np.array([1.0]))[0, :, 2])
-    v = sensor_sites(bent, day)
-    assert np.all(np.diff(v) < 0) and v[-1] > 0.0  # downwards, all on the back
-    s_mm = np.linspace(0.0, 360.0, 36001)  # arc length down from sensor 1
-    theta = np.interp(s_mm, np.arange(5) * 90.0, pitch)  # linear in arc length between sensors = the curve
-    steps = np.column_stack([np.cos(theta - theta[0]), np.sin(theta - theta[0])])
-    curve = np.vstack([[0.0, 0.0], np.cumsum(0.5 * (steps[1:] + steps[:-1]) * np.diff(s_mm)[:, None], axis=0)])
-    np.testing.assert_allclose(spine_points(pitch), curve[::9000], atol=1e-3)
-    # and the pitch really is linear in the arc length: equal steps between sensors
-    np.testing.assert_allclose(np.diff(pitch), np.diff(pitch)[0], rtol=1e-9)
+    pitch = sess.true_angles(np.array([1.0]))[0, :, 2]
+    # by hand (SPEC §8): the top sensor 1 cm below C7, the others every 9 cm down the back
+    length = bent.back_length_cm
+    v = 1.0 - (1.0 + 9.0 * np.arange(5)) / length
+    assert v[-1] > 0.0
+    np.testing.assert_allclose(pitch, -20.0 + 45.0 * v, atol=1e-9)
+    # the back's own curve (integrated along it, vertical up, forward +x) at those sites ...
+    vv = np.linspace(0.0, 1.0, 200001)
+    th = np.radians(-20.0 + 45.0 * vv)
+    dv = vv[1] - vv[0]
+    xz = np.vstack([[0.0, 0.0], np.cumsum(0.5 * dv * length * 10.0 * np.column_stack(
+        [np.sin(th[1:]) + np.sin(th[:-1]), np.cos(th[1:]) + np.cos(th[:-1])]), axis=0)])  # mm
+    sites = np.array([np.interp(v, vv, xz[:, 0]), np.interp(v, vv, xz[:, 1])]).T
+    # ... are where eq. 4.4 puts the sensors from their five pitches (exact for a constant curvature)
+    pts = spine_points(np.radians(pitch))
+    d_curve = np.linalg.norm(sites[:, None] - sites[None], axis=-1)
+    d_eq44 = np.linalg.norm(pts[:, None] - pts[None], axis=-1)
+    np.testing.assert_allclose(d_eq44, d_curve, atol=1e-3)
 
 
 def test_drift_is_an_ou_process_bounded_as_stated():

@@ -285,7 +285,7 @@ def _session(out: Path, stem: str, session: SeatedSession, mat: MatPhysics, box:
     k = np.arange(int(math.floor((end - start) / period_true)) + 1)
     t = start + k * period_true
     frames = k.size
-    d0 = int(box.counter_start_us) + int(rng.integers(0, 600_000_000))  # the box restarts before each session
+    d0 = int(rng.integers(20_000_000, 900_000_000))  # the box is powered 20 s - 15 min before each session
     device_us = (d0 + np.round(k * period * 1e6).astype(np.int64)) % (1 << 32)
     host = _host_times(t, host0, rng)
     lost = rng.random(frames) < box.loss_rate

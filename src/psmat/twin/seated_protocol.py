@@ -28,10 +28,13 @@ keeping their number.
 ``λ`` (0 straight, +1 the day's forward posture, −1 its backward one; raised-cosine transitions,
 a sine while rocking), what it does to the pelvis tilt and the lumbar and thoracic flexion
 (:class:`~psmat.twin.seated_subject.SeatedSubject`: forward, part at the hips and part in the
-spine; back, the pelvis rolling back and the spine slumping), the slow sway (band-limited noise,
-0.02–0.3 Hz), breathing (the thoracic flexion), the sideways lean, and the bounces (the body's
-vertical acceleration as a fraction of g, which also flexes the lumbar spine by 3° per g as the
-trunk lands: our choice). Angles in degrees, times in s.
+spine; back, the pelvis rolling back and the spine slumping), the shares at the hips and in the
+lumbar spine wandering by 0.08 (SD, 0.005–0.05 Hz) about the subject's own so that no two
+excursions are alike, a slow slump over the session (the day's ``slump_deg`` of lumbar flexion
+by its end), the slow sway (band-limited noise, 0.02–0.3 Hz), breathing (the thoracic flexion),
+the sideways lean, and the bounces (the body's vertical acceleration as a fraction of g, which
+also flexes the lumbar spine by 3° per g as the trunk lands). Our choices throughout. Angles
+in degrees, times in s.
 """
 
 from __future__ import annotations
@@ -52,6 +55,9 @@ __all__ = ["Phase", "PostureState", "PostureTrajectory", "protocol_phases", "pos
 GRID_HZ = 200.0
 #: Band of the slow postural sway (Hz).
 SWAY_BAND_HZ = (0.02, 0.3)
+#: SD and band (Hz) of the slow wandering of the shares of a lean at the hips and in the lumbar spine.
+MIX_SD = 0.08
+MIX_BAND_HZ = (0.005, 0.05)
 #: Lumbar flexion per g of vertical acceleration in a bounce (degrees).
 BOUNCE_FLEX_DEG = 3.0
 #: Lean of each held phase; transitions go from the previous phase's lean to the next.
@@ -189,15 +195,19 @@ def posture_trajectory(subject: SeatedSubject, day: SeatedDay, rng: np.random.Ge
     lean, acc = _lean_and_bounce(phases, t, subject.bounce)
     fwd = np.clip(lean, 0.0, None) * subject.forward_deg * day.forward_scale
     back = np.clip(-lean, 0.0, None) * subject.back_deg * day.back_scale
+    # the way of leaning wanders slowly about the subject's own: no two excursions alike
+    hinge = np.clip(subject.hinge + MIX_SD * band_noise(n, GRID_HZ, MIX_BAND_HZ, rng), 0.05, 0.95)
+    lumbar = np.clip(subject.lumbar + MIX_SD * band_noise(n, GRID_HZ, MIX_BAND_HZ, rng), 0.05, 0.95)
     q = subject.slump
-    spine = (1.0 - subject.hinge) * fwd + q * back  # the spine's flexion
+    spine = (1.0 - hinge) * fwd + q * back  # the spine's flexion
     sway = [subject.sway_deg * band_noise(n, GRID_HZ, SWAY_BAND_HZ, rng) for _ in range(3)]
     breath = subject.breath_deg * np.sin(2.0 * np.pi * subject.breath_hz * t + rng.uniform(0.0, 2.0 * np.pi))
+    slumping = day.slump_deg * t / end  # the lumbar spine flexes slowly over the session
     state = PostureState(
         lean=lean,
-        pelvis_deg=day.pelvis_offset_deg + subject.hinge * fwd - (1.0 + q) * back + sway[0],
-        lumbar_deg=subject.lumbar * spine + BOUNCE_FLEX_DEG * acc + sway[1],
-        thoracic_deg=(1.0 - subject.lumbar) * spine + breath + sway[2],
+        pelvis_deg=day.pelvis_offset_deg + hinge * fwd - (1.0 + q) * back + sway[0],
+        lumbar_deg=lumbar * spine + slumping + BOUNCE_FLEX_DEG * acc + sway[1],
+        thoracic_deg=(1.0 - lumbar) * spine + breath + sway[2],
         lateral_deg=day.lateral_bias_deg + subject.lateral_sway_deg * band_noise(n, GRID_HZ, SWAY_BAND_HZ, rng),
         bounce=acc,
     )

@@ -41,7 +41,8 @@ A session (a day)
     §4.5); each sensor's mounting offset N(0, 2°) in pitch and roll, N(0, 3°) in heading (strap
     and soft tissue); the day's lean 1 ± 0.12 (clipped 0.7–1.3) times the subject's, forward
     and back separately; the pelvis's upright tilt N(0, 2°) away from the subject's; a sideways
-    bias N(0, 1°); the room's heading uniform. Our choices.
+    bias N(0, 1°); a slow slump of 0–4° of lumbar flexion over the session; the room's heading
+    uniform. Our choices.
 """
 
 from __future__ import annotations
@@ -142,6 +143,7 @@ class SeatedDay:
     back_scale: float
     pelvis_offset_deg: float
     lateral_bias_deg: float
+    slump_deg: float  # lumbar flexion gained slowly over the session
 
     def as_dict(self) -> dict[str, Any]:
         d = asdict(self)
@@ -206,4 +208,5 @@ def draw_seated_day(rng: np.random.Generator, mat_centre_cm: NDArray[np.float64]
         room_heading_deg=float(rng.uniform(0.0, 360.0)),
         forward_scale=_normal(rng, 1.0, 0.12, 0.7, 1.3), back_scale=_normal(rng, 1.0, 0.12, 0.7, 1.3),
         pelvis_offset_deg=float(rng.normal(0.0, 2.0)), lateral_bias_deg=float(rng.normal(0.0, 1.0)),
+        slump_deg=float(rng.uniform(0.0, 4.0)),
     )
