@@ -114,6 +114,27 @@ def test_seat_and_floor_take_the_trunks_moment(subject):
     assert (floor[1] - floor[0]) * knee == pytest.approx((1.0 - beta) * HAT_SHARE * w * dd, rel=1e-9)
 
 
+def test_leaning_far_forward_the_knees_take_what_the_cushion_cannot(subject):
+    # beyond the thighs' reach (80 % of the cushion's load) the whole moment still balances, the
+    # knees on the floor (x_knee forward of the tuberosities) taking the rest
+    sess = _session(subject)
+    w = subject.weight_kg * G
+    knee = subject.thigh_length_cm * math.cos(math.radians(subject.thigh_splay_deg))
+    up = seat_targets(subject, _state(), sess.layout)
+    far = seat_targets(subject, _state(pelvis_deg=35.0, lumbar_deg=15.0, thoracic_deg=15.0), sess.layout)
+    sc = seat_scene("far", sess.layout, np.zeros(1), far.force_n, far.cop_seat_cm, far.contact_cm,
+                    subject.thigh_share, (16, 16), PITCH, 5, 0.02, {})
+    assert sc.meta["n_clipped"] == 0
+    assert sc.meta["rows"][0, 1] == pytest.approx(0.8, abs=0.02)
+    dd = far.hat_forward_cm[0]
+    moment = lambda f, cop_w: f * cop_w + (w - f) * knee  # noqa: E731 - cushion plus floor about the tuberosities
+    cop_far = sess.layout.to_seat(sc.cop_true_cm)[0, 1]
+    cop_up = up.cop_seat_cm[0, 1]
+    assert moment(far.force_n[0], cop_far) - moment(up.force_n[0], cop_up) == pytest.approx(HAT_SHARE * w * dd,
+                                                                                             rel=1e-6)
+    assert far.force_n[0] < up.force_n[0]
+
+
 # ------------------------------------------------------------------------------ leaning
 def test_leaning_forward_loads_the_thighs_and_back_the_sacrum(subject):
     sess = _session(subject)

@@ -27,10 +27,14 @@ the subject's upright (cm, :func:`hat_offset_cm`), its moment ``0.678·W·Δd`` 
 cushion (share β, the subject's ``moment_share``) and by the knees and feet on the floor (the
 rest, at the knees: the thigh's length turned by its splay), so
 
-    seat share   s = s₀ − 0.678·(1 − β)·Δd / x_knee          (clipped to 0.4–0.98)
+    seat share   s = s₀ − 0.678·(1 − β)·Δd / x_knee
     seat CoP     w = (s₀·w₀ + 0.678·β·Δd) / s                  (seat frame, cm forward)
 
-with ``w₀`` the upright shares' CoP; sideways the cushion takes the same share β of the HAT's
+with ``w₀`` the upright shares' CoP. The cushion's reach is limited: its CoP goes no further
+forward than where the thighs carry 80 % of its load, nor back than where the sacrum carries
+50 % (our choices); beyond, ``w`` stays at that limit and the share follows from the whole
+moment, ``s·w + (1 − s)·x_knee = s₀·w₀ + (1 − s₀)·x_knee + 0.678·Δd`` (leaning far forward
+the knees take over). The share is kept within 0.4–0.98. Sideways the cushion takes the same share β of the HAT's
 moment (its centre ``h·sin(lean)`` to the side, ``h`` its height above the seat). The seat's
 force is ``W·s·(1 + a)``, ``a`` the body's vertical acceleration in g (bounces). The pelvis
 rolls on its tuberosities, whose radius we take as 4 cm: the contact moves ``4 cm · P`` (rad)
@@ -62,6 +66,11 @@ HAT_V = 0.6
 HAT_DEPTH_PER_HEIGHT = 0.058
 #: S3 relative to the tuberosities at 1.68 m (w forward, z up), cm.
 S3_CM = (-7.0, 9.0)
+#: The most of the cushion's load the thighs and the sacrum carry; a moment beyond goes to the floor.
+MAX_THIGH_SHARE = 0.8
+MAX_SACRUM_SHARE = 0.5
+#: Range of the weight's share on the cushion.
+SHARE_RANGE = (0.4, 0.98)
 #: Radius on which the pelvis rolls on its tuberosities, cm.
 ROLL_RADIUS_CM = 4.0
 _GRID_V = np.linspace(0.0, 1.0, 61)
@@ -136,12 +145,22 @@ def seat_targets(subject: SeatedSubject, state: PostureState, layout: SeatLayout
     dd = d - d0[0]
     beta, s0 = subject.moment_share, subject.seat_share
     knee = subject.thigh_length_cm * math.cos(math.radians(subject.thigh_splay_deg))
-    share = np.clip(s0 - HAT_SHARE * (1.0 - beta) * dd / knee, 0.4, 0.98)
     loc = layout.local_cm
+    w_it, w_th, w_sa = loc[0:4, 1].mean(), loc[4, 1], loc[6, 1]
     t0 = subject.thigh_share
-    w0 = (1.0 - t0) * loc[0:4, 1].mean() + t0 * loc[4, 1]
+    w0 = (1.0 - t0) * w_it + t0 * w_th
+    share = s0 - HAT_SHARE * (1.0 - beta) * dd / knee
     w = (s0 * w0 + HAT_SHARE * beta * dd) / share
-    u = HAT_SHARE * beta * h * np.sin(np.radians(state.lateral_deg)) / share
+    # beyond the cushion's reach the floor takes the rest: s·w + (1 − s)·x_knee = the whole moment
     contact = ROLL_RADIUS_CM * np.radians(state.pelvis_deg)
+    w_in = w_it + np.clip(contact, -layout.roll_cm, layout.roll_cm)  # where the tuberosities touch
+    total = s0 * w0 + (1.0 - s0) * knee + HAT_SHARE * dd
+    front = w_in + MAX_THIGH_SHARE * (w_th - w_in)
+    rear = w_in + MAX_SACRUM_SHARE * (w_sa - w_in)
+    for limit, beyond in ((front, w > front), (rear, w < rear)):
+        w = np.where(beyond, limit, w)
+        share = np.where(beyond, (knee - total) / (knee - limit), share)
+    share = np.clip(share, *SHARE_RANGE)
+    u = HAT_SHARE * beta * h * np.sin(np.radians(state.lateral_deg)) / share
     force = subject.weight_n * share * (1.0 + state.bounce)
     return SeatTargets(force, share, np.column_stack([u, w]), contact, dd)
