@@ -11,7 +11,7 @@ import pytest
 
 import psmat
 
-TOL = {"newton": 1e-7, "bounded_newton": 1e-7, "lm": 1e-7, "bounded_lsq": 1e-7, "fixed_point": 1e-4}
+TOL = {"newton": 1e-7, "active_set": 1e-7, "bounded_newton": 1e-7, "lm": 1e-7, "bounded_lsq": 1e-7, "fixed_point": 1e-4}
 
 
 def _opts(method, g):
@@ -33,7 +33,7 @@ def test_recovers_random_arrays(method, shape, rng):
     np.testing.assert_allclose(sol, g, rtol=TOL[method])
 
 
-@pytest.mark.parametrize("method", ["newton", "bounded_newton", "lm", "bounded_lsq"])
+@pytest.mark.parametrize("method", ["newton", "active_set", "bounded_newton", "lm", "bounded_lsq"])
 def test_recovers_reference_cases_cold(method, iecm_reference):
     for name, case in iecm_reference.items():
         g, G = np.array(case["g"]), np.array(case["G"])

@@ -96,7 +96,8 @@ void register_iecm(py::module_& m) {
       .value("bounded_newton", Method::BoundedNewton)
       .value("lm", Method::LM)
       .value("bounded_lsq", Method::BoundedLSQ)
-      .value("fixed_point", Method::FixedPoint);
+      .value("fixed_point", Method::FixedPoint)
+      .value("active_set", Method::ActiveSet);
 
   py::enum_<Status>(m, "Status")
       .value("converged", Status::Converged)

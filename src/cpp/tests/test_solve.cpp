@@ -21,8 +21,8 @@ namespace {
 std::string name_of(Method m) { return psmat::iecm::to_string(m); }
 std::string name_of(Status st) { return psmat::iecm::to_string(st); }
 
-const Method kAllMethods[] = {Method::Newton, Method::BoundedNewton, Method::LM,
-                              Method::BoundedLSQ, Method::FixedPoint};
+const Method kAllMethods[] = {Method::Newton, Method::ActiveSet, Method::BoundedNewton,
+                              Method::LM, Method::BoundedLSQ, Method::FixedPoint};
 
 // Bounds on the spectrum of J at g from physics alone: J >= 0 entrywise and J g = G (Euler,
 // F is homogeneous of degree 1), so D_g^-1 J D_g is a nonnegative matrix with row sums
@@ -81,7 +81,8 @@ void check_report(Shape s, const VectorXd& G_exp, const VectorXd& g, const Solve
       const double fa = (g[a] - o.g_floor) / G_exp[a], fb = rel[a];  // Fischer-Burmeister
       resid_fb = std::max(resid_fb, std::abs(std::hypot(fa, fb) - fa - fb));
     }
-    if (o.method == Method::BoundedNewton || o.method == Method::BoundedLSQ) {
+    if (o.method == Method::BoundedNewton || o.method == Method::ActiveSet ||
+        o.method == Method::BoundedLSQ) {
       // SolveReport::at_bound: "cells held at g_floor (bounded methods)"
       CHECK(rep.at_bound == at_floor);
     }
@@ -92,8 +93,9 @@ void check_report(Shape s, const VectorXd& G_exp, const VectorXd& g, const Solve
       CHECK(rep.at_bound == at_floor);
       CHECK(resid_free <= o.rtol);
       CHECK(std::abs(rep.residual - resid_free) <= 1e-6 * resid_free + 1e-15);
-    } else if (o.method == Method::BoundedNewton || rep.used_fallback) {
-      // solve_options.hpp: the bounded Newton reports the complementarity residual
+    } else if (o.method == Method::BoundedNewton || o.method == Method::ActiveSet ||
+               rep.used_fallback) {
+      // solve_options.hpp: the bounded solvers report the complementarity residual
       CHECK(std::abs(rep.residual - resid_fb) <= 1e-6 * resid_fb + 1e-15);
     } else {
       CHECK(std::abs(rep.residual - resid) <= 1e-6 * resid + 1e-15);
@@ -208,7 +210,7 @@ TEST_CASE("solve: a warm start from a nearby solution needs fewer iterations tha
   const VectorXd G1 = c.G, G2 = F(s, g2);
   // (LM is left out: from the previous frame it takes more iterations than cold — 17 vs 12
   // on this case — which is a performance observation, not a correctness property.)
-  for (Method m : {Method::Newton, Method::BoundedNewton, Method::BoundedLSQ}) {
+  for (Method m : {Method::Newton, Method::ActiveSet, Method::BoundedNewton, Method::BoundedLSQ}) {
     CAPTURE(name_of(m));
     SolveOptions o;
     o.method = m;
@@ -272,7 +274,7 @@ TEST_CASE("solve: noisy G (no exact positive solution) still gives a sane, conve
   const VectorXd G = (c.G.array() * (1.0 + 1e-3 * noise.array())).matrix();
   // (LM on log g is left out: cells that touch g_floor stay there — the log-parameterised
   // Jacobian column is scaled by g — and it stalls at a cost ~1e5 x the bounded optimum.)
-  for (Method m : {Method::Newton, Method::BoundedNewton, Method::BoundedLSQ}) {
+  for (Method m : {Method::Newton, Method::ActiveSet, Method::BoundedNewton, Method::BoundedLSQ}) {
     CAPTURE(name_of(m));
     SolveOptions o;
     o.method = m;

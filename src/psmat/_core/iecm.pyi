@@ -12,6 +12,7 @@ class Method(enum.Enum):
     lm = 2
     bounded_lsq = 3
     fixed_point = 4
+    active_set = 5
 
 class Status(enum.Enum):
     converged = 0

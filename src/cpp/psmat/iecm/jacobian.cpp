@@ -49,6 +49,30 @@ template void scaled_hadamard<Eigen::MatrixXd>(const NodalInverse&, const ConstV
 template void scaled_hadamard<Eigen::MatrixXf>(const NodalInverse&, const ConstVecRef&,
                                                Eigen::MatrixXf&, bool);
 
+template <class Matrix>
+void scaled_hadamard_block(const NodalInverse& net, const ConstVecRef& G,
+                           const std::vector<Index>& cells, Matrix& K) {
+  using Scalar = typename Matrix::Scalar;
+  const Index R = net.shape().rows, C = net.shape().cols;
+  const Index m = static_cast<Index>(cells.size());
+  const Eigen::MatrixXd& M = net.M();  // T[(i,p),(j,q)] = M[j,p'] + M[i,q'] - M[i,j] - M[p',q']
+  K.resize(m, m);
+  for (Index q = 0; q < m; ++q) {
+    const Index b = cells[static_cast<size_t>(q)], j = b / C, qq = R + b % C;
+    const auto Mj = M.col(j), Mq = M.col(qq);  // M is symmetric: columns are rows
+    for (Index r = q; r < m; ++r) {
+      const Index a = cells[static_cast<size_t>(r)], i = a / C, pp = R + a % C;
+      const double T = Mj[pp] + Mq[i] - Mj[i] - Mq[pp];
+      K(r, q) = static_cast<Scalar>(G[a] * G[b] * T * T);
+    }
+  }
+}
+
+template void scaled_hadamard_block<Eigen::MatrixXd>(const NodalInverse&, const ConstVecRef&,
+                                                     const std::vector<Index>&, Eigen::MatrixXd&);
+template void scaled_hadamard_block<Eigen::MatrixXf>(const NodalInverse&, const ConstVecRef&,
+                                                     const std::vector<Index>&, Eigen::MatrixXf&);
+
 void hadamard_product(const NodalInverse& net, const ConstVecRef& v, VecRef out,
                       HadamardWork& work) {
   const Index R = net.shape().rows, C = net.shape().cols, n = net.shape().nodes();

@@ -9,6 +9,8 @@
 //   S = D_G (T∘T) D_G  = D_G^-1 J D_G          (similar to J: same eigenvalues, unit diagonal)
 // so that a Newton step J dg = -r becomes the SPD system S y = -r/G, dg = G∘y.
 #pragma once
+#include <vector>
+
 #include "psmat/iecm/laplacian.hpp"
 
 namespace psmat::iecm {
@@ -21,6 +23,14 @@ void jacobian(const NodalInverse& net, const ConstVecRef& G, RowMatRef J);
 // Defined for Eigen::MatrixXd and Eigen::MatrixXf (a float32 preconditioner).
 template <class Matrix>
 void scaled_hadamard(const NodalInverse& net, const ConstVecRef& G, Matrix& S, bool lower_only);
+
+// The principal submatrix of S on `cells` (ascending or not): K(r, q) = S[cells[r], cells[q]]
+// for r >= q (lower triangle; the strict upper triangle is not written). O(cells^2), for the
+// free block of the active-set Newton without the full (RC)^2 matrix.
+// Defined for Eigen::MatrixXd and Eigen::MatrixXf.
+template <class Matrix>
+void scaled_hadamard_block(const NodalInverse& net, const ConstVecRef& G,
+                           const std::vector<Index>& cells, Matrix& K);
 
 // Matrix-free product out = (T∘T) v in O(n^3) instead of O((RC)^2) (SPEC §3):
 //   ((T∘T) v)[i,p] = K[i,i] + K[p',p'] - 2 K[i,p'],   K = M L_v M,

@@ -26,6 +26,7 @@ const char* to_string(Method m) {
     case Method::LM: return "lm";
     case Method::BoundedLSQ: return "bounded_lsq";
     case Method::FixedPoint: return "fixed_point";
+    case Method::ActiveSet: return "active_set";
   }
   return "unknown";
 }
@@ -58,6 +59,7 @@ SolveReport Solver::solve(const ConstVecRef& G_exp, VecRef g, bool warm) {
     case Method::LM: return solve_least_squares(*this, G_exp, g, /*log_param=*/true);
     case Method::BoundedLSQ: return solve_least_squares(*this, G_exp, g, /*log_param=*/false);
     case Method::FixedPoint: return solve_fixed_point(*this, G_exp, g);
+    case Method::ActiveSet: return solve_active_set(*this, G_exp, g);
   }
   return {};
 }

@@ -4,6 +4,7 @@
 // preconditioner. Between calls it keeps the preconditioner, so consecutive frames of a
 // stream reuse one factorisation for as long as PCG converges quickly with it.
 #pragma once
+#include "psmat/iecm/active_set.hpp"
 #include "psmat/iecm/laplacian.hpp"
 #include "psmat/iecm/newton_operator.hpp"
 #include "psmat/iecm/solve_options.hpp"
@@ -19,7 +20,10 @@ class Solver {
   SolveReport solve(const ConstVecRef& G_exp, VecRef g, bool warm);
 
   // Forget the stored preconditioner.
-  void reset() { op.reset(); }
+  void reset() {
+    op.reset();
+    free_block.reset();
+  }
 
   const SolveOptions& options() const { return opts_; }
   const Shape& shape() const { return shape_; }
@@ -35,6 +39,7 @@ class Solver {
   NewtonOperator op;      // Newton: matrix-free S and its reusable preconditioner
   Eigen::MatrixXd S;      // dense double S (bounded Newton, least squares), sized on first use
   Eigen::LLT<Eigen::MatrixXd> llt;
+  FreeBlockSolver free_block;  // active-set Newton: factor of the free block of S, kept
 
  private:
   Shape shape_;
@@ -45,6 +50,7 @@ class Solver {
 // result out.
 SolveReport solve_newton(Solver& s, const ConstVecRef& G_exp, VecRef g);
 SolveReport solve_bounded_newton(Solver& s, const ConstVecRef& G_exp, VecRef g);
+SolveReport solve_active_set(Solver& s, const ConstVecRef& G_exp, VecRef g);
 SolveReport solve_least_squares(Solver& s, const ConstVecRef& G_exp, VecRef g, bool log_param);
 SolveReport solve_fixed_point(Solver& s, const ConstVecRef& G_exp, VecRef g);
 

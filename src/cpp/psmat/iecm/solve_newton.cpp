@@ -44,7 +44,7 @@ SolveReport solve_newton(Solver& s, const ConstVecRef& G_exp, VecRef g) {
   // A warm start from a bounded solution (cells at the floor) stays on the bounded problem:
   // log g cannot move off the floor in a useful number of steps.
   if (o.fallback && (g.array() <= o.g_floor * (1.0 + 1e-9)).any()) {
-    SolveReport bd = solve_bounded_newton(s, G_exp, g);
+    SolveReport bd = solve_active_set(s, G_exp, g);
     bd.used_fallback = true;
     return bd;
   }
@@ -147,7 +147,7 @@ SolveReport solve_newton(Solver& s, const ConstVecRef& G_exp, VecRef g) {
     // G_exp not reproducible by positive g (noise): the complementarity solution, from the
     // starting point (a stalled log-Newton path may have wandered into a poor region).
     g = g_start;
-    SolveReport bd = solve_bounded_newton(s, G_exp, g);
+    SolveReport bd = solve_active_set(s, G_exp, g);
     bd.iterations += rep.iterations;
     bd.factorizations += rep.factorizations;
     bd.krylov_iterations += rep.krylov_iterations;

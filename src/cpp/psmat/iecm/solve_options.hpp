@@ -12,6 +12,8 @@ enum class Method {
   LM,          // Levenberg-Marquardt least squares (eq. 2.9) on log g (positivity by construction)
   BoundedLSQ,  // projected Gauss-Newton/LM least squares (eq. 2.9) on g with g >= g_floor
   FixedPoint,  // thesis eq. 2.10: g <- g + beta (G_exp - F(g)), clipped at g_floor
+  ActiveSet,   // primal-dual active-set (semismooth Newton on min(a, b)) for the same
+               // complementarity problem as BoundedNewton; warm-starts from the bound set
 };
 
 enum class Status {
@@ -37,7 +39,7 @@ struct SolveOptions {
   int krylov_max_iter = 0;       // Newton: PCG iterations before refactorising (0: 10 + R*C/64)
   double forcing = 1e-2;         // Newton: PCG tolerance is min(forcing, 0.1*residual), >= 1e-8
   bool fallback = true;          // Newton: when it stalls (noisy G unreachable by g > 0), restart
-                                 // from g0 with the bounded (complementarity) Newton
+                                 // from g0 with the active-set (complementarity) Newton
 };
 
 struct SolveReport {

@@ -1,0 +1,189 @@
+// The active-set Newton for noisy frames (solve_active_set.cpp, SPEC §3 complementarity
+// problem): its pieces — the free block of S, the PCG solve with a stale factor — against
+// dense linear algebra, and its answer against the Fischer-Burmeister reference
+// (solve_bounded_newton.cpp) on a noisy stream: same bound set, same free cells.
+#include <cmath>
+#include <vector>
+
+#include "psmat/iecm/active_set.hpp"
+#include "psmat/iecm/jacobian.hpp"
+#include "psmat/iecm/solve.hpp"
+#include "support.hpp"
+
+using namespace psmat_test;
+using psmat::iecm::FreeBlockSolver;
+using psmat::iecm::Method;
+using psmat::iecm::NewtonOperator;
+using psmat::iecm::NodalInverse;
+using psmat::iecm::SolveOptions;
+using psmat::iecm::SolveReport;
+using psmat::iecm::Solver;
+using psmat::iecm::Status;
+
+namespace {
+
+// Every third cell or so, in a fixed irregular pattern (unsorted on purpose where allowed).
+std::vector<Index> some_cells(Index n, Index step, Index offset) {
+  std::vector<Index> out;
+  for (Index a = offset; a < n; a += step) out.push_back(a);
+  return out;
+}
+
+MatrixXd dense_S(Shape s, const VectorXd& g) {
+  NodalInverse net(s);
+  REQUIRE(net.compute(g));
+  MatrixXd S;
+  scaled_hadamard(net, F(s, g), S, /*lower_only=*/false);
+  return S;
+}
+
+// A noisy recording: a loaded blob that drifts over a quiet background (leakage 1e-7 S), read
+// with additive noise of 1.5e-7 S on G (the size of 1 mV on the ADC node for a quiet cell,
+// SPEC §2), so most background cells end at the bound.
+VectorXd noisy_frame(Shape s, int t, unsigned seed) {
+  VectorXd g = VectorXd::Constant(s.cells(), 1e-7);
+  const double ci = 0.4 * double(s.rows) + 0.3 * std::sin(0.3 * t), cp = 0.5 * double(s.cols);
+  for (Index i = 0; i < s.rows; ++i)
+    for (Index p = 0; p < s.cols; ++p) {
+      const double r2 = (double(i) - ci) * (double(i) - ci) + (double(p) - cp) * (double(p) - cp);
+      if (r2 < 6.0) g[i * s.cols + p] = 3e-3 * std::exp(-r2 / 4.0);
+    }
+  const VectorXd noise = random_normal(s.cells(), seed + static_cast<unsigned>(t));
+  return (F(s, g).array() + 1.5e-7 * noise.array()).max(2e-7).matrix();
+}
+
+// Free cells agree within 1e-8 g + kAmplification * rtol * G: both solvers stop at a residual
+// <= rtol relative to G, which fixes a free cell to about rtol * G_a / lambda, lambda the
+// smallest eigenvalue of S on the free cells (~3e-4 on noisy 16x16 twin frames: quiet cells of
+// quiet rows are nearly interchangeable). Tightening rtol stops helping near 1e-12, the
+// round-off of F at these dynamic ranges. Loaded cells (g >= 1e-4 S) meet 1e-8 g outright.
+constexpr double kAmplification = 1e3;
+bool same_free_cell(double g, double g_ref, double G, double rtol) {
+  return std::abs(g - g_ref) <= 1e-8 * g_ref + kAmplification * rtol * G;
+}
+
+}  // namespace
+
+TEST_CASE("scaled_hadamard_block: the principal submatrix of S, lower triangle") {
+  const Shape s{5, 7};
+  const VectorXd g = random_g(s, 2100, 1e-7, 1e-2);
+  NodalInverse net(s);
+  REQUIRE(net.compute(g));
+  const VectorXd G = F(s, g);
+  MatrixXd S;
+  scaled_hadamard(net, G, S, /*lower_only=*/false);
+  const std::vector<Index> cells = some_cells(s.cells(), 3, 1);
+  MatrixXd K;
+  psmat::iecm::scaled_hadamard_block(net, G, cells, K);
+  Eigen::MatrixXf Kf;
+  psmat::iecm::scaled_hadamard_block(net, G, cells, Kf);
+  REQUIRE(K.rows() == Index(cells.size()));
+  for (Index q = 0; q < K.cols(); ++q)
+    for (Index r = q; r < K.rows(); ++r) {
+      const double ref = S(cells[size_t(r)], cells[size_t(q)]);
+      CHECK(K(r, q) == doctest::Approx(ref).epsilon(1e-12));
+      CHECK(double(Kf(r, q)) == doctest::Approx(ref).epsilon(1e-6));
+    }
+}
+
+TEST_CASE("FreeBlockSolver: PCG with the factor of another point and free set solves the free block") {
+  const Shape s{6, 6};
+  const VectorXd g_old = random_g(s, 2200, 1e-6, 1e-2);
+  VectorXd g = g_old;  // the point moved by up to 30 %
+  for (Index a = 0; a < g.size(); ++a) g[a] *= 1.0 + 0.3 * std::sin(1.7 * double(a));
+  NodalInverse net_old(s), net(s);
+  REQUIRE(net_old.compute(g_old));
+  REQUIRE(net.compute(g));
+  const VectorXd G_old = F(s, g_old), G = F(s, g);
+  const std::vector<Index> P = some_cells(s.cells(), 2, 0);  // factor's free set
+  std::vector<Index> I = some_cells(s.cells(), 3, 0);         // current free set: some of P, others
+  const double mu = 1e-3;
+  FreeBlockSolver fs;
+  REQUIRE(fs.factor(net_old, G_old, P, 0.5));
+  CHECK(fs.changes(I) > 0);
+  NewtonOperator op(s);
+  const VectorXd b = random_normal(s.cells(), 2201);
+  VectorXd y;
+  const int k = fs.solve(op, net, G, I, mu, b, y, 1e-12, 200);
+  CAPTURE(k);
+  CHECK(k > 1);  // a stale preconditioner: more than one iteration, but it converges
+  // dense reference: (S_II + mu I) y_I = b_I
+  const MatrixXd S = dense_S(s, g);
+  const Index m = Index(I.size());
+  MatrixXd K(m, m);
+  VectorXd bI(m);
+  for (Index r = 0; r < m; ++r) {
+    bI[r] = b[I[size_t(r)]];
+    for (Index q = 0; q < m; ++q) K(r, q) = S(I[size_t(r)], I[size_t(q)]) + (r == q ? mu : 0.0);
+  }
+  const VectorXd yI = K.llt().solve(bI);
+  std::vector<char> in_I(size_t(s.cells()), 0);
+  for (Index r = 0; r < m; ++r) {
+    in_I[size_t(I[size_t(r)])] = 1;
+    CHECK(y[I[size_t(r)]] == doctest::Approx(yI[r]).epsilon(1e-8));
+  }
+  for (Index a = 0; a < s.cells(); ++a)
+    if (!in_I[size_t(a)]) CHECK(y[a] == 0.0);
+  // with a fresh factor at this very point PCG needs one or two iterations
+  REQUIRE(fs.factor(net, G, I, mu));
+  CHECK(fs.changes(I) == 0);
+  VectorXd y2;
+  const int k2 = fs.solve(op, net, G, I, mu, b, y2, 1e-10, 200);
+  CHECK(k2 >= 1);
+  CHECK(k2 <= 3);
+  CHECK((y2 - y).norm() <= 1e-8 * y.norm());
+}
+
+TEST_CASE("active_set: the Fischer-Burmeister solution on a noisy stream, bound set included") {
+  const Shape s{10, 10};
+  SolveOptions o_as, o_fb;
+  o_as.method = Method::ActiveSet;
+  o_fb.method = Method::BoundedNewton;
+  o_as.max_iter = o_fb.max_iter = 1000;
+  Solver as(s, o_as), fb(s, o_fb);
+  VectorXd g_as(s.cells()), g_fb(s.cells());
+  int bound_total = 0;
+  for (int t = 0; t < 12; ++t) {
+    CAPTURE(t);
+    const VectorXd G = noisy_frame(s, t, 2300);
+    const SolveReport r_as = as.solve(G, g_as, t > 0), r_fb = fb.solve(G, g_fb, t > 0);
+    REQUIRE(r_fb.converged());
+    CAPTURE(r_as.iterations);
+    CHECK(r_as.status == Status::Bounded);
+    CHECK(r_as.residual <= o_as.rtol);
+    CHECK(r_as.at_bound == r_fb.at_bound);
+    bound_total += r_as.at_bound;
+    const double floor = o_as.g_floor * (1.0 + 1e-9);
+    for (Index a = 0; a < s.cells(); ++a) {
+      CHECK((g_as[a] <= floor) == (g_fb[a] <= floor));
+      if (g_fb[a] > floor) CHECK(same_free_cell(g_as[a], g_fb[a], G[a], o_as.rtol));
+      if (g_fb[a] >= 1e-4) CHECK(std::abs(g_as[a] - g_fb[a]) <= 1e-8 * g_fb[a]);
+    }
+    // complementarity checked directly: bound cells over-predict, free cells match G
+    const VectorXd Fg = F(s, g_as);
+    for (Index a = 0; a < s.cells(); ++a) {
+      if (g_as[a] <= floor) CHECK(Fg[a] >= G[a] * (1.0 - 1e-9));
+      else CHECK(std::abs(Fg[a] - G[a]) <= 1e-9 * G[a]);
+    }
+  }
+  CHECK(bound_total > 12 * 10);  // the noise puts background cells at the bound in every frame
+}
+
+TEST_CASE("active_set: cold start and a warm start from a point with no cell at the bound") {
+  const Shape s{8, 8};
+  SolveOptions o;
+  o.method = Method::ActiveSet;
+  const VectorXd G = noisy_frame(s, 3, 2400);
+  Solver cold(s, o);
+  VectorXd g_cold(s.cells());
+  const SolveReport rc = cold.solve(G, g_cold, false);
+  CHECK(rc.status == Status::Bounded);
+  Solver warm(s, o);
+  VectorXd g_warm = VectorXd::Constant(s.cells(), 1e-4);
+  const SolveReport rw = warm.solve(G, g_warm, true);
+  CHECK(rw.status == Status::Bounded);
+  for (Index a = 0; a < s.cells(); ++a) {
+    if (g_cold[a] > o.g_floor * 2) CHECK(same_free_cell(g_warm[a], g_cold[a], G[a], o.rtol));
+    else CHECK(g_warm[a] <= o.g_floor * 2);
+  }
+}
