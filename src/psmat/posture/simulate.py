@@ -62,7 +62,8 @@ from numpy.typing import NDArray
 from .. import _checks, protocol
 from .._core import firmware as _fw
 from ..io import SessionWriter
-from ..study.simulate import NOISE_V, PITCH_CM, _json, _save_npz
+from ..study.simulate import NOISE_V, PITCH_CM
+from ..study.truth_files import save_npz_stable, truth_json
 from ..study.simulate_draws import Box, MatDraw, calibrate_box, draw_box, draw_mat
 from ..twin import MatPhysics, SeatedSession
 from ..twin.field import mat_centre_cm
@@ -201,7 +202,7 @@ def simulate_posture_study(root: str | os.PathLike[str], *, subjects: int = 12, 
              "imu_rate_hz": IMU_RATE_HZ, "shape": list(shape_), "pitch_cm": PITCH_CM, "noise_v": NOISE_V,
              "subject_ids": ids, "imu_device": imu_device.as_dict(), "boxes": "one mat and box per subject",
              "simulator": "psmat.posture.simulate", "twin": "psmat.twin.seated"}
-    (out / "truth" / "study.json").write_text(_json(study), encoding="utf-8")
+    (out / "truth" / "study.json").write_text(truth_json(study), encoding="utf-8")
     (out / "truth" / "README.txt").write_text(TRUTH_README, encoding="utf-8")
     return out
 
@@ -224,8 +225,8 @@ def _subject(out: Path, index: int, pid: str, person: SeatedSubject, streams: li
                      "pitch_cm": PITCH_CM},
              "box": box.as_dict(), "clock_rate": 1.0 / (1.0 + box.clock_error),
              "calibration_found": {"r_mux_ohm": cal.r_mux, "r_adc_ohm": cal.r_adc}}
-    (out / "truth" / "subjects" / f"{pid}.json").write_text(_json(truth), encoding="utf-8")
-    _save_npz(out / "truth" / "subjects" / f"{pid}.npz", {"gain": mat.gain, "r_mux_ohm": box.r_mux})
+    (out / "truth" / "subjects" / f"{pid}.json").write_text(truth_json(truth), encoding="utf-8")
+    save_npz_stable(out / "truth" / "subjects" / f"{pid}.npz", {"gain": mat.gain, "r_mux_ohm": box.r_mux})
     device = {"device": "psm", "fw": "0.1.0", "rows": shape[0], "cols": shape[1],
               "rate": int(rate) if float(rate).is_integer() else rate, "proto": 2, "serial": box.serial,
               "r_o": 2200, "v_ref": 3.3, "bits": 12, "pitch_cm": PITCH_CM}
@@ -324,7 +325,7 @@ def _session(out: Path, stem: str, session: SeatedSession, mat: MatPhysics, box:
                     "first_frame_device_us": d0, "frames_lost": np.flatnonzero(lost).tolist()},
             "imu": imu_timing, "clipped_frames": clipped, "saturated_fraction": saturated / (frames * R * C),
             "force_on_mat_min": on_mat}
-    (out / "truth" / "sessions" / f"{stem}.json").write_text(_json(info), encoding="utf-8")
-    _save_npz(out / "truth" / "sessions" / f"{stem}.npz", {
+    (out / "truth" / "sessions" / f"{stem}.json").write_text(truth_json(info), encoding="utf-8")
+    save_npz_stable(out / "truth" / "sessions" / f"{stem}.npz", {
         **imu_truth, "mat_t_s": t, "mat_t_host_s": host, "mat_valid": ~lost, "cop_cm": cop, "force_n": force,
         "seat_share": share, "rows": rows, "pressure_mean_psi": p_sum / frames})

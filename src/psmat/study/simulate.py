@@ -78,11 +78,8 @@ a few frames), which an alignment of the two CoPs includes.
 from __future__ import annotations
 
 import datetime as _dt
-import io as _io
-import json
 import math
 import os
-import zipfile
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
@@ -93,6 +90,7 @@ from .. import _checks
 from ..io import bds_files, load_bds
 from ..twin import MatPhysics
 from ..twin.field import mat_centre_cm
+from .truth_files import save_npz_stable, truth_json
 from .simulate_draws import Box, MatDraw, Person, calibrate_box, draw_box, draw_mat, draw_person
 from .simulate_trials import PLATFORM_RATE_HZ, TRIALS, Source, plan_trajectory, platform_table, record_session
 
@@ -126,30 +124,6 @@ sessions/<stem>.npz      t_device_s, t_platform_s, t_host_s (N,), cop_cm (N, 2) 
                          coordinates (cell (i, p) at (2p, 2i) cm), force_n (N,), valid (N,),
                          pressure_mean_psi (R, C)
 """
-
-
-def _json(obj: Any) -> str:
-    """Indented JSON (numpy scalars and arrays as numbers and lists), ending in a newline."""
-
-    def default(o: Any) -> Any:
-        if isinstance(o, np.ndarray):
-            return o.tolist()
-        if isinstance(o, (np.floating, np.integer, np.bool_)):
-            return o.item()
-        raise TypeError(f"not JSON serialisable: {type(o).__name__}")
-
-    return json.dumps(obj, indent=2, default=default, allow_nan=False) + "\n"
-
-
-def _save_npz(path: Path, arrays: dict[str, Any]) -> None:
-    """``numpy.savez_compressed`` with fixed member dates, so the same arrays give the same bytes."""
-    with zipfile.ZipFile(path, "w", zipfile.ZIP_DEFLATED) as z:
-        for name, a in arrays.items():
-            buf = _io.BytesIO()
-            np.lib.format.write_array(buf, np.asarray(a), allow_pickle=False)
-            info = zipfile.ZipInfo(f"{name}.npy", date_time=(1980, 1, 1, 0, 0, 0))
-            info.compress_type = zipfile.ZIP_DEFLATED
-            z.writestr(info, buf.getvalue())
 
 
 def _sources(bds_paths: Sequence[str | os.PathLike[str]] | None) -> list[Path]:
@@ -274,7 +248,7 @@ def simulate_study(root: str | os.PathLike[str], *, volunteers: int, seconds: fl
              "shape": [R, C], "pitch_cm": PITCH_CM, "platform_rate_hz": PLATFORM_RATE_HZ, "noise_v": NOISE_V,
              "trials": list(TRIALS), "sources": [f.name for f in files], "subjects": ids,
              "boxes": "one per volunteer", "simulator": "psmat.study.simulate"}
-    (out / "truth" / "study.json").write_text(_json(study), encoding="utf-8")
+    (out / "truth" / "study.json").write_text(truth_json(study), encoding="utf-8")
     (out / "truth" / "README.txt").write_text(_TRUTH_README, encoding="utf-8")
     return out
 
@@ -298,8 +272,8 @@ def _volunteer(out: Path, index: int, vid: str, person: Person, streams: list[np
              "clock_rate": 1.0 / (1.0 + box.clock_error),
              "calibration_found": {"r_mux_ohm": cal.r_mux, "r_adc_ohm": cal.r_adc},
              "platform_origin_cm": origin.tolist()}
-    (out / "truth" / "volunteers" / f"{vid}.json").write_text(_json(truth), encoding="utf-8")
-    _save_npz(out / "truth" / "volunteers" / f"{vid}.npz", {"gain": mat.gain, "r_mux_ohm": box.r_mux})
+    (out / "truth" / "volunteers" / f"{vid}.json").write_text(truth_json(truth), encoding="utf-8")
+    save_npz_stable(out / "truth" / "volunteers" / f"{vid}.npz", {"gain": mat.gain, "r_mux_ohm": box.r_mux})
     device = {"device": "psm", "fw": "0.1.0", "rows": shape[0], "cols": shape[1],
               "rate": int(rate) if float(rate).is_integer() else rate, "proto": 2, "serial": box.serial,
               "r_o": 2200, "v_ref": 3.3, "bits": 12, "pitch_cm": PITCH_CM}
@@ -358,7 +332,7 @@ def _session_truth(out: Path, stem: str, traj: Any, st: Any, frames: int, rate: 
         clipped_frames=st.clipped_frames, saturated_fraction=st.saturated_fraction,
         force_on_mat_min=st.force_on_mat_min,
     )
-    (out / "truth" / "sessions" / f"{stem}.json").write_text(_json(info), encoding="utf-8")
-    _save_npz(out / "truth" / "sessions" / f"{stem}.npz", {
+    (out / "truth" / "sessions" / f"{stem}.json").write_text(truth_json(info), encoding="utf-8")
+    save_npz_stable(out / "truth" / "sessions" / f"{stem}.npz", {
         "t_device_s": t_dev, "t_platform_s": st.t_platform_s, "t_host_s": st.t_host_s, "cop_cm": st.cop_cm,
         "force_n": st.force_n, "valid": st.valid, "pressure_mean_psi": st.pressure_mean_psi})
