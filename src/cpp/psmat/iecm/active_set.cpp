@@ -19,11 +19,19 @@ bool FreeBlockSolver::factor(const NodalInverse& net, const Eigen::VectorXd& G,
   cells_ = free_cells;
   in_p_.assign(static_cast<size_t>(G.size()), 0);
   for (Index c : cells_) in_p_[static_cast<size_t>(c)] = 1;
-  scaled_hadamard_block(net, G, cells_, L_);
-  L_.diagonal().array() += static_cast<float>(mu);
-  Eigen::LLT<Eigen::Ref<Eigen::MatrixXf>> llt(L_);  // in place
-  valid_ = llt.info() == Eigen::Success;
-  return valid_;
+  // a preconditioner only: where float32 round-off makes S_II + mu I indefinite (eigenvalues
+  // near 1e-7 of its unit diagonal), a small diagonal shift keeps it usable, as in
+  // NewtonOperator::factor
+  for (double shift = 0.0; shift <= 1e-2; shift = shift == 0.0 ? 1e-6 : shift * 100.0) {
+    scaled_hadamard_block(net, G, cells_, L_);
+    L_.diagonal().array() += static_cast<float>(mu + shift);
+    Eigen::LLT<Eigen::Ref<Eigen::MatrixXf>> llt(L_);  // in place
+    if (llt.info() == Eigen::Success) {
+      valid_ = true;
+      return true;
+    }
+  }
+  return false;
 }
 
 void FreeBlockSolver::apply(NewtonOperator& op, const NodalInverse& net, const Eigen::VectorXd& G,

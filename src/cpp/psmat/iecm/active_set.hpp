@@ -24,7 +24,8 @@ class FreeBlockSolver {
   bool has_factor() const { return valid_; }
   // Cells of I (ascending) and P that differ.
   Index changes(const std::vector<Index>& free_cells) const;
-  // Builds and factorises S_II + mu I at (net, G) for I = free_cells. False if not SPD.
+  // Builds and factorises S_II + mu I at (net, G) for I = free_cells (float32, with a small
+  // diagonal shift if round-off needs one). False if not SPD even then.
   bool factor(const NodalInverse& net, const Eigen::VectorXd& G,
               const std::vector<Index>& free_cells, double mu);
   // Solves (S_II + mu I) y_I = b_I to ||residual|| <= tol ||b_I||; b and y have length R*C
