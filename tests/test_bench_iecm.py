@@ -2,7 +2,10 @@
 
 from __future__ import annotations
 
-from psmat.bench.iecm import _row, _target
+import numpy as np
+
+import psmat.iecm as iecm
+from psmat.bench.iecm import _noisy_entries, _row, _target, complementarity_residual
 
 
 def _noisy(size=16, fps=2500.0, threads=2, max_iterations=40, max_residual=1e-7, **kw):
@@ -48,3 +51,27 @@ def test_noise_free_targets_are_only_the_specs():
                err_loaded=1e-9)
     _target(r32)  # SPEC §10 sets no noise-free 32x32 target
     assert r32["target"] == "" and r32["target_met"] is None
+
+
+def test_noisy_entries_compare_the_old_solver_and_the_quick_fixed_point():
+    # issue 14: the noisy rows sit beside today's (Fischer-Burmeister) solver and the thesis'
+    # quick fixed point (25 iterations, beta 0.05) in the same run, and a cold start is reported
+    entries = _noisy_entries(16, 2000, heavy=False, ncpu=2)
+    assert [e["mode"] for e in entries] == ["streaming", "cold", "streaming", "streaming"]
+    assert entries[2]["method"] == "bounded_newton"
+    assert entries[3]["method"] == "fixed_point"
+    assert entries[3]["solve_options"] == dict(beta=0.05, max_iter=25, rtol=1e-14)
+    heavy = _noisy_entries(64, 20, heavy=True, ncpu=2)
+    assert heavy[2]["frames"] == 4 and heavy[1]["frames"] == 4 and heavy[0]["frames"] == 20
+
+
+def test_complementarity_residual_by_hand():
+    g = np.full((3, 3), 1e-3)
+    G = iecm.forward(g)
+    assert complementarity_residual(g, G) <= 1e-12  # an exact solution
+    # one cell reads 10 % more than the model gives: phi = sqrt(a^2 + b^2) - a - b with
+    # a = g/G' and b = (G - G')/G' = -1/11 for that cell (g_floor negligible)
+    G2 = G.copy()
+    G2[1, 1] *= 1.1
+    a, b = (1e-3 - 1e-12) / G2[1, 1], -0.1 / 1.1
+    assert np.isclose(complementarity_residual(g, G2), np.hypot(a, b) - a - b, rtol=1e-9)

@@ -19,7 +19,11 @@ model (:func:`psmat.bench.baseline_numpy.forward_numpy`), noise-free.
 * **noisy G** — streaming on the same frames as a mat measures them (``psmat.Circuit``:
   1 mV on the ADC node, 12 bits), so quiet cells end at the bound g = 0. SPEC §10's noisy
   targets ask for frames/s with every frame's complementarity residual <= 1e-6 and none
-  over 50 iterations; the error against the true g is noise-limited there.
+  over 50 iterations; the error against the true g is noise-limited there. Beside it, on the
+  same noisy frames: psmat cold (every frame from g0 = G), the Fischer-Burmeister
+  ``bounded_newton`` that handled noisy frames before issue 14 (fewer frames above 32×32),
+  and the thesis'/peer module's quick fixed point (25 iterations, β 0.05, streaming). Their
+  ``resid`` is measured from the returned g alike (:func:`complementarity_residual`).
 
 Per entry: one untimed warm-up call (skipped for arrays above 32×32, where one frame is
 seconds of work), then the same call repeated until at least ``--min-time`` seconds
@@ -212,6 +216,9 @@ def measure_psmat(size: int, mode: str, threads: int, frames: int, seed: int, mi
                 return iecm.solve(G, warm_start=False, **kwargs)
         (g_hat, info), calls, secs = _timed(call, min_time, max_time)
     e_loaded, e_all = _errors(g_hat, g)
+    max_residual = float(np.max(info.residual))
+    if noise_v > 0:  # measured here, the same way for every solver (the fixed point reports |F-G|/G)
+        max_residual = complementarity_residual(g_hat, G)
     conv = np.atleast_1d(np.asarray(info.converged, dtype=bool))
     if not conv.all():
         status = sorted(set(np.atleast_1d(np.asarray(info.status))[~conv].tolist()))
@@ -220,9 +227,22 @@ def measure_psmat(size: int, mode: str, threads: int, frames: int, seed: int, mi
     return _row(size=size, mode=mode, solver=label, threads=nt, frames=T, calls=calls,
                 seconds=secs, fps=fps, fps_per_core=fps / nt, err_loaded=e_loaded, err_all=e_all,
                 iterations=float(np.mean(info.iterations)), max_iterations=float(np.max(info.iterations)),
-                max_residual=float(np.max(info.residual)),
+                max_residual=max_residual,
                 factorizations=float(np.mean(getattr(info, "factorizations", np.nan))),
                 noise_v=noise_v, note="; ".join(notes))
+
+
+def complementarity_residual(g: np.ndarray, G: np.ndarray, g_floor: float = 1e-12) -> float:
+    """Largest Fischer-Burmeister residual of the bounded problem (SPEC §3) over cells and frames.
+
+    ``phi = sqrt(a^2 + b^2) - a - b`` with ``a = (g - g_floor)/G`` and ``b = (F(g) - G)/G``
+    (dimensionless); zero exactly when g >= g_floor, F(g) >= G and one of them is tight.
+    """
+    import psmat.iecm as iecm
+
+    a = (g - g_floor) / G
+    b = (iecm.forward(g) - G) / G
+    return float(np.max(np.hypot(a, b) - a - b))
 
 
 def _child(conn, fn_name: str, kwargs: dict) -> None:  # pragma: no cover - runs in a child
@@ -452,19 +472,23 @@ def run(sizes=(16, 32, 64), frames: int | None = None, threads=None, *, quick: b
                     except Exception as exc:
                         emit(_row(size=size, mode=mode, solver="psmat newton", threads=nt, frames=Tm,
                                   note=f"failed: {exc!r}"))
-        # A real mat's data: noisy G (quiet cells end at the bound g = 0, bounded Newton).
-        label = "psmat newton, noisy G (1 mV, 12 bit)"
-        kw = dict(size=size, mode="streaming", threads=ncpu, frames=T, seed=seed, min_time=min_time,
-                  max_time=budget, warmup=not heavy, noise_v=1e-3, label=label)
-        fb = _row(size=size, mode="streaming", solver=label, threads=min(ncpu, T), frames=T, noise_v=1e-3)
-        if heavy:
-            emit(_isolated("measure_psmat", kw, budget, fb))
-        else:
-            try:
-                emit(measure_psmat(**kw))
-            except Exception as exc:
-                fb["note"] = f"failed: {exc!r}"
-                emit(fb)
+        # A real mat's data: noisy G (quiet cells end at the bound g = 0): psmat's default path
+        # (Newton handing frames with bound cells to the active-set Newton), streaming and cold;
+        # in the same run the Fischer-Burmeister bounded Newton it replaced (issue 14) and the
+        # thesis' quick fixed point (25 iterations, beta 0.05), with their measured residuals.
+        for noisy in _noisy_entries(size, T, heavy, ncpu):
+            kw = dict(size=size, threads=ncpu, seed=seed, min_time=min_time, max_time=budget,
+                      warmup=not heavy, noise_v=1e-3, **noisy)
+            fb = _row(size=size, mode=noisy["mode"], solver=noisy["label"], threads=min(ncpu, noisy["frames"]),
+                      frames=noisy["frames"], noise_v=1e-3)
+            if heavy:
+                emit(_isolated("measure_psmat", kw, budget, fb))
+            else:
+                try:
+                    emit(measure_psmat(**kw))
+                except Exception as exc:
+                    fb["note"] = f"failed: {exc!r}"
+                    emit(fb)
         # psmat's C++ fixed point, the thesis' iteration (same 2000 iterations as the NumPy baseline).
         if baselines:
             fp_it = 200 if smoke else 2000
@@ -514,6 +538,24 @@ def run(sizes=(16, 32, 64), frames: int | None = None, threads=None, *, quick: b
                              min_time=min_time, budget=budget, seed=seed,
                              error_threshold_s=ERROR_THRESHOLD_S, accuracy_target=ACCURACY_TARGET),
             "rows": rows, "notes": notes}
+
+
+NOISY_LABEL = "psmat newton, noisy G (1 mV, 12 bit)"
+
+
+def _noisy_entries(size: int, frames: int, heavy: bool, ncpu: int) -> list[dict]:
+    """The noisy-G entries of one array size (keyword arguments of :func:`measure_psmat`)."""
+    few = max(ncpu, frames // 5) if heavy else frames  # the slow reference: fewer frames above 32x32
+    return [
+        dict(mode="streaming", frames=frames, label=NOISY_LABEL),
+        dict(mode="cold", frames=max(ncpu, min(frames, 2 * ncpu)) if heavy else frames,
+             label=NOISY_LABEL.replace("newton,", "newton cold,")),
+        dict(mode="streaming", frames=few, method="bounded_newton",
+             label="psmat bounded_newton (Fischer-Burmeister, before issue 14), noisy G"),
+        dict(mode="streaming", frames=frames, method="fixed_point",
+             solve_options=dict(beta=0.05, max_iter=25, rtol=1e-14),
+             label="psmat fixed_point β=0.05, 25 it (thesis/peer), noisy G"),
+    ]
 
 
 def _int_list(text: str) -> list[int]:
