@@ -62,3 +62,39 @@ def test_errors_are_one_line_and_exit_status_1(simulated, tmp_path, capsys, argv
     lines = err.strip().splitlines()
     assert len(lines) == 1 and words in lines[0], err
     assert not missing.exists()
+
+
+# ------------------------------------------------------------------ psmat posture train (simulation)
+@pytest.fixture(scope="module")
+def trainable(tmp_path_factory) -> Path:
+    # 2 subjects x 1 day x 60 s: 600 IMU samples per session, so the 10 % validation block holds
+    # 50-frame windows; the mat at 20 Hz keeps IECM short
+    root = tmp_path_factory.mktemp("cli") / "train"
+    assert main(["posture", "simulate", str(root), "--subjects", "2", "--days", "1", "--seed", "4", "--seconds", "60",
+                 "--rate", "20", "--quiet"]) == 0
+    return root
+
+
+def test_posture_train_writes_table_4_4_and_reports_it(trainable, capsys) -> None:
+    capsys.readouterr()
+    assert main(["posture", "train", str(trainable), "--split", "ksi", "--epochs", "1", "--windows-per-epoch", "64",
+                 "--workers", "1", "--quiet"]) == 0
+    out = capsys.readouterr().out
+    table = trainable / "results" / "posture" / "table44_ksi.csv"
+    assert str(table) in out
+    with open(table, newline="") as fh:
+        rows = list(csv.DictReader(fh))
+    assert [(r["model"], r["subset"]) for r in rows][:2] == [(rows[0]["model"], "validation"),
+                                                              (rows[0]["model"], "test")]
+    assert {r["split"] for r in rows} == {"ksi"}
+    for r in rows:
+        assert float(r["MSE"]) > 0 and all(k in r for k in ("R2_Sensor0", "R2_Sum"))
+        assert f"{r['model']} {r['subset']}: MSE" in out
+    # each session's inputs are cached (psmat.posture.dataset)
+    assert len(list((trainable / "results" / "posture" / "inputs").glob("*.npz"))) == 2
+
+
+def test_posture_train_errors_are_one_line(tmp_path, capsys) -> None:
+    assert main(["posture", "train", str(tmp_path), "--split", "lso", "--quiet"]) == 1
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "no sessions/ folder" in err[0]
