@@ -1,0 +1,56 @@
+"""R² per output of each held-out-subject model, as grouped bars (issue 13 item 5); Agg, PNG."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from .metrics import OUTPUTS
+
+__all__ = ["plot_r2_bars"]
+
+#: The axis' floor: R² runs to -inf (the thesis' LSO Sensor4: -2.4); lower bars are cut and labelled.
+R2_FLOOR = -1.0
+
+
+def plot_r2_bars(rows: Sequence[dict[str, Any]], path: str | Path, *, title: str) -> Path:
+    """One group of bars per output (Sensor0..4, Sum), one bar per model.
+
+    Parameters
+    ----------
+    rows : sequence of dict
+        Table 4.4 rows (:func:`~psmat.posture.metrics.table44_row`) of one subset, one per model,
+        in the order to draw.
+    path : str or Path
+        PNG to write.
+    title : str
+    """
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
+    fig = Figure(figsize=(12, 5.5), layout="constrained")
+    FigureCanvasAgg(fig)
+    ax = fig.subplots()
+    n = len(rows)
+    width = 0.85 / max(n, 1)
+    x = np.arange(len(OUTPUTS))
+    for i, row in enumerate(rows):
+        r2 = np.array([row[f"R2_{o}"] for o in OUTPUTS], dtype=float)
+        pos = x - 0.425 + (i + 0.5) * width
+        ax.bar(pos, np.maximum(r2, R2_FLOOR), width, color=f"C{i % 10}", label=row["model"])
+        for p, v in zip(pos, r2):
+            if v < R2_FLOOR:
+                ax.text(p, R2_FLOOR, f"{v:.1f}", rotation=90, ha="center", va="bottom", fontsize=7)
+    ax.axhline(0.0, color="k", lw=0.8)
+    ax.set_xticks(x, OUTPUTS)
+    ax.set_ylim(R2_FLOOR, 1.0)
+    ax.set_ylabel("R²")
+    ax.legend(fontsize=8, ncols=2, loc="lower left")
+    ax.set_title(title)
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=100)
+    return path
