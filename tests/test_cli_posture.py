@@ -98,3 +98,16 @@ def test_posture_train_errors_are_one_line(tmp_path, capsys) -> None:
     assert main(["posture", "train", str(tmp_path), "--split", "lso", "--quiet"]) == 1
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "no sessions/ folder" in err[0]
+
+
+# ------------------------------------------------------------------ psmat posture heldout
+def test_posture_heldout_needs_three_subjects_and_says_so_in_one_line(trainable, tmp_path, capsys) -> None:
+    capsys.readouterr()
+    assert main(["posture", "heldout", str(trainable), "--epochs", "1", "--workers", "1", "--quiet"]) == 1
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0] == "psmat posture heldout: LSO needs at least 3 subjects (train, validation, " \
+                                      "test), got 2"
+    assert not (trainable / "results" / "posture" / "heldout.csv").exists()
+    assert main(["posture", "heldout", str(tmp_path), "--quiet"]) == 1
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "no sessions/ folder" in err[0]

@@ -11,21 +11,43 @@ one session per day (:mod:`psmat.posture.simulate`), the truth apart in ``DIR/tr
 that split, writing ``DIR/results/posture/table44_<split>.csv`` (thesis Table 4.4's shape, the
 ridge-on-PCA baseline beside it), figures as Figs. 4.13-4.16 and checkpoints (a killed training
 resumes). It needs PyTorch: ``pip install 'psmat[posture]'``.
+
+``psmat posture heldout DIR`` evaluates the held-out-subject models of issue 13 item 5 on the LSO
+test subjects (:mod:`psmat.posture.heldout`): the thesis' CNN, the CNN on subject-invariant
+inputs, both fine-tuned on each test subject's first 30 s, and the ridge-on-PCA baselines (raw,
+invariant, calibrated), all on the same windows after each session's calibration phase; it writes
+``DIR/results/posture/heldout.csv`` and ``figures/heldout_r2.png`` and reuses the LSO training of
+``psmat posture train --split lso`` when its data and settings match.
 """
 
 from __future__ import annotations
 
 import argparse
+import math
 import sys
+from pathlib import Path
+from typing import Any
 
 from . import _args
 
 NAME = "posture"
-HELP = "simulate a posture study folder (mat and spine IMUs, thesis chapter 4) or train the CNN on one"
+HELP = ("simulate a posture study folder (mat and spine IMUs, thesis chapter 4), train the CNN on one, or "
+        "evaluate models for held-out subjects")
+
+
+def _learning_rate(text: str) -> float:
+    """A learning rate, finite and > 0."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"a learning rate must be a number, got {text!r}") from None
+    if not (math.isfinite(value) and value > 0):
+        raise argparse.ArgumentTypeError(f"a learning rate must be > 0, got {text!r}")
+    return value
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
-    sub = p.add_subparsers(dest="action", required=True, metavar="{simulate,train}")
+    sub = p.add_subparsers(dest="action", required=True, metavar="{simulate,train,heldout}")
     s = sub.add_parser("simulate", help="write a simulated posture study into DIR",
                        description="Write a simulated posture study (SPEC §8): each subject sits on the mat "
                                    "once a day following the thesis' protocol (30 s straight, forward, back, "
@@ -58,31 +80,71 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                    help="processes building the inputs (default: every core)")
     t.add_argument("--out", default=None, help="output folder (default DIR/results/posture)")
     t.add_argument("--quiet", action="store_true", help="no progress bars")
+    h = sub.add_parser("heldout", help="held-out subjects (LSO test): invariant inputs, a 30 s calibration, "
+                                       "ridge-PCA baselines, on the same windows",
+                       description="Build each session's inputs (cached) and evaluate on the LSO test subjects, "
+                                   "on the windows after each session's calibration phase: the thesis' CNN, the "
+                                   "CNN on subject-invariant inputs, both fine-tuned on each test subject's "
+                                   "calibration phase, and ridge on a PCA of the raw and invariant inputs "
+                                   "(uncalibrated and offset-calibrated); write DIR/results/posture/heldout.csv "
+                                   "and figures/heldout_r2.png.")
+    h.add_argument("dir", metavar="DIR", help="the posture study folder (sessions/ with the mat and the IMUs)")
+    h.add_argument("--epochs", type=_args.positive_int, default=30, help="most epochs of each CNN (default 30)")
+    h.add_argument("--patience", type=_args.positive_int, default=5,
+                   help="early stopping after this many epochs without a lower validation loss (default 5)")
+    h.add_argument("--windows-per-epoch", type=_args.positive_int, default=8192,
+                   help="training windows drawn at random each epoch (default 8192)")
+    h.add_argument("--calibration-s", type=_args.seconds, default=30.0,
+                   help="each session's calibration phase, the protocol's straight back (s, default 30)")
+    h.add_argument("--finetune-epochs", type=_args.positive_int, default=5,
+                   help="epochs of fine-tuning on a test subject's calibration windows (default 5)")
+    h.add_argument("--finetune-lr", type=_learning_rate, default=1e-3, help="its learning rate (default 1e-3)")
+    h.add_argument("--finetune-layers", choices=("last", "head", "all"), default="head",
+                   help="what the fine-tuning trains: the output layer, the dense layers (default) or all")
+    h.add_argument("--seed", type=int, default=0, help="seed of the trainings and fine-tunings (default 0)")
+    h.add_argument("--workers", type=_args.positive_int, default=None,
+                   help="processes building the inputs (default: every core)")
+    h.add_argument("--out", default=None, help="output folder (default DIR/results/posture)")
+    h.add_argument("--quiet", action="store_true", help="no progress bars")
 
 
 def run(args: argparse.Namespace) -> int:
-    return _simulate(args) if args.action == "simulate" else _train(args)
+    if args.action == "simulate":
+        return _simulate(args)
+    return _train(args) if args.action == "train" else _heldout(args)
 
 
-def _train(args: argparse.Namespace) -> int:
-    from pathlib import Path
-
+def _study(args: argparse.Namespace, verb: str) -> tuple[Any, Path] | None:
+    """The study's recordings and the output folder, or None after a one-line error."""
     from ..posture.dataset import load_posture_study
 
     root = Path(args.dir)
     if not (root / "sessions").is_dir():
-        print(f"psmat posture train: {root} has no sessions/ folder (a posture study, SPEC §6)", file=sys.stderr)
-        return 1
+        print(f"psmat posture {verb}: {root} has no sessions/ folder (a posture study, SPEC §6)", file=sys.stderr)
+        return None
+    study = load_posture_study(root, workers=args.workers, progress=not args.quiet)
+    for p in study.problems:
+        print(f"psmat posture {verb}: left out {p}", file=sys.stderr)
+    return study, Path(args.out) if args.out else root / "results" / "posture"
+
+
+def _print_rows(rows: list[dict[str, Any]]) -> None:
+    for row in rows:
+        r2 = ", ".join(f"{k[3:]} {v:.3f}" for k, v in row.items() if k.startswith("R2_"))
+        print(f"  {row['model']} {row['subset']}: MSE {row['MSE']:.4g} rad^2; R2 {r2}")
+
+
+def _train(args: argparse.Namespace) -> int:
     try:
         from ..posture.train import train_posture
     except ImportError as exc:
         print(f"psmat posture train: {_line(exc)}", file=sys.stderr)
         return 1
     try:
-        study = load_posture_study(root, workers=args.workers, progress=not args.quiet)
-        for p in study.problems:
-            print(f"psmat posture train: left out {p}", file=sys.stderr)
-        out = Path(args.out) if args.out else root / "results" / "posture"
+        found = _study(args, "train")
+        if found is None:
+            return 1
+        study, out = found
         result = train_posture(study.recordings, out, split=args.split, seed=args.seed, epochs=args.epochs,
                                patience=args.patience, windows_per_epoch=args.windows_per_epoch,
                                progress=not args.quiet)
@@ -91,9 +153,32 @@ def _train(args: argparse.Namespace) -> int:
         return 1
     print(f"{len(study.recordings)} sessions, split {args.split}: best epoch {result.best_epoch}; "
           f"{out / f'table44_{args.split}.csv'}")
-    for row in [*result.rows, *result.baseline_rows]:
-        r2 = ", ".join(f"{k[3:]} {v:.3f}" for k, v in row.items() if k.startswith("R2_"))
-        print(f"  {row['model']} {row['subset']}: MSE {row['MSE']:.4g} rad^2; R2 {r2}")
+    _print_rows([*result.rows, *result.baseline_rows])
+    return 0
+
+
+def _heldout(args: argparse.Namespace) -> int:
+    try:
+        from ..posture.finetune import FinetuneConfig
+        from ..posture.heldout import heldout_study
+    except ImportError as exc:
+        print(f"psmat posture heldout: {_line(exc)}", file=sys.stderr)
+        return 1
+    try:
+        found = _study(args, "heldout")
+        if found is None:
+            return 1
+        study, out = found
+        ft = FinetuneConfig(epochs=args.finetune_epochs, lr=args.finetune_lr, layers=args.finetune_layers)
+        result = heldout_study(study.recordings, out, seed=args.seed, epochs=args.epochs, patience=args.patience,
+                               windows_per_epoch=args.windows_per_epoch, calibration_s=args.calibration_s,
+                               finetune_config=ft, progress=not args.quiet)
+    except (OSError, ValueError) as exc:
+        print(f"psmat posture heldout: {_line(exc)}", file=sys.stderr)
+        return 1
+    print(f"{len(study.recordings)} sessions, LSO test subjects {', '.join(result.split.subjects['test'])}, "
+          f"windows after the first {args.calibration_s:g} s; {result.table_path}")
+    _print_rows(result.rows)
     return 0
 
 

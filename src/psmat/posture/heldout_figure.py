@@ -31,7 +31,7 @@ def plot_r2_bars(rows: Sequence[dict[str, Any]], path: str | Path, *, title: str
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
 
-    fig = Figure(figsize=(12, 5.5), layout="constrained")
+    fig = Figure(figsize=(14, 5.5), layout="constrained")
     FigureCanvasAgg(fig)
     ax = fig.subplots()
     n = len(rows)
@@ -48,7 +48,7 @@ def plot_r2_bars(rows: Sequence[dict[str, Any]], path: str | Path, *, title: str
     ax.set_xticks(x, OUTPUTS)
     ax.set_ylim(R2_FLOOR, 1.0)
     ax.set_ylabel("R²")
-    ax.legend(fontsize=8, ncols=2, loc="lower left")
+    fig.legend(fontsize=8, loc="outside right upper")
     ax.set_title(title)
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
