@@ -17,6 +17,10 @@ subject needs no IMU for these inputs, only to start a session sitting straight.
   ``centre="frame"`` re-centres every image on its own CoP, removing that motion too and
   leaving only the print's shape. Both are exactly invariant to a whole-cell move of the seat
   and to a scale of the image (:func:`~psmat.posture.invariant.invariant_images` docs).
+  Measured with the ridge-on-PCA baseline on a 12-subject × 3-day study of ``psmat posture
+  simulate`` (LSO test subjects P10-P12, windows after the first 30 s; simulation):
+  test MSE 0.369 rad² on the raw image, 0.0165 with ``"session"``, 0.0317 with ``"frame"``
+  (R² of the five angles 0.81-0.91 and 0.63-0.91) — hence the default.
 * :func:`invariant_features` (the ridge model's hand features), per frame, each invariant to
   weight and seat position by construction: the CoP relative to the reference CoP (2, cells),
   the second central moments of the frame's print (3, cells²), the frame's total relative to
