@@ -5,7 +5,10 @@ with the mat's unknown conductance scale, chapter 3's f) and in where they sit o
 (the whole print moves). Both are removed per session, against the session's **reference**: the
 frames of its first ``calibration_s`` seconds, which the thesis' protocol spends sitting with a
 straight back (§4.3). Only the mat's images of that phase are used, never its angles: a new
-subject needs no IMU for these inputs, only to start a session sitting straight.
+subject needs no IMU for these inputs, only to start a session sitting straight. The phase, not
+the whole session's mean, is the reference: it is known as soon as the phase ends (live use),
+and it is the same posture in every session, whereas a session's mean depends on how much of it
+is spent leaning forward (thighs) or back (sacrum).
 
 * :func:`invariant_images` (the CNN's and the ridge-PCA's invariant input): each image divided by
   the reference's mean total conductance Σg (weight), then moved by a sub-cell bilinear shift
