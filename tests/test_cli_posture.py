@@ -42,7 +42,7 @@ def test_the_command_prints_one_line(tmp_path, capsys) -> None:
 
 
 ERRORS = [
-    (["posture"], "required: {simulate}"),
+    (["posture"], "required: {simulate,train,heldout}"),
     (["posture", "simulate", "{missing}", "--seed", "1", "--subjects", "0"], "--subjects: must be >= 1"),
     (["posture", "simulate", "{missing}", "--seed", "1", "--days", "two"], "--days: must be an integer"),
     (["posture", "simulate", "{missing}", "--seed", "1", "--seconds", "2"], "at least 5 s"),
