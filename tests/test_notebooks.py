@@ -23,7 +23,7 @@ NOTEBOOKS = sorted((ROOT / "notebooks").glob("*.ipynb"))
 def test_notebooks_exist():
     names = {p.name for p in NOTEBOOKS}
     assert {"qzpm_tables.ipynb", "uncertainty_random.ipynb", "uncertainty_maps.ipynb", "table_2_4.ipynb",
-            "resistor_board.ipynb", "balance_study.ipynb"} <= names
+            "resistor_board.ipynb", "balance_study.ipynb", "posture.ipynb"} <= names
 
 
 @pytest.mark.parametrize("path", NOTEBOOKS, ids=[p.stem for p in NOTEBOOKS])
