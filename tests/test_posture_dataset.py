@@ -101,7 +101,7 @@ def test_a_study_is_cached_per_session_and_recomputes_only_what_changed(study, l
 
 def test_a_mat_recorded_apart_is_aligned_to_its_imu_log(study, loaded, tmp_path) -> None:
     from psmat.io import SessionWriter, load_session, write_imu_log
-    from psmat.posture.dataset import session_recording
+    from psmat.posture.dataset import load_posture_study
 
     s = load_session(study / "sessions" / "P02_d1.h5")
     mat_only = tmp_path / "P02_d1.h5"
@@ -111,7 +111,15 @@ def test_a_mat_recorded_apart_is_aligned_to_its_imu_log(study, loaded, tmp_path)
     imu = s.streams["imu"]
     log = tmp_path / "P02_d1.txt"
     write_imu_log(log, imu.counts)  # the thesis' log: no time column, sample k at k / 10 Hz
-    r = session_recording(mat_only, imu_log=log)
+    # a study folder finds the log beside the session as imu/<stem>.txt (SPEC §6)
+    apart = tmp_path / "apart"
+    (apart / "sessions").mkdir(parents=True)
+    (apart / "imu").mkdir()
+    mat_only.rename(apart / "sessions" / mat_only.name)
+    log.rename(apart / "imu" / log.name)
+    found = load_posture_study(apart, workers=1, progress=False)
+    assert found.problems == [] and len(found.recordings) == 1
+    r = found.recordings[0]
     # t_imu = t_mat + lag: the log's 0 is the IMU's first sample, at host time imu.host_time_s[0]
     assert r.meta["aligned_by"].startswith("cross-correlation")
     assert abs(r.meta["lag_s"] - (-imu.host_time_s[0])) < 0.1  # one IMU sample
