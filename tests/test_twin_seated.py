@@ -21,7 +21,7 @@ from psmat import protocol
 from psmat.posture import spine_points
 from psmat.twin import ImuSource, SerialTwin
 from psmat.twin.field import cell_force_n
-from psmat.twin.scenes import seat_scene
+from psmat.twin.seat_scenes import seat_scene
 from psmat.twin.seated import SeatedSession, seated_session
 from psmat.twin.seated_imu import DRIFT_SD_DEG, DRIFT_TAU_S, EULER_LSB_DEG, ImuDevice, imu_readings
 from psmat.twin.seated_protocol import GRID_HZ, PostureState, posture_trajectory, protocol_phases

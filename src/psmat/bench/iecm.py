@@ -54,7 +54,7 @@ import warnings
 import numpy as np
 
 from .. import twin
-from .baseline_numpy import forward_numpy, jacobian_numpy, solve_fixed_point_numpy, solve_least_squares_scipy
+from .baseline_numpy import forward_numpy
 from .iecm_report import format_table, jsonable, machine_info
 
 __all__ = ["run", "format_table", "machine_info", "main", "TARGETS", "NOISY_TARGETS"]
@@ -292,110 +292,6 @@ def _isolated(fn_name: str, kwargs: dict, timeout: float, fallback_row: dict) ->
     return row
 
 
-# ----------------------------------------------------------------------------- baselines
-
-def measure_fixed_point_numpy(size: int, frames: int, seed: int, max_iter: int = 2000,
-                              beta: float = 0.05) -> dict:
-    """NumPy fixed point (eq. 2.10), cold from g0 = G, a fixed number of iterations, batched over frames."""
-    g, G = _scene(size, frames + 1, seed)
-    g, G = g[1:], G[1:]
-    t0 = time.perf_counter()
-    g_hat, info = solve_fixed_point_numpy(G, beta=beta, rtol=0.0, max_iter=max_iter)
-    secs = time.perf_counter() - t0
-    e_loaded, e_all = _errors(g_hat, g)
-    return _row(size=size, mode="cold", solver=f"numpy fixed point β={beta:g}, {max_iter} it",
-                threads=1, frames=frames, calls=1, seconds=secs, fps=frames / secs,
-                fps_per_core=frames / secs, err_loaded=e_loaded, err_all=e_all,
-                iterations=float(np.mean(info["iterations"])),
-                note="vectorised over the frames (NumPy batched Cholesky)")
-
-
-def measure_fixed_point_to_target(size: int, seed: int, time_limit: float, beta: float = 0.05,
-                                  max_iter: int = 10_000_000) -> dict:
-    """Iterations the NumPy fixed point needs to reach the 1e-6 target on frame 1 (oracle stop)."""
-    g, G = _scene(size, 2, seed)
-    g, G = g[1], G[1]
-    g_hat, info = solve_fixed_point_numpy(G, beta=beta, rtol=0.0, max_iter=max_iter, g_true=g,
-                                          target_error=ACCURACY_TARGET,
-                                          error_threshold=ERROR_THRESHOLD_S, time_limit=time_limit)
-    secs = info["wall_time"]
-    e_loaded, e_all = _errors(g_hat, g)
-    it = int(info["iterations"])
-    lo, hi = _jacobian_spread(g)
-    if info["converged"]:
-        note = f"{it} iterations to reach {ACCURACY_TARGET:g} on cells >= {ERROR_THRESHOLD_S:g} S (oracle stop)"
-    else:
-        note = f"not at {ACCURACY_TARGET:g} after {it} iterations ({time_limit:.0f} s cap)"
-        est = _extrapolate_iterations(info["error_history"], ACCURACY_TARGET)
-        if est is not None and not beta * hi > 2:
-            note += (f"; the error's decay over the last half extrapolates to ~{est:.2g} iterations "
-                     f"(~{est * secs / max(it, 1):.2g} s per frame at this speed)")
-    if np.isfinite(hi):
-        spread = f"eigenvalues {lo:.2g} ... {hi:.3g}" if np.isfinite(lo) else f"largest eigenvalue {hi:.3g}"
-        note += f"; dG/dg at the solution has {spread}, so β·λmax = {beta * hi:.2g}"
-        if beta * hi > 2:
-            note += " > 2: the iteration is unstable at this size"
-        elif np.isfinite(lo):
-            note += f" and the slowest mode contracts by 1 - β·λmin = {1 - beta * lo:.6f} per iteration"
-    return _row(size=size, mode="cold", solver=f"numpy fixed point β={beta:g}, to {ACCURACY_TARGET:g}",
-                threads=1, frames=1, calls=1, seconds=secs, fps=1.0 / secs, fps_per_core=1.0 / secs,
-                err_loaded=e_loaded, err_all=e_all, iterations=float(it), note=note)
-
-
-def _jacobian_spread(g: np.ndarray) -> tuple[float, float]:
-    """Smallest and largest eigenvalue of dG/dg at g (NaN where too costly).
-
-    ``J = D² (T∘T)`` with ``D = diag(G)`` is similar to the symmetric ``D (T∘T) D``, so its
-    eigenvalues are real and non-negative; above 32×32 only the largest (ARPACK).
-    """
-    try:
-        J = jacobian_numpy(g)
-        if J.shape[0] <= 1024:
-            ev = np.linalg.eigvals(J).real
-            return float(ev.min()), float(ev.max())
-        from scipy.sparse.linalg import eigs
-
-        hi = float(np.abs(eigs(J, k=1, which="LM", return_eigenvectors=False)[0]))
-        return float("nan"), hi
-    except Exception:  # informative only
-        return float("nan"), float("nan")
-
-
-def _extrapolate_iterations(history: np.ndarray, target: float) -> float | None:
-    """Iterations to reach ``target`` at the geometric decay rate seen over the second half."""
-    h = np.asarray(history, dtype=float)
-    k = len(h) - 1
-    if k < 20 or not np.all(np.isfinite(h[[k // 2, k]])) or h[k] <= 0:
-        return None
-    rate = (h[k] / h[k // 2]) ** (1.0 / (k - k // 2))
-    if not 0 < rate < 1:
-        return None
-    return k + np.log(target / h[k]) / np.log(rate)
-
-
-def measure_least_squares(size: int, frames: int, seed: int, param: str = "bounds") -> dict:
-    """scipy.optimize.least_squares, numerical Jacobian, cold from g0 = G, frame by frame."""
-    g, G = _scene(size, frames + 1, seed)
-    g, G = g[1:], G[1:]
-    out = np.empty_like(g)
-    nfev, njev = [], []
-    t0 = time.perf_counter()
-    for t in range(frames):
-        out[t], res = solve_least_squares_scipy(G[t], param=param)
-        nfev.append(res.nfev)
-        njev.append(res.njev if res.njev is not None else np.nan)
-    secs = time.perf_counter() - t0
-    e_loaded, e_all = _errors(out, g)
-    what = "g in (0, inf), trf" if param == "bounds" else "log g, trf"
-    return _row(size=size, mode="cold", solver=f"scipy least_squares 2-point, {what}", threads=1,
-                frames=frames, calls=1, seconds=secs, fps=frames / secs, fps_per_core=frames / secs,
-                err_loaded=e_loaded, err_all=e_all, iterations=float(np.mean(njev)),
-                note=f"{np.mean(nfev):.0f} residual evaluations + {np.mean(njev):.0f} numerical "
-                     f"Jacobians ({size * size} forward solves each) per frame; iterations = Jacobians")
-
-
-# ----------------------------------------------------------------------------- driver
-
 def _settings(size: int, quick: bool, smoke: bool) -> dict:
     """Default frames and budgets per array size."""
     if size <= 16:
@@ -422,6 +318,9 @@ def run(sizes=(16, 32, 64), frames: int | None = None, threads=None, *, quick: b
     ``threads``: an int or a list of ints; default all usable cores, plus 1 thread for
     arrays up to 32×32 (per-core figures measured, not only divided).
     """
+    # the baselines reuse this module's frames and rows, so they are imported here, not above
+    from .iecm_baselines import measure_fixed_point_numpy, measure_fixed_point_to_target, measure_least_squares
+
     info = machine_info()
     ncpu = info["usable_cpus"]
     if min_time is None:

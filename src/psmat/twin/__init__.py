@@ -29,7 +29,8 @@ from .arrays import random_array
 from .conductance import swaying_feet
 from .field import MAT_SIZE_CM, PSI_PA, Lobes, cell_centres_cm, cell_cop_cm, cell_force_n, cell_pressure_psi, mat_pitch_cm
 from .mat import MatPhysics, MatTruth
-from .scenes import PressureScene, quiet_standing, single_leg_sway, sitting, trajectory_sway
+from .scenes import PressureScene, quiet_standing, single_leg_sway, trajectory_sway
+from .seat_scenes import sitting
 from .seated import SeatedSession, seated_session
 from .seated_subject import SeatedDay, SeatedSubject, draw_seated_day, draw_seated_subject
 from .serial_twin import Faults, SerialTwin, TwinStats

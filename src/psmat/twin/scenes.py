@@ -10,9 +10,9 @@ the load between their groups so that the field's CoP follows a target
 * :func:`trajectory_sway` — the CoP follows a recorded force-platform trajectory (e.g.
   the BDS data set; :func:`psmat.io.forceplate.load_bds`), total force following ``Fz``,
   on two feet or on one (:func:`stance_groups`).
-* :func:`sitting` — the seat of the seated twin (ischial tuberosities, thighs, sacrum) on a
-  cushion (SPEC §8), the CoP leaning slowly; :func:`seat_scene` renders any seat's frames
-  (the seated twin's posture protocol, :mod:`psmat.twin.seated`, is one).
+* seated scenes — :func:`psmat.twin.seat_scenes.sitting` and
+  :func:`~psmat.twin.seat_scenes.seat_scene` (the cushion, SPEC §8), built on :func:`scene_args`
+  and :class:`PressureScene` here.
 
 All return a :class:`PressureScene`, whose ``cop_true_cm`` is the CoP of the continuous field
 (what a force platform under the mat would measure). The image's total force equals the load
@@ -34,12 +34,11 @@ from .._checks import fraction, nonneg_int, pair, positive, positive_int, shape2
 from .anatomy import check_foot_size, check_side, single_foot_groups, two_feet_groups
 from ..units import PSI_KPA
 from .field import Lobes, cell_cop_cm, cell_force_n, mat_centre_cm
-from .seated_seat import SeatLayout, render_seat, seat_layout, share_load
 from .steering import steer
 from .sway import check_band, sway_noise, time_base
 
-__all__ = ["PressureScene", "quiet_standing", "single_leg_sway", "trajectory_sway", "stance_groups", "sitting",
-           "seat_scene", "STANCES"]
+__all__ = ["PressureScene", "quiet_standing", "single_leg_sway", "trajectory_sway", "stance_groups", "scene_args",
+           "STANCES"]
 
 #: Stances of :func:`trajectory_sway`: both feet, or only the right or the left foot.
 STANCES = ("two", "right", "left")
@@ -178,7 +177,7 @@ class _SceneArgs:
                        self.shape, self.pitch, self.supersample, self.min_fraction, meta)
 
 
-def _scene_args(
+def scene_args(
     duration_s: Any,
     rate_hz: Any,
     shape: Any,
@@ -276,7 +275,7 @@ def quiet_standing(
     -------
     PressureScene
     """
-    a = _scene_args(duration_s, rate_hz, shape, pitch_cm, weight_n, seed, sway_cm, band_hz, min_fraction, supersample)
+    a = scene_args(duration_s, rate_hz, shape, pitch_cm, weight_n, seed, sway_cm, band_hz, min_fraction, supersample)
     groups, nominal, feet = _two_feet_args(
         a.shape, a.pitch, foot_length_cm, foot_width_cm, stance_cm, toe_out_deg, heel_fraction
     )
@@ -332,7 +331,7 @@ def single_leg_sway(
     -------
     PressureScene
     """
-    a = _scene_args(duration_s, rate_hz, shape, pitch_cm, weight_n, seed, sway_cm, band_hz, min_fraction, supersample)
+    a = scene_args(duration_s, rate_hz, shape, pitch_cm, weight_n, seed, sway_cm, band_hz, min_fraction, supersample)
     side = check_side(side)
     length, width, _ = check_foot_size(foot_length_cm, foot_width_cm, 0.0)
     h = fraction("heel_fraction", heel_fraction)
@@ -502,122 +501,4 @@ def trajectory_sway(
         "trajectory_sway", groups, nominal, t_out, target, fz_o, shape, pitch, s, lo,
         {"rate_hz": rate, "seed": None, "offset_cm": offset, "input_rate_hz": float((tt.size - 1) / (tt[-1] - tt[0])),
          **feet},
-    )
-
-
-def seat_scene(
-    scene: str,
-    layout: SeatLayout,
-    t: NDArray[np.float64],
-    force_n: NDArray[np.float64],
-    cop_seat_cm: NDArray[np.float64],
-    contact_cm: NDArray[np.float64],
-    thigh_share: float,
-    shape: tuple[int, int],
-    pitch: float,
-    supersample: int,
-    min_fraction: float,
-    extra: dict[str, Any],
-) -> PressureScene:
-    """A seat's frames (:mod:`psmat.twin.seated_seat`): the load shared for each frame, the cells rendered.
-
-    ``force_n`` (T,) N, ``cop_seat_cm`` (T, 2) the target CoP in the seat frame (u, w) cm,
-    ``contact_cm`` (T,) the tuberosities' rolling contact along ``w`` (cm); ``meta`` as the other
-    scenes' (``cop_target_cm`` in mat coordinates) plus ``rows`` (T, 3): the ischial, thigh and
-    sacral shares.
-    """
-    load = share_load(layout, force_n, cop_seat_cm, contact_cm, thigh_share, min_fraction)
-    pressure, cop_true, on_mat = render_seat(layout, load.weights_n, shape, pitch, supersample)
-    clipped = load.clip_cm > 1e-8
-    meta: dict[str, Any] = {
-        "scene": scene, "shape": shape, "pitch_cm": pitch, "supersample": supersample,
-        "groups": [n for n, _ in layout.groups], "group_lobes": [l for _, l in layout.groups],
-        "min_fraction": min_fraction, "weights_n": load.weights_n, "rows": load.rows,
-        "cop_target_cm": layout.to_mat(np.asarray(cop_seat_cm, dtype=np.float64)), "clipped": clipped,
-        "n_clipped": int(clipped.sum()), "clip_cm": np.where(clipped, load.clip_cm, 0.0),
-        "force_on_mat_fraction": on_mat, "mat_centre_cm": mat_centre_cm(shape, pitch),
-        "seat_origin_cm": layout.origin_cm, "seat_rotation_deg": layout.rotation_deg,
-    }
-    meta.update(extra)
-    return PressureScene(pressure=pressure, t=t, cop_true_cm=cop_true, force_n=np.asarray(force_n, dtype=np.float64).copy(),
-                         meta=meta)
-
-
-def sitting(
-    duration_s: float,
-    rate_hz: float,
-    shape: tuple[int, int] = (16, 16),
-    pitch_cm: float = 2.0,
-    weight_n: float = 700.0,
-    seed: int = 0,
-    *,
-    seat_fraction: float = 0.75,
-    lean_cm: tuple[float, float] = (1.0, 1.5),
-    lean_period_s: float = 20.0,
-    sway_cm: tuple[float, float] = (0.05, 0.05),
-    band_hz: tuple[float, float] = (0.1, 0.5),
-    tuberosity_distance_cm: float = 12.0,
-    min_fraction: float = 0.02,
-    supersample: int = 5,
-) -> PressureScene:
-    """A person sitting on the mat (the meditation cushion, SPEC §8), the CoP leaning slowly.
-
-    The seat of the seated twin (:func:`~psmat.twin.anatomy.seat_groups`, its load shared by
-    :mod:`psmat.twin.seated_seat`) with its tuberosities at ``y = centre − 4 cm``, unrotated,
-    symmetric about the mat's vertical midline, the thighs taking 36 % upright. The seat carries
-    ``seat_fraction · weight_n``. The CoP leans sinusoidally with amplitudes ``lean_cm``
-    (M-L, A-P) and period ``lean_period_s`` (random phases from ``seed``) plus a little
-    band-limited sway ``sway_cm``; leaning forward loads the thighs, back the sacrum. For a
-    posture (a spine, a protocol, the IMUs) see :mod:`psmat.twin.seated`.
-
-    Parameters
-    ----------
-    duration_s, rate_hz, shape, pitch_cm, weight_n, seed
-        As :func:`quiet_standing` (s, Hz, cells, cm, N, -).
-    seat_fraction : float
-        Share of the body weight on the seat, in (0, 1].
-    lean_cm : (float, float)
-        Amplitude of the lean, (M-L, A-P) in cm; (0, 0) with ``sway_cm=(0, 0)`` is still
-        and symmetric.
-    lean_period_s : float
-        Period of the lean in s.
-    sway_cm : (float, float)
-        Standard deviation of the extra sway in cm.
-    band_hz : (float, float)
-        Band of the extra sway in Hz.
-    tuberosity_distance_cm : float
-        Distance between the ischial tuberosities in cm.
-    min_fraction : float
-        Least share of a left/right pair's load either side keeps.
-    supersample : int
-        As :func:`quiet_standing`.
-
-    Returns
-    -------
-    PressureScene
-    """
-    a = _scene_args(duration_s, rate_hz, shape, pitch_cm, weight_n, seed, sway_cm, band_hz, min_fraction, supersample)
-    frac = fraction("seat_fraction", seat_fraction)
-    if frac == 0:
-        raise ValueError("seat_fraction must be > 0")
-    lean = pair("lean_cm", lean_cm)
-    period = positive("lean_period_s", lean_period_s)
-    dist = positive("tuberosity_distance_cm", tuberosity_distance_cm)
-    t = a.t
-    layout = seat_layout(a.centre - np.array([0.0, 4.0]), 0.0, dist)
-    thigh = 0.36
-    loc = layout.local_cm
-    cop0 = np.array([0.0, (1.0 - thigh) * loc[0:4, 1].mean() + thigh * loc[4, 1]])  # the upright shares' CoP
-    rng = a.rng()
-    phase = rng.uniform(0.0, 2.0 * np.pi, size=2)
-    w = 2.0 * np.pi / period
-    target = cop0 + np.column_stack(
-        [lean[0] * np.sin(w * t + phase[0]), lean[1] * np.sin(w * t + phase[1])]
-    ) + a.sway_noise(rng)
-    return seat_scene(
-        "sitting", layout, t, np.full(t.size, frac * a.weight), target, np.zeros(t.size), thigh, a.shape, a.pitch,
-        a.supersample, a.min_fraction,
-        {"rate_hz": a.rate, "seed": a.seed, "weight_n": a.weight, "sway_cm": a.sway, "band_hz": a.band,
-         "seat_fraction": frac, "lean_cm": lean, "lean_period_s": period, "lean_phase_rad": phase,
-         "tuberosity_distance_cm": dist, "thigh_share": thigh},
     )

@@ -28,7 +28,8 @@ from numpy.typing import ArrayLike, NDArray
 
 from .._checks import nonneg_int, positive, positive_int, shape2
 from .field import mat_centre_cm, mat_pitch_cm
-from .scenes import PressureScene, seat_scene
+from .scenes import PressureScene
+from .seat_scenes import seat_scene
 from .seated_imu import true_angles
 from .seated_protocol import PostureTrajectory, posture_trajectory
 from .seated_seat import SeatLayout, seat_layout
@@ -76,7 +77,7 @@ class SeatedSession:
         -------
         PressureScene
             Pressure (T, R, C) psi; ``force_n`` the seat's force; ``meta`` as
-            :func:`~psmat.twin.scenes.seat_scene`'s plus ``seat_share``, ``hat_forward_cm``
+            :func:`~psmat.twin.seat_scenes.seat_scene`'s plus ``seat_share``, ``hat_forward_cm``
             (T,) and the posture (``posture``: :class:`~psmat.twin.seated_protocol.PostureState`).
         """
         shape_ = shape2(shape)
