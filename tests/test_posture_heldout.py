@@ -174,7 +174,8 @@ def test_heldout_study_scores_every_model_on_the_same_windows_and_writes_the_tab
     recs = _offset_study(4, 2, noise=0.01)
     res = heldout_study(recs, tmp_path, **SMALL)
     names = model_names(CAL_S)
-    assert names[2] == "CNN fine-tuned 10 s" and names[5] == "ridge-PCA calibrated 10 s"
+    assert names[2] == "CNN fine-tuned 10 s" and names[4] == "CNN calibrated 10 s"
+    assert names[7] == "ridge-PCA calibrated 10 s"
     with (tmp_path / "heldout.csv").open() as f:
         table = list(csv.DictReader(f))
     n_test = 2 * (300 - W + 1 - 100)
@@ -190,6 +191,16 @@ def test_heldout_study_scores_every_model_on_the_same_windows_and_writes_the_tab
         (subject, drawn), = res.drawn[name].items()
         assert subject == "P04" and {recs[r].subject for r in drawn[:, 0]} == {"P04"}
         assert (drawn[:, 1] + W).max() == 100
+    # the calibrated CNN: its own predictions plus the subject's mean residual over the calibration
+    # windows (computed here by hand from the model, the targets and the windows)
+    from psmat.posture.fit import predict
+    from psmat.posture.torchdata import WindowDataset
+    from psmat.posture.windows import WindowTargets
+
+    cal = res.windows.calibration["test"]
+    resid = WindowTargets(recs, W)(cal) - predict(res.cnn.model, WindowDataset(recs, cal, W, res.cnn.standardiser))
+    np.testing.assert_allclose(res.predictions["CNN calibrated 10 s"]["test"],
+                               res.predictions["CNN"]["test"] + resid.mean(axis=0), rtol=1e-6, atol=1e-9)
     assert res.figure_path == tmp_path / "figures" / "heldout_r2.png" and res.figure_path.stat().st_size > 10_000
     assert (tmp_path / "model_lso.pt").is_file() and (tmp_path / "invariant" / "model_lso.pt").is_file()
 

@@ -27,7 +27,7 @@ from .recording import Recording
 from .splits import Split
 from .windows import Standardiser, WindowTargets
 
-__all__ = ["HeldoutWindows", "heldout_windows", "offsets_from_calibration", "ridge_variants"]
+__all__ = ["HeldoutWindows", "heldout_windows", "offsets_from_calibration", "apply_offsets", "ridge_variants"]
 
 
 @dataclass(frozen=True)
@@ -93,8 +93,9 @@ def offsets_from_calibration(recordings: Sequence[Recording], calibration: NDArr
     return {s: residuals[subj == s].mean(axis=0) for s in np.unique(subj)}
 
 
-def _apply_offsets(recordings: Sequence[Recording], windows: NDArray[np.int64], pred: NDArray[np.float64],
+def apply_offsets(recordings: Sequence[Recording], windows: NDArray[np.int64], pred: NDArray[np.float64],
                    offsets: dict[str, NDArray[np.float64]]) -> NDArray[np.float64]:
+    """``pred`` with each subject's offset (:func:`offsets_from_calibration`) added to their windows' rows."""
     out = pred.copy()
     subj = np.array([recordings[r].subject for r in windows[:, 0]])
     for s, o in offsets.items():
@@ -160,6 +161,6 @@ def ridge_variants(recordings: Sequence[Recording], invariant: Sequence[Recordin
         preds[name] = {"validation": m.predict(x["validation_scored"]), "test": m.predict(x["test"])}
         offsets = offsets_from_calibration(recordings, sets["calibration"],
                                            y["calibration"] - m.predict(x["calibration"]))
-        preds[name + calibrated_suffix] = {"test": _apply_offsets(recordings, sets["test"], preds[name]["test"],
+        preds[name + calibrated_suffix] = {"test": apply_offsets(recordings, sets["test"], preds[name]["test"],
                                                                   offsets)}
     return models, preds

@@ -16,6 +16,8 @@ model                                  what
 ``CNN fine-tuned 30 s``                (b) ``CNN`` fine-tuned per test subject on the windows of their first
                                        30 s of each session (:func:`~psmat.posture.finetune.finetune`)
 ``CNN invariant fine-tuned 30 s``      (a) and (b) together
+``CNN (invariant) calibrated 30 s``    (b) as for the ridge models: the CNN unchanged, each test subject's mean
+                                       residual over their calibration windows added to their predictions
 ``ridge-PCA``                          (c) ridge on a PCA of the window-mean image (:mod:`~psmat.posture.baseline`)
 ``ridge-PCA invariant``                (a)+(c) the same on the window-mean invariant image
 ``ridge-PCA invariant features``       (a)+(c) on the window means of
@@ -45,7 +47,7 @@ from tqdm.auto import tqdm
 
 from .._checks import positive, positive_int
 from ._torch import torch
-from .calibration import HeldoutWindows, heldout_windows, ridge_variants
+from .calibration import HeldoutWindows, apply_offsets, heldout_windows, offsets_from_calibration, ridge_variants
 from .finetune import FinetuneConfig, finetune
 from .fit import predict
 from .heldout_figure import plot_r2_bars
@@ -67,7 +69,7 @@ def model_names(calibration_s: float) -> list[str]:
     """The variants' names in the table's order (see the module note)."""
     cal = f"{calibration_s:g} s"
     return ["CNN", "CNN invariant", f"CNN fine-tuned {cal}", f"CNN invariant fine-tuned {cal}",
-            "ridge-PCA", f"ridge-PCA calibrated {cal}", "ridge-PCA invariant", f"ridge-PCA invariant calibrated {cal}",
+            f"CNN calibrated {cal}", f"CNN invariant calibrated {cal}", "ridge-PCA", f"ridge-PCA calibrated {cal}", "ridge-PCA invariant", f"ridge-PCA invariant calibrated {cal}",
             "ridge-PCA invariant features", f"ridge-PCA invariant features calibrated {cal}"]
 
 
@@ -206,6 +208,11 @@ def heldout_study(recordings: Sequence[Recording], out_dir: str | Path, *, seed:
             for name, res, data in ((names[0], cnn, recs), (names[1], cnn_inv, invariant)):
                 preds[name] = {k: predict(res.model, WindowDataset(data, held.scored[k], window, res.standardiser))
                                for k in ("validation", "test")}
+                cal_w = held.calibration["test"]
+                cal_pred = predict(res.model, WindowDataset(data, cal_w, window, res.standardiser))
+                offsets = offsets_from_calibration(recs, cal_w, WindowTargets(recs, window)(cal_w) - cal_pred)
+                preds[f"{name} calibrated {calibration_s:g} s"] = {
+                    "test": apply_offsets(recs, held.scored["test"], preds[name]["test"], offsets)}
                 ft = f"{name} fine-tuned {calibration_s:g} s"
                 ft_pred, drawn[ft] = _finetuned(res, data, held, window, finetune_config, seed, bar)
                 preds[ft] = {"test": ft_pred}
