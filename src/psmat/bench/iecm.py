@@ -292,6 +292,17 @@ def _isolated(fn_name: str, kwargs: dict, timeout: float, fallback_row: dict) ->
     return row
 
 
+def _measure_psmat(kw: dict, fallback_row: dict, heavy: bool, budget: float) -> dict:
+    """One psmat row: in a child process for heavy sizes (a crash or a hang costs only the row),
+    else in this process; a failure is the fallback row with its note."""
+    if heavy:
+        return _isolated("measure_psmat", kw, budget, fallback_row)
+    try:
+        return measure_psmat(**kw)
+    except Exception as exc:  # keep benchmarking the other rows
+        return {**fallback_row, "note": f"failed: {exc!r}"}
+
+
 def _settings(size: int, quick: bool, smoke: bool) -> dict:
     """Default frames and budgets per array size."""
     if size <= 16:
@@ -362,15 +373,8 @@ def run(sizes=(16, 32, 64), frames: int | None = None, threads=None, *, quick: b
                 Tm = T if (mode == "streaming" or not heavy) else max(1, min(T, nt))
                 kw = dict(size=size, mode=mode, threads=nt, frames=Tm, seed=seed, min_time=min_time,
                           max_time=budget, warmup=not heavy, prime="truth" if heavy else "solve")
-                if heavy:
-                    fb = _row(size=size, mode=mode, solver="psmat newton", threads=min(nt, Tm), frames=Tm)
-                    emit(_isolated("measure_psmat", kw, budget, fb))
-                else:
-                    try:
-                        emit(measure_psmat(**kw))
-                    except Exception as exc:
-                        emit(_row(size=size, mode=mode, solver="psmat newton", threads=nt, frames=Tm,
-                                  note=f"failed: {exc!r}"))
+                fb = _row(size=size, mode=mode, solver="psmat newton", threads=min(nt, Tm), frames=Tm)
+                emit(_measure_psmat(kw, fb, heavy, budget))
         # A real mat's data: noisy G (quiet cells end at the bound g = 0): psmat's default path
         # (Newton handing frames with bound cells to the active-set Newton), streaming and cold;
         # in the same run the Fischer-Burmeister bounded Newton it replaced (issue 14) and the
@@ -380,14 +384,7 @@ def run(sizes=(16, 32, 64), frames: int | None = None, threads=None, *, quick: b
                       warmup=not heavy, noise_v=1e-3, **noisy)
             fb = _row(size=size, mode=noisy["mode"], solver=noisy["label"], threads=min(ncpu, noisy["frames"]),
                       frames=noisy["frames"], noise_v=1e-3)
-            if heavy:
-                emit(_isolated("measure_psmat", kw, budget, fb))
-            else:
-                try:
-                    emit(measure_psmat(**kw))
-                except Exception as exc:
-                    fb["note"] = f"failed: {exc!r}"
-                    emit(fb)
+            emit(_measure_psmat(kw, fb, heavy, budget))
         # psmat's C++ fixed point, the thesis' iteration (same 2000 iterations as the NumPy baseline).
         if baselines:
             fp_it = 200 if smoke else 2000
@@ -397,14 +394,7 @@ def run(sizes=(16, 32, 64), frames: int | None = None, threads=None, *, quick: b
                       solve_options=dict(beta=0.05, max_iter=fp_it, rtol=1e-14),
                       label=f"psmat fixed_point β=0.05, {fp_it} it")
             fb = _row(size=size, mode="cold", solver=kw["label"], threads=min(ncpu, Tf), frames=Tf)
-            if heavy:
-                emit(_isolated("measure_psmat", kw, budget, fb))
-            else:
-                try:
-                    emit(measure_psmat(**kw))
-                except Exception as exc:
-                    fb["note"] = f"failed: {exc!r}"
-                    emit(fb)
+            emit(_measure_psmat(kw, fb, heavy, budget))
 
         if not baselines:
             continue
