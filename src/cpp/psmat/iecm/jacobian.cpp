@@ -55,15 +55,27 @@ void scaled_hadamard_block(const NodalInverse& net, const ConstVecRef& G,
   using Scalar = typename Matrix::Scalar;
   const Index R = net.shape().rows, C = net.shape().cols;
   const Index m = static_cast<Index>(cells.size());
-  const Eigen::MatrixXd& M = net.M();  // T[(i,p),(j,q)] = M[j,p'] + M[i,q'] - M[i,j] - M[p',q']
+  const Eigen::MatrixXd& M = net.M();
+  // For a fixed column cell b = (j,q), T[(i,p),b] = w[i] + u[p] (eq. 2.13 in the blocks of M):
+  //   w[i] = M[i,q'] - M[i,j],   u[p] = M[j,p'] - M[p',q']
+  // so each entry is two look-ups in short vectors instead of four in M.
+  std::vector<Index> row(static_cast<size_t>(m)), col(static_cast<size_t>(m));
+  Eigen::VectorXd Gc(m), w(R), u(C);
+  for (Index r = 0; r < m; ++r) {
+    const Index a = cells[static_cast<size_t>(r)];
+    row[static_cast<size_t>(r)] = a / C;
+    col[static_cast<size_t>(r)] = a % C;
+    Gc[r] = G[a];
+  }
   K.resize(m, m);
   for (Index q = 0; q < m; ++q) {
-    const Index b = cells[static_cast<size_t>(q)], j = b / C, qq = R + b % C;
-    const auto Mj = M.col(j), Mq = M.col(qq);  // M is symmetric: columns are rows
+    const Index j = row[static_cast<size_t>(q)], qq = R + col[static_cast<size_t>(q)];
+    w = M.col(qq).head(R) - M.col(j).head(R);  // M is symmetric: columns are rows
+    u = M.col(j).tail(C) - M.col(qq).tail(C);
+    const double Gb = Gc[q];
     for (Index r = q; r < m; ++r) {
-      const Index a = cells[static_cast<size_t>(r)], i = a / C, pp = R + a % C;
-      const double T = Mj[pp] + Mq[i] - Mj[i] - Mq[pp];
-      K(r, q) = static_cast<Scalar>(G[a] * G[b] * T * T);
+      const double T = w[row[static_cast<size_t>(r)]] + u[col[static_cast<size_t>(r)]];
+      K(r, q) = static_cast<Scalar>(Gb * Gc[r] * T * T);
     }
   }
 }
