@@ -71,3 +71,13 @@ def test_an_unreachable_weight_is_one_clear_error() -> None:
 def test_bad_input(g, match) -> None:
     with pytest.raises(ValueError, match=match):
         scale_factor(g, 0.01, 700.0)
+
+
+@pytest.mark.parametrize("conductive, bracket", [(0.01, (1e-3, 1e3)), (0.01, (20.0, 500.0)), (40.0, (1e-3, 1e3))])
+def test_far_from_the_secant_start_and_a_bracket_without_it(conductive: float, bracket) -> None:
+    # the root is searched from f = 1 and 0.5 in log-log; a mat 100x less (or 40x more) conductive
+    # than the model needs f = 100 (0.025), also when the bracket excludes both starting points
+    sensor = MPICreep.thesis()
+    g_mat = sensor.direct(_block(), 0.01) * conductive
+    weight = 20 * 10.0 * 4.0 * PSI_N_PER_CM2
+    assert scale_factor(g_mat, 0.01, weight, bracket=bracket) == pytest.approx(1 / conductive, rel=1e-9)
