@@ -189,3 +189,23 @@ def test_bad_arguments_are_one_line_errors(study) -> None:
         dynamic_rows(rows, traces, folds=1)
     with pytest.raises(ValueError, match="rate_hz must be a positive number of Hz"):
         dynamic_rows(rows, traces, rate_hz=0.0)
+
+
+def test_fir_from_summed_normal_equations_equals_the_stacked_ridge_least_squares() -> None:
+    # the FIR is fitted from per-session W'W and W'y; the reference is the ridge problem written
+    # out: the lag matrix of every session stacked over sqrt(λ²)·I, solved by scipy's lstsq (SVD)
+    from scipy import linalg
+
+    rng = np.random.default_rng(11)
+    ys = [_centred(signal.sosfilt(signal.butter(4, 3.0, fs=FS, output="sos"), rng.standard_normal((n, 2)), axis=0))
+          for n in (1500, 2200, 900)]
+    xs = [_centred(_mat_of(y, FS, rng, noise=0.05)) for y in ys]
+    ridge, half = 1e-3, 5  # ±0.1 s at 50 Hz
+    fir = fit_correction(xs, ys, FS, model="fir", fir_half_s=0.1, ridge=ridge)
+    for k in range(2):
+        X = np.concatenate([np.column_stack([np.pad(x[:, k], half, mode="edge")[j:j + len(x)] for j in range(2 * half + 1)])
+                            for x in xs])
+        lam = np.sqrt(ridge * np.mean(np.sum(X * X, axis=0)))
+        A = np.vstack([X, lam * np.eye(X.shape[1])])
+        ref = linalg.lstsq(A, np.concatenate([np.concatenate([y[:, k] for y in ys]), np.zeros(X.shape[1])]))[0]
+        assert fir.coef[k] == pytest.approx(ref, rel=1e-8, abs=1e-10 * np.abs(ref).max())
