@@ -106,6 +106,11 @@ def _fit_axis(model: str, xs: Sequence[NDArray[np.float64]], ys: Sequence[NDArra
     return fit.x
 
 
+def _fir_half(fir_half_s: float, rate_hz: float) -> int:
+    """The FIR's half-length in samples (at least 1) for ``fir_half_s`` seconds at ``rate_hz``."""
+    return max(1, int(round(fir_half_s * rate_hz)))
+
+
 def _fir_stats(x: NDArray[np.float64], y: NDArray[np.float64], half: int) -> tuple[NDArray[np.float64],
                                                                                  NDArray[np.float64]]:
     """``(WᵀW, Wᵀy)`` of one series, W its lag windows (:func:`_windows`): the FIR's sufficient statistics."""
@@ -126,7 +131,7 @@ def fit_correction(xs: Sequence[NDArray[np.float64]], ys: Sequence[NDArray[np.fl
     regularisation relative to the mean tap energy."""
     if model not in MODELS:
         raise ValueError(f"unknown model {model!r}; choose one of {MODELS}")
-    half = max(1, int(round(fir_half_s * rate_hz)))
+    half = _fir_half(fir_half_s, rate_hz)
     ml, ap = (_fit_axis(model, [x[:, k] for x in xs], [y[:, k] for y in ys], half, ridge) for k in range(2))
     return Correction(model, (ml, ap), float(rate_hz))
 
@@ -257,7 +262,7 @@ def dynamic_rows(rows: Sequence[Mapping[str, Any]], traces: Mapping[Key, Mapping
             s.resample(fs)
     fold = _fold_of({k[0] for k in usable}, folds)
     fits: dict[tuple[int, str | None], Correction | None] = {}  # one fit per held-out fold (and trial type)
-    half = max(1, int(round(fir_half_s * fs))) if usable else 1
+    half = _fir_half(fir_half_s, fs) if usable else 1
     stats = ({k: [_fir_stats(v.x[:, a], v.y[:, a], half) for a in range(2)] for k, v in usable.items()}
              if model == "fir" else {})  # formed once, summed by every fold
     new_traces: dict[Key, dict[str, NDArray[np.float64]]] = {}
