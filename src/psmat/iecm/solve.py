@@ -11,13 +11,14 @@ batches are spread over all cores. Methods:
     restarts with ``"active_set"``, and a stream whose previous frame has cells at the bound
     goes to ``"active_set"`` directly.
 ``"active_set"``
-    The bounded (complementarity) problem below by a primal-dual active-set semismooth Newton:
-    the cells where g - g_floor <= F(g) - G go back to the bound, F(g) = G is linearised on
-    the others; each step is a PCG solve on the free cells with the matrix-free product and a
-    stored Cholesky factor of the free block of an earlier iterate or frame (rebuilt when the
-    free set has moved too far). Warm-started from the previous frame's solution, bound set
-    included; superlinear once the bound set is found. Same solution as ``"bounded_newton"``
-    (the solution is unique), which finishes a frame whose line search fails.
+    The bounded (complementarity) problem below by sequential bound-constrained QPs: at each
+    iterate the linearised complementarity problem is the convex QP min 0.5 y'S y + c'y over
+    y >= lo (S = T∘T scaled, the cells' step dg = F(g) y), solved exactly by a primal-dual
+    active-set method (free cells: a PCG solve with the matrix-free product and a float32
+    Cholesky factor of the free block, rebuilt when the free set changes); then one step on
+    g. Warm-started from the previous frame's solution; 4-5 steps per noisy frame. Same
+    solution as ``"bounded_newton"`` (the solution is unique), which finishes a frame whose
+    line search fails.
 ``"bounded_newton"``
     The bounded problem as a complementarity problem: F(g) = G on the free cells, g at
     g_floor (~0) on cells where even an empty cell over-predicts the measured G (noise on
@@ -52,8 +53,8 @@ from ._validate import as_frames
 __all__ = ["solve", "SolveInfo", "METHODS", "make_options"]
 
 METHODS = ("newton", "active_set", "bounded_newton", "lm", "bounded_lsq", "fixed_point")
-# newton hands noisy frames to active_set (13 / 22 / 30 iterations per frame on noisy 16 / 32 /
-# 64 twin recordings, at most ~40); bounded_newton's Fischer-Burmeister iteration converges only
+# newton hands noisy frames to active_set (4-5 iterations per frame on noisy 16 / 32 / 64 twin
+# recordings, at most ~12 in a simulated study session); bounded_newton's Fischer-Burmeister iteration converges only
 # linearly: about 1 frame in 200 needs a few hundred iterations (most need 15-40), so all three
 # allow 1000 before reporting max_iterations
 _DEFAULT_MAX_ITER = {"newton": 1000, "active_set": 1000, "bounded_newton": 1000, "lm": 200, "bounded_lsq": 200,

@@ -12,8 +12,8 @@ enum class Method {
   LM,          // Levenberg-Marquardt least squares (eq. 2.9) on log g (positivity by construction)
   BoundedLSQ,  // projected Gauss-Newton/LM least squares (eq. 2.9) on g with g >= g_floor
   FixedPoint,  // thesis eq. 2.10: g <- g + beta (G_exp - F(g)), clipped at g_floor
-  ActiveSet,   // primal-dual active-set (semismooth Newton on min(a, b)) for the same
-               // complementarity problem as BoundedNewton; warm-starts from the bound set
+  ActiveSet,   // the complementarity problem of BoundedNewton by sequential bound-constrained
+               // QPs, each solved by a primal-dual active-set method; warm-starts from the bound set
 };
 
 enum class Status {
