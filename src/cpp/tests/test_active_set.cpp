@@ -104,7 +104,8 @@ TEST_CASE("FreeBlockSolver: PCG with the factor of another point and free set so
   NewtonOperator op(s);
   const VectorXd b = random_normal(s.cells(), 2201);
   VectorXd y;
-  const int k = fs.solve(op, net, G, I, mu, b, y, 1e-12, 200);
+  VectorXd Sy;
+  const int k = fs.solve(op, net, G, I, mu, b, y, Sy, 1e-12, 200);
   CAPTURE(k);
   CHECK(k > 1);  // a stale preconditioner: more than one iteration, but it converges
   // dense reference: (S_II + mu I) y_I = b_I
@@ -124,11 +125,16 @@ TEST_CASE("FreeBlockSolver: PCG with the factor of another point and free set so
   }
   for (Index a = 0; a < s.cells(); ++a)
     if (!in_I[size_t(a)]) CHECK(y[a] == 0.0);
+  // Sy: the dense S times the returned y, on every cell (the multipliers of the bound cells)
+  const VectorXd Sy_ref = S * y;
+  for (Index a = 0; a < s.cells(); ++a)
+    CHECK(Sy[a] == doctest::Approx(Sy_ref[a]).epsilon(1e-9).scale(Sy_ref.norm()));
   // with a fresh factor at this very point PCG needs one or two iterations
   REQUIRE(fs.factor(net, G, I, mu));
   CHECK(fs.changes(I) == 0);
   VectorXd y2;
-  const int k2 = fs.solve(op, net, G, I, mu, b, y2, 1e-10, 200);
+  VectorXd Sy2;
+  const int k2 = fs.solve(op, net, G, I, mu, b, y2, Sy2, 1e-10, 200);
   CHECK(k2 >= 1);
   CHECK(k2 <= 3);
   CHECK((y2 - y).norm() <= 1e-8 * y.norm());

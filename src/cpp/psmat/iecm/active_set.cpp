@@ -58,8 +58,8 @@ void FreeBlockSolver::precondition(const Eigen::VectorXd& r, double mu, Eigen::V
 
 int FreeBlockSolver::solve(NewtonOperator& op, const NodalInverse& net, const Eigen::VectorXd& G,
                            const std::vector<Index>& free_cells, double mu,
-                           const Eigen::VectorXd& b, Eigen::VectorXd& y, double tol,
-                           int max_iter) {
+                           const Eigen::VectorXd& b, Eigen::VectorXd& y, Eigen::VectorXd& Sy,
+                           double tol, int max_iter) {
   const Index n = G.size();
   in_i_.assign(static_cast<size_t>(n), 0);
   for (Index c : free_cells) in_i_[static_cast<size_t>(c)] = 1;
@@ -69,6 +69,7 @@ int FreeBlockSolver::solve(NewtonOperator& op, const NodalInverse& net, const Ei
   z_.resize(n);
   q_.resize(n);
   y.setZero(n);
+  Sy.setZero(n);
   const double bnorm = r_.norm();
   if (bnorm == 0.0) return 0;
   precondition(r_, mu, z_);
@@ -81,6 +82,7 @@ int FreeBlockSolver::solve(NewtonOperator& op, const NodalInverse& net, const Ei
     if (!(pq > 0.0) || !std::isfinite(pq)) break;  // breakdown
     const double alpha = rz / pq;
     y.noalias() += alpha * p_;
+    Sy.noalias() += alpha * Sx_;  // S (p_ on I): apply() left it there
     r_.noalias() -= alpha * q_;
     if (r_.norm() <= tol * bnorm) {
       used = k;

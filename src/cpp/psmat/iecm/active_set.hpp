@@ -29,11 +29,13 @@ class FreeBlockSolver {
   bool factor(const NodalInverse& net, const Eigen::VectorXd& G,
               const std::vector<Index>& free_cells, double mu);
   // Solves (S_II + mu I) y_I = b_I to ||residual|| <= tol ||b_I||; b and y have length R*C
-  // (entries outside I: b ignored, y set to 0). Returns the PCG iterations used, or -1 when
-  // max_iter was reached or the recurrence broke down (y then holds the last iterate).
+  // (entries outside I: b ignored, y set to 0). Sy receives S y on every cell, summed from the
+  // products PCG makes anyway (the active-set method reads its multipliers off it). Returns the
+  // PCG iterations used, or -1 when max_iter was reached or the recurrence broke down (y then
+  // holds the last iterate).
   int solve(NewtonOperator& op, const NodalInverse& net, const Eigen::VectorXd& G,
             const std::vector<Index>& free_cells, double mu, const Eigen::VectorXd& b,
-            Eigen::VectorXd& y, double tol, int max_iter);
+            Eigen::VectorXd& y, Eigen::VectorXd& Sy, double tol, int max_iter);
 
  private:
   void apply(NewtonOperator& op, const NodalInverse& net, const Eigen::VectorXd& G, double mu,

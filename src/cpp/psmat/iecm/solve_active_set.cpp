@@ -126,9 +126,9 @@ SolveReport solve_active_set(Solver& s, const ConstVecRef& G_exp, VecRef g) {
         }
       }
       y = yA;
+      if (moved) s.op.apply(s.net, s.Gm, yA, SyA);
       if (!free_cells.empty()) {
         // b_I = -c_I - (S_IA y_A)_I
-        if (moved) s.op.apply(s.net, s.Gm, yA, SyA);
         for (Index c : free_cells) b[c] = -s.ra[c] / s.Gm[c] - (moved ? SyA[c] : 0.0);
         bool fresh = false;
         if (!fs.has_factor() || fs.changes(free_cells) > 0) {  // a new free set: refactor
@@ -139,7 +139,7 @@ SolveReport solve_active_set(Solver& s, const ConstVecRef& G_exp, VecRef g) {
           ++rep.factorizations;
           fresh = true;
         }
-        int k = fs.solve(s.op, s.net, s.Gm, free_cells, 0.0, b, dg, tol, kmax);
+        int k = fs.solve(s.op, s.net, s.Gm, free_cells, 0.0, b, dg, Sy, tol, kmax);
         rep.krylov_iterations += k > 0 ? k : kmax;
         if (k < 0 && !fresh) {  // a stale factor: rebuild it here and solve again
           if (!fs.factor(s.net, s.Gm, free_cells, 0.0)) {
@@ -147,14 +147,18 @@ SolveReport solve_active_set(Solver& s, const ConstVecRef& G_exp, VecRef g) {
             return rep;
           }
           ++rep.factorizations;
-          k = fs.solve(s.op, s.net, s.Gm, free_cells, 0.0, b, dg, tol, 4 * kmax);
+          k = fs.solve(s.op, s.net, s.Gm, free_cells, 0.0, b, dg, Sy, tol, 4 * kmax);
           rep.krylov_iterations += k > 0 ? k : 4 * kmax;
         }
         for (Index c : free_cells) y[c] = dg[c];
+        if (moved) Sy += SyA;  // S y = S y_I (from PCG) + S y_A
+      } else if (moved) {
+        Sy = SyA;
+      } else {
+        Sy.setZero();
       }
       if (inner + 1 >= kInnerMax) break;
       // PDAS rule of the QP: free where y - lo > lambda, lambda = S y + c (0 on I) ...
-      s.op.apply(s.net, s.Gm, y, Sy);
       // PDAS rule of the QP, with at most kFreeCap * |I| (>= 8) cells freed per step: those of
       // the most negative lambda (the rest wait for the next step)
       lam_bound.clear();
