@@ -6,6 +6,7 @@
 #include <vector>
 
 #include "psmat/iecm/active_set.hpp"
+#include "psmat/iecm/cholesky.hpp"
 #include "psmat/iecm/jacobian.hpp"
 #include "psmat/iecm/solve.hpp"
 #include "support.hpp"
@@ -84,6 +85,27 @@ TEST_CASE("scaled_hadamard_block: the principal submatrix of S, lower triangle")
       CHECK(K(r, q) == doctest::Approx(ref).epsilon(1e-12));
       CHECK(double(Kf(r, q)) == doctest::Approx(ref).epsilon(1e-6));
     }
+}
+
+TEST_CASE("cholesky_in_place: L L^T = A across block edges and both sweeps; false if indefinite") {
+  // sizes around the 16-column blocks, the switch to the right-looking sweep at 400 rows, and
+  // its 32-column blocks; L against Eigen's LLT in double on the same float matrix
+  for (Index m : {1, 15, 16, 17, 130, 400, 401, 450}) {
+    CAPTURE(m);
+    const Eigen::MatrixXd X = Eigen::MatrixXd::NullaryExpr(
+        m, m, [m](Index i, Index j) { return std::sin(1.3 * double(i * m + j) + 0.7); });
+    const Eigen::MatrixXf A = (X * X.transpose() / double(m) +
+                               Eigen::MatrixXd::Identity(m, m)).cast<float>();
+    Eigen::MatrixXf L = A;
+    L.triangularView<Eigen::StrictlyUpper>().setConstant(1e30f);  // not read
+    REQUIRE(psmat::iecm::cholesky_in_place(L));
+    const Eigen::MatrixXd Lref = A.cast<double>().llt().matrixL();
+    const Eigen::MatrixXd Lf = L.triangularView<Eigen::Lower>().toDenseMatrix().cast<double>();
+    CHECK((Lf - Lref).norm() <= 1e-5 * Lref.norm());
+  }
+  Eigen::MatrixXf B = Eigen::MatrixXf::Identity(40, 40);
+  B(25, 25) = -1.0f;
+  CHECK_FALSE(psmat::iecm::cholesky_in_place(B));
 }
 
 TEST_CASE("FreeBlockSolver: PCG with the factor of another point and free set solves the free block") {

@@ -2,6 +2,7 @@
 
 #include <cmath>
 
+#include "psmat/iecm/cholesky.hpp"
 #include "psmat/iecm/jacobian.hpp"
 
 namespace psmat::iecm {
@@ -25,8 +26,7 @@ bool FreeBlockSolver::factor(const NodalInverse& net, const Eigen::VectorXd& G,
   for (double shift = 0.0; shift <= 1e-2; shift = shift == 0.0 ? 1e-6 : shift * 100.0) {
     scaled_hadamard_block(net, G, cells_, L_);
     L_.diagonal().array() += static_cast<float>(mu + shift);
-    Eigen::LLT<Eigen::Ref<Eigen::MatrixXf>> llt(L_);  // in place
-    if (llt.info() == Eigen::Success) {
+    if (cholesky_in_place(L_)) {
       valid_ = true;
       return true;
     }

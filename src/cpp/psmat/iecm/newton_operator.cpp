@@ -2,6 +2,8 @@
 
 #include <cmath>
 
+#include "psmat/iecm/cholesky.hpp"
+
 namespace psmat::iecm {
 
 NewtonOperator::NewtonOperator(Shape shape) : shape_(shape) {}
@@ -19,8 +21,7 @@ bool NewtonOperator::factor(const NodalInverse& net, const Eigen::VectorXd& G) {
   for (double shift = 0.0; shift <= 1e-2; shift = shift == 0.0 ? 1e-6 : shift * 100.0) {
     scaled_hadamard(net, G, Sf_, /*lower_only=*/true);
     if (shift > 0) Sf_.diagonal().array() += static_cast<float>(shift);
-    Eigen::LLT<Eigen::Ref<Eigen::MatrixXf>> llt(Sf_);  // in place: no second n x n matrix
-    if (llt.info() == Eigen::Success) {
+    if (cholesky_in_place(Sf_)) {  // in place: no second n x n matrix
       has_factor_ = true;
       return true;
     }
