@@ -74,17 +74,28 @@ TEST_CASE("scaled_hadamard_block: the principal submatrix of S, lower triangle")
   MatrixXd S;
   scaled_hadamard(net, G, S, /*lower_only=*/false);
   const std::vector<Index> cells = some_cells(s.cells(), 3, 1);
-  MatrixXd K;
-  psmat::iecm::scaled_hadamard_block(net, G, cells, K);
-  Eigen::MatrixXf Kf;
-  psmat::iecm::scaled_hadamard_block(net, G, cells, Kf);
-  REQUIRE(K.rows() == Index(cells.size()));
+  const Index m = Index(cells.size());
+  MatrixXd K(m, m);
+  psmat::iecm::scaled_hadamard_block<double>(net, G, cells, K);
+  Eigen::MatrixXf Kbig = Eigen::MatrixXf::Zero(m + 3, m + 3);  // into the corner of a larger one
+  psmat::iecm::scaled_hadamard_block<float>(net, G, cells, Kbig.topLeftCorner(m, m));
   for (Index q = 0; q < K.cols(); ++q)
     for (Index r = q; r < K.rows(); ++r) {
       const double ref = S(cells[size_t(r)], cells[size_t(q)]);
       CHECK(K(r, q) == doctest::Approx(ref).epsilon(1e-12));
-      CHECK(double(Kf(r, q)) == doctest::Approx(ref).epsilon(1e-6));
+      CHECK(double(Kbig(r, q)) == doctest::Approx(ref).epsilon(1e-6));
     }
+  CHECK(Kbig.rightCols(3).norm() == 0.0f);
+  // one column, with a hole (-1) in the list
+  std::vector<Index> with_hole = cells;
+  with_hole[2] = -1;
+  const Index b = 4;
+  Eigen::VectorXf col(m);
+  psmat::iecm::scaled_hadamard_column(net, G, with_hole, b, col);
+  for (Index r = 0; r < m; ++r) {
+    const double ref = r == 2 ? 0.0 : S(cells[size_t(r)], b);
+    CHECK(double(col[r]) == doctest::Approx(ref).epsilon(1e-6));
+  }
 }
 
 TEST_CASE("cholesky_in_place: L L^T = A across block edges and both sweeps; false if indefinite") {
@@ -160,6 +171,50 @@ TEST_CASE("FreeBlockSolver: PCG with the factor of another point and free set so
   CHECK(k2 >= 1);
   CHECK(k2 <= 3);
   CHECK((y2 - y).norm() <= 1e-8 * y.norm());
+}
+
+TEST_CASE("FreeBlockSolver::update: cells leave and join; PCG then solves the new free block") {
+  const Shape s{6, 7};
+  const VectorXd g = random_g(s, 2300, 1e-6, 1e-2);
+  NodalInverse net(s);
+  REQUIRE(net.compute(g));
+  const VectorXd G = F(s, g);
+  const MatrixXd S = dense_S(s, g);
+  const std::vector<Index> P = some_cells(s.cells(), 2, 0);  // even cells
+  // I: P without three cells (first, middle, last position) and with four odd cells
+  std::vector<Index> I;
+  for (size_t k = 0; k < P.size(); ++k)
+    if (k != 0 && k != P.size() / 2 && k + 1 != P.size()) I.push_back(P[k]);
+  for (Index c : {1, 9, 17, 33}) I.push_back(c);
+  FreeBlockSolver fs;
+  REQUIRE(fs.factor(net, G, P, 0.0));
+  CHECK(fs.changes(I) == 7);
+  REQUIRE(fs.update(net, G, I, 0.0));
+  CHECK(fs.changes(I) == 0);
+  CHECK(fs.size() == Index(I.size()));
+  // the updated factor is that of S_II (float round-off): PCG needs one or two steps and
+  // returns the dense solution
+  NewtonOperator op(s);
+  const VectorXd b = random_normal(s.cells(), 2301);
+  VectorXd y, Sy;
+  const int k = fs.solve(op, net, G, I, 0.0, b, y, Sy, 1e-10, 50);
+  CHECK(k >= 1);
+  CHECK(k <= 3);
+  const Index m = Index(I.size());
+  MatrixXd K(m, m);
+  VectorXd bI(m);
+  for (Index r = 0; r < m; ++r) {
+    bI[r] = b[I[size_t(r)]];
+    for (Index q = 0; q < m; ++q) K(r, q) = S(I[size_t(r)], I[size_t(q)]);
+  }
+  const VectorXd yI = K.llt().solve(bI);
+  for (Index r = 0; r < m; ++r) CHECK(y[I[size_t(r)]] == doctest::Approx(yI[r]).epsilon(1e-8));
+  // back to P (the cells that left join again, the odd ones leave)
+  REQUIRE(fs.update(net, G, P, 0.0));
+  CHECK(fs.changes(P) == 0);
+  const int k2 = fs.solve(op, net, G, P, 0.0, b, y, Sy, 1e-10, 50);
+  CHECK(k2 >= 1);
+  CHECK(k2 <= 3);
 }
 
 TEST_CASE("active_set: the Fischer-Burmeister solution on a noisy stream, bound set included") {

@@ -49,10 +49,10 @@ template void scaled_hadamard<Eigen::MatrixXd>(const NodalInverse&, const ConstV
 template void scaled_hadamard<Eigen::MatrixXf>(const NodalInverse&, const ConstVecRef&,
                                                Eigen::MatrixXf&, bool);
 
-template <class Matrix>
+template <class Scalar>
 void scaled_hadamard_block(const NodalInverse& net, const ConstVecRef& G,
-                           const std::vector<Index>& cells, Matrix& K) {
-  using Scalar = typename Matrix::Scalar;
+                           const std::vector<Index>& cells,
+                           Eigen::Ref<Eigen::Matrix<Scalar, Eigen::Dynamic, Eigen::Dynamic>> K) {
   const Index R = net.shape().rows, C = net.shape().cols;
   const Index m = static_cast<Index>(cells.size());
   const Eigen::MatrixXd& M = net.M();
@@ -67,7 +67,6 @@ void scaled_hadamard_block(const NodalInverse& net, const ConstVecRef& G,
     col[static_cast<size_t>(r)] = a % C;
     Gc[r] = G[a];
   }
-  K.resize(m, m);
   for (Index q = 0; q < m; ++q) {
     const Index j = row[static_cast<size_t>(q)], qq = R + col[static_cast<size_t>(q)];
     w = M.col(qq).head(R) - M.col(j).head(R);  // M is symmetric: columns are rows
@@ -80,10 +79,29 @@ void scaled_hadamard_block(const NodalInverse& net, const ConstVecRef& G,
   }
 }
 
-template void scaled_hadamard_block<Eigen::MatrixXd>(const NodalInverse&, const ConstVecRef&,
-                                                     const std::vector<Index>&, Eigen::MatrixXd&);
-template void scaled_hadamard_block<Eigen::MatrixXf>(const NodalInverse&, const ConstVecRef&,
-                                                     const std::vector<Index>&, Eigen::MatrixXf&);
+template void scaled_hadamard_block<double>(const NodalInverse&, const ConstVecRef&,
+                                            const std::vector<Index>&, Eigen::Ref<Eigen::MatrixXd>);
+template void scaled_hadamard_block<float>(const NodalInverse&, const ConstVecRef&,
+                                           const std::vector<Index>&, Eigen::Ref<Eigen::MatrixXf>);
+
+void scaled_hadamard_column(const NodalInverse& net, const ConstVecRef& G,
+                            const std::vector<Index>& cells, Index b, Eigen::Ref<Eigen::VectorXf> out) {
+  const Index R = net.shape().rows, C = net.shape().cols;
+  const Eigen::MatrixXd& M = net.M();
+  const Index j = b / C, qq = R + b % C;  // as in scaled_hadamard_block
+  const Eigen::VectorXd w = M.col(qq).head(R) - M.col(j).head(R);
+  const Eigen::VectorXd u = M.col(j).tail(C) - M.col(qq).tail(C);
+  const double Gb = G[b];
+  for (size_t r = 0; r < cells.size(); ++r) {
+    const Index a = cells[r];
+    if (a < 0) {
+      out[static_cast<Index>(r)] = 0.0f;
+      continue;
+    }
+    const double T = w[a / C] + u[a % C];
+    out[static_cast<Index>(r)] = static_cast<float>(Gb * G[a] * T * T);
+  }
+}
 
 void hadamard_product(const NodalInverse& net, const ConstVecRef& v, VecRef out,
                       HadamardWork& work) {

@@ -24,13 +24,19 @@ void jacobian(const NodalInverse& net, const ConstVecRef& G, RowMatRef J);
 template <class Matrix>
 void scaled_hadamard(const NodalInverse& net, const ConstVecRef& G, Matrix& S, bool lower_only);
 
-// The principal submatrix of S on `cells` (ascending or not): K(r, q) = S[cells[r], cells[q]]
-// for r >= q (lower triangle; the strict upper triangle is not written). O(cells^2), for the
-// free block of the active-set Newton without the full (RC)^2 matrix.
-// Defined for Eigen::MatrixXd and Eigen::MatrixXf.
-template <class Matrix>
+// The principal submatrix of S on `cells` (ascending or not) into K (cells x cells, e.g. the
+// corner of a larger matrix): K(r, q) = S[cells[r], cells[q]] for r >= q (lower triangle; the
+// strict upper triangle is not written). O(cells^2), for the free block of the active-set
+// method without the full (RC)^2 matrix. Defined for double and float (a preconditioner).
+template <class Scalar>
 void scaled_hadamard_block(const NodalInverse& net, const ConstVecRef& G,
-                           const std::vector<Index>& cells, Matrix& K);
+                           const std::vector<Index>& cells,
+                           Eigen::Ref<Eigen::Matrix<Scalar, Eigen::Dynamic, Eigen::Dynamic>> K);
+
+// One column of S in float: out[r] = S[cells[r], b], 0 where cells[r] < 0. O(cells): the new
+// row of a factor that gains cell b (FreeBlockSolver::update).
+void scaled_hadamard_column(const NodalInverse& net, const ConstVecRef& G,
+                            const std::vector<Index>& cells, Index b, Eigen::Ref<Eigen::VectorXf> out);
 
 // Matrix-free product out = (T∘T) v in O(n^3) instead of O((RC)^2) (SPEC §3):
 //   ((T∘T) v)[i,p] = K[i,i] + K[p',p'] - 2 K[i,p'],   K = M L_v M,
