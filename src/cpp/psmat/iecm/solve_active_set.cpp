@@ -15,11 +15,11 @@
 //   S_II y_I = -c_I - S_IA y_A
 // solved by PCG with the matrix-free product of S and a float32 factor of S_II as
 // preconditioner (FreeBlockSolver, active_set.hpp); then I = {y - lo > lambda} (lambda_I = 0;
-// at most a tenth of |I| freed per step, kFreeCap below),
-// until I repeats. When I changes the factor is rebuilt, or updated cell by cell when few
-// cells changed within one QP (kUpdateShare below); it is kept while only the point moves (the
-// later outer iterations: PCG on a stale factor). The first free set of a frame is the PDAS
-// rule at the starting point; each QP starts from the previous QP's set.
+// at most a tenth of |I| freed per step, kFreeCap below), until I repeats. When I changes the
+// factor is rebuilt, or updated cell by cell when few cells changed within one QP
+// (kUpdateShare below); it is kept while the point moves by little (the last outer
+// iterations: PCG on a factor of the previous point, kRefactorAbove). The first free set of a
+// frame is the PDAS rule at the starting point; each QP starts from the previous QP's set.
 //
 // Why exact QPs: the plain PDAS step on the nonlinear problem (one linear solve per outer
 // iteration, bound set read off the iterate) let the noise that re-draws the quiet cells each
@@ -85,6 +85,13 @@ constexpr double kFreeCap = 0.1;
 // O(|I|^2) with poorly vectorised Givens rotations); 0.1 on the factor of any point 1686 / 4.0
 // (PCG 24 steps a frame instead of 21) and 17.9 / 4.0; 32x32: 213 frames/s without, 239-253.
 constexpr double kUpdateShare = 0.1;
+// A QP that starts at a residual (max |phi|) above kRefactorAbove refactorises even when its
+// free set is the previous QP's: the step that led here was long (the first QP of a frame
+// leaves ~0.1), and PCG on the factor of the previous point took 4.35 steps a solve where a
+// new factor takes 1. Later QPs (residual ~2e-3, then ~2e-6) keep the factor. Measured (noisy
+// bench frames, CPU time on one core, frames/s, 16x16 / 32x32 / 64x64): never 1798 / 238 /
+// 17.6; above 1e-1 1900 / 252 / -; 1e-2 1954 / 268 / 17.7; 1e-3 1949 / 256 / 17.0; 1e-5 1935.
+constexpr double kRefactorAbove = 1e-2;
 }  // namespace
 
 SolveReport solve_active_set(Solver& s, const ConstVecRef& G_exp, VecRef g) {
@@ -147,7 +154,8 @@ SolveReport solve_active_set(Solver& s, const ConstVecRef& G_exp, VecRef g) {
         const Index changes = fs.changes(free_cells);
         const bool few = factor_here && static_cast<double>(changes) <=
                                             kUpdateShare * static_cast<double>(free_cells.size());
-        if (changes > 0 && !(few && fs.update(s.net, s.Gm, free_cells, 0.0))) {
+        const bool far = inner == 0 && resid > kRefactorAbove;  // the factor is of a far point
+        if ((changes > 0 || far) && !(!far && few && fs.update(s.net, s.Gm, free_cells, 0.0))) {
           if (!fs.factor(s.net, s.Gm, free_cells, 0.0)) {
             rep.status = Status::Singular;
             return rep;
