@@ -114,7 +114,7 @@ SolveReport solve_active_set(Solver& s, const ConstVecRef& G_exp, VecRef g) {
   std::vector<char> is_free(static_cast<size_t>(n));
   std::vector<double> lam_bound;  // negative multipliers of bound cells (the PDAS cap)
   for (Index c = 0; c < n; ++c) is_free[static_cast<size_t>(c)] = g[c] - fl > s.ra[c];
-  Eigen::VectorXd y(n), lo(n), yA(n), SyA(n), Sy(n), b(n), dg(n), gt(n), g_prev(n);
+  Eigen::VectorXd y(n), lo(n), yA(n), yA_prev(n), SyA(n), Sy(n), b(n), dg(n), gt(n), g_prev(n);
   double merit = fb_merit(s, g, G_exp, fl, resid);
   bool handed_over = false;
   for (;; ++rep.iterations) {
@@ -144,7 +144,9 @@ SolveReport solve_active_set(Solver& s, const ConstVecRef& G_exp, VecRef g) {
         }
       }
       y = yA;
-      if (moved) s.op.apply(s.net, s.Gm, yA, SyA);
+      // S y_A: unchanged within a QP while the same cells of lo != 0 are bound
+      if (moved && !(inner > 0 && yA == yA_prev)) s.op.apply(s.net, s.Gm, yA, SyA);
+      yA_prev = yA;
       if (!free_cells.empty()) {
         // b_I = -c_I - (S_IA y_A)_I
         for (Index c : free_cells) b[c] = -s.ra[c] / s.Gm[c] - (moved ? SyA[c] : 0.0);
