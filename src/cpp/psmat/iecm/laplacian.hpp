@@ -47,7 +47,7 @@ class NodalInverse {
   Eigen::MatrixXd lap_;   // n x n cell Laplacian; Cmat is its lower-right (n-1) x (n-1) block
   Eigen::LLT<Eigen::MatrixXd> llt_;
   Eigen::MatrixXd m_;     // n x n
-  Eigen::MatrixXd w_;     // (n-1) x (n-1) workspace: inverse of the Cholesky factor of Cmat
+  RowMatrixXd w_;         // (n-1) x (n-1) workspace: inverse of the Cholesky factor of Cmat
   std::vector<Index> parent_;  // union-find workspace of the connectivity check
 };
 
