@@ -60,10 +60,10 @@ bool FreeBlockSolver::update(const NodalInverse& net, const Eigen::VectorXd& G,
                              const std::vector<Index>& free_cells, double mu) {
   if (!valid_) return false;
   const Index n = G.size();
-  in_i_.assign(static_cast<size_t>(n), 0);
+  mark_.assign(static_cast<size_t>(n), 0);
   Index joining = 0;
   for (Index c : free_cells) {
-    in_i_[static_cast<size_t>(c)] = 1;
+    mark_[static_cast<size_t>(c)] = 1;
     joining += pos_[static_cast<size_t>(c)] < 0;
   }
   if (used_ + joining > L_.rows()) {
@@ -72,7 +72,7 @@ bool FreeBlockSolver::update(const NodalInverse& net, const Eigen::VectorXd& G,
   }
   for (Index k = 0; k < used_; ++k) {  // leaving: P \ I
     const Index c = cells_[static_cast<size_t>(k)];
-    if (c < 0 || in_i_[static_cast<size_t>(c)]) continue;
+    if (c < 0 || mark_[static_cast<size_t>(c)]) continue;
     remove_position(k);
     cells_[static_cast<size_t>(k)] = -1;
     pos_[static_cast<size_t>(c)] = -1;
@@ -100,13 +100,10 @@ bool FreeBlockSolver::update(const NodalInverse& net, const Eigen::VectorXd& G,
 
 void FreeBlockSolver::apply(NewtonOperator& op, const NodalInverse& net, const Eigen::VectorXd& G,
                             double mu, const Eigen::VectorXd& v, Eigen::VectorXd& out) {
-  const Index n = v.size();
-  for (Index c = 0; c < n; ++c) x_[c] = in_i_[static_cast<size_t>(c)] ? v[c] : 0.0;
+  x_ = v.cwiseProduct(i_mask_);
   op.apply(net, G, x_, Sx_);
-  for (Index c = 0; c < n; ++c) {
-    const size_t k = static_cast<size_t>(c);
-    out[c] = in_i_[k] ? Sx_[c] + mu * v[c] : (pos_[k] >= 0 ? v[c] : 0.0);  // identity rows: P \ I
-  }
+  // on I: S v + mu v; identity rows on P \ I; 0 elsewhere
+  out = i_mask_.cwiseProduct(Sx_ + mu * v) + p_only_.cwiseProduct(v);
 }
 
 void FreeBlockSolver::precondition(const Eigen::VectorXd& r, double mu, Eigen::VectorXd& z) {
@@ -118,8 +115,7 @@ void FreeBlockSolver::precondition(const Eigen::VectorXd& r, double mu, Eigen::V
   const auto L = L_.topLeftCorner(used_, used_);
   L.triangularView<Eigen::Lower>().solveInPlace(tmp_);
   L.triangularView<Eigen::Lower>().transpose().solveInPlace(tmp_);
-  for (Index c = 0; c < r.size(); ++c)  // I \ P: the unit diagonal of S
-    z[c] = in_i_[static_cast<size_t>(c)] ? r[c] / (1.0 + mu) : 0.0;
+  z = i_mask_.cwiseProduct(r) / (1.0 + mu);  // I \ P: the unit diagonal of S
   for (Index k = 0; k < used_; ++k) {
     const Index c = cells_[static_cast<size_t>(k)];
     if (c >= 0) z[c] = tmp_[k];
@@ -131,9 +127,13 @@ int FreeBlockSolver::solve(NewtonOperator& op, const NodalInverse& net, const Ei
                            const Eigen::VectorXd& b, Eigen::VectorXd& y, Eigen::VectorXd& Sy,
                            double tol, int max_iter) {
   const Index n = G.size();
-  in_i_.assign(static_cast<size_t>(n), 0);
-  for (Index c : free_cells) in_i_[static_cast<size_t>(c)] = 1;
-  x_.resize(n);
+  i_mask_.setZero(n);
+  for (Index c : free_cells) i_mask_[c] = 1.0;
+  p_only_.setZero(n);  // P \ I
+  for (Index k = 0; k < used_; ++k) {
+    const Index c = cells_[static_cast<size_t>(k)];
+    if (c >= 0 && i_mask_[c] == 0.0) p_only_[c] = 1.0;
+  }
   r_.setZero(n);
   for (Index c : free_cells) r_[c] = b[c];  // y = 0: residual = b on I, 0 on P \ I
   z_.resize(n);
@@ -163,8 +163,7 @@ int FreeBlockSolver::solve(NewtonOperator& op, const NodalInverse& net, const Ei
     p_ = z_ + (rz_new / rz) * p_;
     rz = rz_new;
   }
-  for (Index c = 0; c < n; ++c)  // P \ I: the identity rows' solution is 0 up to the tolerance
-    if (!in_i_[static_cast<size_t>(c)]) y[c] = 0.0;
+  y = y.cwiseProduct(i_mask_);  // P \ I: the identity rows' solution is 0 up to the tolerance
   return used;
 }
 

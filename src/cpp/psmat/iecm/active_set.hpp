@@ -56,7 +56,8 @@ class FreeBlockSolver {
   std::vector<Index> cells_;  // factor position -> cell of P; -1: a cell that left (identity row)
   std::vector<Index> pos_;    // cell -> factor position, -1 when not in P
   Index used_ = 0, holes_ = 0;  // positions in use, of which identity rows
-  std::vector<char> in_i_;    // per cell: in the current I
+  std::vector<char> mark_;    // per cell: in the I of an update
+  Eigen::VectorXd i_mask_, p_only_;  // per cell, 1 or 0: in the current I; in P \ I
   Eigen::MatrixXf L_;         // lower triangle of the top-left used_ x used_ corner: the factor,
                               // float32 (only a preconditioner, as in newton_operator.hpp); the
                               // rest is room for cells that join

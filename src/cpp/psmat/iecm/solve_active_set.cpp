@@ -114,7 +114,8 @@ SolveReport solve_active_set(Solver& s, const ConstVecRef& G_exp, VecRef g) {
   std::vector<char> is_free(static_cast<size_t>(n));
   std::vector<double> lam_bound;  // negative multipliers of bound cells (the PDAS cap)
   for (Index c = 0; c < n; ++c) is_free[static_cast<size_t>(c)] = g[c] - fl > s.ra[c];
-  Eigen::VectorXd y(n), lo(n), yA(n), yA_prev(n), SyA(n), Sy(n), b(n), dg(n), gt(n), g_prev(n);
+  Eigen::VectorXd y(n), lo(n), qc(n), yA(n), yA_prev(n), SyA(n), Sy(n), b(n), dg(n), gt(n),
+      g_prev(n);
   double merit = fb_merit(s, g, G_exp, fl, resid);
   bool handed_over = false;
   for (;; ++rep.iterations) {
@@ -127,7 +128,8 @@ SolveReport solve_active_set(Solver& s, const ConstVecRef& G_exp, VecRef g) {
       break;
     }
     // the QP at g (header): lo = (g_floor - g)/G, c = (F - G_exp)/G = ra/Gm
-    for (Index c = 0; c < n; ++c) lo[c] = (fl - g[c]) / s.Gm[c];
+    lo = (fl - g.array()) / s.Gm.array();
+    qc = s.ra.array() / s.Gm.array();
     const double tol = std::max(1e-10, std::min(1e-2, 0.1 * resid));  // inexact Newton
     FreeBlockSolver& fs = s.free_block;
     bool factor_here = false;  // the stored factor is of S at this point
@@ -149,7 +151,7 @@ SolveReport solve_active_set(Solver& s, const ConstVecRef& G_exp, VecRef g) {
       yA_prev = yA;
       if (!free_cells.empty()) {
         // b_I = -c_I - (S_IA y_A)_I
-        for (Index c : free_cells) b[c] = -s.ra[c] / s.Gm[c] - (moved ? SyA[c] : 0.0);
+        for (Index c : free_cells) b[c] = -qc[c] - (moved ? SyA[c] : 0.0);
         bool fresh = false;
         // a new free set: the factor of this point updated cell by cell when few cells
         // changed, otherwise a new factorisation
@@ -186,15 +188,13 @@ SolveReport solve_active_set(Solver& s, const ConstVecRef& G_exp, VecRef g) {
         Sy.setZero();
       }
       if (inner + 1 >= kInnerMax) break;
-      // PDAS rule of the QP: free where y - lo > lambda, lambda = S y + c (0 on I) ...
-      // PDAS rule of the QP, with at most kFreeCap * |I| (>= 8) cells freed per step: those of
-      // the most negative lambda (the rest wait for the next step)
+      // PDAS rule of the QP: free where y - lo > lambda, lambda = S y + c (0 on I), with at most
+      // kFreeCap * |I| (>= 8) cells freed per step: those of the most negative lambda (the
+      // rest wait for the next step)
+      Sy += qc;  // lambda
       lam_bound.clear();
-      for (Index c = 0; c < n; ++c) {
-        if (is_free[static_cast<size_t>(c)]) continue;
-        const double l = Sy[c] + s.ra[c] / s.Gm[c];
-        if (l < 0.0) lam_bound.push_back(l);
-      }
+      for (Index c = 0; c < n; ++c)
+        if (!is_free[static_cast<size_t>(c)] && Sy[c] < 0.0) lam_bound.push_back(Sy[c]);
       double cut = 0.0;
       const size_t cap = std::max<size_t>(8, static_cast<size_t>(kFreeCap * free_cells.size()));
       if (lam_bound.size() > cap) {
@@ -205,7 +205,7 @@ SolveReport solve_active_set(Solver& s, const ConstVecRef& G_exp, VecRef g) {
       int changed = 0;
       for (Index c = 0; c < n; ++c) {
         const size_t k = static_cast<size_t>(c);
-        const bool f = is_free[k] ? y[c] > lo[c] : Sy[c] + s.ra[c] / s.Gm[c] < cut;
+        const bool f = is_free[k] ? y[c] > lo[c] : Sy[c] < cut;
         if (f != static_cast<bool>(is_free[k])) {
           is_free[k] = f;
           ++changed;
