@@ -27,13 +27,16 @@
 // CPU time on one core; iterations / forward evaluations / factorisations per frame):
 //   16x16 (1000 frames)  plain PDAS 12.2 / 20.7 / 10.3, 864 frames/s;  QPs 4.3 / 5.4 / 6.8, 1416
 //   32x32 (100 frames)   plain PDAS 17.9 / 39.4 / 15.6, 84 frames/s;   QPs 4.0 / 5.0 / 7.9, 162
-// Capping the inner iterations at 2-4 (inexact QPs) brings the cycling back: 16x16 at 3,
-// 12.2 iterations, 42.6 evaluations, 447 frames/s. Starting each frame's first QP from the
-// previous frame's free set instead of the rule: fewer factorisations (6.4 / 7.5) but slower
-// (at 64x64 the first inner step then frees ~1 850 cells: a block of 2 700 to factorise).
-// Keeping a factor of the same point across small set changes (PCG absorbs a rank-2k change):
-// slower at every threshold tried (2-32 cells), PCG then needs more steps than a refactorisation
-// costs.
+// (The rates with everything below: 16x16 ~2100, 32x32 ~270, 64x64 ~17 frames/s.)
+// Tried and not kept: capping the inner iterations at 2-4 (inexact QPs) brings the cycling
+// back (16x16 at 3: 12.2 iterations, 42.6 evaluations, 447 frames/s). Starting each frame's
+// first QP from the previous frame's free set instead of the rule: before the cap on freed
+// cells, at 64x64 the first inner step freed ~1 850 cells (a block of 2 700 to factorise);
+// with everything below, 16x16 2083 instead of 2159 frames/s (6.0 factorisations instead of
+// 4.9), 32x32 267 / 273, 64x64 16.7 / 16.9. Keeping the factor across small set changes and
+// letting PCG absorb the changed cells (no update): slower at every threshold tried (2-32
+// cells), PCG then needs more steps than a refactorisation costs. The inexact-Newton forcing
+// 0.1 |phi| against 0.3, 1, 0.03, 0.01, 0.001 |phi| and 0.1 or 1 |phi|^0.5: within +-3 %.
 //
 // Globalisation: Armijo backtracking (halving) on the Fischer-Burmeister merit 0.5|phi|^2 (the
 // residual both solvers report); the full step is taken on nearly every bench frame. When no step
