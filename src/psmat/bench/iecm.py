@@ -376,7 +376,7 @@ def run(sizes=(16, 32, 64), frames: int | None = None, threads=None, *, quick: b
                 fb = _row(size=size, mode=mode, solver="psmat newton", threads=min(nt, Tm), frames=Tm)
                 emit(_measure_psmat(kw, fb, heavy, budget))
         # A real mat's data: noisy G (quiet cells end at the bound g = 0): psmat's default path
-        # (Newton handing frames with bound cells to the active-set Newton), streaming and cold;
+        # (Newton handing frames with bound cells to the active-set method), streaming and cold;
         # in the same run the Fischer-Burmeister bounded Newton it replaced (issue 14) and the
         # thesis' quick fixed point (25 iterations, beta 0.05), with their measured residuals.
         for noisy in _noisy_entries(size, T, heavy, ncpu):
