@@ -60,7 +60,9 @@ NodalInverse::NodalInverse(Shape shape)
 
 bool NodalInverse::compute(const ConstVecRef& g) {
   const Index n = shape_.nodes();
-  if (!connected(shape_, g, parent_)) return false;
+  // every cell conducting (the bounded solvers keep g >= g_floor > 0): one piece by construction
+  const bool all_conduct = g.size() == shape_.cells() && g.allFinite() && g.minCoeff() > 0.0;
+  if (!all_conduct && !connected(shape_, g, parent_)) return false;
   // eq. 2.7: the cell Laplacian with node 0 (row 0, ground) dropped: node k is index k-1
   if (!cell_laplacian(shape_, g, lap_)) return false;
   llt_.compute(lap_.bottomRightCorner(n - 1, n - 1));
@@ -77,9 +79,7 @@ bool NodalInverse::compute(const ConstVecRef& g) {
     w_(i, i) = inv;
   }
   auto inner = m_.bottomRightCorner(n - 1, n - 1);
-  inner.setZero();
-  inner.template selfadjointView<Eigen::Lower>().rankUpdate(w_.transpose());
-  inner.template triangularView<Eigen::StrictlyUpper>() = inner.transpose();
+  inner.noalias() = w_.transpose() * w_;
   return inner.allFinite();
 }
 
