@@ -88,6 +88,10 @@ constexpr double kFreeCap = 0.1;
 // O(|I|^2) with poorly vectorised Givens rotations); 0.1 on the factor of any point 1686 / 4.0
 // (PCG 24 steps a frame instead of 21) and 17.9 / 4.0; 32x32: 213 frames/s without, 239-253.
 constexpr double kUpdateShare = 0.1;
+// ... and at most kUpdateMax cells: each changed cell costs a pass over the factor, memory-bound
+// once the factor leaves the cache (a cold 64x64 frame, free blocks of ~4 000 cells, 64 MB:
+// updates of ~300 cells made it 2.6 s instead of 2.0 s with at most 64 or 128 changed cells).
+constexpr Index kUpdateMax = 128;
 // A QP that starts at a residual (max |phi|) above kRefactorAbove refactorises even when its
 // free set is the previous QP's: the step that led here was long (the first QP of a frame
 // leaves ~0.1), and PCG on the factor of the previous point took 4.35 steps a solve where a
@@ -163,8 +167,9 @@ SolveReport solve_active_set(Solver& s, const ConstVecRef& G_exp, VecRef g) {
         // a new free set: the factor of this point updated cell by cell when few cells
         // changed, otherwise a new factorisation
         const Index changes = fs.changes(free_cells);
-        const bool few = factor_here && static_cast<double>(changes) <=
-                                            kUpdateShare * static_cast<double>(free_cells.size());
+        const bool few = factor_here && changes <= kUpdateMax &&
+                         static_cast<double>(changes) <=
+                             kUpdateShare * static_cast<double>(free_cells.size());
         const bool far = inner == 0 && resid > kRefactorAbove;  // the factor is of a far point
         if ((changes > 0 || far) && !(!far && few && fs.update(s.net, s.Gm, free_cells, 0.0))) {
           if (!fs.factor(s.net, s.Gm, free_cells, 0.0)) {
