@@ -28,8 +28,11 @@
 //   16x16 (1000 frames)  plain PDAS 12.2 / 20.7 / 10.3, 864 frames/s;  QPs 4.3 / 5.4 / 6.8, 1416
 //   32x32 (100 frames)   plain PDAS 17.9 / 39.4 / 15.6, 84 frames/s;   QPs 4.0 / 5.0 / 7.9, 162
 // (The rates with everything below: 16x16 ~2100, 32x32 ~270, 64x64 ~17 frames/s.)
-// Tried and not kept: capping the inner iterations at 2-4 (inexact QPs) brings the cycling
-// back (16x16 at 3: 12.2 iterations, 42.6 evaluations, 447 frames/s). Starting each frame's
+// Tried and not kept: a Levenberg term mu = |phi|^2 on the QP's diagonal (the plain PDAS step
+// needed one; the QP is strictly convex without it): 16x16 946 instead of 1416 frames/s, 32x32
+// 106 / 162 (more PCG steps on factors of another mu). Capping the inner iterations at 2-4
+// (inexact QPs) brings the cycling back (16x16 at 3: 12.2 iterations, 42.6 evaluations, 447
+// frames/s). Starting each frame's
 // first QP from the previous frame's free set instead of the rule: before the cap on freed
 // cells, at 64x64 the first inner step freed ~1 850 cells (a block of 2 700 to factorise);
 // with everything below, 16x16 2083 instead of 2159 frames/s (6.0 factorisations instead of
