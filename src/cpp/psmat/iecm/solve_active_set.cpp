@@ -176,8 +176,8 @@ SolveReport solve_active_set(Solver& s, const ConstVecRef& G_exp, VecRef g) {
         const bool far = inner == 0 && resid > kRefactorAbove;  // the factor is of a far point
         if ((changes > 0 || far) && !(!far && few && fs.update(s.net, s.Gm, free_cells, 0.0))) {
           if (!fs.factor(s.net, s.Gm, free_cells, 0.0)) {
-            rep.status = Status::Singular;
-            return rep;
+            rep.status = Status::Singular;  // ends the QP, then the frame (below)
+            break;
           }
           ++rep.factorizations;
           fresh = true;
@@ -187,8 +187,8 @@ SolveReport solve_active_set(Solver& s, const ConstVecRef& G_exp, VecRef g) {
         rep.krylov_iterations += k > 0 ? k : kmax;
         if (k < 0 && !fresh) {  // a stale factor: rebuild it here and solve again
           if (!fs.factor(s.net, s.Gm, free_cells, 0.0)) {
-            rep.status = Status::Singular;
-            return rep;
+            rep.status = Status::Singular;  // ends the QP, then the frame (below)
+            break;
           }
           ++rep.factorizations;
           factor_here = true;
@@ -228,6 +228,7 @@ SolveReport solve_active_set(Solver& s, const ConstVecRef& G_exp, VecRef g) {
       }
       if (changed == 0) break;
     }
+    if (rep.status == Status::Singular) break;
     dg = s.Gm.cwiseProduct(y);
 
     // backtracking by halving on the Fischer-Burmeister merit (monotone Armijo)
