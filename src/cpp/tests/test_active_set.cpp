@@ -38,6 +38,31 @@ MatrixXd dense_S(Shape s, const VectorXd& g) {
   return S;
 }
 
+// A network at random conductances in [lo, hi] (S): g, its nodal inverse and its readings G.
+struct RandomNetwork {
+  RandomNetwork(Shape shape, unsigned seed, double lo, double hi)
+      : s(shape), g(random_g(shape, seed, lo, hi)), net(shape) {
+    REQUIRE(net.compute(g));
+    G = F(s, g);
+  }
+  Shape s;
+  VectorXd g;
+  NodalInverse net;
+  VectorXd G;
+};
+
+// The dense reference of a free-block solve: (S_II + mu Id) y_I = b_I, y_I in the order of I.
+VectorXd dense_free_solve(const MatrixXd& S, const std::vector<Index>& I, double mu, const VectorXd& b) {
+  const Index m = Index(I.size());
+  MatrixXd K(m, m);
+  VectorXd bI(m);
+  for (Index r = 0; r < m; ++r) {
+    bI[r] = b[I[size_t(r)]];
+    for (Index q = 0; q < m; ++q) K(r, q) = S(I[size_t(r)], I[size_t(q)]) + (r == q ? mu : 0.0);
+  }
+  return K.llt().solve(bI);
+}
+
 // A noisy recording: a loaded blob that drifts over a quiet background (leakage 1e-7 S), read
 // with additive noise of 1.5e-7 S on G (the size of 1 mV on the ADC node for a quiet cell,
 // SPEC §2), so most background cells end at the bound.
@@ -66,11 +91,10 @@ bool same_free_cell(double g, double g_ref, double G, double rtol) {
 }  // namespace
 
 TEST_CASE("scaled_hadamard_block: the principal submatrix of S, lower triangle") {
-  const Shape s{5, 7};
-  const VectorXd g = random_g(s, 2100, 1e-7, 1e-2);
-  NodalInverse net(s);
-  REQUIRE(net.compute(g));
-  const VectorXd G = F(s, g);
+  RandomNetwork x({5, 7}, 2100, 1e-7, 1e-2);
+  const Shape s = x.s;
+  const NodalInverse& net = x.net;
+  const VectorXd& G = x.G;
   MatrixXd S;
   scaled_hadamard(net, G, S, /*lower_only=*/false);
   const std::vector<Index> cells = some_cells(s.cells(), 3, 1);
@@ -144,13 +168,7 @@ TEST_CASE("FreeBlockSolver: PCG with the factor of another point and free set so
   // dense reference: (S_II + mu I) y_I = b_I
   const MatrixXd S = dense_S(s, g);
   const Index m = Index(I.size());
-  MatrixXd K(m, m);
-  VectorXd bI(m);
-  for (Index r = 0; r < m; ++r) {
-    bI[r] = b[I[size_t(r)]];
-    for (Index q = 0; q < m; ++q) K(r, q) = S(I[size_t(r)], I[size_t(q)]) + (r == q ? mu : 0.0);
-  }
-  const VectorXd yI = K.llt().solve(bI);
+  const VectorXd yI = dense_free_solve(S, I, mu, b);
   std::vector<char> in_I(size_t(s.cells()), 0);
   for (Index r = 0; r < m; ++r) {
     in_I[size_t(I[size_t(r)])] = 1;
@@ -174,12 +192,11 @@ TEST_CASE("FreeBlockSolver: PCG with the factor of another point and free set so
 }
 
 TEST_CASE("FreeBlockSolver::update: cells leave and join; PCG then solves the new free block") {
-  const Shape s{6, 7};
-  const VectorXd g = random_g(s, 2300, 1e-6, 1e-2);
-  NodalInverse net(s);
-  REQUIRE(net.compute(g));
-  const VectorXd G = F(s, g);
-  const MatrixXd S = dense_S(s, g);
+  RandomNetwork x({6, 7}, 2300, 1e-6, 1e-2);
+  const Shape s = x.s;
+  const NodalInverse& net = x.net;
+  const VectorXd& G = x.G;
+  const MatrixXd S = dense_S(s, x.g);
   const std::vector<Index> P = some_cells(s.cells(), 2, 0);  // even cells
   // I: P without three cells (first, middle, last position) and with four odd cells
   std::vector<Index> I;
@@ -201,13 +218,7 @@ TEST_CASE("FreeBlockSolver::update: cells leave and join; PCG then solves the ne
   CHECK(k >= 1);
   CHECK(k <= 3);
   const Index m = Index(I.size());
-  MatrixXd K(m, m);
-  VectorXd bI(m);
-  for (Index r = 0; r < m; ++r) {
-    bI[r] = b[I[size_t(r)]];
-    for (Index q = 0; q < m; ++q) K(r, q) = S(I[size_t(r)], I[size_t(q)]);
-  }
-  const VectorXd yI = K.llt().solve(bI);
+  const VectorXd yI = dense_free_solve(S, I, 0.0, b);
   for (Index r = 0; r < m; ++r) CHECK(y[I[size_t(r)]] == doctest::Approx(yI[r]).epsilon(1e-8));
   // back to P (the cells that left join again, the odd ones leave)
   REQUIRE(fs.update(net, G, P, 0.0));
@@ -237,11 +248,17 @@ TEST_CASE("active_set: the Fischer-Burmeister solution on a noisy stream, bound 
     CHECK(r_as.at_bound == r_fb.at_bound);
     bound_total += r_as.at_bound;
     const double floor = o_as.g_floor * (1.0 + 1e-9);
+    double diff2 = 0.0, ref2 = 0.0;  // over the free cells: |g_as - g_fb| / |g_fb| <= 1e-8
     for (Index a = 0; a < s.cells(); ++a) {
       CHECK((g_as[a] <= floor) == (g_fb[a] <= floor));
-      if (g_fb[a] > floor) CHECK(same_free_cell(g_as[a], g_fb[a], G[a], o_as.rtol));
+      if (g_fb[a] > floor) {
+        CHECK(same_free_cell(g_as[a], g_fb[a], G[a], o_as.rtol));
+        diff2 += (g_as[a] - g_fb[a]) * (g_as[a] - g_fb[a]);
+        ref2 += g_fb[a] * g_fb[a];
+      }
       if (g_fb[a] >= 1e-4) CHECK(std::abs(g_as[a] - g_fb[a]) <= 1e-8 * g_fb[a]);
     }
+    CHECK(std::sqrt(diff2) <= 1e-8 * std::sqrt(ref2));
     // complementarity checked directly: bound cells over-predict, free cells match G
     const VectorXd Fg = F(s, g_as);
     for (Index a = 0; a < s.cells(); ++a) {
