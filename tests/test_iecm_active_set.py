@@ -3,12 +3,14 @@
 Every real frame is noisy, so the quiet cells end at the bound g = g_floor and the streaming
 path runs the bounded (complementarity) solver of SPEC §3 on every frame. The reference is the
 Fischer-Burmeister bounded Newton (``method="bounded_newton"``, an independent formulation and
-globalisation of the same unique solution).
+globalisation of the same unique solution), run here, and its solution recorded on noisy twin
+frames before the active-set solver existed (tests/data/iecm_noisy_bounded.npz).
 """
 
 from __future__ import annotations
 
 import warnings
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -67,6 +69,19 @@ def test_active_set_returns_the_fischer_burmeister_solution(size, frames):
         g, info = _stream(G, method)
         assert np.all(info.residual <= RTOL)
         assert np.array_equal(info.at_bound, info_ref.at_bound)
+        _assert_same_solution(g, g_ref, G)
+
+
+@pytest.mark.parametrize("size", [16, 32])
+def test_the_solution_recorded_before_the_active_set_solver(size):
+    # issue 14: "today's solution", recorded: noisy twin frames and what bounded_newton returned
+    # for them at commit 34b050e, before the active-set solver (and the forward model's later
+    # round-off changes) existed; made_by in the file says how
+    with np.load(Path(__file__).parent / "data" / "iecm_noisy_bounded.npz") as f:
+        G, g_ref = f[f"G{size}"], f[f"g{size}"]
+    for method in ("active_set", "newton"):
+        g, info = _stream(G, method)
+        assert np.all(info.residual <= RTOL)
         _assert_same_solution(g, g_ref, G)
 
 
