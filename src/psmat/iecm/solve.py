@@ -54,9 +54,9 @@ __all__ = ["solve", "SolveInfo", "METHODS", "make_options"]
 
 METHODS = ("newton", "active_set", "bounded_newton", "lm", "bounded_lsq", "fixed_point")
 # newton hands noisy frames to active_set (4-5 iterations per frame on noisy 16 / 32 / 64 twin
-# recordings, at most ~12 in a simulated study session); bounded_newton's Fischer-Burmeister iteration converges only
-# linearly: about 1 frame in 200 needs a few hundred iterations (most need 15-40), so all three
-# allow 1000 before reporting max_iterations
+# recordings, at most ~12 in a simulated study session); bounded_newton's Fischer-Burmeister
+# iteration converges only linearly: about 1 frame in 200 needs a few hundred iterations (most
+# need 15-40), so all three allow 1000 before reporting max_iterations
 _DEFAULT_MAX_ITER = {"newton": 1000, "active_set": 1000, "bounded_newton": 1000, "lm": 200, "bounded_lsq": 200,
                      "fixed_point": 20000}
 _STATUS_NAMES = np.array(["converged", "max_iterations", "stalled", "singular", "least_squares", "bounded"])

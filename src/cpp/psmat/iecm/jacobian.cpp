@@ -49,16 +49,25 @@ template void scaled_hadamard<Eigen::MatrixXd>(const NodalInverse&, const ConstV
 template void scaled_hadamard<Eigen::MatrixXf>(const NodalInverse&, const ConstVecRef&,
                                                Eigen::MatrixXf&, bool);
 
+namespace {
+// For a fixed column cell b = (j,q), T[(i,p),b] = w[i] + u[p] (eq. 2.13 in the blocks of M):
+//   w[i] = M[i,q'] - M[i,j],   u[p] = M[j,p'] - M[p',q']
+// so each entry of S's column b is two look-ups in short vectors instead of four in M.
+void transfer_column(const NodalInverse& net, Index b, Eigen::VectorXd& w, Eigen::VectorXd& u) {
+  const Index R = net.shape().rows, C = net.shape().cols;
+  const Eigen::MatrixXd& M = net.M();
+  const Index j = b / C, qq = R + b % C;
+  w = M.col(qq).head(R) - M.col(j).head(R);  // M is symmetric: columns are rows
+  u = M.col(j).tail(C) - M.col(qq).tail(C);
+}
+}  // namespace
+
 template <class Scalar>
 void scaled_hadamard_block(const NodalInverse& net, const ConstVecRef& G,
                            const std::vector<Index>& cells,
                            Eigen::Ref<Eigen::Matrix<Scalar, Eigen::Dynamic, Eigen::Dynamic>> K) {
   const Index R = net.shape().rows, C = net.shape().cols;
   const Index m = static_cast<Index>(cells.size());
-  const Eigen::MatrixXd& M = net.M();
-  // For a fixed column cell b = (j,q), T[(i,p),b] = w[i] + u[p] (eq. 2.13 in the blocks of M):
-  //   w[i] = M[i,q'] - M[i,j],   u[p] = M[j,p'] - M[p',q']
-  // so each entry is two look-ups in short vectors instead of four in M.
   std::vector<Index> row(static_cast<size_t>(m)), col(static_cast<size_t>(m));
   Eigen::VectorXd Gc(m), w(R), u(C);
   for (Index r = 0; r < m; ++r) {
@@ -68,9 +77,7 @@ void scaled_hadamard_block(const NodalInverse& net, const ConstVecRef& G,
     Gc[r] = G[a];
   }
   for (Index q = 0; q < m; ++q) {
-    const Index j = row[static_cast<size_t>(q)], qq = R + col[static_cast<size_t>(q)];
-    w = M.col(qq).head(R) - M.col(j).head(R);  // M is symmetric: columns are rows
-    u = M.col(j).tail(C) - M.col(qq).tail(C);
+    transfer_column(net, cells[static_cast<size_t>(q)], w, u);
     const double Gb = Gc[q];
     for (Index r = q; r < m; ++r) {
       const double T = w[row[static_cast<size_t>(r)]] + u[col[static_cast<size_t>(r)]];
@@ -87,10 +94,8 @@ template void scaled_hadamard_block<float>(const NodalInverse&, const ConstVecRe
 void scaled_hadamard_column(const NodalInverse& net, const ConstVecRef& G,
                             const std::vector<Index>& cells, Index b, Eigen::Ref<Eigen::VectorXf> out) {
   const Index R = net.shape().rows, C = net.shape().cols;
-  const Eigen::MatrixXd& M = net.M();
-  const Index j = b / C, qq = R + b % C;  // as in scaled_hadamard_block
-  const Eigen::VectorXd w = M.col(qq).head(R) - M.col(j).head(R);
-  const Eigen::VectorXd u = M.col(j).tail(C) - M.col(qq).tail(C);
+  Eigen::VectorXd w(R), u(C);
+  transfer_column(net, b, w, u);
   const double Gb = G[b];
   for (size_t r = 0; r < cells.size(); ++r) {
     const Index a = cells[r];
