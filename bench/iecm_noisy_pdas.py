@@ -3,7 +3,7 @@ psmat's Fischer-Burmeister ``bounded_newton`` (issue 14, measurement record).
 
 ``python bench/iecm_noisy_pdas.py [--frames 60]``
 
-PDAS on the complementarity problem of SPEC §3 with the min function, in the scaled variables
+PDAS on the complementarity problem of docs/spec.md §3 with the min function, in the scaled variables
 of ``solve_bounded_newton.cpp`` (a = (g - g_floor)/G, b = (F(g) - G)/G): each iteration takes the
 bound set A = {a <= b}, sets dg_A = g_floor - g_A and solves J_II dg_I = -(F - G)_I - J_IA dg_A
 with the dense analytic Jacobian (NumPy), then an Armijo line search on the Fischer-Burmeister

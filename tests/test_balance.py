@@ -1,4 +1,4 @@
-"""Centre of pressure and Eu (SPEC §7, eq. 3.1) against values worked out by hand."""
+"""Centre of pressure and Eu (docs/spec.md §7, eq. 3.1) against values worked out by hand."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""psmat.balance.align: a known lag between a platform trace and a mat trace (SPEC §7, §9)."""
+"""psmat.balance.align: a known lag between a platform trace and a mat trace (docs/spec.md §7, §9)."""
 
 from __future__ import annotations
 

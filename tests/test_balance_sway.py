@@ -1,4 +1,4 @@
-"""psmat.balance.sway against the BDS authors' published measures and hand calculations (SPEC §7)."""
+"""psmat.balance.sway against the BDS authors' published measures and hand calculations (docs/spec.md §7)."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""The IECM benchmark's targets are SPEC §10's, noisy rows included."""
+"""The IECM benchmark's targets are docs/spec.md §10's, noisy rows included."""
 
 from __future__ import annotations
 
@@ -15,8 +15,8 @@ def _noisy(size=16, fps=2500.0, threads=2, max_iterations=40, max_residual=1e-7,
 
 
 def test_noisy_rows_carry_the_spec_targets():
-    # regression (issue 10, item 6): the README said every SPEC §10 IECM target was met while
-    # the benchmark printed no target on the noisy rows (SPEC: 16x16 >= 2000 fps/core, 32x32
+    # regression (issue 10, item 6): the README said every docs/spec.md §10 IECM target was met while
+    # the benchmark printed no target on the noisy rows (docs/spec.md §10: 16x16 >= 2000 fps/core, 32x32
     # >= 200 fps, 64x64 >= 20 fps, residual <= 1e-6, no frame over 50 iterations)
     met = _noisy(fps=5000.0)  # 2500 fps/core
     _target(met)
@@ -49,7 +49,7 @@ def test_noise_free_targets_are_only_the_specs():
     assert inaccurate["target_met"] is False
     r32 = _row(size=32, mode="streaming", solver="psmat newton", threads=2, fps=600.0, fps_per_core=300.0,
                err_loaded=1e-9)
-    _target(r32)  # SPEC §10 sets no noise-free 32x32 target
+    _target(r32)  # docs/spec.md §10 sets no noise-free 32x32 target
     assert r32["target"] == "" and r32["target_met"] is None
 
 

@@ -1,4 +1,4 @@
-"""Calibration of a DAQ box (SPEC §2; thesis §2.1.4 end): the estimators and the JSON data.
+"""Calibration of a DAQ box (docs/spec.md §2; thesis §2.1.4 end): the estimators and the JSON data.
 
 Expectations come from the circuit algebra written out here in resistance form, and the
 censored-Gaussian fit is checked against scipy's maximum-likelihood fit of censored data.

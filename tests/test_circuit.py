@@ -1,4 +1,4 @@
-"""Measurement chain (SPEC §2): forward, inverse and flags, both sensor sides, Table 2.4.
+"""Measurement chain (docs/spec.md §2): forward, inverse and flags, both sensor sides, Table 2.4.
 
 Expectations come from the independent reference vectors in ``shared/reference`` and from
 the circuit algebra written out here in resistance form, never from psmat itself.
@@ -21,7 +21,7 @@ R_ADC_FIRST, R_ADC_IMPROVED = 123e3, 6.9e6
 
 # --------------------------------------------------------------------- independent algebra
 def v_of_r(r_cell, r_adc=R_ADC_IMPROVED, r_mux=R_MUX, r_o=R_O, v_ref=V_REF):
-    """SPEC §2 in resistance form: R_path = r + R_mux, R_x = R_path || R_adc, divider."""
+    """docs/spec.md §2 in resistance form: R_path = r + R_mux, R_x = R_path || R_adc, divider."""
     r_path = np.asarray(r_cell, dtype=float) + r_mux
     r_x = r_path * r_adc / (r_path + r_adc)
     return v_ref * r_x / (r_o + r_x)
@@ -272,7 +272,7 @@ def test_counts_rejects_negative_noise():
 
 # --------------------------------------------------------------------- below 0 V and past the open reading
 def test_negative_voltage_reads_as_short_not_open():
-    # a node voltage at or below 0 V lies beyond the zero-resistance reading (SPEC §2): SHORT
+    # a node voltage at or below 0 V lies beyond the zero-resistance reading (docs/spec.md §2): SHORT
     c = Circuit()
     v = np.array([-0.5, -1e-9, 0.0])
     G, flags = c.conductance_from_voltage(v, return_flags=True)

@@ -19,7 +19,7 @@ def test_calibrate_recovers_the_twins_circuit(tmp_path, capsys):
     out = tmp_path / "cal.json"
     assert main(["calibrate", "--simulate", "--seconds", "0.5", "--out", str(out)]) == 0
     cal = Calibration.load(out)
-    true = Circuit()  # what the twin's box has (SPEC §2 defaults)
+    true = Circuit()  # what the twin's box has (docs/spec.md §2 defaults)
     assert cal.r_mux == pytest.approx(true.r_mux, rel=0.02)
     assert cal.r_adc == pytest.approx(true.r_adc, rel=0.05)
     assert cal.serial == "TWIN0001"

@@ -1,4 +1,4 @@
-"""``psmat study simulate`` and ``psmat study run`` (SPEC §9 command line): a one-volunteer
+"""``psmat study simulate`` and ``psmat study run`` (docs/spec.md §9 command line): a one-volunteer
 simulated study written and run from the command line; errors are one line and exit status 1."""
 
 from __future__ import annotations

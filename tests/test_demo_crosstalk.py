@@ -25,7 +25,7 @@ def test_crosstalk_demo_removes_the_ghost(tmp_path):
 
 
 def test_the_demo_frame_stands_at_the_mat_centre():
-    # one convention (cell (i, p) at (p·pitch, i·pitch), SPEC §7): a still, symmetric person
+    # one convention (cell (i, p) at (p·pitch, i·pitch), docs/spec.md §7): a still, symmetric person
     # on the twin's mat has the CoP of its conductances at the mat's centre, ((C-1)/2, (R-1)/2)·pitch
     g = twin.swaying_feet(1, (16, 16), sway_cm=(0.0, 0.0), variability=0.0)[0]
     x, _ = cop(g - 1e-7, twin.mat_pitch_cm((16, 16)))

@@ -45,7 +45,7 @@ def test_the_figure_states_the_cause_the_rms_and_the_mat_in_cm(recording):
             assert f"{res[key]:.3f} cm" in text or f"{res[key]:.3f} without" in text, key
         maps = [ax for ax in fig.axes if ax.get_images()]
         assert len(maps) == 2
-        for ax in maps:  # 16 cells of 2 cm, centred at 0, 2, ..., 30 cm (SPEC §7)
+        for ax in maps:  # 16 cells of 2 cm, centred at 0, 2, ..., 30 cm (docs/spec.md §7)
             assert ax.get_images()[0].get_extent() == [-1.0, 31.0, -1.0, 31.0]
             assert ax.get_xlabel() == "M-L x (cm)" and ax.get_ylabel() == "A-P y (cm)"
     finally:

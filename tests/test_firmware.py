@@ -1,4 +1,4 @@
-"""Firmware (SPEC §5): the host unit tests of firmware/core, the core as the CMake library
+"""Firmware (docs/spec.md §5): the host unit tests of firmware/core, the core as the CMake library
 the main project links, and the cross builds for the BluePill and the Nano Every when their
 toolchains are installed. Everything is built in a temporary directory."""
 

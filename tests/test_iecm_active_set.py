@@ -1,7 +1,7 @@
 """The active-set Newton on what a mat delivers (issue 14): noisy twin frames, 1 mV and 12 bits.
 
 Every real frame is noisy, so the quiet cells end at the bound g = g_floor and the streaming
-path runs the bounded (complementarity) solver of SPEC §3 on every frame. The reference is the
+path runs the bounded (complementarity) solver of docs/spec.md §3 on every frame. The reference is the
 Fischer-Burmeister bounded Newton (``method="bounded_newton"``, an independent formulation and
 globalisation of the same unique solution), run here, and its solution recorded on noisy twin
 frames before the active-set solver existed (tests/data/iecm_noisy_bounded.npz).
@@ -86,7 +86,7 @@ def test_the_solution_recorded_before_the_active_set_solver(size):
 
 
 def test_no_noisy_frame_needs_more_than_50_iterations():
-    # SPEC §10: 16x16 noisy streaming, complementarity residual <= 1e-6 and no frame over 50
+    # docs/spec.md §10: 16x16 noisy streaming, complementarity residual <= 1e-6 and no frame over 50
     # iterations. The Fischer-Burmeister fallback needed up to 133 on these frames (2 over 50).
     G = _noisy_frames(16, 150)
     g, info = _stream(G, "newton")

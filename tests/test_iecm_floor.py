@@ -1,6 +1,6 @@
 """Frames that g_floor decides are reported, not passed off as solutions (issue 10, item 3).
 
-g_floor is the positivity bound of SPEC §3 (1e-12 S by default), far below anything a mat
+g_floor is the positivity bound of docs/spec.md §3 (1e-12 S by default), far below anything a mat
 measures. A frame whose every cell ends on it holds no signal above the floor, and a g_floor
 at or above a measured G forces that cell to the bound whatever the data say (a cell never
 conducts more than the equivalent conductance measured across it, g <= G). Either way the

@@ -1,5 +1,5 @@
 """IECM on a noisy recording from the twin (1 mV, 12 bits, 15 % cell variability): with the
-default settings every frame is solved, and the solution is the one SPEC §3 defines for noisy
+default settings every frame is solved, and the solution is the one docs/spec.md §3 defines for noisy
 G - the bounded (complementarity) problem - checked by its optimality conditions."""
 
 from __future__ import annotations
@@ -23,7 +23,7 @@ def test_every_noisy_frame_is_solved_with_the_defaults():
     g, info = psmat.iecm.solve(G, threads=1, progress=False, return_info=True)  # no warning (pytest: error)
     assert info.all_converged and set(np.unique(info.status)) <= {"converged", "bounded"}
     assert np.all(info.residual <= RTOL)
-    # KKT conditions of the bounded problem (SPEC §3), cell by cell, with the forward model
+    # KKT conditions of the bounded problem (docs/spec.md §3), cell by cell, with the forward model
     # evaluated here: g >= g_floor, F(g) >= G, and (g - g_floor)(F(g) - G) = 0
     b = psmat.iecm.forward(g) / G - 1
     free = g > G_FLOOR * (1 + 1e-9)

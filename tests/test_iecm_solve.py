@@ -93,7 +93,7 @@ def test_report_fields_are_consistent(iecm_reference):
 
 
 def test_fixed_point_is_slow_on_feet(iecm_reference):
-    # SPEC §3: the thesis' fixed point with beta = 0.05 needs thousands of iterations on
+    # docs/spec.md §3: the thesis' fixed point with beta = 0.05 needs thousands of iterations on
     # two-feet images (Jacobian eigenvalues spread over ~0.005..15); measured, not assumed.
     case = iecm_reference["16x16_feet"]
     g, G = np.array(case["g"]), np.array(case["G"])

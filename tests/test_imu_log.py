@@ -1,4 +1,4 @@
-"""psmat.io.imu_log: the thesis' spine-IMU text logs (SPEC §6: one line per sample, five decimals, spaces)."""
+"""psmat.io.imu_log: the thesis' spine-IMU text logs (docs/spec.md §6: one line per sample, five decimals, spaces)."""
 
 from __future__ import annotations
 

@@ -16,7 +16,7 @@ LONG_FILES = {
     "src/psmat/acquire/device.py": "one class: the device's lifecycle, commands and reader thread share its locks "
                                    "and state; about half of it is docstrings",
     "src/psmat/protocol/decoder.py": "the v1, v2 and IMU incremental decoders share one resynchronising state "
-                                     "machine and its bounds on untrusted headers (SPEC §5, §6 integrity)",
+                                     "machine and its bounds on untrusted headers (docs/spec.md §5, §6 integrity)",
     "src/psmat/sensor/metrics.py": "the four material metrics of eq. 2.1-2.4 and the Tables 2.5-2.10 they fill, "
                                    "one function each with its numpy docstring; the figures live in sensor/plots.py",
 }

@@ -1,4 +1,4 @@
-"""Noise model of thesis Table 2.4 / Fig. 2.12 (SPEC §2 "Noise model")."""
+"""Noise model of thesis Table 2.4 / Fig. 2.12 (docs/spec.md §2 "Noise model")."""
 
 from __future__ import annotations
 

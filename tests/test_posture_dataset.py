@@ -111,7 +111,7 @@ def test_a_mat_recorded_apart_is_aligned_to_its_imu_log(study, loaded, tmp_path)
     imu = s.streams["imu"]
     log = tmp_path / "P02_d1.txt"
     write_imu_log(log, imu.counts)  # the thesis' log: no time column, sample k at k / 10 Hz
-    # a study folder finds the log beside the session as imu/<stem>.txt (SPEC §6)
+    # a study folder finds the log beside the session as imu/<stem>.txt (docs/spec.md §6)
     apart = tmp_path / "apart"
     (apart / "sessions").mkdir(parents=True)
     (apart / "imu").mkdir()

@@ -1,4 +1,4 @@
-"""psmat.posture.simulate (issue 13 item 3): a simulated posture study in the SPEC §6 layout.
+"""psmat.posture.simulate (issue 13 item 3): a simulated posture study in the docs/spec.md §6 layout.
 
 A tiny study (2 subjects, 1 day, 20 s) is written once: its sessions load with
 psmat.io.load_session, the mat at ~100 Hz and the IMUs at ~10 Hz on one host clock, the
@@ -109,7 +109,7 @@ def test_truth_describes_the_session(study):
     assert [p["name"] for p in phases][:3] == ["settle", "bounce", "straight"]
     assert phases[-1]["end_s"] == pytest.approx(SECONDS, rel=1e-9)  # the protocol scaled to the session
     assert all(0.0 <= v <= 1.0 for v in info["sensor_sites_v"])
-    np.testing.assert_allclose(np.diff(info["sensor_cm_below_c7"]), 9.0, atol=1e-9)  # 90 mm apart (SPEC §8)
+    np.testing.assert_allclose(np.diff(info["sensor_cm_below_c7"]), 9.0, atol=1e-9)  # 90 mm apart (docs/spec.md §8)
     z = np.load(study / "truth" / "sessions" / "P01_d1.npz")
     person = json.loads((study / "truth" / "subjects" / "P01.json").read_text())["person"]
     # the seat's force is the subject's weight times its share on the cushion times (1 + bounce)

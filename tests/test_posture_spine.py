@@ -1,4 +1,4 @@
-"""psmat.posture.spine_points: thesis eq. 4.4 (chained circular arcs, SPEC §8/§9) checked by
+"""psmat.posture.spine_points: thesis eq. 4.4 (chained circular arcs, docs/spec.md §8/§9) checked by
 hand geometry and against a literal product of the eq. 4.4 matrices; plot_spine (Fig. 4.8)."""
 
 from __future__ import annotations

@@ -43,7 +43,7 @@ def recording() -> tuple[np.ndarray, np.ndarray]:
     scene = quiet_standing(2.0, RATE, seed=1)
     counts = MatPhysics((16, 16), dt=DT, seed=2).counts(scene.pressure).astype(np.uint16)
     full_scale = Circuit().full_scale
-    counts[:, 0, 0] = full_scale  # open: beyond what the ADC resolves (SPEC §2)
+    counts[:, 0, 0] = full_scale  # open: beyond what the ADC resolves (docs/spec.md §2)
     counts[::3, 15, 15] = full_scale
     counts[SHORT_FRAME, 3, 3] = 0  # short: count 0 on the low side
     valid = np.ones(len(counts), bool)
@@ -188,7 +188,7 @@ def test_bad_input_is_one_clear_error(shape, dt, valid, match) -> None:
 
 def test_parallel_pushes_solve_every_frame(recording) -> None:
     """threads > 1: each push is a parallel batch, the first frame warm-started from the push before.
-    Every frame is then the bounded solution of SPEC §3: the forward model meets G to the solver's
+    Every frame is then the bounded solution of docs/spec.md §3: the forward model meets G to the solver's
     tolerance (rtol 1e-10) on the free cells, and over-predicts G on the cells held at g_floor."""
     counts = recording[0][:40]
     with process.Processor((16, 16), g_rest=G_REST, threads=2) as proc:

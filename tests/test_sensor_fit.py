@@ -61,7 +61,7 @@ def test_anneal_is_reproducible_and_reaches_varpro(rng):
     assert len(a.details["chain_sse_n"]) == 2 and a.sse_n == pytest.approx(min(a.details["chain_sse_n"]))
     best = fit(ps, gs, 0.5, method="varpro").sse_n
     # annealing over (tau, creep rates) with the linear part exact: the benchmark's target,
-    # within 1 % of the best SSE_N (SPEC §10)
+    # within 1 % of the best SSE_N (docs/spec.md §10)
     reduced = fit(ps, gs, 0.5, method="anneal", seed=3)
     assert reduced.sse_n <= 1.01 * best
     assert reduced.model.invertibility_problem() == ""

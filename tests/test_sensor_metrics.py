@@ -1,4 +1,4 @@
-"""Material metrics (eq. 2.1-2.4), simulated runs and the material-DAQ loader (thesis §2.1.3, §2.4; SPEC §4)."""
+"""Material metrics (eq. 2.1-2.4), simulated runs and the material-DAQ loader (thesis §2.1.3, §2.4; docs/spec.md §4)."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""Sensor model (thesis §2.5.1, SPEC §4): MPI hysteresis + creep, direct and exact inverse."""
+"""Sensor model (thesis §2.5.1, docs/spec.md §4): MPI hysteresis + creep, direct and exact inverse."""
 
 from __future__ import annotations
 
@@ -31,7 +31,7 @@ def test_direct_matches_reference():
 
 
 def test_thesis_preset(thesis):
-    assert thesis.direct(np.array([32.0]), 0.5)[0] == pytest.approx(6.7e-3, rel=0.01)  # SPEC §4
+    assert thesis.direct(np.array([32.0]), 0.5)[0] == pytest.approx(6.7e-3, rel=0.01)  # docs/spec.md §4
     np.testing.assert_allclose(thesis.thresholds, np.arange(6) / 6 * 32.0)
     np.testing.assert_allclose(thesis.weights, 1.64e-4 * np.exp(-0.269 * thesis.thresholds))  # eq. 2.18
     assert thesis.invertibility_problem() == ""

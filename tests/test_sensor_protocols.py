@@ -1,4 +1,4 @@
-"""Pneumatic protocols of thesis §2.4.2 / SPEC §4: shapes, durations and levels from the SPEC numbers."""
+"""Pneumatic protocols of thesis §2.4.2 / docs/spec.md §4: shapes, durations and levels from the SPEC numbers."""
 
 from __future__ import annotations
 
@@ -47,7 +47,7 @@ def check_segments(pr: Protocol) -> None:
     np.testing.assert_allclose(pr.t_s, np.arange(pr.n_samples) * pr.dt_s)
 
 
-# SPEC §4 numbers
+# docs/spec.md §4 numbers
 DESC_THESIS = [0, 32, 0, 28, 0, 24, 0, 20, 0, 16, 0, 12, 0, 8, 0, 4, 0]
 ASC_THESIS = [0, 32, 4, 32, 0, 32, 8, 32, 0, 32, 12, 32, 0, 32, 16, 32, 0, 32, 20, 32, 0, 32, 24, 32, 0,
               32, 28, 32, 0]

@@ -1,4 +1,4 @@
-"""SPEC §6 integrity promises: a damaged byte costs at most its journal record or HDF5 chunk.
+"""docs/spec.md §6 integrity promises: a damaged byte costs at most its journal record or HDF5 chunk.
 
 Damage is made by flipping bytes of real files written by :class:`psmat.io.SessionWriter`:
 journal records are located from the journal header (fixed-size records), HDF5 chunks from

@@ -2,7 +2,7 @@
 
 Each check compares what is loaded with the arrays that were appended; damage is made by
 flipping bytes of real files, located by HDF5's own chunk index or the journal header.
-SPEC §6's integrity promises are checked per stream.
+docs/spec.md §6's integrity promises are checked per stream.
 """
 
 from __future__ import annotations

@@ -1,5 +1,5 @@
 """psmat.study.find_study: a study folder's sessions paired with platform files and subjects,
-problems reported per session (SPEC §6), on real files."""
+problems reported per session (docs/spec.md §6), on real files."""
 
 from __future__ import annotations
 

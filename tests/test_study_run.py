@@ -1,4 +1,4 @@
-"""``run_study`` (SPEC §12) on a small simulated study (``simulate_study``): two volunteers,
+"""``run_study`` (docs/spec.md §12) on a small simulated study (``simulate_study``): two volunteers,
 their right-leg and left-leg trials (the rotation trials removed to keep it small), 6 s at
 50 Hz on 16×16 mats, each volunteer on their own box and clock; ``truth/`` deleted first,
 as a lab has none. The tables are compared byte for byte across reruns, a SIGKILL and resume,

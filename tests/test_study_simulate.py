@@ -1,4 +1,4 @@
-"""The honest simulation of a balance study (SPEC §7, §6 layout): ``psmat.study.simulate``.
+"""The honest simulation of a balance study (docs/spec.md §7, §6 layout): ``psmat.study.simulate``.
 
 A two-volunteer, 10 s study at 50 Hz (the platform at its own 100 Hz): the layout is complete
 for ``find_study``; the truth differs from what the processing assumes (sensor model, R_mux,
@@ -162,7 +162,7 @@ def test_the_lag_in_truth_is_what_the_clocks_say(study) -> None:
             info, t = _truth(study, stem)
             clock = _device_clock(load_session(study / "sessions" / f"{stem}.h5"))
             # the true CoP on the session's own device times matches the platform file best at
-            # truth's lag, to half a millisecond: cop(t) = cop_ref(t + lag) (SPEC §9)
+            # truth's lag, to half a millisecond: cop(t) = cop_ref(t + lag) (docs/spec.md §9)
             r = {d: align(fp.t, fp.cop_cm, clock, t["cop_cm"], lag_s=info["lag_s"] + d).r for d in (-5e-4, 0.0, 5e-4)}
             assert r[0.0] > 0.9999 and r[0.0] >= max(r[-5e-4], r[5e-4]), stem
 

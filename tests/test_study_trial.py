@@ -97,7 +97,7 @@ def test_traces_are_the_aligned_window_the_metrics_come_from(trial) -> None:
     data = np.loadtxt(plate, delimiter=",", skiprows=1)
     for k in range(2):
         np.testing.assert_allclose(traces["FP"][:, k], np.interp(t, data[:, 0], data[:, 1 + k]), rtol=1e-12)
-    # the full-mat trace is the one whose spread the row reports (SPEC §7: SD, ddof 1, per axis)
+    # the full-mat trace is the one whose spread the row reports (docs/spec.md §7: SD, ddof 1, per axis)
     assert np.std(traces["PROP"][:, 0], ddof=1) == pytest.approx(by["PROP"]["sd_ml_cm"], rel=1e-9)
     assert np.std(traces["PROP"][:, 1], ddof=1) == pytest.approx(by["PROP"]["sd_ap_cm"], rel=1e-9)
     # absolute mat coordinates (not mean-removed): on the 32 cm mat, away from its corner
@@ -136,7 +136,7 @@ def test_a_calibration_file_gives_the_box_its_r_adc_and_r_mux(trial, tmp_path) -
 
 
 def test_a_lost_frame_does_not_move_the_session_to_the_host_clock(trial, tmp_path) -> None:
-    # A frame lost on the wire is stored with device time -1 (SPEC §6). The lag must still be
+    # A frame lost on the wire is stored with device time -1 (docs/spec.md §6). The lag must still be
     # measured on the device clock, the lost frame's time taken from the frame grid; before,
     # one such frame sent the whole session to the host clock (a lag of about -1.7e9 s here).
     from psmat.io import load_session

@@ -36,7 +36,7 @@ def test_the_load_read_back_through_the_sensor_model_is_the_weight(n):
     pitch_m = 0.32 / n
     force = p_psi.sum(axis=(1, 2)) * PSI_IN_PA * pitch_m**2
     np.testing.assert_allclose(force, 650.0, rtol=2e-3)  # the feet lie on the 32 cm mat
-    # SPEC §7 at cell centres (p·pitch, i·pitch) gives the continuous field's CoP
+    # docs/spec.md §7 at cell centres (p·pitch, i·pitch) gives the continuous field's CoP
     np.testing.assert_allclose(cop(p_psi, 32.0 / n), cop_true, atol=0.02)
 
 
@@ -125,7 +125,7 @@ def test_random_array_spreads_over_the_decades():
 
 
 def test_a_scene_gives_its_pressure_in_kpa_too() -> None:
-    # SPEC §1: psi inside, kPa at the API; 1 psi = 6.894757 kPa
+    # docs/spec.md §1: psi inside, kPa at the API; 1 psi = 6.894757 kPa
     from psmat.twin import quiet_standing
 
     s = quiet_standing(0.2, 50.0, seed=1)

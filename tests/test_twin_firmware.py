@@ -1,5 +1,5 @@
 """The firmware cores (C, firmware/core) as compiled into psmat._core.firmware for the twin:
-their bytes are psmat.protocol's bytes, and the mux wiring is undone (SPEC §5)."""
+their bytes are psmat.protocol's bytes, and the mux wiring is undone (docs/spec.md §5)."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""The twin's physics (SPEC §5): pressure → sensor model → crosstalk → measurement chain.
+"""The twin's physics (docs/spec.md §5): pressure → sensor model → crosstalk → measurement chain.
 
 Checked by undoing each step with the independent inverse of that step (Circuit.conductance,
 iecm.solve, MPICreep.inverse) and by the CoP, which the chain must not move."""

@@ -2,7 +2,7 @@
 
 Expectations come from physics, computed here independently of the module's closed forms:
 forces are Σ p·A with p converted psi → Pa by hand, centres of pressure are first moments
-of the field sampled on a fine grid or of the cell image at cell centres (SPEC §7).
+of the field sampled on a fine grid or of the cell image at cell centres (docs/spec.md §7).
 """
 
 from __future__ import annotations
@@ -33,7 +33,7 @@ def force_n(pressure_psi: np.ndarray, pitch_cm: float = PITCH) -> np.ndarray:
 
 
 def cop_cells(pressure: np.ndarray, pitch_cm: float = PITCH) -> np.ndarray:
-    """SPEC §7 at cell centres: cell (i, p) at x = p·pitch, y = i·pitch."""
+    """docs/spec.md §7 at cell centres: cell (i, p) at x = p·pitch, y = i·pitch."""
     r, c = pressure.shape[-2:]
     y, x = np.meshgrid(np.arange(r) * pitch_cm, np.arange(c) * pitch_cm, indexing="ij")
     tot = pressure.sum(axis=(-2, -1))
@@ -157,7 +157,7 @@ def test_scene_force_and_cop_from_the_cell_image(make, n, load):
     np.testing.assert_allclose(s.force_n, load, rtol=1e-12)
     # Σ p·A of the image = the load within 1 % (feet fully on the 32 cm mat).
     np.testing.assert_allclose(force_n(s.pressure, pitch), load, rtol=1e-2)
-    # The SPEC §7 CoP of the image tracks the field's CoP within a small fraction of the pitch.
+    # The docs/spec.md §7 CoP of the image tracks the field's CoP within a small fraction of the pitch.
     err = cop_cells(s.pressure, pitch) - s.cop_true_cm
     assert np.abs(err).max() < 0.1 * pitch
     np.testing.assert_allclose(s.cell_cop_cm(), cop_cells(s.pressure, pitch), atol=1e-12)

@@ -1,4 +1,4 @@
-"""The seated twin (SPEC §8 "Data", psmat.twin.seated*): one posture drives the cushion and the IMUs.
+"""The seated twin (docs/spec.md §8 "Data", psmat.twin.seated*): one posture drives the cushion and the IMUs.
 
 Physics checked against hand calculations: the seat's force is the weight's share (and the
 bounce's acceleration), the moment balance holds, leaning forward loads the thighs and leaning
@@ -195,7 +195,7 @@ def test_a_uniform_bend_puts_the_sensors_where_eq_4_4_does(subject):
     day = _day(top_sensor_cm=1.0)
     sess = _session(bent, day)
     pitch = sess.true_angles(np.array([1.0]))[0, :, 2]
-    # by hand (SPEC §8): the top sensor 1 cm below C7, the others every 9 cm down the back
+    # by hand (docs/spec.md §8): the top sensor 1 cm below C7, the others every 9 cm down the back
     length = bent.back_length_cm
     v = 1.0 - (1.0 + 9.0 * np.arange(5)) / length
     assert v[-1] > 0.0

@@ -1,4 +1,4 @@
-"""The twin on a real pseudo-terminal (SPEC §5): pacing, commands, faults, the CLI."""
+"""The twin on a real pseudo-terminal (docs/spec.md §5): pacing, commands, faults, the CLI."""
 
 from __future__ import annotations
 

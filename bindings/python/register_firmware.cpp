@@ -1,6 +1,6 @@
 // Bindings of the portable firmware cores (firmware/core, C99): psmat._core.firmware.
 //
-// The digital twin (SPEC §5) runs the very code that runs on the microcontrollers: each class
+// The digital twin (docs/spec.md §5) runs the very code that runs on the microcontrollers: each class
 // here is a host HAL around one device core. The "hardware" is an array the caller hands to
 // tick(): the ADC counts of every row-column pair for the PSM (read through the mux
 // addresses the core selects), the five sensors' Euler angles for the IMU DAQ, the ten

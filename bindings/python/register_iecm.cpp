@@ -184,7 +184,7 @@ void register_iecm(py::module_& m) {
         if (!ok) throw std::domain_error("the resistor network of g is singular (disconnected)");
         return frame_array(out, s);
       },
-      py::arg("g"), py::arg("v"), "Matrix-free (T∘T) v in O(n^3) (SPEC §3), shape of g.");
+      py::arg("g"), py::arg("v"), "Matrix-free (T∘T) v in O(n^3) (docs/spec.md §3), shape of g.");
 
   m.def(
       "inverse_jacobian",

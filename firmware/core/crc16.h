@@ -1,4 +1,4 @@
-/* CRC-16/CCITT-FALSE (docs/protocol.md, SPEC §5): poly 0x1021, init 0xFFFF, no reflection,
+/* CRC-16/CCITT-FALSE (docs/protocol.md, docs/spec.md §5): poly 0x1021, init 0xFFFF, no reflection,
  * no final XOR. Check value: pm_crc16("123456789", 9) == 0x29B1. */
 #ifndef PSMAT_CRC16_H
 #define PSMAT_CRC16_H

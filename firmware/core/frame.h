@@ -1,4 +1,4 @@
-/* Frame encoders, byte-exact to docs/protocol.md (SPEC §5). All integers little-endian,
+/* Frame encoders, byte-exact to docs/protocol.md (docs/spec.md §5). All integers little-endian,
  * cells row-major a = i*C + p. Every encoder returns the number of bytes written. */
 #ifndef PSMAT_FRAME_H
 #define PSMAT_FRAME_H

@@ -1,4 +1,4 @@
-/* Spine IMU DAQ (SPEC §5, docs/protocol.md "Spine IMU DAQ"): 5 BNO055, Euler angles in
+/* Spine IMU DAQ (docs/spec.md §5, docs/protocol.md "Spine IMU DAQ"): 5 BNO055, Euler angles in
  * degrees as float32, v1 or v2 framing, 10 Hz by default, streaming from power-up; the
  * PSM command set minus CAL_HOLD (answered "unknown opcode"). */
 #ifndef PSMAT_IMU_CORE_H

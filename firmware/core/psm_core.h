@@ -1,4 +1,4 @@
-/* PSM device logic (SPEC §5, docs/protocol.md): scan sequencing, framing, commands.
+/* PSM device logic (docs/spec.md §5, docs/protocol.md): scan sequencing, framing, commands.
  * Hardware lives behind psm_hal; the same code runs on the BluePill, in the host unit
  * tests and in the digital twin. No floats, no malloc: the caller allocates psm_core. */
 #ifndef PSMAT_PSM_CORE_H

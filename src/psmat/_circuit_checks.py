@@ -1,4 +1,4 @@
-"""Validation of the measurement-chain constants (SPEC §2), shared by ``Circuit`` and ``Calibration``.
+"""Validation of the measurement-chain constants (docs/spec.md §2), shared by ``Circuit`` and ``Calibration``.
 
 Circuit-specific: which constants a reading circuit has and their ranges (``bits`` 1..16,
 ``r_mux`` a scalar or one per pair, ``r_adc = inf`` for an ideal ADC), so that a circuit and
@@ -21,7 +21,7 @@ __all__ = ["check_constants"]
 def check_constants(
     r_o: Any, r_mux: Any, r_adc: Any, v_ref: Any, bits: Any
 ) -> tuple[float, float | NDArray[np.float64], float, float, int]:
-    """Validated, normalised constants of the reading circuit (SPEC §2).
+    """Validated, normalised constants of the reading circuit (docs/spec.md §2).
 
     Parameters
     ----------

@@ -1,4 +1,4 @@
-"""Calibration of a DAQ box as data: R_adc, R_mux and their diagnostics, with JSON I/O (SPEC §2).
+"""Calibration of a DAQ box as data: R_adc, R_mux and their diagnostics, with JSON I/O (docs/spec.md §2).
 
 A calibration is data, stored with the box's serial number (JSON, :meth:`Calibration.save` /
 :meth:`Calibration.load`) and applied with :meth:`psmat.circuit.Circuit.from_calibration` or
@@ -101,7 +101,7 @@ class ShortCircuitStats:
 # ---------------------------------------------------------------------- calibration
 @dataclass(eq=False)
 class Calibration:
-    """Calibration of one DAQ box (SPEC §2 "Calibration").
+    """Calibration of one DAQ box (docs/spec.md §2 "Calibration").
 
     Attributes
     ----------

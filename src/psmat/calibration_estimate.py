@@ -1,4 +1,4 @@
-"""Calibration estimators: R_adc and R_mux of a DAQ box from recordings (SPEC §2; thesis §2.1.4 end).
+"""Calibration estimators: R_adc and R_mux of a DAQ box from recordings (docs/spec.md §2; thesis §2.1.4 end).
 
 Thesis procedure: with the mat unplugged every cell is open, so node X sees ``R_o`` to
 ``V_ref`` and only ``R_adc`` to ground → ``R_adc``; with a wire shorting one row-column pair

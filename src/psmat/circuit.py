@@ -1,4 +1,4 @@
-"""Measurement chain of the basic reading circuit, both ways (SPEC §2; thesis §2.1.4, Fig. 2.3/2.8).
+"""Measurement chain of the basic reading circuit, both ways (docs/spec.md §2; thesis §2.1.4, Fig. 2.3/2.8).
 
 Row ``i`` goes through the row multiplexer to node X, X is tied to ``V_ref`` through ``R_o``,
 column ``p`` goes through the column multiplexer to ground and the ADC (input resistance
@@ -63,7 +63,7 @@ IMPROVED_PROTOTYPE_R_ADC: float = 6.9e6
 
 
 class Circuit:
-    """Basic voltage-divider reading circuit of a resistive sensor array (SPEC §2).
+    """Basic voltage-divider reading circuit of a resistive sensor array (docs/spec.md §2).
 
     Parameters
     ----------
@@ -82,7 +82,7 @@ class Circuit:
     bits : int
         ADC resolution, 1..16 (counts are returned as uint16). Thesis: 12.
     sensor_side : {"low", "high"}
-        ``"low"`` (the mat, SPEC §2): the cell path from X to ground. ``"high"``: the cell
+        ``"low"`` (the mat, docs/spec.md §2): the cell path from X to ground. ``"high"``: the cell
         path from ``V_ref`` to X and ``R_o || R_adc`` from X to ground; an open cell reads 0
         and a zero-resistance cell the top of the range, so the flags swap ends.
     """
@@ -225,7 +225,7 @@ class Circuit:
         return G / (1.0 + G * self._r_mux)
 
     def voltage(self, G: ArrayLike) -> NDArray[np.float64]:
-        """Node voltage ``V_x`` for equivalent conductances ``G`` (SPEC §2).
+        """Node voltage ``V_x`` for equivalent conductances ``G`` (docs/spec.md §2).
 
         Parameters
         ----------
@@ -264,7 +264,7 @@ class Circuit:
         noise_v: float | ArrayLike = 0.0,
         rng: np.random.Generator | int | None = None,
     ) -> NDArray[np.uint16]:
-        """ADC counts read for equivalent conductances ``G`` (SPEC §2, with the §2 noise model).
+        """ADC counts read for equivalent conductances ``G`` (docs/spec.md §2, with the §2 noise model).
 
         Parameters
         ----------
@@ -379,7 +379,7 @@ class Circuit:
             At or beyond the open-circuit reading (flag :data:`OPEN`), return the algebraic
             continuation ``G = G_path/(1 - G_path R_mux)`` instead of NaN: it passes smoothly
             through ``G = 0`` to negative values and has no pole on that side (the noise
-            model, SPEC §2). The short side stays NaN: no finite conductance reads there.
+            model, docs/spec.md §2). The short side stays NaN: no finite conductance reads there.
 
         Returns
         -------
@@ -421,7 +421,7 @@ class Circuit:
     def conductance(
         self, counts: ArrayLike, return_flags: bool = False
     ) -> NDArray[np.float64] | tuple[NDArray[np.float64], NDArray[np.uint8]]:
-        """Equivalent conductances from ADC counts: the exact inverse of each step of SPEC §2.
+        """Equivalent conductances from ADC counts: the exact inverse of each step of docs/spec.md §2.
 
         The count is taken at its code centre ``v = count/(2**bits-1) V_ref``; then the
         divider is undone (``R_x = R_o v/(V_ref - v)``), ``R_adc`` removed in parallel

@@ -1,4 +1,4 @@
-"""Noise model of the measurement (thesis Table 2.4 and Fig. 2.12; SPEC §2 "Noise model").
+"""Noise model of the measurement (thesis Table 2.4 and Fig. 2.12; docs/spec.md §2 "Noise model").
 
 Two models of the noise on an equivalent conductance ``G`` (S):
 

@@ -1,15 +1,15 @@
 """From ADC counts to pressure and centre of pressure: the mat's one processing chain.
 
-counts ─ :meth:`Circuit.conductance` (SPEC §2) → G ─ :func:`psmat.iecm.solve` (crosstalk
-removed, SPEC §3) → g ─ :meth:`MPICreep.inverse` (hysteresis and creep compensated, SPEC §4)
-→ pressure ─ :func:`psmat.balance.cop` (SPEC §7) → CoP.
+counts ─ :meth:`Circuit.conductance` (docs/spec.md §2) → G ─ :func:`psmat.iecm.solve` (crosstalk
+removed, docs/spec.md §3) → g ─ :meth:`MPICreep.inverse` (hysteresis and creep compensated, docs/spec.md §4)
+→ pressure ─ :func:`psmat.balance.cop` (docs/spec.md §7) → CoP.
 
 :class:`Processor` is the chain on a stream: frames are pushed in chunks as they arrive and
 the state carried between chunks (the IECM warm start and preconditioner, the sensor
 model's operator state, the time since the last usable frame), so chunked pushes give the
 numbers of one push. :func:`process_counts` is one push of a whole recording,
 :func:`process_session` runs it on a recorded session file and stores G, g, pressure (kPa)
-and CoP beside the raw counts with the parameters that made them (SPEC §6); the live view
+and CoP beside the raw counts with the parameters that made them (docs/spec.md §6); the live view
 (:mod:`psmat.live`) pushes the frames it shows.
 
 Readings the chain cannot use are handled one way everywhere, never turned into silent

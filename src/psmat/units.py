@@ -1,4 +1,4 @@
-"""Unit conversions used across the package (SPEC §1: psi inside the sensor model, SI at the API)."""
+"""Unit conversions used across the package (docs/spec.md §1: psi inside the sensor model, SI at the API)."""
 
 #: Pa per psi.
 PSI_PA: float = 6894.757

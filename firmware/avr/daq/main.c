@@ -1,4 +1,4 @@
-/* Material DAQ on the Arduino Nano Every (thesis §2.4.1, SPEC §5): daq_core behind a HAL
+/* Material DAQ on the Arduino Nano Every (thesis §2.4.1, docs/spec.md §5): daq_core behind a HAL
  * of blocking USART writes and polled conversions; the RTC paces the 500 ms lines. */
 #include "board.h"
 #include "daq_core.h"

@@ -1,4 +1,4 @@
-/* imu_hal for the BluePill: five BNO055 on three buses, 2 + 2 + 1 (SPEC §5). */
+/* imu_hal for the BluePill: five BNO055 on three buses, 2 + 2 + 1 (docs/spec.md §5). */
 #include "hal.h"
 
 #include "bno055.h"

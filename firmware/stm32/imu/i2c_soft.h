@@ -6,7 +6,7 @@
 
 /* Bit-banged I2C master, ~100 kHz, open-drain pins on one port, honours clock stretching
  * (the BNO055 stretches SCL). The F103 has two I2C peripherals and the spine needs three
- * buses (SPEC §5), so all three are done the same way in software. */
+ * buses (docs/spec.md §5), so all three are done the same way in software. */
 typedef struct i2c_bus {
     gpio_regs *port;
     uint8_t scl, sda; /* pin numbers */

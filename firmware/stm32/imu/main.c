@@ -1,4 +1,4 @@
-/* Spine IMU DAQ on the BluePill (SPEC §5): TIM2 at 10 Hz raises a flag; the main loop reads
+/* Spine IMU DAQ on the BluePill (docs/spec.md §5): TIM2 at 10 Hz raises a flag; the main loop reads
  * the sensors (I2C is too slow for an IRQ) and handles host commands. */
 #include "clock.h"
 #include "hal.h"

@@ -1,4 +1,4 @@
-/* PSM 16x16 on the BluePill (SPEC §5): the TIM2 IRQ scans and sends (Code 2.4), the main
+/* PSM 16x16 on the BluePill (docs/spec.md §5): the TIM2 IRQ scans and sends (Code 2.4), the main
  * loop feeds host bytes to the command parser. */
 #include "adc.h"
 #include "clock.h"

@@ -1,5 +1,5 @@
 // Common array types of the psmat C++ core.
-// Cell arrays are flattened row-major: cell (i, p) of an R x C array is index a = i*C + p (SPEC §1).
+// Cell arrays are flattened row-major: cell (i, p) of an R x C array is index a = i*C + p (docs/spec.md §1).
 #pragma once
 #include <Eigen/Dense>
 

@@ -1,4 +1,4 @@
-// The active-set Newton for noisy frames (solve_active_set.cpp, SPEC §3 complementarity
+// The active-set Newton for noisy frames (solve_active_set.cpp, docs/spec.md §3 complementarity
 // problem): its pieces — the free block of S, the PCG solve with a stale factor — against
 // dense linear algebra, and its answer against the Fischer-Burmeister reference
 // (solve_bounded_newton.cpp) on a noisy stream: same bound set, same free cells.
@@ -65,7 +65,7 @@ VectorXd dense_free_solve(const MatrixXd& S, const std::vector<Index>& I, double
 
 // A noisy recording: a loaded blob that drifts over a quiet background (leakage 1e-7 S), read
 // with additive noise of 1.5e-7 S on G (the size of 1 mV on the ADC node for a quiet cell,
-// SPEC §2), so most background cells end at the bound.
+// docs/spec.md §2), so most background cells end at the bound.
 VectorXd noisy_frame(Shape s, int t, unsigned seed) {
   VectorXd g = VectorXd::Constant(s.cells(), 1e-7);
   const double ci = 0.4 * double(s.rows) + 0.3 * std::sin(0.3 * t), cp = 0.5 * double(s.cols);

@@ -109,7 +109,7 @@ TEST_CASE("BatchJob: streaming warm starts pay off on a realistic recording") {
     it_stream += stream_job.reports()[size_t(t)].iterations;
     it_indep += indep_job.reports()[size_t(t)].iterations;
     for (Index a = 0; a < 256; ++a) {
-      if (rec.g(t, a) < 1e-4) continue;  // SPEC accuracy target: g >= 1e-4 S
+      if (rec.g(t, a) < 1e-4) continue;  // docs/spec.md §10 accuracy target: g >= 1e-4 S
       CHECK(std::abs(stream_job.g()(t, a) - rec.g(t, a)) <= 1e-6 * rec.g(t, a));
       CHECK(std::abs(indep_job.g()(t, a) - rec.g(t, a)) <= 1e-6 * rec.g(t, a));
     }

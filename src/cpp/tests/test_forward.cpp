@@ -1,4 +1,4 @@
-// Forward model G = F(g) (SPEC §3, thesis eq. 2.5-2.7): expectations from circuit theory,
+// Forward model G = F(g) (docs/spec.md §3, thesis eq. 2.5-2.7): expectations from circuit theory,
 // hand-solved networks, an independent brute-force nodal solver and the reference vectors.
 #include <limits>
 

@@ -1,4 +1,4 @@
-// Jacobian of the forward model (SPEC §3, thesis eq. 2.13 / B.23), its scaled symmetric form
+// Jacobian of the forward model (docs/spec.md §3, thesis eq. 2.13 / B.23), its scaled symmetric form
 // S = D_G (T∘T) D_G and the matrix-free product (T∘T) v. Expectations come from finite
 // differences, an independent current-distribution argument, Euler's theorem for the
 // degree-1 homogeneous F, Cauchy-Schwarz on T, and the reference vectors.

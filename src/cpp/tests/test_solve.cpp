@@ -1,4 +1,4 @@
-// The IECM inverse g = F^-1(G_exp) (SPEC §3, thesis eq. 2.8-2.10): every method recovers known
+// The IECM inverse g = F^-1(G_exp) (docs/spec.md §3, thesis eq. 2.8-2.10): every method recovers known
 // cell conductances from G = F(g) (round trips), including non-square arrays, the reference
 // two-feet image from a cold start, and a strong-ghost configuration; warm starts pay off;
 // the per-frame report tells the truth about the returned g.

@@ -1,4 +1,4 @@
-// Uncertainty propagation through IECM (SPEC §3, thesis §2.3.1, eq. 2.11-2.14): dg/dG is the
+// Uncertainty propagation through IECM (docs/spec.md §3, thesis §2.3.1, eq. 2.11-2.14): dg/dG is the
 // inverse of the dense Jacobian, eq. 2.11 is the quadrature sum over it, and both agree with
 // brute force — finite differences of the inverse and a Monte-Carlo of noisy re-solves.
 #include <random>

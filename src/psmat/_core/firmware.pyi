@@ -1,4 +1,4 @@
-"""The portable firmware cores (firmware/core, C99) on host HALs: the digital twin (SPEC §5)."""
+"""The portable firmware cores (firmware/core, C99) on host HALs: the digital twin (docs/spec.md §5)."""
 
 import numpy as np
 import numpy.typing as npt

@@ -57,7 +57,7 @@ def apply_play(
 ) -> npt.NDArray[np.float64]: ...
 
 class SeparableProblem:
-    """Variable projection of the MPI + creep fit (SPEC §4): z = (tau, log10 l_j) searched,
+    """Variable projection of the MPI + creep fit (docs/spec.md §4): z = (tau, log10 l_j) searched,
     c = (a1, a2, a3, rho, w_j) an exact linear solve."""
 
     def __init__(

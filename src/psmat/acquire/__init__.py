@@ -1,4 +1,4 @@
-"""Acquisition from the three devices through one API (SPEC §5): PSM mat, material DAQ, spine IMUs.
+"""Acquisition from the three devices through one API (docs/spec.md §5): PSM mat, material DAQ, spine IMUs.
 
 >>> with open_device("/dev/ttyACM0", kind="psm", protocol="v2") as dev:   # doctest: +SKIP
 ...     batch = dev.read(165, timeout=2.0)      # FrameBatch: frames (N, 16, 16) uint16, ...

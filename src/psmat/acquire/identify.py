@@ -1,6 +1,6 @@
-"""A device's description from its IDENTIFY reply, with what stayed unknown said so (SPEC §5, §6).
+"""A device's description from its IDENTIFY reply, with what stayed unknown said so (docs/spec.md §5, §6).
 
-The description is what a session records about its device (SPEC §6: shape, R_o, V_ref,
+The description is what a session records about its device (docs/spec.md §6: shape, R_o, V_ref,
 bits, firmware version). A field the device did not report is absent as a value, listed
 under ``"unknown"`` and explained by a ``"note"``, so that a session recorded over a link
 that stalled at open, or from a thesis firmware that never answers, says what it lacks

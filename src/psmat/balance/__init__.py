@@ -1,4 +1,4 @@
-"""Balance (thesis chapter 3, SPEC §7): centre of pressure and the thesis' metrics.
+"""Balance (thesis chapter 3, docs/spec.md §7): centre of pressure and the thesis' metrics.
 
 :func:`cop` is the centre of pressure of pressure images; :func:`eu` the thesis' distance
 between two CoP traces (eq. 3.1); :func:`sway` the posturography metrics of a trace;

@@ -1,4 +1,4 @@
-"""Time alignment of the mat's CoP with the force platform's (thesis §3.2.1, SPEC §7 and §9).
+"""Time alignment of the mat's CoP with the force platform's (thesis §3.2.1, docs/spec.md §7 and §9).
 
 The two instruments start on their own clocks and sample at their own rates; the mat also
 sees a smaller, offset trajectory (its gain and its origin differ). :func:`align` resamples
@@ -10,7 +10,7 @@ lag and the correlation there. ``lag_s`` given by the user overrides the search.
 itself, :func:`search_lag`, is psmat's one cross-correlation alignment: the posture study's
 mat-to-IMU alignment (thesis Fig. 4.11, :mod:`psmat.posture.align`) runs it on one column.
 
-Convention (SPEC §9): ``cop(t) ≈ cop_ref(t + lag_s)``, each time on its own clock: when the
+Convention (docs/spec.md §9): ``cop(t) ≈ cop_ref(t + lag_s)``, each time on its own clock: when the
 mat's clock reads ``t`` the platform's reads ``t + lag_s``.
 """
 

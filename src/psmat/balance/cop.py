@@ -1,4 +1,4 @@
-"""Centre of pressure of pressure images (SPEC §7).
+"""Centre of pressure of pressure images (docs/spec.md §7).
 
 ``x = Σ p·x_cell / Σ p`` over cell centres: x is medial–lateral along the columns, y
 anterior–posterior along the rows, in cm. The origin is the centre of cell (0, 0), so cell

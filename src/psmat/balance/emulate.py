@@ -4,7 +4,7 @@ Keeping one of every two rows and columns of the 16×16 mat gives an 8×8 mat at
 the pitch. There are four ways to choose (odd or even rows × odd or even columns); the
 thesis reports the average over the four of each metric. Cell ``(i, p)`` of the choice
 ``(r0, c0)`` is cell ``(r0 + 2i, c0 + 2p)`` of the full mat, so its CoP is expressed in the
-full mat's coordinates (SPEC §7: cell (i, p) at (p·pitch, i·pitch)) by adding
+full mat's coordinates (docs/spec.md §7: cell (i, p) at (p·pitch, i·pitch)) by adding
 ``(c0·pitch, r0·pitch)``.
 """
 

@@ -1,4 +1,4 @@
-"""Distances between CoP traces (thesis §3.2, SPEC §7)."""
+"""Distances between CoP traces (thesis §3.2, docs/spec.md §7)."""
 
 from __future__ import annotations
 

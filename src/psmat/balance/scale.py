@@ -1,4 +1,4 @@
-"""The scaling factor of the SCHC variant (thesis eq. 3.3, SPEC §7).
+"""The scaling factor of the SCHC variant (thesis eq. 3.3, docs/spec.md §7).
 
 The large mat is more conductive than the pneumatic-platform samples its sensor model was
 fitted on (the thesis found it ~1.3–4× more), so the pressures the nominal inverse model

@@ -1,4 +1,4 @@
-"""Sway metrics of a centre-of-pressure trace (SPEC §7, the BDS authors' definitions).
+"""Sway metrics of a centre-of-pressure trace (docs/spec.md §7, the BDS authors' definitions).
 
 Santos & Duarte (2016), "A public data set of human balance evaluations", PeerJ 4:e2648,
 publish the area, mean velocity and mean frequency of every trial; these definitions
@@ -22,7 +22,7 @@ __all__ = ["Sway", "sway", "prediction_ellipse_area", "mean_frequency"]
 
 @dataclass(frozen=True)
 class Sway:
-    """Sway metrics of one trace (SPEC §7); lengths in cm, times in s."""
+    """Sway metrics of one trace (docs/spec.md §7); lengths in cm, times in s."""
 
     sd_ml_cm: float  # standard deviation, M-L (ddof 1)
     sd_ap_cm: float  # standard deviation, A-P (ddof 1)
@@ -48,7 +48,7 @@ def _trace(cop: ArrayLike) -> NDArray[np.float64]:
 
 
 def prediction_ellipse_area(cop: ArrayLike, p: float = 0.95) -> float:
-    """Area (cm²) of the ``p`` prediction ellipse of a (T, 2) trace (SPEC §7).
+    """Area (cm²) of the ``p`` prediction ellipse of a (T, 2) trace (docs/spec.md §7).
 
     ``π·√(λ1·F)·√(λ2·F)`` with λ the eigenvalues of the covariance (ddof 1) and
     ``F = F_p(2, n−2)·2(n−1)(n+1)/(n(n−2))``.
@@ -61,7 +61,7 @@ def prediction_ellipse_area(cop: ArrayLike, p: float = 0.95) -> float:
 
 
 def mean_frequency(cop: ArrayLike, fs_hz: float) -> tuple[float, float, float]:
-    """Mean frequency (Hz): (combined, M-L, A-P) from Welch PSDs (SPEC §7).
+    """Mean frequency (Hz): (combined, M-L, A-P) from Welch PSDs (docs/spec.md §7).
 
     Per axis: Hann window, nperseg = N/2, noverlap = N/4, nfft = N/2, constant detrend;
     ``∫f·P / ∫P`` by the trapezoid rule. The combined value weights each axis by ``∫P``.

@@ -1,4 +1,4 @@
-"""The thesis' processing variants of the mat (Tables 3.2 and 3.4, SPEC §7) as named recipes
+"""The thesis' processing variants of the mat (Tables 3.2 and 3.4, docs/spec.md §7) as named recipes
 on the products of the one chain (:mod:`psmat.process`).
 
 =========  ==============================================================================

@@ -1,4 +1,4 @@
-"""Benchmarks of psmat's kernels against baselines run in the same process (SPEC §10).
+"""Benchmarks of psmat's kernels against baselines run in the same process (docs/spec.md §10).
 
 Run ``python -m psmat.bench --help``. Modules:
 

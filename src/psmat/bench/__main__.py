@@ -15,7 +15,7 @@ def main(argv: list[str] | None = None) -> int:
         "study": "a thesis-size simulated balance study end to end vs a plain multiprocessing pool over sessions",
     }
     if not argv or argv[0] in ("-h", "--help"):
-        p = argparse.ArgumentParser(prog="python -m psmat.bench", description="psmat benchmarks (SPEC §10).")
+        p = argparse.ArgumentParser(prog="python -m psmat.bench", description="psmat benchmarks (docs/spec.md §10).")
         p.add_argument("benchmark", choices=sorted(benches), help="; ".join(f"{k}: {v}" for k, v in benches.items()))
         p.print_help()
         return 0 if argv else 2

@@ -1,4 +1,4 @@
-"""Acquisition benchmark (SPEC §10: 165 Hz frames with zero loss over 10 min through the pty twin).
+"""Acquisition benchmark (docs/spec.md §10: 165 Hz frames with zero loss over 10 min through the pty twin).
 
 1. psmat: the digital twin (firmware core on a pseudo-terminal) at 165 Hz, v2 frames, read
    by :mod:`psmat.acquire` and recorded to a session file, for ``--seconds`` (600 by
@@ -116,7 +116,7 @@ def _thesis_run(seconds: float, rate: int, faults: str) -> dict:
 def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(prog="python -m psmat.bench acquire", description=__doc__,
                                 formatter_class=argparse.RawDescriptionHelpFormatter)
-    p.add_argument("--seconds", type=float, default=600.0, help="clean-link run (s); SPEC target: 10 min")
+    p.add_argument("--seconds", type=float, default=600.0, help="clean-link run (s); docs/spec.md §10 target: 10 min")
     p.add_argument("--fault-seconds", type=float, default=60.0, help="corrupted-link runs (s)")
     p.add_argument("--rate", type=int, default=165)
     p.add_argument("--faults", default="bit_flip=2e-6,drop_byte=2e-6,seed=1")

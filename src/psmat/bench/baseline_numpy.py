@@ -2,7 +2,7 @@
 
 Deliberately independent of psmat's C++ core: nothing here imports :mod:`psmat.iecm`.
 
-* :func:`forward_numpy` — ``G = F(g)`` (thesis eq. 2.5–2.7, SPEC §3): the array is a
+* :func:`forward_numpy` — ``G = F(g)`` (thesis eq. 2.5–2.7, docs/spec.md §3): the array is a
   bipartite resistor network on ``n = R + C`` nodes (rows ``0..R-1``, then columns
   ``R..R+C-1``); its Laplacian with the last node grounded is inverted (one Cholesky),
   ``M`` is padded with a zero row/column for the ground, and

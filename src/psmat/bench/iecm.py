@@ -2,7 +2,7 @@
 
 ``python -m psmat.bench iecm [--quick] [--sizes 16,32,64] [--frames N] [--threads K] [--json PATH]``
 
-What is measured (SPEC §10)
+What is measured (docs/spec.md §10)
 ---------------------------
 Frames are a swaying-feet recording from the digital twin (:func:`psmat.twin.swaying_feet`:
 quiet standing, CoP sway SD 2.5 mm M-L / 3.5 mm A-P, through the thesis' sensor model with
@@ -17,7 +17,7 @@ model (:func:`psmat.bench.baseline_numpy.forward_numpy`), noise-free.
 * **cold** — ``solve(G, warm_start=False, threads=K)``: every frame independently from
   ``g0 = G``.
 * **noisy G** — streaming on the same frames as a mat measures them (``psmat.Circuit``:
-  1 mV on the ADC node, 12 bits), so quiet cells end at the bound g = 0. SPEC §10's noisy
+  1 mV on the ADC node, 12 bits), so quiet cells end at the bound g = 0. docs/spec.md §10's noisy
   targets ask for frames/s with every frame's complementarity residual <= 1e-6 and none
   over 50 iterations; the error against the true g is noise-limited there. Beside it, on the
   same noisy frames: psmat cold (every frame from g0 = G), the Fischer-Burmeister
@@ -28,7 +28,7 @@ model (:func:`psmat.bench.baseline_numpy.forward_numpy`), noise-free.
 Per entry: one untimed warm-up call (skipped for arrays above 32×32, where one frame is
 seconds of work), then the same call repeated until at least ``--min-time`` seconds
 (``time.perf_counter``). fps per core = total fps / threads used. Accuracy: the largest
-relative error ``|ĝ - g| / g`` over cells with ``g >= 1e-4 S`` (the SPEC's 1e-6 target)
+relative error ``|ĝ - g| / g`` over cells with ``g >= 1e-4 S`` (the 1e-6 target of docs/spec.md §10)
 and over all cells. Entries above 32×32 run in a child process killed after
 ``--budget`` seconds, so nothing hangs.
 
@@ -63,7 +63,7 @@ ERROR_THRESHOLD_S = 1e-4   # cells with g >= this (S) carry the accuracy target
 ACCURACY_TARGET = 1e-6     # relative error reached by "Newton accuracy"
 HEAVY_CELLS = 32 * 32      # above this, psmat entries run isolated in a child process
 
-# SPEC §10 on a 2-core machine. Noise-free G: (size, mode) -> (frames/s, "core" | "total"),
+# docs/spec.md §10 on a 2-core machine. Noise-free G: (size, mode) -> (frames/s, "core" | "total"),
 # at a relative error <= ACCURACY_TARGET on cells g >= ERROR_THRESHOLD_S.
 TARGETS = {
     (16, "streaming"): (2000.0, "core"),
@@ -82,7 +82,7 @@ def _scene(size: int, frames: int, seed: int, noise_v: float = 0.0) -> tuple[np.
     """True g and G (independent NumPy forward), both (T, size, size), in S.
 
     With ``noise_v`` > 0 the G is what the mat would measure: the measurement chain of
-    SPEC §2 (psmat.Circuit, improved prototype) with that voltage noise (V) and 12-bit
+    docs/spec.md §2 (psmat.Circuit, improved prototype) with that voltage noise (V) and 12-bit
     quantisation, inverted back to G.
     """
     g = twin.swaying_feet(frames, (size, size), seed=seed)
@@ -125,7 +125,7 @@ def _row(**kw) -> dict:
 
 
 def _target(row: dict) -> None:
-    """The row's SPEC §10 target, if it has one, and whether it was met."""
+    """The row's docs/spec.md §10 target, if it has one, and whether it was met."""
     newton = row["solver"].startswith("psmat newton")
     if not newton:
         return
@@ -233,7 +233,7 @@ def measure_psmat(size: int, mode: str, threads: int, frames: int, seed: int, mi
 
 
 def complementarity_residual(g: np.ndarray, G: np.ndarray, g_floor: float = 1e-12) -> float:
-    """Largest Fischer-Burmeister residual of the bounded problem (SPEC §3) over cells and frames.
+    """Largest Fischer-Burmeister residual of the bounded problem (docs/spec.md §3) over cells and frames.
 
     ``phi = sqrt(a^2 + b^2) - a - b`` with ``a = (g - g_floor)/G`` and ``b = (F(g) - G)/G``
     (dimensionless); zero exactly when g >= g_floor, F(g) >= G and one of them is tight.
@@ -461,7 +461,7 @@ def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(
         prog="python -m psmat.bench iecm",
         description="IECM crosstalk removal: frames/s and accuracy of psmat beside the thesis' "
-                    "NumPy/SciPy approach, on swaying-feet recordings (SPEC §10).")
+                    "NumPy/SciPy approach, on swaying-feet recordings (docs/spec.md §10).")
     p.add_argument("--sizes", type=_int_list, default=[16, 32, 64], help="array sizes N (N x N), default 16,32,64")
     p.add_argument("--frames", type=int, default=None,
                    help="frames per psmat streaming entry (default 2000 / 200 / 20 for 16 / 32 / 64; "

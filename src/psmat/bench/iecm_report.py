@@ -94,7 +94,7 @@ def format_table(result: dict) -> str:
                  "one contiguous chunk per thread, chunk starts primed with the previous frame's solution; "
                  "cold: every frame from g0 = G. fps/core = fps / threads. max it: most iterations of one "
                  "frame; resid (noisy G): the largest complementarity residual max |phi| (Fischer-Burmeister, "
-                 "SPEC §3) over cells and frames, computed from the returned g for every solver alike.")
+                 "docs/spec.md §3) over cells and frames, computed from the returned g for every solver alike.")
     return "\n".join(lines)
 
 

@@ -1,8 +1,8 @@
-"""Sensor-model benchmark (SPEC §10, issue 3): ``python -m psmat.bench sensor [--quick] [--seed K]``.
+"""Sensor-model benchmark (docs/spec.md §10, issue 3): ``python -m psmat.bench sensor [--quick] [--seed K]``.
 
 1. Throughput of the C++ direct and inverse MPI + creep model on 256 cells, beside a NumPy
    implementation vectorised over cells (a Python loop over samples) run in the same process.
-2. Identification on the full descending + ascending hysteresis protocols (SPEC §4, 10
+2. Identification on the full descending + ascending hysteresis protocols (docs/spec.md §4, 10
    repetitions each, 2 Hz) of a simulated cell (thesis model + 0.5 % noise): variable
    projection, simulated annealing (C++, one chain per core) + NLopt over the reduced
    problem (tau, creep rates; linear parameters exact) and over all 9 parameters (the

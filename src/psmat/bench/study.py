@@ -1,4 +1,4 @@
-"""Balance-study benchmark (SPEC §10, issue 12 item 6): ``python -m psmat.bench study``.
+"""Balance-study benchmark (docs/spec.md §10, issue 12 item 6): ``python -m psmat.bench study``.
 
 ``python -m psmat.bench study [--volunteers 42] [--seconds 60] [--rate 100] [--workers 2]
 [--dir PATH] [--seed K] [--no-baseline] [--json PATH]``
@@ -6,11 +6,11 @@
 What is measured
 ----------------
 A simulated balance study (:func:`psmat.study.simulate.simulate_study`: three trials per
-volunteer through mats the processing does not know; SPEC §7) of the thesis' size by default —
+volunteer through mats the processing does not know; docs/spec.md §7) of the thesis' size by default —
 42 volunteers × 3 trials × 60 s at 100 Hz = 756 000 frames, 16×16 — is processed end to end:
 
 * **psmat** — :func:`psmat.study.run.run_study` with ``workers`` processes: every variant of
-  SPEC §7 (each session through the one chain, IECM on noisy frames, the inverse sensor
+  docs/spec.md §7 (each session through the one chain, IECM on noisy frames, the inverse sensor
   model, eq. 3.3, the 8×8 emulation, alignment, metrics), the per-session result files,
   ``metrics.csv``, the summary, figures and report. The results folder is emptied first, so
   nothing is reused.
@@ -18,7 +18,7 @@ volunteer through mats the processing does not know; SPEC §7) of the thesis' si
 * **baseline** — the thesis' approach: a plain ``multiprocessing.Pool(workers)`` mapping the
   same per-session function over the sessions, nothing written, in the same run.
 
-The simulation itself is timed apart and is not part of the SPEC §10 figure (≤ 10 min end to
+The simulation itself is timed apart and is not part of the docs/spec.md §10 figure (≤ 10 min end to
 end on 2 cores). ``--dir`` keeps the simulated study between runs (it is reused when it
 holds the same number of sessions). The two figures are compared in the same process, on the
 same machine, one after the other.
@@ -40,7 +40,7 @@ from .iecm import machine_info
 
 __all__ = ["main", "run"]
 
-TARGET_S = 600.0  # SPEC §10: a thesis-size study in <= 10 min on 2 cores
+TARGET_S = 600.0  # docs/spec.md §10: a thesis-size study in <= 10 min on 2 cores
 
 
 def _pool_task(item: tuple[str, str | None, str, str, float | None]) -> int:
@@ -129,7 +129,7 @@ def format_report(r: dict[str, Any]) -> str:
                      f"{frames / r['baseline_s']:>11.0f}")
     scale = 756_000 / frames
     verdict = "met" if r["psmat_s"] * scale <= TARGET_S else "missed"
-    lines.append(f"SPEC §10 target: 756 000 frames in <= {TARGET_S:.0f} s on 2 cores; this run scaled to 756 000 "
+    lines.append(f"docs/spec.md §10 target: 756 000 frames in <= {TARGET_S:.0f} s on 2 cores; this run scaled to 756 000 "
                  f"frames: {r['psmat_s'] * scale:.0f} s ({verdict}{'' if scale == 1 else ', extrapolated linearly'})")
     return "\n".join(lines)
 

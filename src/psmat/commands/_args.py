@@ -11,8 +11,8 @@ import math
 
 __all__ = ["shape", "seconds", "rate_hz", "positive_int"]
 
-#: rows and columns a mat may have: IECM needs at least 2 (SPEC §3), the protocol's
-#: shape fields are one byte (SPEC §5)
+#: rows and columns a mat may have: IECM needs at least 2 (docs/spec.md §3), the protocol's
+#: shape fields are one byte (docs/spec.md §5)
 MIN_LINES, MAX_LINES = 2, 255
 
 

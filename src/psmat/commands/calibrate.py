@@ -1,4 +1,4 @@
-"""``psmat calibrate``: open-circuit and short-circuit steps → calibration file (SPEC §2).
+"""``psmat calibrate``: open-circuit and short-circuit steps → calibration file (docs/spec.md §2).
 
 Asks the person to unplug the mat, then to wire a few row–column pairs, records each step
 and writes the JSON that :class:`psmat.Calibration` / :class:`psmat.Circuit` load.

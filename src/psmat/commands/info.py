@@ -1,4 +1,4 @@
-"""``psmat info``: what a session file holds (SPEC §6)."""
+"""``psmat info``: what a session file holds (docs/spec.md §6)."""
 
 from __future__ import annotations
 
@@ -19,7 +19,7 @@ def run(args: argparse.Namespace) -> int:
     from ..io import SessionFormatError, export_csv, info, load_session, stream_csv_path
 
     try:
-        s = load_session(args.session)  # SPEC §6: every loader error is one SessionFormatError
+        s = load_session(args.session)  # docs/spec.md §6: every loader error is one SessionFormatError
         print(info(s))
         if args.csv:
             print(f"CSV: {export_csv(s, args.csv)}")

@@ -1,4 +1,4 @@
-"""``psmat posture``: a posture study folder (SPEC §6 layout, §8).
+"""``psmat posture``: a posture study folder (docs/spec.md §6 layout, §8).
 
 ``psmat posture simulate DIR --subjects 12 --days 3 --seed K`` writes a simulated posture study:
 the seated twin (:mod:`psmat.twin.seated`) following the thesis' protocol once a day per subject,
@@ -49,7 +49,7 @@ def _learning_rate(text: str) -> float:
 def add_arguments(p: argparse.ArgumentParser) -> None:
     sub = p.add_subparsers(dest="action", required=True, metavar="{simulate,train,heldout}")
     s = sub.add_parser("simulate", help="write a simulated posture study into DIR",
-                       description="Write a simulated posture study (SPEC §8): each subject sits on the mat "
+                       description="Write a simulated posture study (docs/spec.md §8): each subject sits on the mat "
                                    "once a day following the thesis' protocol (30 s straight, forward, back, "
                                    "bounces, slow rocking), the mat and the five spine IMUs recorded together; "
                                    "what the simulator knows goes to DIR/truth/.")
@@ -120,7 +120,7 @@ def _study(args: argparse.Namespace, verb: str) -> tuple[Any, Path] | None:
 
     root = Path(args.dir)
     if not (root / "sessions").is_dir():
-        print(f"psmat posture {verb}: {root} has no sessions/ folder (a posture study, SPEC §6)", file=sys.stderr)
+        print(f"psmat posture {verb}: {root} has no sessions/ folder (a posture study, docs/spec.md §6)", file=sys.stderr)
         return None
     study = load_posture_study(root, workers=args.workers, progress=not args.quiet)
     for p in study.problems:

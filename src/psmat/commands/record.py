@@ -1,4 +1,4 @@
-"""``psmat record``: record a session file from one device or several (or their digital twins) (SPEC §6).
+"""``psmat record``: record a session file from one device or several (or their digital twins) (docs/spec.md §6).
 
 The first device (PORT, --device) is the session's root; each --also KIND=PORT is one more
 device, recorded as the stream KIND of the same file (e.g. the spine IMUs with the mat,

@@ -1,4 +1,4 @@
-"""``psmat simulate``: serve the digital twin on a pseudo-terminal (SPEC §5).
+"""``psmat simulate``: serve the digital twin on a pseudo-terminal (docs/spec.md §5).
 
 The first line of output is the port's path (for a script to read); the twin serves until
 Ctrl-C / SIGTERM. Open that path with ``psmat view``, ``psmat record`` or pyserial.

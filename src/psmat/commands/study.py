@@ -1,10 +1,10 @@
-"""``psmat study``: a balance study folder (SPEC §6 layout) in batch.
+"""``psmat study``: a balance study folder (docs/spec.md §6 layout) in batch.
 
 ``psmat study run DIR`` processes every session into ``DIR/results/`` (metrics.csv, summary,
 figures, report), resuming where an earlier run stopped; ``--scheduler tcp://HOST:8786`` runs
 the sessions on a Dask distributed cluster (``pip install 'psmat[cluster]'``; the folder must
 be on a filesystem the workers share). ``psmat study simulate DIR`` writes a simulated study
-(SPEC §7): BDS force-platform trajectories through mats the processing does not know.
+(docs/spec.md §7): BDS force-platform trajectories through mats the processing does not know.
 """
 
 from __future__ import annotations
@@ -34,7 +34,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                         "equilibration)")
     r.add_argument("--quiet", action="store_true", help="no progress bar")
     s = sub.add_parser("simulate", help="write a simulated balance study into DIR",
-                       description="Write a simulated balance study (SPEC §7): three trials per volunteer "
+                       description="Write a simulated balance study (docs/spec.md §7): three trials per volunteer "
                                    "(right-leg, left-leg, rotation) driven by BDS force-platform trajectories.")
     s.add_argument("dir", metavar="DIR", help="the study folder to create")
     s.add_argument("--volunteers", type=_args.positive_int, required=True, help="number of volunteers")

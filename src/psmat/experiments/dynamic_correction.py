@@ -1,7 +1,7 @@
 """Issue 12 item 4b measured in simulation: the dynamic correction of :mod:`psmat.study.dynamic`
 on volunteers it was not fitted on, against the base variant it corrects.
 
-The study is the honest simulation of SPEC §7 (:func:`psmat.study.simulate.simulate_study`:
+The study is the honest simulation of docs/spec.md §7 (:func:`psmat.study.simulate.simulate_study`:
 each volunteer's mat, box and clock unknown to the processing, BDS sway in the thesis' three
 trials, the platform at 100 Hz on its own clock), each session processed as ``psmat study
 run`` does (:func:`psmat.study.trial.process_trial` with ``traces=True``: the one chain, PROP

@@ -3,7 +3,7 @@
 The thesis plugged one test resistor into a cell (all other lines open, so ``G = g``), read
 about 300 samples and reported the SD of the node voltage (σ_v ≈ 1 mV) and of the
 conductance deduced from the voltage divider (σ_g). Here the same chain is
-:class:`psmat.Circuit` (SPEC §2): σ_g to first order is ``σ_v / |dV_x/dG|``
+:class:`psmat.Circuit` (docs/spec.md §2): σ_g to first order is ``σ_v / |dV_x/dG|``
 (:meth:`psmat.Circuit.sigma_G`), and a simulation reads ``n_frames`` noisy, 12-bit
 quantised frames and takes the SD of the inverted conductance, as the thesis did.
 

@@ -1,4 +1,4 @@
-"""IECM forward model and its Jacobian (thesis eq. 2.5-2.7 and 2.13, SPEC §3).
+"""IECM forward model and its Jacobian (thesis eq. 2.5-2.7 and 2.13, docs/spec.md §3).
 
 The computation lives in the C++ core (``src/cpp/psmat/iecm/forward.hpp``,
 ``jacobian.hpp``); this module validates arrays and shapes.
@@ -58,7 +58,7 @@ def jacobian(g) -> np.ndarray:
 
 
 def hadamard_product(g, v) -> np.ndarray:
-    """Matrix-free ``(T∘T) v`` in O((R+C)^3) (SPEC §3), T the voltage-difference matrix of eq. 2.13.
+    """Matrix-free ``(T∘T) v`` in O((R+C)^3) (docs/spec.md §3), T the voltage-difference matrix of eq. 2.13.
 
     ``J = diag(G)^2 (T∘T)``; this product never forms the (R*C)^2 matrix.
 

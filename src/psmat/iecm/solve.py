@@ -1,4 +1,4 @@
-"""IECM inverse g = F^-1(G) (thesis eq. 2.8-2.10, SPEC §3) for frames, batches and streams.
+"""IECM inverse g = F^-1(G) (thesis eq. 2.8-2.10, docs/spec.md §3) for frames, batches and streams.
 
 The solvers run in the C++ core (``src/cpp/psmat/iecm/solve_*.cpp``) with the GIL released;
 batches are spread over all cores. Methods:
@@ -60,7 +60,7 @@ METHODS = ("newton", "active_set", "bounded_newton", "lm", "bounded_lsq", "fixed
 _DEFAULT_MAX_ITER = {"newton": 1000, "active_set": 1000, "bounded_newton": 1000, "lm": 200, "bounded_lsq": 200,
                      "fixed_point": 20000}
 _STATUS_NAMES = np.array(["converged", "max_iterations", "stalled", "singular", "least_squares", "bounded"])
-# statuses set here rather than by the core: the answer is g_floor's, not the data's (SPEC §3)
+# statuses set here rather than by the core: the answer is g_floor's, not the data's (docs/spec.md §3)
 _FLOOR_REASONS = {
     "floor_above_data": "g_floor = {g_floor:g} S is not below the measured G; it is a positivity bound and must be "
                         "far below the data",

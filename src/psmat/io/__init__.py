@@ -1,4 +1,4 @@
-"""Recorded sessions and external data files (SPEC §6).
+"""Recorded sessions and external data files (docs/spec.md §6).
 
 * :mod:`psmat.io.session` — a recording as one HDF5 file (raw frames, timing, validity,
   device, calibration, metadata, processed products; several devices as streams on one

@@ -1,7 +1,7 @@
-"""Force-platform centre-of-pressure recordings (SPEC §6, §7).
+"""Force-platform centre-of-pressure recordings (docs/spec.md §6, §7).
 
 * :func:`load_forceplate_csv` — a generic CSV/TSV with columns time, x, y [, Fz]. Following
-  SPEC §7 (the mat's convention), ``x`` is medial–lateral and ``y`` anterior–posterior;
+  docs/spec.md §7 (the mat's convention), ``x`` is medial–lateral and ``y`` anterior–posterior;
   pass ``swap_axes=True`` for files that use the opposite convention.
 * :func:`load_bds` — a trial of the BDS public data set (Santos & Duarte 2016, PeerJ
   4:e2648, CC BY 4.0): tab-separated, header

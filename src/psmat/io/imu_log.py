@@ -1,8 +1,8 @@
-"""The thesis' spine-IMU text logs (SPEC §6, §8; thesis §4.2).
+"""The thesis' spine-IMU text logs (docs/spec.md §6, §8; thesis §4.2).
 
 The IMU box reads five BNO055 sensors (sensor 1 the cervical one .. 5 the sacral one) and
 sends their Euler angles (heading, roll, pitch, degrees) at 10 Hz; the PC stores "one line per
-sample, numbers with five decimals separated by spaces" (SPEC §6). Two layouts are accepted,
+sample, numbers with five decimals separated by spaces" (docs/spec.md §6). Two layouts are accepted,
 told apart by the number of fields on the file's lines:
 
 * **15 numbers**: h1 r1 p1  h2 r2 p2 .. h5 r5 p5 — the thesis' log. It has no time column:
@@ -75,7 +75,7 @@ class ImuLog:
 
     @property
     def pitch_deg(self) -> NDArray[np.float64]:
-        """``(T, 5)`` pitch of each sensor (degrees), the angle of the spine model (SPEC §8)."""
+        """``(T, 5)`` pitch of each sensor (degrees), the angle of the spine model (docs/spec.md §8)."""
         return self.angles_deg[:, :, ANGLE_NAMES.index("pitch")]
 
     def __repr__(self) -> str:
@@ -149,7 +149,7 @@ def load_imu_log(path: str | os.PathLike[str], *, rate_hz: float = 10.0) -> ImuL
     path = Path(path)
     if not path.is_file():
         raise FileNotFoundError(f"IMU log not found: {path}")
-    # a damaged byte becomes U+FFFD, which fails its line's parse: it costs that line only (SPEC §6)
+    # a damaged byte becomes U+FFFD, which fails its line's parse: it costs that line only (docs/spec.md §6)
     text = path.read_bytes().decode("utf-8", errors="replace")
     lines = [(k + 1, ln.split()) for k, ln in enumerate(text.splitlines())
              if ln.strip() and not ln.lstrip().startswith("#")]

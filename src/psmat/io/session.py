@@ -1,4 +1,4 @@
-"""Recorded sessions: one HDF5 file per recording, crash-safe while it is written (SPEC §6).
+"""Recorded sessions: one HDF5 file per recording, crash-safe while it is written (docs/spec.md §6).
 
 A session holds the raw frames of one device (a pressure mat, the spine IMUs or the
 material DAQ), per-frame timing and validity, the description of the device, the
@@ -110,7 +110,7 @@ dataset; :func:`load_session` still reads it, with a note that its frames are un
 Crash safety: one mechanism, the journal
 ========================================
 
-SPEC §6 promises that a recording killed at any moment loads with every frame whose
+docs/spec.md §6 promises that a recording killed at any moment loads with every frame whose
 append had returned, and that a damaged byte costs at most the record or chunk it sits in.
 Both promises are kept by the **journal** ``PATH.journal`` (format: :mod:`.session_journal`): a
 CRC'd header, then one fixed-size CRC'd record per frame, written with ``os.write``

@@ -12,7 +12,7 @@ Format (little-endian; :mod:`psmat.io.session` explains its role):
   of the record's preceding bytes.
 
 Records have one size, so a reader that meets a record failing its CRC skips exactly that
-record and goes on with the next (SPEC §6); only a torn last record (a write cut short)
+record and goes on with the next (docs/spec.md §6); only a torn last record (a write cut short)
 leaves a tail shorter than a record.
 """
 

@@ -118,7 +118,7 @@ class Header:
     """What a session holds besides its frames: the device and what was recorded.
 
     ``chunk_frames`` is the number of frames per HDF5 chunk, hence the frames that one
-    damaged chunk costs (SPEC §6).
+    damaged chunk costs (docs/spec.md §6).
     """
 
     kind: str
@@ -367,7 +367,7 @@ def _create_frames(g: h5py.Group, h: Header) -> dict[str, h5py.Dataset]:
     put_attr(g, "frame_shape", np.asarray(h.frame_shape, dtype=np.int64))
     put_attr(g, "frame_dataset", spec.dataset)
     c = h.chunk_frames
-    # SPEC §6: every frame dataset carries Fletcher-32 checksums, one per chunk of c frames
+    # docs/spec.md §6: every frame dataset carries Fletcher-32 checksums, one per chunk of c frames
     d = g.create_dataset(spec.dataset, shape=(0, *h.frame_shape), maxshape=(None, *h.frame_shape),
                          dtype=spec.dtype, chunks=(c, *h.frame_shape), fletcher32=True)
     put_attr(d, "unit", spec.unit)

@@ -1,6 +1,6 @@
 """Loading a session (a finished HDF5 file, or the journal a killed writer left) and repairing one.
 
-Every error is one :class:`SessionFormatError` naming the file (SPEC §6). A damaged HDF5
+Every error is one :class:`SessionFormatError` naming the file (docs/spec.md §6). A damaged HDF5
 chunk costs its frames only: they load as invalid, with a note naming the dataset and the
 frames; a damaged journal record costs that record only.
 """
@@ -274,7 +274,7 @@ def _read_device(g: h5py.Group, path: Path, complete: bool, notes: list[str]) ->
     if unchecked:
         notes.append(f"{', '.join(unchecked)} carry no checksums (written by an older psmat): "
                      "damage there cannot be seen")
-    valid = cols["valid"].astype(bool) & ~bad  # SPEC §6: a damaged frame is never returned as valid
+    valid = cols["valid"].astype(bool) & ~bad  # docs/spec.md §6: a damaged frame is never returned as valid
     return kind, FrameBatch(frames, cols["host_time_s"], valid, cols["seq"], cols["device_time_us"])
 
 

@@ -37,7 +37,7 @@ from .session_layout import (
 
 
 class StreamWriter:
-    """The crash-safety journal of one device's frames in a session being written (SPEC §6).
+    """The crash-safety journal of one device's frames in a session being written (docs/spec.md §6).
 
     Made by :meth:`SessionWriter.add_stream` (and the root device's is the
     :class:`SessionWriter` itself); closed with the session. Every appended frame is
@@ -255,7 +255,7 @@ class SessionWriter(StreamWriter):
     While recording, every appended frame is written to the journal ``PATH.journal`` before
     :meth:`append` returns; :meth:`close` turns the journal into the HDF5 file ``path``
     (which appears only then, complete) and removes the journal. A writer that is killed
-    leaves the journal, which :func:`psmat.io.load_session` reads (SPEC §6).
+    leaves the journal, which :func:`psmat.io.load_session` reads (docs/spec.md §6).
 
     More devices recorded with this one (e.g. the spine IMUs with the mat) are streams:
     :meth:`add_stream` returns a :class:`StreamWriter` with the same :meth:`append` (its own

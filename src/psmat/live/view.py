@@ -2,10 +2,10 @@
 
 Three panels, refreshed a few tens of times per second:
 
-1. **raw** - equivalent conductance ``G`` (mS) of the newest frame (SPEC §2);
-2. **pressure** - crosstalk removed (SPEC §3), unloaded leakage ``g_rest`` subtracted, the
-   inverse sensor model applied (SPEC §4); in kPa, the current CoP marked;
-3. **CoP** - the last ``history_s`` seconds of the centre of pressure (SPEC §7, the
+1. **raw** - equivalent conductance ``G`` (mS) of the newest frame (docs/spec.md §2);
+2. **pressure** - crosstalk removed (docs/spec.md §3), unloaded leakage ``g_rest`` subtracted, the
+   inverse sensor model applied (docs/spec.md §4); in kPa, the current CoP marked;
+3. **CoP** - the last ``history_s`` seconds of the centre of pressure (docs/spec.md §7, the
    convention of :func:`psmat.balance.cop`): M-L (x, columns) and A-P (y, rows) in cm.
 
 The numbers are those of the one processing chain, :class:`psmat.process.Processor`: the view

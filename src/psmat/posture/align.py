@@ -1,4 +1,4 @@
-"""Alignment of a mat and spine IMUs recorded apart (thesis §4.3, Fig. 4.11; SPEC §8).
+"""Alignment of a mat and spine IMUs recorded apart (thesis §4.3, Fig. 4.11; docs/spec.md §8).
 
 The thesis adds all the cells of the crosstalk-free conductance into one signal and all the
 angles into another, finds "a clear relation" between them, and aligns the two recordings by

@@ -3,7 +3,7 @@
 Each operation is applied with probability ½, in this order, on the raw conductance (S; the
 empty mat is 0, so cells moved in from outside the mat are 0):
 
-* lateral flip: columns reversed (columns are M-L, SPEC §7);
+* lateral flip: columns reversed (columns are M-L, docs/spec.md §7);
 * rotation by an angle uniform in ±15° about the mat's centre (bilinear);
 * shift by whole cells, uniform in ±5 rows and ±5 columns;
 * scale of the values by ½ or 2. The thesis says the augmented image "is proportional to the

@@ -1,4 +1,4 @@
-"""A posture study folder → one :class:`~psmat.posture.recording.Recording` per session (SPEC §6, §8).
+"""A posture study folder → one :class:`~psmat.posture.recording.Recording` per session (docs/spec.md §6, §8).
 
 Thesis §4.3: "Conductance measured by the PSM has been processed to remove crosstalk ... and
 subsampled to the sampling frequency of the spine measurement device". Per session:
@@ -42,7 +42,7 @@ __all__ = ["DEFAULT_PARAMS", "session_recording", "load_posture_study", "Posture
 #: Parameters of the inputs (part of the cache key).
 DEFAULT_PARAMS: dict[str, Any] = {
     "method": "newton",  # IECM method (psmat.iecm.solve)
-    "pitch_column": 2,  # Euler angle of the sagittal tilt: (heading, roll, pitch), SPEC §5
+    "pitch_column": 2,  # Euler angle of the sagittal tilt: (heading, roll, pitch), docs/spec.md §5
     "max_lag_s": 30.0,  # alignment search range for recordings made apart, s
 }
 _INPUTS_SCHEMA = "psmat-posture-inputs/1"
@@ -222,7 +222,7 @@ def _tasks(root: Path, params: dict[str, Any], problems: list[str]) -> list[_Tas
 
     sessions = sorted((root / "sessions").glob("*.h5"))
     if not sessions:
-        raise FileNotFoundError(f"{root}: no sessions/*.h5 (a posture study folder, SPEC §6)")
+        raise FileNotFoundError(f"{root}: no sessions/*.h5 (a posture study folder, docs/spec.md §6)")
     tasks = []
     for path in sessions:
         stem = path.stem
@@ -300,7 +300,7 @@ def load_posture_study(root: str | os.PathLike[str], *, workers: int | None = No
     Parameters
     ----------
     root : path
-        The study folder (SPEC §6: ``sessions/``, optional ``calibration/`` and ``imu/``).
+        The study folder (docs/spec.md §6: ``sessions/``, optional ``calibration/`` and ``imu/``).
     workers : int, optional
         Processes, one session each (default: every core; 1: in this process).
     params : dict, optional

@@ -31,7 +31,7 @@ is spent leaning forward (thighs) or back (sacrum).
   each row and each column of the session-centred image (R + C; front/back and left/right
   load shares, each normalised by the frame's total).
 
-Cells are indexed (row, column); rows are A-P, columns M-L (SPEC §7).
+Cells are indexed (row, column); rows are A-P, columns M-L (docs/spec.md §7).
 """
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""The CNN of thesis §4.3 (Fig. 4.12, SPEC §8), flatten size computed from the input.
+"""The CNN of thesis §4.3 (Fig. 4.12, docs/spec.md §8), flatten size computed from the input.
 
 A window of ``W`` frames of an ``R×C`` image enters as one ``W × (R·C)`` channel (the thesis'
 "50x16x16 ... resized as a 50x256 image"). Three blocks conv 3×3 (32, 64, 64 filters,

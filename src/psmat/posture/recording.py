@@ -1,7 +1,7 @@
 """One posture recording ready for learning: the cushion's image and the spine's angles on one time base.
 
 A :class:`Recording` is what :func:`psmat.posture.dataset.load_posture_study` makes of one session
-(crosstalk removed, the mat resampled to the IMU rate, SPEC §8) and what the learning pipeline
+(crosstalk removed, the mat resampled to the IMU rate, docs/spec.md §8) and what the learning pipeline
 (:mod:`psmat.posture.train`) consumes.
 """
 
@@ -34,7 +34,7 @@ class Recording:
         frequency of the spine measurement device"); the thesis takes it as proportional to
         pressure.
     angles_rad : ndarray, (T, 5) float64
-        Pitch of the five spine IMUs (rad), sensor 1 the cervical one (SPEC §8).
+        Pitch of the five spine IMUs (rad), sensor 1 the cervical one (docs/spec.md §8).
     meta : dict
         Where it came from (session path, alignment lag, rates, ...).
     """
@@ -62,5 +62,5 @@ class Recording:
 
     @property
     def targets(self) -> NDArray[np.float64]:
-        """The network's six outputs per sample (SPEC §8): the five angles and their sum (rad)."""
+        """The network's six outputs per sample (docs/spec.md §8): the five angles and their sum (rad)."""
         return np.concatenate([self.angles_rad, self.angles_rad.sum(axis=1, keepdims=True)], axis=1)

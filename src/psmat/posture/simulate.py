@@ -1,4 +1,4 @@
-"""The honest simulation of a posture study (SPEC §8 "Data", §6 study layout; thesis §4.3).
+"""The honest simulation of a posture study (docs/spec.md §8 "Data", §6 study layout; thesis §4.3).
 
 :func:`simulate_posture_study` writes a study folder that the posture pipeline
 (:func:`psmat.posture.dataset.load_posture_study`) reads without knowing the truth: each subject

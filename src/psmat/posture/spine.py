@@ -1,4 +1,4 @@
-"""Spine shape from the five IMU pitch angles: chained circular arcs (thesis eq. 4.4, SPEC §8).
+"""Spine shape from the five IMU pitch angles: chained circular arcs (thesis eq. 4.4, docs/spec.md §8).
 
 Eq. 4.4 moves from sensor i to sensor i+1 with, for ``Δα = α_{i+1} − α_i``,
 ``C = sign(Δα)``, ``R = |l/Δα|``:

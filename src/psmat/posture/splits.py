@@ -1,4 +1,4 @@
-"""Training, validation and test windows (thesis §4.3, Table 4.3; SPEC §8).
+"""Training, validation and test windows (thesis §4.3, Table 4.3; docs/spec.md §8).
 
 * ``"ksi"`` (Keep Subjects In, without leakage): each recording's time is cut into three
   contiguous blocks of 70/10/20 %; a window belongs to a set only when all its frames lie in

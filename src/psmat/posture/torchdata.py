@@ -1,7 +1,7 @@
 """The windows as a PyTorch Dataset, built lazily from the recordings' image arrays.
 
 Item ``i`` slices frames ``[s, s + W)`` of its recording (a view), augments it when asked
-(:mod:`psmat.posture.augment`), standardises it and returns ``(1, W, R·C)`` float32 (SPEC §8:
+(:mod:`psmat.posture.augment`), standardises it and returns ``(1, W, R·C)`` float32 (docs/spec.md §8:
 a ``50 × (R·C)`` input) with the window's six mean targets. Nothing of size ``N × W`` is held.
 """
 

@@ -1,4 +1,4 @@
-"""Windows of a posture recording (thesis §4.3, SPEC §8): 50 frames at stride 1, never copied.
+"""Windows of a posture recording (thesis §4.3, docs/spec.md §8): 50 frames at stride 1, never copied.
 
 A window is named by ``(recording, first frame)``; its image is a slice (a view) of the
 recording's ``(T, R, C)`` array, its target the mean over its frames of the six outputs

@@ -1,4 +1,4 @@
-"""Wire protocols of the psmat devices (SPEC §5; byte layouts in docs/protocol.md).
+"""Wire protocols of the psmat devices (docs/spec.md §5; byte layouts in docs/protocol.md).
 
 * :mod:`~psmat.protocol.crc` - CRC-16/CCITT-FALSE;
 * :mod:`~psmat.protocol.v1` - thesis framing ``FF FF | cells | sum mod 4096`` for the PSM

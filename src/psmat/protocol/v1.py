@@ -1,4 +1,4 @@
-"""Protocol v1 framing, thesis-compatible (docs/protocol.md, SPEC §5; thesis Code 2.1-2.2).
+"""Protocol v1 framing, thesis-compatible (docs/protocol.md, docs/spec.md §5; thesis Code 2.1-2.2).
 
 PSM frame::
 

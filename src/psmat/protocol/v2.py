@@ -1,4 +1,4 @@
-"""Protocol v2 packets and host->device commands (docs/protocol.md, SPEC §5).
+"""Protocol v2 packets and host->device commands (docs/protocol.md, docs/spec.md §5).
 
 Frame / reply packet (all little-endian)::
 

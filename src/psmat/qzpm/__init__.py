@@ -1,4 +1,4 @@
-"""IECM adapted to the QZPM readout (thesis App. C, SPEC §3 "Adaptation to QZPM").
+"""IECM adapted to the QZPM readout (thesis App. C, docs/spec.md §3 "Adaptation to QZPM").
 
 In a quasi-zero-potential readout every row and column line has its own switch that ties it
 either to the connecting node "in" (selected) or to ground. The readings are equivalent

@@ -1,4 +1,4 @@
-"""Sensor model of the Velostat cells: hysteresis and creep (thesis §2.4-2.5, SPEC §4).
+"""Sensor model of the Velostat cells: hysteresis and creep (thesis §2.4-2.5, docs/spec.md §4).
 
 * :class:`MPICreep` - the direct model and its exact inverse (eq. 2.15-2.25);
 * :func:`fit` - identification from pneumatic experiments (eq. 2.26);

@@ -1,4 +1,4 @@
-"""Identification of the sensor model from pneumatic experiments (thesis §2.5.1, SPEC §4).
+"""Identification of the sensor model from pneumatic experiments (thesis §2.5.1, docs/spec.md §4).
 
 Minimises SSE_N (eq. 2.26) averaged over independent experiments (the sensor rests between
 them, so each is simulated from rest) over theta = (rho, tau, a1, a2, a3, l_j, w_j).
@@ -19,7 +19,7 @@ them, so each is simulated from rest) over theta = (rho, tau, a1, a2, a3, l_j, w
     The thesis' method literally: annealing over all parameters (scaled, creep rates in
     log10, the initial slope a1 + rho instead of a1), then BOBYQA over all of them. Kept as
     the faithful baseline; on the full protocols it stops tens of percent above the best.
-All reject parameters for which the model cannot be inverted (SPEC §4).
+All reject parameters for which the model cannot be inverted (docs/spec.md §4).
 """
 
 from __future__ import annotations
@@ -96,7 +96,7 @@ def _experiments(p, g, dt):
 
 def _rate_bounds(p, dt):
     # creep rates: faster than the sampling makes no sense; slower than ~1/10 of the longest
-    # experiment cannot be told from a constant (SPEC §4: bounded by the experiment length)
+    # experiment cannot be told from a constant (docs/spec.md §4: bounded by the experiment length)
     longest = max(len(x) * d for x, d in zip(p, dt))
     return np.log10(0.1 / longest), np.log10(1.0 / min(dt))
 

@@ -1,4 +1,4 @@
-"""Linear parameters of the sensor model under the invertibility constraints (SPEC §4).
+"""Linear parameters of the sensor model under the invertibility constraints (docs/spec.md §4).
 
 For fixed tau the model's slope along any loading path is bounded below by
 

@@ -1,7 +1,7 @@
 """Material metrics of the pneumatic tests: variability, drift, creep, hysteresis (thesis §2.1.3, §2.4.3).
 
 The four figures of merit the thesis uses to choose the mat's sensing material (eq. 2.1-2.4,
-Tables 2.5-2.10, Fig. 2.34), computed as SPEC §4 defines them:
+Tables 2.5-2.10, Fig. 2.34), computed as docs/spec.md §4 defines them:
 
 variability (eq. 2.1, fast cyclic tests)
     ``CV² = std(ḡ)² / mean(ḡ)²`` over the set of values ``ḡ[cycle, cell]``, each the mean

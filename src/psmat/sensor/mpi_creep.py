@@ -1,4 +1,4 @@
-"""Velostat sensor model: MPI hysteresis + creep, direct and exact inverse (thesis §2.5.1, SPEC §4).
+"""Velostat sensor model: MPI hysteresis + creep, direct and exact inverse (thesis §2.5.1, docs/spec.md §4).
 
 The model runs in the C++ core (``src/cpp/psmat/sensor/mpi_creep.hpp``); this module handles
 shapes, units and state. Pressure in psi, conductance in S, sampling period ``dt`` in s.
@@ -108,7 +108,7 @@ class MPICreep:
         return np.asarray(self._m.weights)
 
     def invertibility_problem(self) -> str:
-        """Empty when the model is invertible on [0, p_max]; otherwise the reason (SPEC §4)."""
+        """Empty when the model is invertible on [0, p_max]; otherwise the reason (docs/spec.md §4)."""
         return str(self._m.check_invertible())
 
     def rest_state(self, cell_shape: int | tuple[int, ...] = ()) -> SensorState:
@@ -166,14 +166,14 @@ class MPICreep:
         The polynomial term uses the current pressure (an algebraic loop), solved per sample,
         so ``direct(inverse(g)) == g`` to round-off. A conductance below what zero pressure
         gives (more creep than signal) returns p = 0, one above what ``p_max`` gives returns
-        ``p_max`` (the model is identified and checked monotone on [0, p_max] only, SPEC §4);
+        ``p_max`` (the model is identified and checked monotone on [0, p_max] only, docs/spec.md §4);
         their number with ``return_clipped``. ``dt``: one sampling period or one per sample (s),
         as in :meth:`direct`.
 
         Raises
         ------
         ValueError
-            When the parameters are not invertible (a non-positive slope, SPEC §4).
+            When the parameters are not invertible (a non-positive slope, docs/spec.md §4).
         """
         why = self.invertibility_problem()
         if why:

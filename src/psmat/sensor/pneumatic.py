@@ -1,4 +1,4 @@
-"""Pneumatic-platform runs: simulated ones and the material DAQ's logs (thesis §2.4.1, SPEC §4-5).
+"""Pneumatic-platform runs: simulated ones and the material DAQ's logs (thesis §2.4.1, docs/spec.md §4-5).
 
 A :class:`PneumaticRun` is what the material metrics (:mod:`psmat.sensor.metrics`) consume:
 sample times ``t`` (s), applied pressure ``p`` (psi), the conductance of every sensor ``g``

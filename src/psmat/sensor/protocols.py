@@ -1,4 +1,4 @@
-"""Pneumatic test protocols for material characterisation (thesis §2.4.2, SPEC §4).
+"""Pneumatic test protocols for material characterisation (thesis §2.4.2, docs/spec.md §4).
 
 The thesis characterises sensing materials on a pneumatic platform (Tekscan PB100E) with four
 pressure patterns, all sampled by the material DAQ every 500 ms (2 Hz):

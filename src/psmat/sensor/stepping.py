@@ -1,4 +1,4 @@
-"""The sensor model on a stream with missing frames (SPEC §4, the chain's policy of
+"""The sensor model on a stream with missing frames (docs/spec.md §4, the chain's policy of
 :mod:`psmat.process`).
 
 A frame lost on the wire (or unusable) is not seen by the sensor model, but the sensor

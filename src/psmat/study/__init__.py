@@ -1,4 +1,4 @@
-"""Studies processed in batch (SPEC §6 study layout, §12): discovery, running, results, simulation."""
+"""Studies processed in batch (docs/spec.md §6 study layout, §12): discovery, running, results, simulation."""
 
 from .layout import StudyItem, StudyLayout, Subject, find_study, read_subjects
 from .run import RunReport, run_study

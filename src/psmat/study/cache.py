@@ -1,4 +1,4 @@
-"""Per-session results of a study run on disk (SPEC §12): keyed by content, written atomically.
+"""Per-session results of a study run on disk (docs/spec.md §12): keyed by content, written atomically.
 
 ``DIR/results/sessions/<stem>.json`` holds one session's rows and the inputs they were made
 from; its traces (:func:`psmat.study.trial.process_trial` with ``traces=True``) are

@@ -1,4 +1,4 @@
-"""A study on disk (SPEC §6): find its sessions, pair each with its force-platform file and
+"""A study on disk (docs/spec.md §6): find its sessions, pair each with its force-platform file and
 its subject, and say what is missing — without stopping at the first problem.
 
 ```
@@ -127,7 +127,7 @@ def find_study(root: str | os.PathLike[str]) -> StudyLayout:
         raise FileNotFoundError(f"study folder not found: {root}")
     sessions = root / "sessions"
     if not sessions.is_dir():
-        raise FileNotFoundError(f"{root} has no sessions/ folder (SPEC §6 study layout)")
+        raise FileNotFoundError(f"{root} has no sessions/ folder (docs/spec.md §6 study layout)")
     problems: list[str] = []
     subjects: dict[str, Subject] = {}
     sub_csv = root / "subjects.csv"

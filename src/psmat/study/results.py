@@ -1,4 +1,4 @@
-"""``DIR/results/`` of a balance study (SPEC §6, §12): ``summary.csv``, ``pairwise.csv``,
+"""``DIR/results/`` of a balance study (docs/spec.md §6, §12): ``summary.csv``, ``pairwise.csv``,
 ``figures/*.png`` and ``report.md`` from the rows of ``metrics.csv`` and the sessions' traces.
 ``metrics.csv`` itself is the runner's (:mod:`psmat.study.run`).
 """

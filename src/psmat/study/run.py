@@ -1,5 +1,5 @@
 """``psmat study run``: every session of a study folder through :func:`process_trial`, as
-independent tasks, into ``DIR/results/`` (SPEC §6 layout, §9 ``metrics.csv``, §12).
+independent tasks, into ``DIR/results/`` (docs/spec.md §6 layout, §9 ``metrics.csv``, §12).
 
 **Where the cores go.** Each session is one task on one core: a session's IECM warm start
 (each frame's solve starts from the previous frame's) and its sensor model's state are
@@ -49,7 +49,7 @@ from .trial import COLUMNS, DEFAULT_PARAMS, Rows, Traces, process_trial
 
 __all__ = ["RunReport", "SessionTask", "run_study", "run_task", "write_metrics", "TRIALS"]
 
-#: the thesis' trials in the order of its tables (SPEC §9); other trial names sort after them
+#: the thesis' trials in the order of its tables (docs/spec.md §9); other trial names sort after them
 TRIALS = ("right-leg", "left-leg", "rotation")
 
 
@@ -111,7 +111,7 @@ def run_study(root: str | os.PathLike[str], *, workers: int | None = None, sched
     Parameters
     ----------
     root : path
-        A study folder (SPEC §6).
+        A study folder (docs/spec.md §6).
     workers : int, optional
         Processes (default: every core); 1 runs the sessions in this process.
     scheduler : str, optional
@@ -191,7 +191,7 @@ def run_study(root: str | os.PathLike[str], *, workers: int | None = None, sched
 
 
 def write_metrics(path: Path, rows: Sequence[dict[str, Any]]) -> None:
-    """``metrics.csv`` (SPEC §9): the columns of :data:`COLUMNS`, floats as ``repr`` (exact, so a
+    """``metrics.csv`` (docs/spec.md §9): the columns of :data:`COLUMNS`, floats as ``repr`` (exact, so a
     rerun is byte-identical), NaN as an empty field; written atomically."""
     buf = io.StringIO()
     w = csv.writer(buf, lineterminator="\n")
@@ -292,7 +292,7 @@ def _checked_params(params: dict[str, Any] | None) -> dict[str, Any]:
 
 
 def _from_stem(stem: str) -> tuple[str, str]:
-    """(subject, trial) from a file name ``<subject>_<trial>`` (SPEC §6), for sessions whose metadata lacks them."""
+    """(subject, trial) from a file name ``<subject>_<trial>`` (docs/spec.md §6), for sessions whose metadata lacks them."""
     subject, _, trial = stem.partition("_")
     return subject, trial
 
@@ -355,7 +355,7 @@ def _order(t: SessionTask) -> tuple[Any, ...]:
 
 
 def _first_of_each(order: Sequence[str], tasks: dict[str, SessionTask], problems: list[str]) -> list[str]:
-    """The first session of each subject × trial (SPEC §9: one row per subject × trial × variant);
+    """The first session of each subject × trial (docs/spec.md §9: one row per subject × trial × variant);
     any other is named in ``problems`` and left out of the tables (its result stays stored)."""
     first: dict[tuple[str, str], str] = {}
     for stem in order:

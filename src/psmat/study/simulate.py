@@ -1,4 +1,4 @@
-"""The honest simulation of a balance study (SPEC §7 "Honest simulation", §6 study layout).
+"""The honest simulation of a balance study (docs/spec.md §7 "Honest simulation", §6 study layout).
 
 :func:`simulate_study` writes a study folder that ``psmat study run`` processes without knowing
 the truth: real sway (force-platform trajectories of the BDS data set) drives the digital twin
@@ -32,12 +32,12 @@ Each volunteer's mat (one 16×16 mat of 2 cm cells by default)
     (the large mat was 1.3–4× more conductive, thesis §3.2.2, eq. 3.3): rho, a1..a3 and w
     scaled by 1/f with a 10 % log-normal spread (a1..a3 together), tau by 10 % and the creep
     rates by 20 %; cell-to-cell gains log-normal with SD 0.15–0.33 (thesis Table 2.5: Velostat
-    CV² = 0.108); leakage 1e-7 S; the noise of SPEC §10 "noisy": 1 mV on the ADC node, 12 bits
+    CV² = 0.108); leakage 1e-7 S; the noise of docs/spec.md §10 "noisy": 1 mV on the ADC node, 12 bits
     (thesis Table 2.4).
 Each volunteer's box (one box per volunteer, serial ``SIM<seed>-Vnn``)
     R_mux log-uniform in 100–210 Ω around the thesis' typical 145 Ω ("estimated for each box
     independently", §2.2.1) plus a 2.5 Ω mismatch per row and per column line ("all the
-    channels have the same value for practical purposes", §2.1.4); R_adc 6.9 MΩ ± 25 % (SPEC
+    channels have the same value for practical purposes", §2.1.4); R_adc 6.9 MΩ ± 25 % (docs/spec.md
     §2). Its calibration is what ``psmat calibrate`` gives: the real estimator
     (:mod:`psmat.calibration_estimate`) on simulated recordings through the box's true chain —
     1 s open circuit, the four corner pairs shorted, CAL_HOLD — written to
@@ -96,9 +96,9 @@ from .simulate_trials import PLATFORM_RATE_HZ, TRIALS, Source, plan_trajectory, 
 
 __all__ = ["simulate_study", "TRIALS", "PITCH_CM"]
 
-#: Cell pitch of the simulated mats (cm): the thesis' mat, 16 × 16 cells on 32 cm (SPEC §1).
+#: Cell pitch of the simulated mats (cm): the thesis' mat, 16 × 16 cells on 32 cm (docs/spec.md §1).
 PITCH_CM = 2.0
-#: ADC-node noise (V): SPEC §10 "noisy", thesis Table 2.4.
+#: ADC-node noise (V): docs/spec.md §10 "noisy", thesis Table 2.4.
 NOISE_V = 1e-3
 #: Host clock of the first volunteer's first trial: 2024-05-06 09:00 UTC; eight volunteers a day, 45 min apart.
 HOST_EPOCH = _dt.datetime(2024, 5, 6, 9, 0, tzinfo=_dt.timezone.utc)

@@ -1,4 +1,4 @@
-"""What the honest simulation of a balance study draws per volunteer (SPEC §7 "Honest
+"""What the honest simulation of a balance study draws per volunteer (docs/spec.md §7 "Honest
 simulation"): the person, the mat and the DAQ box. Each choice and its source is stated in
 :mod:`psmat.study.simulate`; the numbers live here.
 
@@ -50,7 +50,7 @@ VARIABILITY = (0.15, 0.33)
 #: "all the channels have the same value for practical purposes" (thesis §2.1.4) — a few Ω.
 R_MUX_RANGE = (100.0, 210.0)
 R_MUX_CHANNEL_SD = 2.5
-#: The ADC's input resistance of the improved prototype, 6.9 MΩ (SPEC §2), ±25 % per box.
+#: The ADC's input resistance of the improved prototype, 6.9 MΩ (docs/spec.md §2), ±25 % per box.
 R_ADC_RANGE = (6.9e6 * 0.8, 6.9e6 * 1.25)
 #: Error of the box's clock on the frame period (crystal to RC oscillator), log-uniform, either sign.
 CLOCK_ERROR = (2e-6, 1e-3)
@@ -111,7 +111,7 @@ class Box:
     loss_rate: float
 
     def circuit(self) -> Circuit:
-        """The box's true measurement chain (SPEC §2 defaults otherwise)."""
+        """The box's true measurement chain (docs/spec.md §2 defaults otherwise)."""
         return Circuit(r_mux=self.r_mux, r_adc=self.r_adc)
 
     def as_dict(self) -> dict[str, Any]:

@@ -1,4 +1,4 @@
-"""The numbers of a balance study (thesis §3.2.1, SPEC §7): per trial × variant the spread
+"""The numbers of a balance study (thesis §3.2.1, docs/spec.md §7): per trial × variant the spread
 σ_ML, σ_AP across volunteers, their Pearson r against the platform, the % of volunteers whose
 mat trace spreads less than the platform's (Tables 3.5, 3.6), mean Eu (eq. 3.1-3.2),
 Bland–Altman of σ against FP; and per pair of variants the % of volunteers for whom one is

@@ -1,4 +1,4 @@
-"""One session of a balance study (thesis §3.2, SPEC §7, §9): the mat through the one chain,
+"""One session of a balance study (thesis §3.2, docs/spec.md §7, §9): the mat through the one chain,
 every variant, aligned with the force platform, sway metrics and Eu per variant.
 
 :func:`process_trial` takes plain arguments and returns plain rows (and, with ``traces=True``,

@@ -1,4 +1,4 @@
-"""Files of a simulated study's ``truth/`` folder written the same way every time (SPEC §6).
+"""Files of a simulated study's ``truth/`` folder written the same way every time (docs/spec.md §6).
 
 Same arguments and seed → same bytes: indented JSON with NumPy values as plain numbers, and
 ``.npz`` archives whose member dates are fixed.

@@ -1,4 +1,4 @@
-"""Digital twin of the mat (SPEC §5): one synthetic world for the whole package.
+"""Digital twin of the mat (docs/spec.md §5): one synthetic world for the whole package.
 
 One coordinate convention (cell ``(i, p)`` centred at ``(p·pitch, i·pitch)`` cm, as
 :func:`psmat.balance.cop`), pressure in psi inside (the sensor model's unit), forces in N;
@@ -9,7 +9,7 @@ pressure becomes conductance only through the sensor model (:class:`MatPhysics`)
 * :mod:`psmat.twin.steering` — the group forces that put the field's CoP on a target.
 * :mod:`psmat.twin.scenes` — seeded scenes (quiet standing, single-leg sway, a recorded
   force-platform trajectory, sitting) returning :class:`PressureScene`.
-* :mod:`psmat.twin.seated` — the seated twin (SPEC §8): a person of thesis Table 4.2
+* :mod:`psmat.twin.seated` — the seated twin (docs/spec.md §8): a person of thesis Table 4.2
   (:mod:`~psmat.twin.seated_subject`) following the posture protocol
   (:mod:`~psmat.twin.seated_protocol`), one trajectory driving the cushion's pressure
   (:mod:`~psmat.twin.seated_spine`, :mod:`~psmat.twin.seated_seat`) and the five spine IMUs

@@ -1,4 +1,4 @@
-"""Anatomy of the twin's loads (SPEC §5): feet and a seat, as lobes (:class:`~psmat.twin.field.Lobes`).
+"""Anatomy of the twin's loads (docs/spec.md §5): feet and a seat, as lobes (:class:`~psmat.twin.field.Lobes`).
 
 The foot
 --------

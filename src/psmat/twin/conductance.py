@@ -1,4 +1,4 @@
-"""Cell conductances of a person standing on the twin's mat (SPEC §5): frames for benchmarks,
+"""Cell conductances of a person standing on the twin's mat (docs/spec.md §5): frames for benchmarks,
 tests and the crosstalk demo.
 
 :func:`swaying_feet` is :func:`~psmat.twin.scenes.quiet_standing` (two feet, the CoP swaying

@@ -1,8 +1,8 @@
-"""The continuous pressure field on the mat and its cell image (SPEC §5, §7).
+"""The continuous pressure field on the mat and its cell image (docs/spec.md §5, §7).
 
 Units and conventions
 ---------------------
-* Pressure in **psi** inside the twin (the sensor model's unit, SPEC §1; 1 psi = 6894.757 Pa),
+* Pressure in **psi** inside the twin (the sensor model's unit, docs/spec.md §1; 1 psi = 6894.757 Pa),
   forces in **N**, lengths and positions in **cm**.
 * Mat of ``R × C`` cells at ``pitch_cm``; the origin is the centre of cell ``(0, 0)``; cell
   ``(i, p)`` has its centre at ``x = p·pitch`` (medial–lateral, along the columns) and
@@ -39,8 +39,8 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from .._checks import finite, positive, positive_int, shape2
-from ..balance import cell_centres_cm as _centre_vectors  # one home for the cell convention (SPEC §7)
-from ..balance import cop as _cop  # one home for the CoP (SPEC §7)
+from ..balance import cell_centres_cm as _centre_vectors  # one home for the cell convention (docs/spec.md §7)
+from ..balance import cop as _cop  # one home for the CoP (docs/spec.md §7)
 from ..units import PSI_PA  # one psi in Pa; one home for the constant
 
 __all__ = [
@@ -267,7 +267,7 @@ def cell_force_n(pressure_psi: ArrayLike, pitch_cm: float = 2.0) -> NDArray[np.f
 
 
 def cell_cop_cm(pressure_psi: ArrayLike, pitch_cm: float = 2.0) -> NDArray[np.float64]:
-    """Centre of pressure of cell images (SPEC §7): ``x = Σ p·x_cell / Σ p``.
+    """Centre of pressure of cell images (docs/spec.md §7): ``x = Σ p·x_cell / Σ p``.
 
     Parameters
     ----------

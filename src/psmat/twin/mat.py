@@ -1,4 +1,4 @@
-"""The simulated mat's physics (SPEC §5 "Digital twin"): pressure → ADC counts.
+"""The simulated mat's physics (docs/spec.md §5 "Digital twin"): pressure → ADC counts.
 
 A stream of pressure images (psi, :mod:`psmat.twin.scenes`) goes through
 
@@ -9,12 +9,12 @@ A stream of pressure images (psi, :mod:`psmat.twin.scenes`) goes through
    network stays connected (a Velostat cell at rest is megohms, not an open circuit);
 2. the crosstalk of the array: the equivalent conductances ``G = F(g)``
    (:func:`psmat.iecm.forward`, eq. 2.5–2.7);
-3. the measurement chain (:class:`psmat.Circuit`, SPEC §2): R_mux, R_adc, Gaussian noise on
+3. the measurement chain (:class:`psmat.Circuit`, docs/spec.md §2): R_mux, R_adc, Gaussian noise on
    the ADC node and 12-bit quantisation.
 
 The sensor state is carried between calls, so a live stream is one continuous experiment.
 Pressures above the model's range (``p_max``, 32 psi) saturate there: the model is
-identified and checked monotone on [0, p_max] only (SPEC §4).
+identified and checked monotone on [0, p_max] only (docs/spec.md §4).
 """
 
 from __future__ import annotations
@@ -57,7 +57,7 @@ class MatPhysics:
     g_rest : float
         Leakage conductance of an unloaded cell (S); 1e-7 S = 10 MΩ.
     circuit : Circuit, optional
-        Measurement chain; default ``Circuit()`` (improved prototype, SPEC §2).
+        Measurement chain; default ``Circuit()`` (improved prototype, docs/spec.md §2).
     noise_v : float
         SD of the ADC-node noise (V); thesis Table 2.4: about 1 mV.
     seed : int

@@ -1,4 +1,4 @@
-"""Seeded pressure scenes of the digital twin (SPEC §5): a person standing or sitting on the mat.
+"""Seeded pressure scenes of the digital twin (docs/spec.md §5): a person standing or sitting on the mat.
 
 Each generator places the feet (or the seat's lobes, :mod:`psmat.twin.anatomy`) and moves
 the load between their groups so that the field's CoP follows a target
@@ -11,7 +11,7 @@ the load between their groups so that the field's CoP follows a target
   the BDS data set; :func:`psmat.io.forceplate.load_bds`), total force following ``Fz``,
   on two feet or on one (:func:`stance_groups`).
 * seated scenes — :func:`psmat.twin.seat_scenes.sitting` and
-  :func:`~psmat.twin.seat_scenes.seat_scene` (the cushion, SPEC §8), built on :func:`scene_args`
+  :func:`~psmat.twin.seat_scenes.seat_scene` (the cushion, docs/spec.md §8), built on :func:`scene_args`
   and :class:`PressureScene` here.
 
 All return a :class:`PressureScene`, whose ``cop_true_cm`` is the CoP of the continuous field
@@ -81,7 +81,7 @@ class PressureScene:
 
     @property
     def pressure_kpa(self) -> NDArray[np.float64]:
-        """Cell pressures in kPa (SPEC §1: SI at the API; :attr:`pressure` is in psi, the sensor model's unit)."""
+        """Cell pressures in kPa (docs/spec.md §1: SI at the API; :attr:`pressure` is in psi, the sensor model's unit)."""
         return self.pressure * PSI_KPA
 
     def field(self, k: int) -> Lobes:
@@ -95,7 +95,7 @@ class PressureScene:
         return out
 
     def cell_cop_cm(self) -> NDArray[np.float64]:
-        """CoP of each cell image (SPEC §7), (T, 2) in cm."""
+        """CoP of each cell image (docs/spec.md §7), (T, 2) in cm."""
         return cell_cop_cm(self.pressure, self.pitch_cm)
 
     def cell_force_n(self) -> NDArray[np.float64]:

@@ -1,4 +1,4 @@
-"""Seated pressure scenes (SPEC §8): the cushion's load shared between the ischial tuberosities,
+"""Seated pressure scenes (docs/spec.md §8): the cushion's load shared between the ischial tuberosities,
 the thighs and the sacrum (:mod:`psmat.twin.seated_seat`), steered like the standing scenes of
 :mod:`psmat.twin.scenes`.
 
@@ -77,7 +77,7 @@ def sitting(
     min_fraction: float = 0.02,
     supersample: int = 5,
 ) -> PressureScene:
-    """A person sitting on the mat (the meditation cushion, SPEC §8), the CoP leaning slowly.
+    """A person sitting on the mat (the meditation cushion, docs/spec.md §8), the CoP leaning slowly.
 
     The seat of the seated twin (:func:`~psmat.twin.anatomy.seat_groups`, its load shared by
     :mod:`psmat.twin.seated_seat`) with its tuberosities at ``y = centre − 4 cm``, unrotated,

@@ -1,4 +1,4 @@
-"""The seated twin (SPEC §8 "Data"): one posture trajectory drives the cushion and the spine IMUs.
+"""The seated twin (docs/spec.md §8 "Data"): one posture trajectory drives the cushion and the spine IMUs.
 
 A :class:`SeatedSession` is a person (:mod:`psmat.twin.seated_subject`) following the thesis'
 protocol for one session (:mod:`psmat.twin.seated_protocol`). Its posture gives, at any instants,

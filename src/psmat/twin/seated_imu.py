@@ -1,4 +1,4 @@
-"""The spine IMUs of the seated twin (thesis §4.2, SPEC §5 and §8): what five BNO055 read on a back.
+"""The spine IMUs of the seated twin (thesis §4.2, docs/spec.md §5 and §8): what five BNO055 read on a back.
 
 Each sensor reports Euler angles (heading, roll, pitch) in degrees, the layout of
 :data:`psmat.protocol.IMU_SHAPE`. At its site ``v`` on the back (:func:`~psmat.twin.seated_spine.sensor_sites`):

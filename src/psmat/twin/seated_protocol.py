@@ -1,4 +1,4 @@
-"""The thesis' posture protocol as one trajectory of a seated person (thesis §4.3, SPEC §8 "Data").
+"""The thesis' posture protocol as one trajectory of a seated person (thesis §4.3, docs/spec.md §8 "Data").
 
 Thesis §4.3: the volunteer sits on the cushion and bounces a little (for synchronisation); holds
 a straight back for 30 s, leans forward for 30 s and backwards for 30 s; repeats the bounces and

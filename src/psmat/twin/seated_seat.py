@@ -1,4 +1,4 @@
-"""The seat's load (SPEC §8 "Data"): how the groups of :func:`~psmat.twin.anatomy.seat_groups` share it.
+"""The seat's load (docs/spec.md §8 "Data"): how the groups of :func:`~psmat.twin.anatomy.seat_groups` share it.
 
 The seat's frame has ``u`` to the person's right and ``w`` forward, its origin midway between
 the ischial tuberosities (:func:`~psmat.twin.anatomy.seat_groups`). For every frame the caller

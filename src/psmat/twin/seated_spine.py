@@ -1,11 +1,11 @@
-"""The seated body's geometry (SPEC §8 "Data"): the back's pitch along the spine, and what the
+"""The seated body's geometry (docs/spec.md §8 "Data"): the back's pitch along the spine, and what the
 posture does to the cushion's load.
 
 The back
 --------
 A position on the back is ``v``, its distance along the skin from S3 (0) to C7 (1) as a share
 of the back's length. Its pitch (the angle of the back's surface from the vertical in the
-sagittal plane, positive when its top leans forward — SPEC §8's angle convention) is
+sagittal plane, positive when its top leans forward — docs/spec.md §8's angle convention) is
 
     θ(v, t) = θ₀(v) + P(t) + L(t)·s((v − 0.05)/0.45) + T(t)·s((v − 0.45)/0.55)
 
@@ -93,7 +93,7 @@ def back_pitch_deg(subject: SeatedSubject, state: PostureState, v: ArrayLike) ->
 
 def sensor_sites(subject: SeatedSubject, day: SeatedDay) -> NDArray[np.float64]:
     """Positions ``v`` (5,) of the IMUs: the top one ``day.top_sensor_cm`` below C7, the others every
-    90 mm along the back (SPEC §8); sensor 1 is the cervical one."""
+    90 mm along the back (docs/spec.md §8); sensor 1 is the cervical one."""
     below_c7 = day.top_sensor_cm + np.arange(N_SENSORS) * SPACING_MM / 10.0
     return 1.0 - below_c7 / subject.back_length_cm
 

@@ -1,4 +1,4 @@
-"""Who sits on the cushion (SPEC §8 "Data"): a seated subject and what changes from day to day.
+"""Who sits on the cushion (docs/spec.md §8 "Data"): a seated subject and what changes from day to day.
 
 :func:`draw_seated_subject` draws a person of thesis Table 4.2 with the anatomy that shapes the
 seat's pressure and the spine's angles and the way they lean; :func:`draw_seated_day` draws what a
@@ -37,7 +37,7 @@ Leaning (the protocol, :mod:`psmat.twin.seated_protocol`)
 A session (a day)
     The seat's origin within ±3 cm of 4 cm behind the mat's centre and turned by N(0, 6°)
     (clipped ±15°); the IMU strip's top sensor within N(0, 1.5 cm) of C7 (the others follow
-    every 90 mm, SPEC §8, so they land on vertebrae that depend on the back's length — thesis
+    every 90 mm, docs/spec.md §8, so they land on vertebrae that depend on the back's length — thesis
     §4.5); each sensor's mounting offset N(0, 2°) in pitch and roll, N(0, 3°) in heading (strap
     and soft tissue); the day's lean 1 ± 0.12 (clipped 0.7–1.3) times the subject's, forward
     and back separately; the pelvis's upright tilt N(0, 2°) away from the subject's; a sideways

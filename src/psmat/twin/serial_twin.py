@@ -1,4 +1,4 @@
-"""The digital twin on a real pseudo-terminal (SPEC §5).
+"""The digital twin on a real pseudo-terminal (docs/spec.md §5).
 
 :class:`SerialTwin` runs a device's firmware core (``firmware/core``, compiled into
 ``psmat._core.firmware``) on the host, feeds its "ADC" from a source
@@ -6,7 +6,7 @@
 firmware's own timer rate — what a reader sees is what it would see from the mat over USB:
 the same frames, the same replies to commands, at the configured rate. A frame carries
 the timer's time of its tick (µs since the start, on the grid of the frame period, as the
-MCU's timer-IRQ pacing gives, SPEC §5), not the moment the host's scheduler ran the tick;
+MCU's timer-IRQ pacing gives, docs/spec.md §5), not the moment the host's scheduler ran the tick;
 ticks that come more than a period late are lost, like a timer's missed interrupts, and
 counted in ``late_ticks``.
 

@@ -1,4 +1,4 @@
-"""What the simulated devices measure, one tick at a time (SPEC §5).
+"""What the simulated devices measure, one tick at a time (docs/spec.md §5).
 
 * :class:`PsmSource` — a pressure scene (:mod:`psmat.twin.scenes`) played through the mat's
   physics (:class:`psmat.twin.mat.MatPhysics`): ADC counts per frame. Scenes: ``"sway"`` (a
@@ -129,7 +129,7 @@ class ImuSource:
 
 @dataclass
 class DaqSource:
-    """Ten sensors' 10-bit counts per 500 ms tick on the pneumatic platform (SPEC §4 protocols)."""
+    """Ten sensors' 10-bit counts per 500 ms tick on the pneumatic platform (docs/spec.md §4 protocols)."""
 
     protocol: str = "descending"
     seed: int = 0
@@ -153,7 +153,7 @@ class DaqSource:
 
 @dataclass
 class CalibrationFixture:
-    """The calibration set-ups of SPEC §2 on the twin: what the box reads with the mat
+    """The calibration set-ups of docs/spec.md §2 on the twin: what the box reads with the mat
     unplugged (every cell open) or with one row wired to one column (a short), through the
     same measurement chain; ``mode = "mat"`` passes the mat's own frames through.
 

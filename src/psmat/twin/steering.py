@@ -1,4 +1,4 @@
-"""Load steering (SPEC §5): the group forces that put a field's CoP on a target.
+"""Load steering (docs/spec.md §5): the group forces that put a field's CoP on a target.
 
 In the scene generators the feet (or the seat's lobes) stay where they are and the load
 moves between **groups** of lobes (e.g. left/right rearfoot/forefoot), as a person swaying

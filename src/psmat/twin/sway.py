@@ -1,4 +1,4 @@
-"""Time base and band-limited sway of the twin's scenes (SPEC §5): times in s, rates and bands in Hz, sway in cm."""
+"""Time base and band-limited sway of the twin's scenes (docs/spec.md §5): times in s, rates and bands in Hz, sway in cm."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""The calibration procedure of SPEC §2 (thesis §2.1.4, end), step by step.
+"""The calibration procedure of docs/spec.md §2 (thesis §2.1.4, end), step by step.
 
 1. **Open circuit** — the mat unplugged from the box: every row–column pair reads the ADC's
    own input resistance, so the recording gives ``R_adc``.

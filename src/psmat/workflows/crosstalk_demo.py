@@ -3,7 +3,7 @@
 Two feet standing on the twin's mat (:func:`psmat.twin.swaying_feet`: the pressure field
 through the thesis' sensor model, unloaded cells at the leakage g_rest) -> equivalent
 conductances through the array's crosstalk (IECM forward model, eq. 2.5) -> the measurement chain with 1 mV noise and
-12-bit quantisation (``psmat.Circuit``, SPEC §2) -> counts -> back to G -> IECM -> cell
+12-bit quantisation (``psmat.Circuit``, docs/spec.md §2) -> counts -> back to G -> IECM -> cell
 conductances with their propagated uncertainty (eq. 2.11). Prints the ghost level and the
 centre-of-pressure error before and after, and writes a figure.
 """
@@ -66,7 +66,7 @@ def _figure(g_true, G_meas, g_hat, sigma, pitch, out, res, show):
     from matplotlib.colors import LogNorm
 
     R, C = g_true.shape
-    extent = (-pitch / 2, (C - 0.5) * pitch, -pitch / 2, (R - 0.5) * pitch)  # cell (i, p) at (p, i)·pitch, SPEC §7
+    extent = (-pitch / 2, (C - 0.5) * pitch, -pitch / 2, (R - 0.5) * pitch)  # cell (i, p) at (p, i)·pitch, docs/spec.md §7
     norm = LogNorm(vmin=1e-7, vmax=1e-2)  # the twin's unloaded cells are at g_rest = 1e-7 S
     fig, ax = plt.subplots(1, 4, figsize=(17, 4.4), constrained_layout=True)
     panels = [

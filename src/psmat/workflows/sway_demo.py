@@ -198,7 +198,7 @@ def sway_figure(rec: SwayRecording):
     k = int(usable[len(usable) // 2])
     R, C = s.counts.shape[1:]
     pc = float(proc.params["pitch_cm"])
-    extent = (-pc / 2, (C - 0.5) * pc, -pc / 2, (R - 0.5) * pc)  # cell (i, p) centred at (p·pc, i·pc), SPEC §7
+    extent = (-pc / 2, (C - 0.5) * pc, -pc / 2, (R - 0.5) * pc)  # cell (i, p) centred at (p·pc, i·pc), docs/spec.md §7
     fig = plt.figure(figsize=(12.5, 8.2), layout="constrained")
     gs = fig.add_gridspec(2, 3)
     maps = ((proc.G[k] * 1e3, "viridis", "G (mS)", f"raw: equivalent conductance G\nframe {k}, crosstalk included",

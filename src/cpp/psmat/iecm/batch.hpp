@@ -1,4 +1,4 @@
-// Batches of frames on all cores (SPEC §3 "(T,R,C) batches use all cores").
+// Batches of frames on all cores (docs/spec.md §3 "(T,R,C) batches use all cores").
 //
 // A BatchJob owns a copy of its input and runs on its own threads, so the caller (Python)
 // can release the GIL, poll progress for a progress bar and cancel. Two modes:

@@ -1,4 +1,4 @@
-// IECM forward model G = F(g) (thesis eq. 2.5-2.7, SPEC §3): equivalent conductance between
+// IECM forward model G = F(g) (thesis eq. 2.5-2.7, docs/spec.md §3): equivalent conductance between
 // row i and column p with every other line floating,
 //     1/G[i,p] = M[i,i] + M[R+p,R+p] - 2 M[i,R+p]           (eq. 2.5 with I_ref = 1)
 // One Cholesky of the grounded nodal matrix gives all R*C values. Every other part of psmat

@@ -1,4 +1,4 @@
-// Jacobian of the IECM forward model (thesis eq. 2.13 / App. B eq. B.23, SPEC §3).
+// Jacobian of the IECM forward model (thesis eq. 2.13 / App. B eq. B.23, docs/spec.md §3).
 //
 //   T[(i,p),(j,q)] = (e_j - e_q')^T M (e_p' - e_i) = V_ip,j - V_ip,q      (p' = R+p, q' = R+q)
 //                  = A[j,p] + A[i,q] - Mrr[i,j] - Mcc[p,q]
@@ -38,7 +38,7 @@ void scaled_hadamard_block(const NodalInverse& net, const ConstVecRef& G,
 void scaled_hadamard_column(const NodalInverse& net, const ConstVecRef& G,
                             const std::vector<Index>& cells, Index b, Eigen::Ref<Eigen::VectorXf> out);
 
-// Matrix-free product out = (T∘T) v in O(n^3) instead of O((RC)^2) (SPEC §3):
+// Matrix-free product out = (T∘T) v in O(n^3) instead of O((RC)^2) (docs/spec.md §3):
 //   ((T∘T) v)[i,p] = K[i,i] + K[p',p'] - 2 K[i,p'],   K = M L_v M,
 // with L_v the Laplacian of the same graph weighted by v. `work` is resized as needed.
 struct HadamardWork {

@@ -1,4 +1,4 @@
-// Grounded nodal matrix of the basic circuit (thesis eq. 2.6-2.7, SPEC §3) and its inverse M.
+// Grounded nodal matrix of the basic circuit (thesis eq. 2.6-2.7, docs/spec.md §3) and its inverse M.
 //
 // The R x C array is a bipartite resistor network on n = R + C nodes: rows are nodes
 // 0..R-1, columns are nodes R..R+C-1, cell (i, p) joins node i to node R+p with conductance

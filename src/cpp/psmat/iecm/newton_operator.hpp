@@ -1,4 +1,4 @@
-// The Newton matrix of IECM as an operator, with a reusable preconditioner (SPEC §3).
+// The Newton matrix of IECM as an operator, with a reusable preconditioner (docs/spec.md §3).
 //
 //   S = D_G (T∘T) D_G   (SPD, unit diagonal; J = D_G S D_G^-1, see jacobian.hpp)
 //

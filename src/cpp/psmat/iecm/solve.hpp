@@ -1,4 +1,4 @@
-// IECM inverse g = F^-1(G_exp), g > 0 (thesis eq. 2.8-2.10, SPEC §3).
+// IECM inverse g = F^-1(G_exp), g > 0 (thesis eq. 2.8-2.10, docs/spec.md §3).
 //
 // A Solver owns the workspace of one thread: the nodal inverse, the Newton operator and its
 // preconditioner. Between calls it keeps the preconditioner, so consecutive frames of a

@@ -1,4 +1,4 @@
-// Bounded IECM for noisy frames: the complementarity problem of SPEC §3 (the problem
+// Bounded IECM for noisy frames: the complementarity problem of docs/spec.md §3 (the problem
 // solve_bounded_newton.cpp states; unique solution)
 //   g >= g_floor,   F(g) - G_exp >= 0,   (g - g_floor)(F(g) - G_exp) = 0   cell by cell,
 // by sequential bound-constrained QPs (Josephy-Newton), each QP solved exactly by a primal-dual
@@ -6,7 +6,7 @@
 //
 // Outer iteration at g: with J = D_G S D_G^-1 (jacobian.hpp; G = F(g)) and dg = G∘y, the
 // linearised complementarity problem is the strictly convex QP (S is SPD where the problem is
-// well posed, SPEC §3)
+// well posed, docs/spec.md §3)
 //   min 0.5 y'S y + c'y   over   y >= lo,   c = (F(g) - G_exp)/G,   lo = (g_floor - g)/G.
 // Its KKT conditions, y - lo >= 0, lambda = S y + c >= 0, (y - lo) lambda = 0, are min(a, b) = 0
 // of the scaled variables a = (g - g_floor)/G_exp, b = (F - G_exp)/G_exp linearised, so the QP

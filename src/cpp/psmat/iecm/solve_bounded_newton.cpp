@@ -1,4 +1,4 @@
-// Bounded IECM as a nonlinear complementarity problem (SPEC §3 "g >= 0"):
+// Bounded IECM as a nonlinear complementarity problem (docs/spec.md §3 "g >= 0"):
 //   g >= g_floor,   F(g) - G_exp >= 0,   (g - g_floor)(F(g) - G_exp) = 0   cell by cell.
 // A cell at the bound is one that even when empty makes the model over-predict its measured G
 // (typical of quiet background cells under noise). Because dG/dg = D_G S D_G^-1 with S SPD,

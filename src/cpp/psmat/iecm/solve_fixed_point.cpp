@@ -1,6 +1,6 @@
 // Thesis fixed point (eq. 2.10): g_{n+1} = g_n + beta (G_exp - F(g_n)), clipped at g_floor to
 // keep the network physical. Converges when beta < 2/lambda_max(J); the slow modes contract
-// by 1 - beta*lambda_min per iteration (lambda spread ~0.005..15 on two-feet images, SPEC §3).
+// by 1 - beta*lambda_min per iteration (lambda spread ~0.005..15 on two-feet images, docs/spec.md §3).
 #include "psmat/iecm/solve.hpp"
 
 namespace psmat::iecm {

@@ -1,4 +1,4 @@
-// Damped Newton-Krylov on log g for F(g) = G_exp (SPEC §3; eq. 2.8 with positivity by
+// Damped Newton-Krylov on log g for F(g) = G_exp (docs/spec.md §3; eq. 2.8 with positivity by
 // log-parameterisation, as the thesis' C/GSL implementation).
 //
 // Newton step: J dg = -(F(g) - G_exp) with J = D_G S D_G^-1, S = D_G (T∘T) D_G SPD

@@ -1,4 +1,4 @@
-// Live crosstalk removal (thesis Fig. 2.10, SPEC §3 "streaming"): frames are pushed as they
+// Live crosstalk removal (thesis Fig. 2.10, docs/spec.md §3 "streaming"): frames are pushed as they
 // arrive from the acquisition, a pool of worker threads solves them, and they come out in
 // arrival order. Each frame warm-starts from the most recent solution available when its
 // worker picks it up (the previous frame on one thread); the very first frame starts cold.

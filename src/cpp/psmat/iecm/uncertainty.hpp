@@ -1,4 +1,4 @@
-// Uncertainty propagation through IECM (thesis §2.3.1, eq. 2.11-2.14, SPEC §3):
+// Uncertainty propagation through IECM (thesis §2.3.1, eq. 2.11-2.14, docs/spec.md §3):
 //   dg/dG = (dG/dg)^-1                                                   (eq. 2.14)
 //   sigma_g[j,q] = sqrt( sum_{i,p} (dg_jq/dG_ip)^2 sigma_G[i,p]^2 )       (eq. 2.11)
 // With J = D_G S D_G^-1 (see jacobian.hpp), J^-1 = D_G S^-1 D_G^-1, so only the SPD matrix S

@@ -1,4 +1,4 @@
-// QZPM readout (thesis App. C, SPEC §3 "Adaptation to QZPM"): forward model and Jacobian.
+// QZPM readout (thesis App. C, docs/spec.md §3 "Adaptation to QZPM"): forward model and Jacobian.
 //
 // Circuit (eq. C.4-C.6): R row lines (nodes 0..R-1), C column lines (nodes R..R+C-1), the
 // connecting node "in" and ground. Cell (i,p) joins row i and column p with g[i,p]. Every

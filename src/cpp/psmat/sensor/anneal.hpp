@@ -4,7 +4,7 @@
 // Gaussian step whose per-coordinate width adapts towards ~40 % acceptance, Metropolis
 // acceptance exp(-(E' - E)/T), geometric cooling from t0 to t_end over max_evals
 // evaluations, seeded (std::mt19937_64) and so reproducible. An infinite energy rejects a
-// point (the fit uses this for parameters that make the model non-invertible, SPEC §4).
+// point (the fit uses this for parameters that make the model non-invertible, docs/spec.md §4).
 #pragma once
 #include <atomic>
 #include <cstdint>

@@ -1,4 +1,4 @@
-// Identification of the sensor model from pneumatic experiments (thesis §2.5.1, SPEC §4).
+// Identification of the sensor model from pneumatic experiments (thesis §2.5.1, docs/spec.md §4).
 //
 //   SSE_N = sum_t (g_exp,t - g_m,t)^2 / N_t                                   (eq. 2.26)
 // averaged over independent experiments (each simulated from rest: the sensor rests between
@@ -37,7 +37,7 @@ void creep_basis(const Eigen::VectorXd& p, const Eigen::VectorXd& l, double dt, 
 // except that x_2 is the initial slope a1 + rho (so a1 = scale_2 x_2 - rho): the first
 // operator has r_1 = 0, so y_{r_1} = p and a1, rho are collinear; searching over their sum
 // and rho decorrelates the valley. Parameters that make the model non-invertible are
-// rejected (SPEC §4: the fit must stay usable for compensation).
+// rejected (docs/spec.md §4: the fit must stay usable for compensation).
 AnnealResult anneal_fit(const std::vector<Experiment>& experiments, int n_ops, double p_max,
                         const Eigen::VectorXd& x0, const Eigen::VectorXd& lo,
                         const Eigen::VectorXd& hi, const Eigen::VectorXd& scale,

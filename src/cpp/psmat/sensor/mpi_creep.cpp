@@ -147,7 +147,7 @@ void MPICreep::inverse(const ConstRowMatRef& g, const ConstVecRef& dt, MPICreepS
         ++n_clipped;
       } else if (h(p_max, s) < target) {
         // above the model's range: it is identified and checked monotone on [0, p_max] only
-        // (SPEC §4); beyond, the polynomial may turn down, so no root is sought there
+        // (docs/spec.md §4); beyond, the polynomial may turn down, so no root is sought there
         x = p_max;
         ++n_clipped;
       } else {

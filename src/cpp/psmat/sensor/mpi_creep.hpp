@@ -1,5 +1,5 @@
 // Velostat sensor model: modified Prandtl-Ishlinskii hysteresis + creep (thesis §2.5.1,
-// SPEC §4). Pressure p in psi, conductance g in S, one model shared by all cells, each cell
+// docs/spec.md §4). Pressure p in psi, conductance g in S, one model shared by all cells, each cell
 // with its own state. Arrays are (T, cells) row-major: a stream of T samples of every cell.
 //
 //   OSP operator  y_r(t_k) = max(p_k - r, min(p_k, y_r(t_{k-1}))),  y_r = 0 at rest (eq. 2.15-2.16)
@@ -65,7 +65,7 @@ class MPICreep {
   void inverse(const ConstRowMatRef& g, const ConstVecRef& dt, MPICreepState& state, RowMatRef p,
                Index* clipped = nullptr) const;
 
-  // Invertibility (SPEC §4): every slope the play part can take, a1 + sum_{i<=j} b_i, must
+  // Invertibility (docs/spec.md §4): every slope the play part can take, a1 + sum_{i<=j} b_i, must
   // be positive, and so must the total slope with the polynomial, on [0, p_max]. And the
   // inverse must be stable: it feeds its own estimate of p back through the creep state
   // (eq. 2.23), an error e in p_{k-1} moving the creep at k by at most sum_j |w_j| e while

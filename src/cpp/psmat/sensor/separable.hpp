@@ -1,4 +1,4 @@
-// Variable projection (separable least squares) for the MPI + creep model (SPEC §4).
+// Variable projection (separable least squares) for the MPI + creep model (docs/spec.md §4).
 //
 // For fixed nonlinear parameters z = (tau, log10 l_1, ..., log10 l_Nc) the model output is
 // linear in c = (a1, a2, a3, rho, w_1, ..., w_Nc):
