@@ -1,8 +1,8 @@
-"""Shared test helpers: the ``shared/`` folder beside the repository (reference vectors of an
-independent implementation, the BDS data), and fixtures.
+"""Shared test helpers: the independent reference vectors in ``tests/data/reference`` and fixtures.
 
-Every test that reads ``shared/`` goes through :func:`shared_path`, which skips the test, with
-the path it looked for, when the folder or the file is not there (a clone on its own).
+Everything the tests read lives in the repository: the reference vectors under
+``tests/data/reference`` (see its README) and the BDS force-platform trials shipped with the
+package (``psmat.io.bds_dir()``).
 """
 
 from __future__ import annotations
@@ -13,21 +13,13 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-#: ``shared/`` beside the repository root (this file is ``<root>/tests/conftest.py``).
-SHARED_DIR = Path(__file__).resolve().parents[2] / "shared"
-
-
-def shared_path(*parts: str) -> Path:
-    """``shared/<parts...>`` beside the repository; skips the calling test when it is absent."""
-    path = SHARED_DIR.joinpath(*parts)
-    if not path.exists():
-        pytest.skip(f"{path} not found: the reference vectors and data live in shared/ beside the repository")
-    return path
+#: ``tests/data`` in the repository (this file is ``<root>/tests/conftest.py``).
+DATA_DIR = Path(__file__).resolve().parent / "data"
 
 
 def load_reference(name: str) -> dict:
-    """The reference vectors ``shared/reference/<name>`` (JSON)."""
-    return json.loads(shared_path("reference", name).read_text())
+    """The reference vectors ``tests/data/reference/<name>`` (JSON)."""
+    return json.loads((DATA_DIR / "reference" / name).read_text(encoding="utf-8"))
 
 
 @pytest.fixture(scope="session")

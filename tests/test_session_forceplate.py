@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import csv
+import lzma
 import shutil
 from pathlib import Path
 
@@ -11,12 +12,14 @@ import pytest
 
 from psmat.io import ForcePlateRecording, bds_dir, bds_files, bds_trial, bds_trials_table, load_bds, load_forceplate_csv
 
-from conftest import shared_path
-
+#: The trials shipped with the package (the source tree's copy: this test checks the installed one finds it).
+PACKAGE_BDS = Path(__file__).resolve().parents[1] / "src" / "psmat" / "data" / "bds"
 
 
 def parse_bds(path: Path) -> dict[str, np.ndarray]:
-    with open(path, newline="") as fh:
+    """An independent reader of a BDS file (plain or xz-compressed text)."""
+    opener = lzma.open if path.suffix == ".xz" else open
+    with opener(path, "rt", newline="") as fh:
         rows = list(csv.reader(fh, delimiter="\t"))
     head = rows[0]
     data = np.array([[float(x) for x in r] for r in rows[1:] if r], dtype=float)
@@ -24,11 +27,12 @@ def parse_bds(path: Path) -> dict[str, np.ndarray]:
 
 
 def test_bds_trial_matches_file(monkeypatch: pytest.MonkeyPatch) -> None:
-    path = shared_path("data", "bds", "BDS00001.txt")
     monkeypatch.delenv("PSMAT_BDS_DIR", raising=False)
-    assert bds_dir().resolve() == path.parent.resolve()  # found from the repository layout
-    files = bds_files()
-    assert path in files and all(f.suffix == ".txt" for f in files)
+    files = bds_files()  # the copy shipped with the package, found without any setting
+    assert [f.name for f in files] == [f"BDS{k:05d}.txt.xz" for k in range(1, 25)]
+    assert bds_dir().samefile(PACKAGE_BDS) or (bds_dir() / "README.md").read_text() == (PACKAGE_BDS / "README.md").read_text()
+    path = bds_dir() / "BDS00001.txt.xz"
+    assert "CC BY 4.0" in (bds_dir() / "README.md").read_text() and "10.7717/peerj.2648" in (bds_dir() / "README.md").read_text()
     r = bds_trial(1)
     ref = parse_bds(path)
     assert isinstance(r, ForcePlateRecording) and r.n == ref["Time[s]"].size == 6000
@@ -48,14 +52,19 @@ def test_bds_trial_matches_file(monkeypatch: pytest.MonkeyPatch) -> None:
 
 
 def test_bds_dir_from_env(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
-    path = shared_path("data", "bds", "BDS00002.txt")
-    shutil.copy(path, tmp_path / "BDS00002.txt")
+    path = PACKAGE_BDS / "BDS00002.txt.xz"
+    with lzma.open(path, "rb") as src, open(tmp_path / "BDS00002.txt", "wb") as dst:  # a plain-text copy
+        shutil.copyfileobj(src, dst)
+    shutil.copy(PACKAGE_BDS / "BDS00003.txt.xz", tmp_path / "BDS00003.txt.xz")
     monkeypatch.setenv("PSMAT_BDS_DIR", str(tmp_path))
     assert bds_dir() == tmp_path
-    assert bds_files() == [tmp_path / "BDS00002.txt"]
+    assert bds_files() == [tmp_path / "BDS00002.txt", tmp_path / "BDS00003.txt.xz"]
     r = bds_trial(2)
     assert "trial_info" not in r.meta  # no trials.tsv beside the copy
     np.testing.assert_array_equal(r.cop_ml_cm, parse_bds(path)["COPy[cm]"])
+    np.testing.assert_array_equal(bds_trial("BDS00003").cop_ap_cm, parse_bds(tmp_path / "BDS00003.txt.xz")["COPx[cm]"])
+    with pytest.raises(FileNotFoundError, match="BDS00001.*not found"):  # only what the folder holds
+        bds_trial(1)
     monkeypatch.setenv("PSMAT_BDS_DIR", str(tmp_path / "nope"))
     with pytest.raises(FileNotFoundError, match="PSMAT_BDS_DIR"):
         bds_dir()
@@ -66,6 +75,10 @@ def test_load_bds_rejects_other_files(tmp_path: Path) -> None:
     p.write_text("a\tb\n1\t2\n")
     with pytest.raises(ValueError, match="not a BDS file"):
         load_bds(p)
+    bad = tmp_path / "BDS00001.txt.xz"
+    bad.write_bytes(b"not xz at all")
+    with pytest.raises(ValueError, match="not a valid xz file"):
+        load_bds(bad)
 
 
 def test_forceplate_csv_with_header(tmp_path: Path) -> None:

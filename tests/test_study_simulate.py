@@ -15,7 +15,6 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from conftest import shared_path
 from psmat.balance import align
 from psmat.calibration import Calibration
 from psmat.io import load_forceplate_csv, load_session
@@ -31,13 +30,11 @@ TRIALS = ("right-leg", "left-leg", "rotation")
 
 @pytest.fixture(scope="module")
 def study(tmp_path_factory) -> Path:
-    shared_path("data", "bds", "BDS00001.txt")
     return simulate_study(tmp_path_factory.mktemp("a") / "study", volunteers=2, seconds=10, seed=SEED, rate_hz=RATE)
 
 
 @pytest.fixture(scope="module")
 def same_seed_one_volunteer(tmp_path_factory) -> Path:
-    shared_path("data", "bds", "BDS00001.txt")
     return simulate_study(tmp_path_factory.mktemp("b") / "study", volunteers=1, seconds=10, seed=SEED, rate_hz=RATE,
                           progress=True)
 

@@ -20,7 +20,7 @@ from psmat.twin import (
     trajectory_sway,
 )
 
-from conftest import shared_path
+from psmat.io import bds_dir
 
 PSI_IN_PA = 6894.757  # by definition, 1 psi = 6894.757 Pa
 PITCH = 2.0
@@ -264,7 +264,7 @@ def test_trajectory_sway_reproduces_a_circle():
 
 
 def test_trajectory_sway_reproduces_a_real_bds_recording():
-    d = np.loadtxt(shared_path("data", "bds", "BDS00001.txt"), skiprows=1)
+    d = np.loadtxt(bds_dir() / "BDS00001.txt.xz", skiprows=1)  # numpy reads the .xz itself
     t, fz, copx, copy = d[:, 0], d[:, 3], d[:, 7], d[:, 8]
     # In BDS COPx is A-P and COPy is M-L.
     s = trajectory_sway(t, copy, copx, fz, 100.0)

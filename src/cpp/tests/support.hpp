@@ -27,7 +27,7 @@ using psmat::Shape;
 using Eigen::MatrixXd;
 using Eigen::VectorXd;
 
-// ---- reference vectors (../shared/reference, independent NumPy implementation) -------------
+// ---- reference vectors (tests/data/reference, independent NumPy implementation) -------------
 
 inline std::string reference_path(const std::string& name) {
   return std::string(PSMAT_REFERENCE_DIR) + "/" + name;
@@ -61,7 +61,7 @@ inline std::vector<RefCase> load_forward_reference() {
   const std::string path = reference_path("iecm_forward.json");
   {
     std::ifstream probe(path);
-    INFO("reference vectors expected at " << path << " (../shared beside the repository)");
+    INFO("reference vectors expected at " << path << " (tests/data/reference in the repository)");
     REQUIRE(probe.good());
   }
   std::ifstream in(path);

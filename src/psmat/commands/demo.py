@@ -8,6 +8,7 @@ a figure and the session file. ``--crosstalk`` runs the single-frame crosstalk d
 from __future__ import annotations
 
 import argparse
+import sys
 
 from . import _args
 
@@ -44,8 +45,12 @@ def run(args: argparse.Namespace) -> int:
                 print(f"psmat demo: using the mat on {args.port} ({found[0].description}); --twin for the simulation")
 
         print(f"psmat demo: {args.seconds:g} s of a person swaying, {rows}x{cols} at {args.rate} Hz")
-        run_sway_demo(args.out, seconds=args.seconds, rate_hz=args.rate, session=args.session,
-                      bds_trial=args.bds_trial, port=args.port, shape=args.shape, seed=args.seed)
+        try:
+            run_sway_demo(args.out, seconds=args.seconds, rate_hz=args.rate, session=args.session,
+                          bds_trial=args.bds_trial, port=args.port, shape=args.shape, seed=args.seed)
+        except FileNotFoundError as exc:  # the force-platform trial the twin follows is not there
+            print(f"psmat demo: {exc}", file=sys.stderr)
+            return 1
         return 0
     from ..workflows.crosstalk_demo import run_crosstalk_demo
 

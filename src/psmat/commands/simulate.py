@@ -45,7 +45,7 @@ def run(args: argparse.Namespace) -> int:
                                      seed=args.seed)
         twin = SerialTwin(args.device, args.rate, args.protocol, source=source, shape=(rows, cols),
                           faults=faults, seed=args.seed)
-    except ValueError as exc:
+    except (ValueError, FileNotFoundError) as exc:  # FileNotFoundError: a BDS trial that is not there
         print(f"psmat simulate: {exc}", file=sys.stderr)
         return 1
     print(twin.port, flush=True)

@@ -7,10 +7,10 @@
   4:e2648, CC BY 4.0): tab-separated, header
   ``Time[s] Fx[N] Fy[N] Fz[N] Mx[Nm] My[Nm] Mz[Nm] COPx[cm] COPy[cm]``, 100 Hz. In that data
   set **COPx is anterior–posterior and COPy medial–lateral**.
-* :func:`bds_dir`, :func:`bds_files`, :func:`bds_trial`, :func:`bds_trials_table` — find the
-  copy of the data set: the environment variable ``PSMAT_BDS_DIR``, else a directory
-  ``shared/data/bds`` found by walking up from this package and from the working directory
-  (the repository layout keeps ``../shared`` beside the checkout).
+* :func:`bds_dir`, :func:`bds_files`, :func:`bds_trial`, :func:`bds_trials_table` — the 24 BDS
+  trials shipped with psmat (``psmat/data/bds``, xz-compressed text, with their attribution), or
+  the folder named by the environment variable ``PSMAT_BDS_DIR`` (for example a larger copy of the
+  data set). Nothing else is searched.
 
 All loaders return a :class:`ForcePlateRecording` with CoP in cm, time in s, Fz in N.
 """
@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import csv
 import io
+import lzma
 import os
 import re
 from collections.abc import Sequence
@@ -217,31 +218,44 @@ _BDS_CITATION = (
 )
 
 
+#: The trials shipped with the package (CC BY 4.0; see README.md there).
+_PACKAGE_BDS = Path(__file__).resolve().parent.parent / "data" / "bds"
+_BDS_GLOBS = ("BDS[0-9][0-9][0-9][0-9][0-9].txt", "BDS[0-9][0-9][0-9][0-9][0-9].txt.xz")
+
+
 def bds_dir() -> Path:
-    """The directory of the BDS files: ``$PSMAT_BDS_DIR``, else ``shared/data/bds`` found
-    walking up from this package and from the current directory."""
+    """The folder of the BDS trials: ``$PSMAT_BDS_DIR`` when set, else the copy shipped with psmat.
+
+    Raises
+    ------
+    FileNotFoundError
+        ``PSMAT_BDS_DIR`` names no folder, or the package's copy is missing (a broken install).
+    """
     env = os.environ.get("PSMAT_BDS_DIR")
     if env:
         p = Path(env).expanduser()
         if not p.is_dir():
             raise FileNotFoundError(f"PSMAT_BDS_DIR={env!r} is not a directory")
         return p
-    tried: list[str] = []
-    for start in (Path(__file__).resolve().parent, Path.cwd().resolve()):
-        for d in (start, *start.parents):
-            cand = d / "shared" / "data" / "bds"
-            if cand.is_dir():
-                return cand
-            tried.append(str(d))
-    raise FileNotFoundError(
-        "BDS data not found: set PSMAT_BDS_DIR, or keep shared/data/bds beside (or above) the "
-        "repository checkout; searched above " + ", ".join(sorted(set(tried))[:4]) + " …"
-    )
+    if not _PACKAGE_BDS.is_dir():
+        raise FileNotFoundError(f"the BDS trials shipped with psmat are missing ({_PACKAGE_BDS}): reinstall psmat, "
+                                "or set PSMAT_BDS_DIR to a folder of BDS?????.txt files")
+    return _PACKAGE_BDS
+
+
+def _trial_name(path: Path) -> str:
+    """``BDS00001`` for ``BDS00001.txt`` and ``BDS00001.txt.xz``."""
+    return Path(path.name.removesuffix(".xz")).stem
 
 
 def bds_files() -> list[Path]:
-    """The BDS trial files available (``BDS?????.txt``), sorted."""
-    return sorted(bds_dir().glob("BDS[0-9][0-9][0-9][0-9][0-9].txt"))
+    """The BDS trial files available (``BDS?????.txt`` or ``.txt.xz``; one per trial, sorted by trial)."""
+    d = bds_dir()
+    found: dict[str, Path] = {}
+    for pattern in reversed(_BDS_GLOBS):  # a plain .txt wins over its .xz
+        for f in d.glob(pattern):
+            found[_trial_name(f)] = f
+    return [found[k] for k in sorted(found)]
 
 
 def bds_trials_table() -> list[dict[str, Any]]:
@@ -281,8 +295,12 @@ def load_bds(path: str | os.PathLike[str], *, with_trial_info: bool = True) -> F
     path = Path(path)
     if not path.is_file():
         raise FileNotFoundError(f"BDS file not found: {path}")
-    with open(path, newline="", encoding="utf-8") as fh:
-        rows = [r for r in csv.reader(fh, delimiter="\t") if r and any(c.strip() for c in r)]
+    opener = lzma.open if path.suffix == ".xz" else open
+    try:
+        with opener(path, "rt", newline="", encoding="utf-8") as fh:
+            rows = [r for r in csv.reader(fh, delimiter="\t") if r and any(c.strip() for c in r)]
+    except lzma.LZMAError as e:
+        raise ValueError(f"{path}: not a valid xz file ({e})") from None
     if not rows:
         raise ValueError(f"{path}: empty file")
     header = [c.strip() for c in rows[0]]
@@ -298,7 +316,7 @@ def load_bds(path: str | os.PathLike[str], *, with_trial_info: bool = True) -> F
     meta: dict[str, Any] = {
         "source": str(path),
         "format": "bds",
-        "trial": path.stem,
+        "trial": _trial_name(path),
         "citation": _BDS_CITATION,
         "axes": "COPx[cm] = anterior-posterior, COPy[cm] = medial-lateral",
         "channels": {h: col[h].copy() for h in ("Fx[N]", "Fy[N]", "Mx[Nm]", "My[Nm]", "Mz[Nm]")},
@@ -308,7 +326,7 @@ def load_bds(path: str | os.PathLike[str], *, with_trial_info: bool = True) -> F
         if tsv.is_file():
             with open(tsv, newline="", encoding="utf-8") as fh:
                 for row in csv.DictReader(fh, delimiter="\t"):
-                    if row.get("Trial", "").strip() == path.stem:
+                    if row.get("Trial", "").strip() == _trial_name(path):
                         meta["trial_info"] = {k: v.strip() for k, v in row.items() if k is not None}
                         break
     return ForcePlateRecording(
@@ -321,12 +339,18 @@ def load_bds(path: str | os.PathLike[str], *, with_trial_info: bool = True) -> F
 
 
 def bds_trial(n: int | str) -> ForcePlateRecording:
-    """Load BDS trial ``n`` (e.g. ``1`` → ``BDS00001.txt``, or the name ``"BDS00001"``)."""
+    """Load BDS trial ``n`` (e.g. ``1`` → ``BDS00001``, or the name ``"BDS00001"``).
+
+    Raises
+    ------
+    FileNotFoundError
+        One line naming the trial, the folder searched and the trials it has.
+    """
     name = n if isinstance(n, str) else f"BDS{int(n):05d}"
-    if not name.endswith(".txt"):
-        name += ".txt"
-    p = bds_dir() / name
-    if not p.is_file():
-        avail = [f.stem for f in bds_files()]
-        raise FileNotFoundError(f"BDS trial {n!r} ({name}) not found in {p.parent} (available: {', '.join(avail[:5])}{' …' if len(avail) > 5 else ''})")
-    return load_bds(p)
+    name = _trial_name(Path(name))
+    files = {_trial_name(f): f for f in bds_files()}
+    if name not in files:
+        avail = sorted(files)
+        raise FileNotFoundError(f"BDS trial {n!r} ({name}) not found in {bds_dir()} (available: "
+                                f"{', '.join(avail[:5])}{' …' if len(avail) > 5 else ''}{'none' if not avail else ''})")
+    return load_bds(files[name])

@@ -19,7 +19,7 @@ Trials (:mod:`psmat.study.simulate_trials`)
     "about half cycle per second" — drawn 0.4–0.6 Hz, CoP semi-axes 2–4 cm, our choice as the
     thesis gives none — on top of the quiet sway, starting 1–3 s into the recording, frequency
     and amplitude wandering by 10 %). Each trial's sway is one of the source recordings (the 24
-    shared BDS trials, ``psmat.io.bds_files()``, or ``bds_paths``), three different ones per
+    BDS trials shipped with psmat, ``psmat.io.bds_files()``, or ``bds_paths``), three different ones per
     volunteer, cut at a random start, played back and forth when too short, mean removed. A
     single-leg trial's sway is scaled by 2 (eyes open, single-leg sway is about twice the
     double-leg one: J. Biomech. 2020, "Transition from double-leg to single-leg stance in the
@@ -127,7 +127,8 @@ sessions/<stem>.npz      t_device_s, t_platform_s, t_host_s (N,), cop_cm (N, 2) 
 
 
 def _sources(bds_paths: Sequence[str | os.PathLike[str]] | None) -> list[Path]:
-    """The source recordings: the shared BDS trials, or the files (and folders of BDS?????.txt) given."""
+    """The source recordings: the BDS trials shipped with psmat (or ``$PSMAT_BDS_DIR``), or the files
+    (and folders of ``BDS?????.txt[.xz]``) given."""
     if bds_paths is None:
         files = bds_files()
     else:
@@ -135,7 +136,7 @@ def _sources(bds_paths: Sequence[str | os.PathLike[str]] | None) -> list[Path]:
         files = []
         for p in map(Path, paths):
             if p.is_dir():
-                files.extend(sorted(p.glob("BDS[0-9][0-9][0-9][0-9][0-9].txt")))
+                files.extend(sorted(p.glob("BDS[0-9][0-9][0-9][0-9][0-9].txt*")))
             elif p.is_file():
                 files.append(p)
             else:
@@ -173,7 +174,7 @@ def _load(path: Path) -> Source:
     rec = load_bds(path, with_trial_info=False)
     if rec.n < 2 or rec.fz_n is None or not np.all(rec.fz_n > 0):
         raise ValueError(f"{path}: needs at least 2 samples and a positive Fz (someone standing)")
-    return Source(path.stem, rec.t, rec.cop_ml_cm, rec.cop_ap_cm, rec.fz_n)
+    return Source(Path(path.name.removesuffix(".xz")).stem, rec.t, rec.cop_ml_cm, rec.cop_ap_cm, rec.fz_n)
 
 
 def _rest(mat: MatPhysics, seconds: float) -> None:
@@ -203,7 +204,7 @@ def simulate_study(root: str | os.PathLike[str], *, volunteers: int, seconds: fl
     rate_hz : float
         The mat's nominal frame rate (Hz).
     bds_paths : sequence of paths, optional
-        Source trajectories (BDS files, or folders of them); default the 24 shared BDS trials.
+        Source trajectories (BDS files, or folders of them); default the 24 BDS trials shipped with psmat.
     shape : (R, C)
         Cells of the mat (2 cm pitch), at least (16, 16).
     progress : bool
@@ -221,7 +222,7 @@ def simulate_study(root: str | os.PathLike[str], *, volunteers: int, seconds: fl
     FileExistsError
         ``root`` exists and is not an empty folder.
     """
-    from tqdm.auto import tqdm
+    from psmat._progress import tqdm
 
     n_vol, secs, seed_, rate, (R, C) = _check(volunteers, seconds, seed, rate_hz, shape)
     out = _new_root(root)
@@ -246,7 +247,7 @@ def simulate_study(root: str | os.PathLike[str], *, volunteers: int, seconds: fl
             _volunteer(out, i, vid, person, s, [cache[j] for j in pick], frames, rate, (R, C), seed_, bar)
     study = {"seed": seed_, "volunteers": n_vol, "seconds": secs, "rate_hz": rate, "frames": frames,
              "shape": [R, C], "pitch_cm": PITCH_CM, "platform_rate_hz": PLATFORM_RATE_HZ, "noise_v": NOISE_V,
-             "trials": list(TRIALS), "sources": [f.name for f in files], "subjects": ids,
+             "trials": list(TRIALS), "sources": [f.name.removesuffix(".xz") for f in files], "subjects": ids,
              "boxes": "one per volunteer", "simulator": "psmat.study.simulate"}
     (out / "truth" / "study.json").write_text(truth_json(study), encoding="utf-8")
     (out / "truth" / "README.txt").write_text(_TRUTH_README, encoding="utf-8")

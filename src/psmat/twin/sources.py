@@ -2,8 +2,8 @@
 
 * :class:`PsmSource` — a pressure scene (:mod:`psmat.twin.scenes`) played through the mat's
   physics (:class:`psmat.twin.mat.MatPhysics`): ADC counts per frame. Scenes: ``"sway"`` (a
-  person whose CoP follows a recorded force-platform trajectory from the BDS data set, or
-  quiet standing when the data set is not found), ``"quiet"``, ``"single-leg"``, ``"sitting"``
+  person whose CoP follows a recorded force-platform trajectory from the BDS data set shipped
+  with psmat; a trial that cannot be found is an error, never a substitute), ``"quiet"``, ``"single-leg"``, ``"sitting"``
   (the seated twin following the thesis' posture protocol, :mod:`psmat.twin.seated`).
   The scene loops when it ends; the sensor state carries on.
 * :class:`ImuSource` — the five spine IMUs' Euler angles (degrees) of the seated twin following
@@ -36,19 +36,14 @@ def make_scene(name: str, duration_s: float, rate_hz: float, shape: tuple[int, i
                bds_trial: int = 1, seed: int = 0) -> _scenes.PressureScene:
     """A named pressure scene (psi) of ``duration_s`` at ``rate_hz`` (see the module docstring)."""
     if name == "sway":
-        try:
-            from ..io.forceplate import bds_trial as _bds
+        from ..io.forceplate import bds_trial as _bds
 
-            rec = _bds(bds_trial)
-        except (FileNotFoundError, OSError, ValueError):
-            rec = None
-        if rec is not None:
-            keep = rec.t <= rec.t[0] + duration_s
-            scene = _scenes.trajectory_sway(rec.t[keep], rec.cop_ml_cm[keep], rec.cop_ap_cm[keep],
-                                              rec.fz_n[keep], rate_hz, shape)
-            scene.meta["source"] = f"BDS{bds_trial:05d}"
-            return scene
-        name = "quiet"
+        rec = _bds(bds_trial)  # a missing trial is a one-line FileNotFoundError, never a substitute scene
+        keep = rec.t <= rec.t[0] + duration_s
+        scene = _scenes.trajectory_sway(rec.t[keep], rec.cop_ml_cm[keep], rec.cop_ap_cm[keep],
+                                          rec.fz_n[keep], rate_hz, shape)
+        scene.meta["source"] = f"BDS{bds_trial:05d}"
+        return scene
     if name == "sitting":
         return seated_session(seed, shape=shape, pitch_cm=2.0).pressure(time_base(duration_s, rate_hz)[0], shape, 2.0)
     makers = {"quiet": _scenes.quiet_standing, "single-leg": _scenes.single_leg_sway}
