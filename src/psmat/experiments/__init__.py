@@ -1,5 +1,5 @@
 """The thesis' experiments on IECM, reproduced in simulation (thesis §2.3, Appendix C), and
-the balance study's measurements beyond the thesis (issue 12, item 4).
+the balance study's measurements beyond the thesis.
 
 One module per study; each function is seeded, takes a size argument so it can run small,
 and returns a result object with the arrays, a ``.table()`` text (Markdown) and a
@@ -24,7 +24,7 @@ Beyond the thesis, on simulated balance trials (run as ``python -m``; they print
 * ``python -m psmat.experiments.dynamic_correction`` — SCHC-DYN (a linear correction fitted
   on other volunteers, :mod:`psmat.study.dynamic`) against SCHC, and the models compared.
 
-Figures: :func:`save_figure` writes PNGs to ``$PSMAT_FIGURES`` or ``notebooks/figures``.
+Figures: :func:`save_figure` writes PNGs to ``$PSMAT_FIGURES`` or ``./psmat_figures``.
 The notebooks in ``notebooks/`` run each study; ``docs/thesis_results.md`` compares the
 numbers with the thesis'.
 """

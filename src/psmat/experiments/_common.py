@@ -15,18 +15,11 @@ __all__ = ["figures_dir", "format_table", "fmt", "timed", "plt", "save_figure"]
 FIGURES_ENV = "PSMAT_FIGURES"
 
 
-def _default_figures() -> Path:
-    repo = Path(__file__).resolve().parents[3]  # src/psmat/experiments -> repository root
-    if (repo / "notebooks").is_dir() and (repo / "src" / "psmat").is_dir():
-        return repo / "notebooks" / "figures"
-    return Path.cwd() / "psmat_figures"
-
-
 def figures_dir(path: str | os.PathLike | None = None) -> Path:
-    """Folder for figures (created): ``path``, else ``$PSMAT_FIGURES``, else ``notebooks/figures``
-    of a source checkout, else ``./psmat_figures``."""
+    """Folder for figures (created): ``path``, else ``$PSMAT_FIGURES``, else ``./psmat_figures``
+    in the current directory."""
     if path is None:
-        path = os.environ.get(FIGURES_ENV) or _default_figures()
+        path = os.environ.get(FIGURES_ENV) or Path.cwd() / "psmat_figures"
     p = Path(path)
     p.mkdir(parents=True, exist_ok=True)
     return p
