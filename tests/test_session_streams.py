@@ -1,4 +1,4 @@
-"""Sessions of several devices (issue 13 item 2): the mat at the root, the spine IMUs as stream ``imu``.
+"""Sessions of several devices (docs/spec.md §8): the mat at the root, the spine IMUs as stream ``imu``.
 
 Each check compares what is loaded with the arrays that were appended; damage is made by
 flipping bytes of real files, located by HDF5's own chunk index or the journal header.
@@ -288,7 +288,7 @@ def test_a_damaged_stream_journal_record_costs_that_record(tmp_path: Path) -> No
     keep = np.arange(12) != 6
     assert_holds(s, mat)
     assert_holds(s.streams["imu"], {k: v[keep] for k, v in imu.items()})
-    assert any(n.startswith("stream imu: 1 journal record failed the CRC") and "frame(s) 6 " in n for n in s.notes)
+    assert any(n.startswith("stream imu: 1 journal record damaged and skipped") and "frame(s) 6 " in n for n in s.notes)
 
 
 def test_close_checks_every_stream_journal_it_reads_back(tmp_path: Path) -> None:

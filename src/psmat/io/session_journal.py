@@ -11,14 +11,18 @@ Format (little-endian; :mod:`psmat.io.session` explains its role):
   ``P`` payload bytes (the frame, or the counters as int64, zero padded), ``uint32`` CRC-32
   of the record's preceding bytes.
 
-Records have one size, so a reader that meets a record failing its CRC skips exactly that
-record and goes on with the next (docs/spec.md §6); only a torn last record (a write cut short)
-leaves a tail shorter than a record.
+Records are found by their own framing, not by their position: a record starts with a type
+byte 0 or 1, a valid byte 0 or 1 and six zero bytes, and ends with the CRC-32 of the rest.
+A reader that meets a record failing its CRC looks for the next offset where an intact record
+starts, so a flipped byte costs that record, and inserted or deleted bytes cost only the records
+they touch (docs/spec.md §6). The damaged span's length in records says how many were lost and
+which (write order); a torn last record (a write cut short) leaves a tail shorter than a record.
 """
 
 from __future__ import annotations
 
 import json
+import mmap
 import zlib
 from collections.abc import Iterator, Mapping
 from dataclasses import dataclass, field
@@ -35,7 +39,8 @@ from .session_layout import (COUNTER_NAMES, FORMAT_NAME, FORMAT_VERSION, KINDS, 
 
 MAGIC = b"PSMATJ02"
 FRAME, COUNTERS = 0, 1
-_BLOCK_RECORDS = 4096  # records read and checked at a time
+_BLOCK_RECORDS = 4096  # records checked and returned at a time
+_PREFIX = 8  # type, valid and six zero pad bytes: the framing every record starts with
 
 
 def record_dtype(payload: int) -> np.dtype:
@@ -136,9 +141,12 @@ class Journal:
     ``stream`` is the stream's name for a stream's journal, None for the root device's;
     ``session`` the recording's id (None in a journal of a psmat before streams).
     After a full pass of :meth:`blocks`: ``skipped_frames`` holds the write-order indices of
-    frame records that failed their CRC (a damaged record whose type byte does not say
-    "counters" is counted as a frame), ``skipped_counters`` the number of damaged counters
-    records, ``counters`` the last intact counters record, ``frames_read`` the intact frames.
+    frame records lost to damage (a damaged span of bytes counts as as many records as its
+    length holds, rounded, and no more frames than the sequence numbers on either side of it
+    leave room for; its first record is a counters record when its type byte says so and its
+    three times are zero), ``skipped_counters`` the number of damaged counters records, ``garbage_bytes`` the
+    bytes skipped that held no record (inserted bytes), ``tail_bytes`` the incomplete last
+    record, ``counters`` the last intact counters record, ``frames_read`` the intact frames.
     """
 
     path: Path
@@ -146,14 +154,16 @@ class Journal:
     format_version: int
     record: np.dtype
     body_offset: int
-    n_records: int
-    tail_bytes: int
+    body_bytes: int
     stream: str | None = None
     session: str | None = None
     skipped_frames: list[int] = field(default_factory=list)
     skipped_counters: int = 0
+    garbage_bytes: int = 0
+    tail_bytes: int = 0
     counters: dict[str, int] | None = None
     frames_read: int = 0
+    _last_seq: int = field(default=-1, repr=False)
 
     @classmethod
     def open(cls, path: Path) -> Journal:
@@ -187,43 +197,110 @@ class Journal:
                 raise ValueError(f"stream {stream!r} of session {session!r}")
         except (UnicodeDecodeError, ValueError, KeyError, TypeError) as e:
             raise SessionFormatError(f"{path}: journal header is not a psmat journal header ({e})") from None
-        body = 12 + hlen + 4
-        n = (size - body) // rec.itemsize
-        return cls(path=path, header=h, format_version=version, record=rec, body_offset=body, n_records=n,
-                   tail_bytes=size - body - n * rec.itemsize, stream=stream, session=session)
+        return cls(path=path, header=h, format_version=version, record=rec, body_offset=12 + hlen + 4,
+                   body_bytes=max(size - (12 + hlen + 4), 0), stream=stream, session=session)
 
     def blocks(self) -> Iterator[FrameBatch]:
-        """The intact frame records, in write order, a block at a time (damaged records skipped)."""
+        """The intact frame records, in write order, a block at a time (damaged spans skipped)."""
+        self.skipped_frames, self.skipped_counters, self.garbage_bytes = [], 0, 0
+        self.tail_bytes, self.counters, self.frames_read = 0, None, 0
+        if self.body_bytes == 0:
+            return
+        with open(self.path, "rb") as fh, mmap.mmap(fh.fileno(), 0, access=mmap.ACCESS_READ) as mm:
+            body = memoryview(mm)[self.body_offset:]
+            try:
+                yield from self._scan(body)
+            finally:
+                body.release()
+
+    def _scan(self, body: memoryview) -> Iterator[FrameBatch]:
+        size, end = self.record.itemsize, len(body)
+        frame_no = 0  # write-order index of the next frame record
+        self._last_seq = -1  # sequence number of the last intact frame record (-1: none, or not numbered)
+        pos = 0
+        while pos + size <= end:
+            m = min((end - pos) // size, _BLOCK_RECORDS)
+            rec = np.frombuffer(body, dtype=self.record, count=m, offset=pos)
+            u8 = rec.view(np.uint8).reshape(m, size)
+            framed = (u8[:, 0] <= COUNTERS) & (u8[:, 1] <= 1) & ~u8[:, 2:_PREFIX].any(axis=1)
+            crc = rec["crc"]
+            n_ok = 0  # the intact records before the first damaged one (checked no further than that)
+            while n_ok < m and framed[n_ok] and zlib.crc32(u8[n_ok, :-4]) == int(crc[n_ok]):
+                n_ok += 1
+            if n_ok:
+                frame_no = yield from self._emit(rec[:n_ok], frame_no)
+                pos += n_ok * size
+            if n_ok == m:
+                continue
+            # a damaged record at pos: the next intact record, wherever its framing and CRC say it is
+            nxt = self._resync(body, pos + 1)
+            stop = end if nxt is None else nxt
+            if nxt is None and stop - pos < size:
+                break  # shorter than a record: the torn tail below
+            n_span = int(round((stop - pos) / size))  # records the damaged span's length holds
+            # a counters record says so in its type byte and has all three times zero
+            n_counters = int(n_span > 0 and body[pos] == COUNTERS and not any(body[pos + _PREFIX:pos + 32]))
+            n_frames = n_span - n_counters
+            if nxt is not None and self._last_seq >= 0:  # sequence numbers tell inserted bytes from lost frames
+                nrec = np.frombuffer(body, dtype=self.record, count=1, offset=nxt)[0]
+                if nrec["type"] == FRAME and int(nrec["seq"]) > self._last_seq:
+                    n_frames = min(n_frames, int(nrec["seq"]) - self._last_seq - 1)
+            if n_frames == 0 and n_counters == 0:
+                self.garbage_bytes += stop - pos
+            self.skipped_counters += n_counters
+            self.skipped_frames.extend(range(frame_no, frame_no + n_frames))
+            frame_no += n_frames
+            if nxt is None:
+                return
+            pos = nxt
+        self.tail_bytes = end - pos
+
+    def _resync(self, body: memoryview, start: int) -> int | None:
+        """The first offset >= ``start`` where an intact record begins, or None.
+
+        Candidates are the offsets whose first eight bytes have a record's framing (type 0/1,
+        valid 0/1, six zero bytes), found vectorised a window at a time; only those pay a CRC.
+        """
+        size, end = self.record.itemsize, len(body)
+        a = np.frombuffer(body, np.uint8)
+        window = 16 * size
+        lo = start
+        while lo + size <= end:
+            hi = min(lo + window, end - size + 1)  # candidate offsets [lo, hi)
+            w = a[lo:hi + _PREFIX - 1]
+            n = hi - lo
+            cand = (w[:n] <= COUNTERS) & (w[1:n + 1] <= 1)
+            for k in range(2, _PREFIX):
+                cand &= w[k:n + k] == 0
+            for off in lo + np.flatnonzero(cand):
+                off = int(off)
+                crc = int.from_bytes(body[off + size - 4:off + size], "little")
+                if zlib.crc32(body[off:off + size - 4]) == crc:
+                    return off
+            lo = hi
+            window *= 2
+        return None
+
+    def _emit(self, rec: NDArray[Any], frame_no: int) -> Iterator[FrameBatch]:
+        """Counters and frames of a run of intact records; returns the next write-order index."""
         h = self.header
         nbytes = int(np.prod(h.frame_shape)) * h.spec.dtype.itemsize
-        frame_no = 0
-        with open(self.path, "rb") as fh:
-            fh.seek(self.body_offset)
-            left = self.n_records
-            while left:
-                m = min(left, _BLOCK_RECORDS)
-                rec = np.frombuffer(fh.read(m * self.record.itemsize), dtype=self.record)
-                left -= m
-                u8 = rec.view(np.uint8).reshape(m, self.record.itemsize)
-                ok = np.array([zlib.crc32(u8[i, :-4].tobytes()) == int(rec["crc"][i]) for i in range(m)], bool)
-                is_frame = rec["type"] != COUNTERS  # a damaged type byte: most records are frames
-                order = frame_no + np.cumsum(is_frame) - 1  # write-order index of each frame record
-                frame_no += int(is_frame.sum())
-                self.skipped_frames.extend(order[~ok & is_frame].tolist())
-                self.skipped_counters += int(np.count_nonzero(~ok & ~is_frame))
-                cr = rec[ok & (rec["type"] == COUNTERS)]
-                if cr.shape[0]:
-                    vals = cr["payload"][-1, : 8 * len(COUNTER_NAMES)].copy().view("<i8")
-                    self.counters = {k: int(v) for k, v in zip(COUNTER_NAMES, vals)}
-                fr = rec[ok & (rec["type"] == FRAME)]
-                self.frames_read += fr.shape[0]
-                yield FrameBatch(
-                    frames=fr["payload"][:, :nbytes].copy().view(h.spec.dtype).reshape((fr.shape[0], *h.frame_shape)),
-                    host_time_s=fr["host_time_s"].astype(np.float64),
-                    valid=fr["valid"].astype(bool),
-                    seq=fr["seq"].astype(np.int64),
-                    device_time_us=fr["device_time_us"].astype(np.int64),
-                )
+        cr = rec[rec["type"] == COUNTERS]
+        if cr.shape[0]:
+            vals = cr["payload"][-1, : 8 * len(COUNTER_NAMES)].copy().view("<i8")
+            self.counters = {k: int(v) for k, v in zip(COUNTER_NAMES, vals)}
+        fr = rec[rec["type"] == FRAME]
+        self.frames_read += fr.shape[0]
+        if fr.shape[0]:
+            self._last_seq = int(fr["seq"][-1])
+        yield FrameBatch(
+            frames=fr["payload"][:, :nbytes].copy().view(h.spec.dtype).reshape((fr.shape[0], *h.frame_shape)),
+            host_time_s=fr["host_time_s"].astype(np.float64),
+            valid=fr["valid"].astype(bool),
+            seq=fr["seq"].astype(np.int64),
+            device_time_us=fr["device_time_us"].astype(np.int64),
+        )
+        return frame_no + fr.shape[0]
 
     def read_all(self) -> FrameBatch:
         """Every intact frame record as one block."""
@@ -243,8 +320,11 @@ class Journal:
             what = [f"frame(s) {format_ranges(self.skipped_frames)} (write order) lost"] if self.skipped_frames else []
             if self.skipped_counters:
                 what.append(f"{self.skipped_counters} counters record(s)")
-            notes.append(f"{n_bad} journal record{'s' if n_bad != 1 else ''} failed the CRC and "
-                         f"{'were' if n_bad != 1 else 'was'} skipped: {'; '.join(what)}")
+            notes.append(f"{n_bad} journal record{'s' if n_bad != 1 else ''} damaged and skipped "
+                         f"(failed the CRC or moved by inserted/deleted bytes): {'; '.join(what)}")
+        if self.garbage_bytes:
+            notes.append(f"{self.garbage_bytes} byte(s) between journal records held no record and were skipped "
+                         "(no frame lost there)")
         if self.tail_bytes:
             notes.append(f"journal tail of {self.tail_bytes} bytes discarded (incomplete last record)")
         return notes
