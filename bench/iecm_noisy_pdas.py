@@ -1,5 +1,5 @@
 """Noisy 16×16 streaming: a primal-dual active-set (PDAS) semismooth Newton prototype beside
-psmat's Fischer-Burmeister ``bounded_newton`` (issue 14, measurement record).
+psmat's Fischer-Burmeister ``bounded_newton`` (the earlier default; a measurement record).
 
 ``python bench/iecm_noisy_pdas.py [--frames 60]``
 

@@ -6,6 +6,7 @@ from __future__ import annotations
 import csv
 import io
 import math
+import re
 
 import numpy as np
 import pytest
@@ -15,7 +16,7 @@ from psmat.study.results import write_results
 from psmat.study.summary import index_rows, pairwise_rows, summary_rows
 from psmat.study.trial import COLUMNS
 
-from conftest import shared_path
+from thesis_excerpts import thesis_excerpt
 
 NAN = math.nan
 PNG = b"\x89PNG\r\n\x1a\n"
@@ -207,16 +208,17 @@ def test_report_sets_the_thesis_beside_ours(written) -> None:
     assert "| V04 | rotation | SCHC | error: ValueError: corrupt |" in text
     assert "- V06_rotation: no subject in subjects.csv" in text
     assert "| right-leg | PROP | 4 | 1 | 1.25 ± 0.645 | 1.75 ± 0.645 | 1.00 | -1.00 | 100.0 | 75.0 |" in text
-    # Table 3.5 (line 1416): thesis PROP 97.6 beside ours 75.0; PROP-C, PROP-8x8, Seating Mat not ours
-    assert "| σ_AP (right-leg) | 1416 | 97.6 | 75.0 | 100.0 | — | 95.2 | — | 100.0 | — |" in text
-    # Table 3.6 (line 1475): SCHC 50.0, PROP 100.0, SCHC-8x8 50.0 (1.2 > 1, 1.7 < 2, 3 = 3, 3 < 4)
-    assert "| σ_ML (right-leg) | 1475 | 100.0 | 50.0 | 100.0 | — | 100.0 | 100.0 | 100.0 | 50.0 |" in text
+    # Table 3.5: thesis PROP 97.6 beside ours 75.0; PROP-C, PROP-8x8, Seating Mat not ours
+    assert "### Thesis Table 3.5 (§3.3.1): first prototype" in text
+    assert "| σ_AP (right-leg) | 97.6 | 75.0 | 100.0 | — | 95.2 | — | 100.0 | — |" in text
+    # Table 3.6: SCHC 50.0, PROP 100.0, SCHC-8x8 50.0 (1.2 > 1, 1.7 < 2, 3 = 3, 3 < 4)
+    assert "| σ_ML (right-leg) | 100.0 | 50.0 | 100.0 | — | 100.0 | 100.0 | 100.0 | 50.0 |" in text
     # Table 3.7: the thesis' mean Eu_ML, right-leg SCHC (2.8 + 5.0 + 3.6 + 4.3) / 4 = 3.925e-3; ours 0.6 * 0.02
     assert "| mean (thesis) | 0.003925 |" in text
     assert "| mean (ours) | 0.012 |" in text
-    assert "| SCHC vs PROP | σ_ML | right-leg | 100.0 | 100.0 (n=4) | 1484 |" in text
-    assert "| SCHC vs SCHC-8x8 | Eu | right-leg | 100.0 | 75.0 (n=4) | 1518 |" in text
-    assert "| PROP vs PROP-8x8 | σ_AP | right-leg | 11.9 | — | 1432 |" in text
+    assert "| SCHC vs PROP | σ_ML | right-leg | 100.0 | 100.0 (n=4) | §3.3.2 |" in text
+    assert "| SCHC vs SCHC-8x8 | Eu | right-leg | 100.0 | 75.0 (n=4) | §3.3.2 |" in text
+    assert "| PROP vs PROP-8x8 | σ_AP | right-leg | 11.9 | — | §3.3.1 |" in text
     assert "ours: right-leg 42.9 %" in text  # 1 - 0.02 / 0.035
     for name in ("sigma_bars", "eu_bars", "cop_traces_right-leg", "bland_altman_ap"):
         assert f"![{name}](figures/{name}.png)" in text
@@ -259,33 +261,62 @@ def test_bad_rows_are_one_clear_error(tmp_path) -> None:
         write_results(tmp_path, [{"subject": "V01", "trial": "rotation", "variant": "FP"}], {})
 
 
-def test_thesis_numbers_are_those_of_the_cited_lines() -> None:
-    lines = shared_path("seed", "thesis.txt").read_text(encoding="utf-8").splitlines()
+def _names(passage: str, variant: str) -> bool:
+    """Whether ``passage`` names ``variant`` as a whole word ("PROP" is not in "PROP-C")."""
+    return re.search(rf"(?<![\w-]){re.escape(variant)}(?![\w-])", passage) is not None
 
-    def numbers(line: int) -> list[float]:
-        return [float(x) for x in lines[line - 1].split("\t")[1:] if x.strip()]
+
+def _states(passage: str, metric: str, values: list[float]) -> bool:
+    """Whether a clause of ``passage`` about ``metric`` gives ``values`` (%) one after the other,
+    or 100 % for every trial. A clause (split at ";") is about σ_ML or σ_AP when it names it, and
+    about Eu when it names no σ."""
+    axis = {"sd_ml_cm": "σ_{ML}", "sd_ap_cm": "σ_{AP}"}.get(metric)
+    for clause in passage.split(";"):
+        if (axis in clause) if axis else ("σ_{" not in clause):
+            pcts = [float(x) for x in re.findall(r"(\d+(?:\.\d+)?)%", clause)]
+            if any(pcts[i:i + len(values)] == values for i in range(len(pcts))):
+                return True
+            if set(values) == {100.0} and any(s in clause for s in ("always 100%", "100% in all trials",
+                                                                      "(100% percentage)")):
+                return True
+    return False
+
+
+def test_thesis_numbers_are_those_of_the_cited_tables_and_sections() -> None:
+    # the thesis' own lines, verbatim, in tests/data/thesis_excerpts.txt
+    def numbers(line: str) -> list[float]:
+        return [float(x) for x in line.split("\t")[1:] if x.strip()]
 
     for table in (thesis.TABLE_3_5, thesis.TABLE_3_6):
-        assert lines[table.lines[0] - 1].startswith(table.name + ":")
-        assert tuple(lines[table.lines[0] + 1].split("\t")[1:]) == table.variants
-        for (metric, trial), (line, values) in table.rows.items():
+        caption, header, *rows = thesis_excerpt(f"{table.name} ({table.section})")
+        assert caption.startswith(table.name + ":")
+        assert tuple(header.split("\t")[1:]) == table.variants
+        assert len(rows) == len(table.rows)
+        for (metric, trial), values in table.rows.items():
             axis = {"sd_ml_cm": "ML", "sd_ap_cm": "AP"}[metric]
             name = {"right-leg": "RightLeg", "left-leg": "LeftLeg", "rotation": "Rotation"}[trial]
-            assert lines[line - 1].startswith(f"$\\sigma_{{{axis}}}({name})$"), line
+            line = next(r for r in rows if r.startswith(f"$\\sigma_{{{axis}}}({name})$"))
             assert numbers(line) == list(values), line
-    for table, first in ((thesis.TABLE_3_7, 1544), (thesis.TABLE_3_8, 1555)):
-        assert lines[table.lines[0] - 1].startswith(table.name + ":")
-        for i in range(4):
-            row = numbers(first + i)
-            assert row == [v for t in thesis.TRIALS for v in table.by_volunteer[t][i]]
+    for table in (thesis.TABLE_3_7, thesis.TABLE_3_8):
+        caption, _, _, *rows = thesis_excerpt(f"{table.name} ({table.section})")
+        assert caption.startswith(table.name + ":")
+        assert [r.split("\t")[0] for r in rows] == ["1", "2", "3", "4"]
+        for i, line in enumerate(rows):
+            assert numbers(line) == [v for t in thesis.TRIALS for v in table.by_volunteer[t][i]], line
     assert thesis.TABLE_3_7.mean("right-leg", "SCHC") == pytest.approx((2.8e-3 + 5.0e-3 + 3.6e-3 + 4.3e-3) / 4)
     for h in thesis.HEADLINES:
-        if h.line == 1529:  # "For all the volunteers and trials SCHC improves SCHC-8x8": no figure
-            assert "For all the volunteers and trials SCHC improves SCHC-8x8" in lines[h.line - 1]
+        text = thesis_excerpt(h.section)
+        if h.metric in ("eu_ml_cm", "eu_ap_cm"):  # "For all the volunteers and trials SCHC improves SCHC-8x8"
+            assert set(h.values.values()) == {100.0}
+            assert any(p.startswith("For all the volunteers and trials") and _names(p, h.variant)
+                       and _names(p, h.other) for p in text), h
             continue
-        for value in h.values.values():
-            assert f"{value:g}%" in lines[h.line - 1], (h, value)
+        # a passage that names both variants (or "the rest of variants") and gives the three
+        # percentages in trial order, or says 100 % for all trials
+        values = [h.values[trial] for trial in thesis.TRIALS]
+        assert any(_names(p, h.variant) and (_names(p, h.other) or "the rest of variants" in p)
+                   and _states(p, h.metric, values) for p in text), h
     for c in thesis.CORRELATIONS:
-        assert f"{c.value:.2f}".rstrip("0") in lines[c.line - 1], c
+        assert any(_names(p, c.variant) and f"{c.value:.2f}".rstrip("0") in p for p in thesis_excerpt(c.section)), c
     lo, hi = thesis.EU_GAIN_SCHC_VS_PROP
-    assert f"from {lo:g}% to {hi:g}%" in lines[thesis.EU_GAIN_LINE - 1]
+    assert any(f"from {lo:g}% to {hi:g}%" in p for p in thesis_excerpt(thesis.EU_GAIN_SECTION))

@@ -1,7 +1,8 @@
 """The thesis' balance results (chapter 3), transcribed once so the report and the docs quote
 the same numbers: Tables 3.5-3.8, the percentages of its text and its correlations.
 
-Every value cites its line in ``shared/seed/thesis.txt``. Trials use the study's names
+Every value cites where the thesis states it: its table, or the section whose text gives it
+(§3.3.1 for the first prototype, §3.3.2 for the second). Trials use the study's names
 ("right-leg", "left-leg", "rotation"); metrics use the column names of ``metrics.csv``
 (``sd_ml_cm``, ``sd_ap_cm``, ``eu_cm``, ``eu_ml_cm``, ``eu_ap_cm``). Percentages are % of
 volunteers; Eu in cm (eq. 3.1-3.2, division by N).
@@ -17,7 +18,7 @@ from dataclasses import dataclass
 
 __all__ = ["TRIALS", "FIRST", "SECOND", "PercentTable", "EuTable", "Headline", "Correlation", "TABLE_3_5",
            "TABLE_3_6", "TABLE_3_7", "TABLE_3_8", "HEADLINES", "CORRELATIONS", "EU_GAIN_SCHC_VS_PROP",
-           "EU_GAIN_LINE"]
+           "EU_GAIN_SECTION"]
 
 TRIALS = ("right-leg", "left-leg", "rotation")
 FIRST = "first prototype: 42 volunteers, 60 s at 10 Hz (thesis §3.2.1)"
@@ -29,11 +30,11 @@ class PercentTable:
     """% of volunteers whose mat trace spreads less than the platform's (σ_mat < σ_FP)."""
 
     name: str
-    lines: tuple[int, int]
+    section: str  # the thesis section that presents the table
     experiment: str
     variants: tuple[str, ...]
-    #: (metric, trial) -> (thesis.txt line, one % per variant)
-    rows: dict[tuple[str, str], tuple[int, tuple[float, ...]]]
+    #: (metric, trial) -> one % per variant
+    rows: dict[tuple[str, str], tuple[float, ...]]
 
 
 @dataclass(frozen=True)
@@ -42,7 +43,7 @@ class EuTable:
 
     name: str
     metric: str
-    lines: tuple[int, int]
+    section: str  # the thesis section that presents the table
     variants: tuple[str, ...]
     #: trial -> one (SCHC, SCHC-8x8) pair per volunteer (IDs 1-4)
     by_volunteer: dict[str, tuple[tuple[float, float], ...]]
@@ -62,7 +63,7 @@ class Headline:
     variant: str
     other: str
     metric: str
-    line: int
+    section: str  # the thesis section whose text states it
     experiment: str
     #: trial -> %
     values: dict[str, float]
@@ -78,7 +79,7 @@ class Correlation:
     trials: tuple[str, ...]
     value: float
     bound: bool
-    line: int
+    section: str  # the thesis section whose text states it
     experiment: str
 
 
@@ -86,84 +87,84 @@ def _three(a: float, b: float, c: float) -> dict[str, float]:
     return dict(zip(TRIALS, (a, b, c)))
 
 
-# Table 3.5 (thesis.txt lines 1412-1420): first prototype.
+# Table 3.5 (thesis §3.3.1): first prototype.
 TABLE_3_5 = PercentTable(
-    name="Table 3.5", lines=(1412, 1420), experiment=FIRST, variants=("PROP", "PROP-C", "PROP-8x8", "Seating Mat"),
-    rows={("sd_ml_cm", "right-leg"): (1415, (100.0, 100.0, 100.0, 97.6)),
-          ("sd_ap_cm", "right-leg"): (1416, (97.6, 100.0, 95.2, 100.0)),
-          ("sd_ml_cm", "left-leg"): (1417, (100.0, 100.0, 100.0, 100.0)),
-          ("sd_ap_cm", "left-leg"): (1418, (97.6, 100.0, 97.6, 100.0)),
-          ("sd_ml_cm", "rotation"): (1419, (85.7, 100.0, 83.3, 100.0)),
-          ("sd_ap_cm", "rotation"): (1420, (66.7, 100.0, 69.0, 100.0))})
+    name="Table 3.5", section="§3.3.1", experiment=FIRST, variants=("PROP", "PROP-C", "PROP-8x8", "Seating Mat"),
+    rows={("sd_ml_cm", "right-leg"): (100.0, 100.0, 100.0, 97.6),
+          ("sd_ap_cm", "right-leg"): (97.6, 100.0, 95.2, 100.0),
+          ("sd_ml_cm", "left-leg"): (100.0, 100.0, 100.0, 100.0),
+          ("sd_ap_cm", "left-leg"): (97.6, 100.0, 97.6, 100.0),
+          ("sd_ml_cm", "rotation"): (85.7, 100.0, 83.3, 100.0),
+          ("sd_ap_cm", "rotation"): (66.7, 100.0, 69.0, 100.0)})
 
-# Table 3.6 (thesis.txt lines 1472-1480): second prototype.
+# Table 3.6 (thesis §3.3.2): second prototype.
 TABLE_3_6 = PercentTable(
-    name="Table 3.6", lines=(1472, 1480), experiment=SECOND, variants=("SCHC", "CHC", "PROP", "SCHC-8x8"),
-    rows={("sd_ml_cm", "right-leg"): (1475, (100.0, 100.0, 100.0, 100.0)),
-          ("sd_ap_cm", "right-leg"): (1476, (100.0, 100.0, 100.0, 75.0)),
-          ("sd_ml_cm", "left-leg"): (1477, (100.0, 100.0, 100.0, 100.0)),
-          ("sd_ap_cm", "left-leg"): (1478, (100.0, 100.0, 100.0, 75.0)),
-          ("sd_ml_cm", "rotation"): (1479, (100.0, 100.0, 100.0, 100.0)),
-          ("sd_ap_cm", "rotation"): (1480, (100.0, 100.0, 100.0, 100.0))})
+    name="Table 3.6", section="§3.3.2", experiment=SECOND, variants=("SCHC", "CHC", "PROP", "SCHC-8x8"),
+    rows={("sd_ml_cm", "right-leg"): (100.0, 100.0, 100.0, 100.0),
+          ("sd_ap_cm", "right-leg"): (100.0, 100.0, 100.0, 75.0),
+          ("sd_ml_cm", "left-leg"): (100.0, 100.0, 100.0, 100.0),
+          ("sd_ap_cm", "left-leg"): (100.0, 100.0, 100.0, 75.0),
+          ("sd_ml_cm", "rotation"): (100.0, 100.0, 100.0, 100.0),
+          ("sd_ap_cm", "rotation"): (100.0, 100.0, 100.0, 100.0)})
 
-# Table 3.7 (thesis.txt lines 1540-1547): Eu_ML, volunteers 1-4 on lines 1544-1547.
+# Table 3.7 (thesis §3.3.2): Eu_ML, volunteers 1-4.
 TABLE_3_7 = EuTable(
-    name="Table 3.7", metric="eu_ml_cm", lines=(1540, 1547), variants=("SCHC", "SCHC-8x8"),
+    name="Table 3.7", metric="eu_ml_cm", section="§3.3.2", variants=("SCHC", "SCHC-8x8"),
     by_volunteer={"right-leg": ((2.8e-3, 3.3e-3), (5.0e-3, 5.7e-3), (3.6e-3, 4.2e-3), (4.3e-3, 4.7e-3)),
                   "left-leg": ((4.0e-3, 4.5e-3), (4.9e-3, 5.6e-3), (3.7e-3, 4.5e-3), (6.2e-3, 6.5e-3)),
                   "rotation": ((1.99e-2, 2.75e-2), (1.99e-2, 2.37e-2), (1.59e-2, 2.07e-2), (2.41e-2, 2.71e-2))})
 
-# Table 3.8 (thesis.txt lines 1551-1558): Eu_AP, volunteers 1-4 on lines 1555-1558.
+# Table 3.8 (thesis §3.3.2): Eu_AP, volunteers 1-4.
 TABLE_3_8 = EuTable(
-    name="Table 3.8", metric="eu_ap_cm", lines=(1551, 1558), variants=("SCHC", "SCHC-8x8"),
+    name="Table 3.8", metric="eu_ap_cm", section="§3.3.2", variants=("SCHC", "SCHC-8x8"),
     by_volunteer={"right-leg": ((6.9e-3, 1.24e-2), (9.3e-3, 1.19e-2), (7.5e-3, 1.03e-2), (6.2e-3, 9.1e-3)),
                   "left-leg": ((7.1e-3, 1.25e-2), (7.6e-3, 1.23e-2), (7.8e-3, 1.32e-2), (6.8e-3, 1.08e-2)),
                   "rotation": ((2.48e-2, 2.78e-2), (2.51e-2, 2.77e-2), (2.13e-2, 2.75e-2), (2.92e-2, 3.12e-2))})
 
 # The text's "% of volunteers for whom <variant> is better than <other>" (better = closer to FP).
 HEADLINES = (
-    Headline("PROP", "Seating Mat", "sd_ml_cm", 1410, FIRST, _three(97.6, 85.7, 100.0)),
-    Headline("PROP", "Seating Mat", "sd_ap_cm", 1427, FIRST, _three(95.2, 100.0, 100.0)),
-    Headline("PROP", "Seating Mat", "eu_cm", 1434, FIRST, _three(90.5, 95.2, 100.0)),
-    Headline("PROP", "PROP-C", "sd_ml_cm", 1429, FIRST, _three(97.6, 97.6, 100.0)),
-    Headline("PROP", "PROP-C", "sd_ap_cm", 1429, FIRST, _three(97.6, 100.0, 100.0)),
-    Headline("PROP", "PROP-C", "eu_cm", 1437, FIRST, _three(92.8, 90.5, 97.6)),
-    Headline("PROP", "PROP-8x8", "sd_ml_cm", 1432, FIRST, _three(42.9, 52.3, 33.3)),
-    Headline("PROP", "PROP-8x8", "sd_ap_cm", 1432, FIRST, _three(11.9, 14.3, 50.0)),
-    Headline("PROP", "PROP-8x8", "eu_cm", 1439, FIRST, _three(100.0, 100.0, 100.0)),
-    Headline("SCHC", "PROP", "sd_ml_cm", 1484, SECOND, _three(100.0, 75.0, 100.0)),
-    Headline("SCHC", "PROP", "sd_ap_cm", 1484, SECOND, _three(100.0, 100.0, 100.0)),
-    Headline("SCHC", "CHC", "sd_ml_cm", 1486, SECOND, _three(75.0, 25.0, 50.0)),
-    Headline("SCHC", "CHC", "sd_ap_cm", 1486, SECOND, _three(100.0, 100.0, 25.0)),
-    Headline("SCHC", "SCHC-8x8", "sd_ml_cm", 1488, SECOND, _three(75.0, 50.0, 25.0)),
-    Headline("SCHC", "SCHC-8x8", "sd_ap_cm", 1488, SECOND, _three(0.0, 0.0, 75.0)),
+    Headline("PROP", "Seating Mat", "sd_ml_cm", "§3.3.1", FIRST, _three(97.6, 85.7, 100.0)),
+    Headline("PROP", "Seating Mat", "sd_ap_cm", "§3.3.1", FIRST, _three(95.2, 100.0, 100.0)),
+    Headline("PROP", "Seating Mat", "eu_cm", "§3.3.1", FIRST, _three(90.5, 95.2, 100.0)),
+    Headline("PROP", "PROP-C", "sd_ml_cm", "§3.3.1", FIRST, _three(97.6, 97.6, 100.0)),
+    Headline("PROP", "PROP-C", "sd_ap_cm", "§3.3.1", FIRST, _three(97.6, 100.0, 100.0)),
+    Headline("PROP", "PROP-C", "eu_cm", "§3.3.1", FIRST, _three(92.8, 90.5, 97.6)),
+    Headline("PROP", "PROP-8x8", "sd_ml_cm", "§3.3.1", FIRST, _three(42.9, 52.3, 33.3)),
+    Headline("PROP", "PROP-8x8", "sd_ap_cm", "§3.3.1", FIRST, _three(11.9, 14.3, 50.0)),
+    Headline("PROP", "PROP-8x8", "eu_cm", "§3.3.1", FIRST, _three(100.0, 100.0, 100.0)),
+    Headline("SCHC", "PROP", "sd_ml_cm", "§3.3.2", SECOND, _three(100.0, 75.0, 100.0)),
+    Headline("SCHC", "PROP", "sd_ap_cm", "§3.3.2", SECOND, _three(100.0, 100.0, 100.0)),
+    Headline("SCHC", "CHC", "sd_ml_cm", "§3.3.2", SECOND, _three(75.0, 25.0, 50.0)),
+    Headline("SCHC", "CHC", "sd_ap_cm", "§3.3.2", SECOND, _three(100.0, 100.0, 25.0)),
+    Headline("SCHC", "SCHC-8x8", "sd_ml_cm", "§3.3.2", SECOND, _three(75.0, 50.0, 25.0)),
+    Headline("SCHC", "SCHC-8x8", "sd_ap_cm", "§3.3.2", SECOND, _three(0.0, 0.0, 75.0)),
     # "it outperforms all of them for all volunteers and kind of trial (100% percentage)"
-    Headline("SCHC", "PROP", "eu_cm", 1518, SECOND, _three(100.0, 100.0, 100.0)),
-    Headline("SCHC", "CHC", "eu_cm", 1518, SECOND, _three(100.0, 100.0, 100.0)),
-    Headline("SCHC", "SCHC-8x8", "eu_cm", 1518, SECOND, _three(100.0, 100.0, 100.0)),
+    Headline("SCHC", "PROP", "eu_cm", "§3.3.2", SECOND, _three(100.0, 100.0, 100.0)),
+    Headline("SCHC", "CHC", "eu_cm", "§3.3.2", SECOND, _three(100.0, 100.0, 100.0)),
+    Headline("SCHC", "SCHC-8x8", "eu_cm", "§3.3.2", SECOND, _three(100.0, 100.0, 100.0)),
     # "For all the volunteers and trials SCHC improves SCHC-8x8 even considering only a single direction"
-    Headline("SCHC", "SCHC-8x8", "eu_ml_cm", 1529, SECOND, _three(100.0, 100.0, 100.0)),
-    Headline("SCHC", "SCHC-8x8", "eu_ap_cm", 1529, SECOND, _three(100.0, 100.0, 100.0)),
+    Headline("SCHC", "SCHC-8x8", "eu_ml_cm", "§3.3.2", SECOND, _three(100.0, 100.0, 100.0)),
+    Headline("SCHC", "SCHC-8x8", "eu_ap_cm", "§3.3.2", SECOND, _three(100.0, 100.0, 100.0)),
 )
 
 # Pearson r of σ against FP reported in the text.
 CORRELATIONS = (
-    Correlation("PROP", "sd_ml_cm", TRIALS, 0.85, True, 1408, FIRST),
-    Correlation("PROP", "sd_ap_cm", TRIALS, 0.85, True, 1408, FIRST),
-    Correlation("PROP-C", "sd_ml_cm", TRIALS, 0.85, True, 1408, FIRST),
-    Correlation("PROP-C", "sd_ap_cm", TRIALS, 0.85, True, 1408, FIRST),
-    Correlation("PROP-8x8", "sd_ml_cm", TRIALS, 0.85, True, 1408, FIRST),
-    Correlation("PROP-8x8", "sd_ap_cm", TRIALS, 0.85, True, 1408, FIRST),
-    Correlation("SCHC", "sd_ml_cm", TRIALS, 0.8, True, 1470, SECOND),
-    Correlation("SCHC", "sd_ap_cm", TRIALS, 0.8, True, 1470, SECOND),
-    Correlation("PROP", "sd_ml_cm", ("right-leg",), 0.70, False, 1470, SECOND),
-    Correlation("CHC", "sd_ml_cm", ("right-leg",), 0.57, False, 1470, SECOND),
-    Correlation("SCHC-8x8", "sd_ml_cm", ("right-leg",), 0.66, False, 1470, SECOND),
-    Correlation("SCHC-8x8", "sd_ml_cm", ("left-leg",), 0.78, False, 1470, SECOND),
-    Correlation("SCHC-8x8", "sd_ap_cm", ("left-leg",), 0.59, False, 1470, SECOND),
+    Correlation("PROP", "sd_ml_cm", TRIALS, 0.85, True, "§3.3.1", FIRST),
+    Correlation("PROP", "sd_ap_cm", TRIALS, 0.85, True, "§3.3.1", FIRST),
+    Correlation("PROP-C", "sd_ml_cm", TRIALS, 0.85, True, "§3.3.1", FIRST),
+    Correlation("PROP-C", "sd_ap_cm", TRIALS, 0.85, True, "§3.3.1", FIRST),
+    Correlation("PROP-8x8", "sd_ml_cm", TRIALS, 0.85, True, "§3.3.1", FIRST),
+    Correlation("PROP-8x8", "sd_ap_cm", TRIALS, 0.85, True, "§3.3.1", FIRST),
+    Correlation("SCHC", "sd_ml_cm", TRIALS, 0.8, True, "§3.3.2", SECOND),
+    Correlation("SCHC", "sd_ap_cm", TRIALS, 0.8, True, "§3.3.2", SECOND),
+    Correlation("PROP", "sd_ml_cm", ("right-leg",), 0.70, False, "§3.3.2", SECOND),
+    Correlation("CHC", "sd_ml_cm", ("right-leg",), 0.57, False, "§3.3.2", SECOND),
+    Correlation("SCHC-8x8", "sd_ml_cm", ("right-leg",), 0.66, False, "§3.3.2", SECOND),
+    Correlation("SCHC-8x8", "sd_ml_cm", ("left-leg",), 0.78, False, "§3.3.2", SECOND),
+    Correlation("SCHC-8x8", "sd_ap_cm", ("left-leg",), 0.59, False, "§3.3.2", SECOND),
 )
 
 # "The average relative improvement of SCHC with respect to PROP [...] ranges from 13% to 37%
 # depending on the kind of trial" (mean Eu, second prototype).
 EU_GAIN_SCHC_VS_PROP = (13.0, 37.0)
-EU_GAIN_LINE = 1490
+EU_GAIN_SECTION = "§3.3.2"
