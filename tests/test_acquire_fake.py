@@ -13,10 +13,12 @@ import os
 import select
 import threading
 import time
-import tty
 from typing import Callable
 
 import numpy as np
+import pytest
+
+tty = pytest.importorskip("tty", reason="pseudo-terminals are POSIX only")  # Windows: no termios
 
 from psmat.protocol import (COMMAND_SIZE, SYNC, Opcode, Status, decode_command, encode_daq_line, encode_imu_v1,
                             encode_reply, encode_v1, encode_v2)

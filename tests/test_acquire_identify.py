@@ -1,4 +1,4 @@
-"""IDENTIFY at open on a real pseudo-terminal: bounded retries, unknown fields said so (issue 10, item 2)."""
+"""IDENTIFY at open on a real pseudo-terminal: bounded retries, unknown fields said so."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""Frames lost on the wire are the sequence gaps inside what was received (issue 10, item 2).
+"""Frames lost on the wire are the sequence gaps inside what was received.
 
 A device that streamed while nobody read it has a hole in its sequence numbers before the
 host ever buffered a frame; that hole is not a loss of the recording.

@@ -1,4 +1,4 @@
-"""End to end through the pseudo-terminal (issue 4, item 9): the firmware core on the twin,
+"""End to end through the pseudo-terminal (docs/spec.md §5): the firmware core on the twin,
 the serial link, psmat.acquire, the session file."""
 
 from __future__ import annotations

@@ -5,10 +5,12 @@ from __future__ import annotations
 import os
 import threading
 import time
-import tty
 
 import numpy as np
+import pytest
 import serial
+
+tty = pytest.importorskip("tty", reason="pseudo-terminals are POSIX only")  # Windows: no termios
 
 from psmat.bench.acquire import thesis_read
 from psmat.protocol import encode_v1
@@ -22,7 +24,7 @@ def _frames(n: int, shape: tuple[int, int]) -> list[bytes]:
 
 
 def test_thesis_reader_resyncs_on_init_init_after_a_lost_byte():
-    # regression (issue 10, item 6): the benchmark's "thesis-style" reader synced once and
+    # regression: the benchmark's "thesis-style" reader synced once and
     # never again, so one lost byte turned every later frame invalid, which the thesis does
     # not say. Reading INIT INIT before every frame costs the hit frame (a bad sum: a missing
     # row) and the next one, whose marker the fixed-size read swallowed (no row at all).

@@ -15,7 +15,7 @@ def _noisy(size=16, fps=2500.0, threads=2, max_iterations=40, max_residual=1e-7,
 
 
 def test_noisy_rows_carry_the_spec_targets():
-    # regression (issue 10, item 6): the README said every docs/spec.md §10 IECM target was met while
+    # regression: the README said every docs/spec.md §10 IECM target was met while
     # the benchmark printed no target on the noisy rows (docs/spec.md §10: 16x16 >= 2000 fps/core, 32x32
     # >= 200 fps, 64x64 >= 20 fps, residual <= 1e-6, no frame over 50 iterations)
     met = _noisy(fps=5000.0)  # 2500 fps/core
@@ -54,7 +54,7 @@ def test_noise_free_targets_are_only_the_specs():
 
 
 def test_noisy_entries_compare_the_old_solver_and_the_quick_fixed_point():
-    # issue 14: the noisy rows sit beside today's (Fischer-Burmeister) solver and the thesis'
+    # the noisy rows sit beside the earlier default (Fischer-Burmeister bounded_newton) and the thesis'
     # quick fixed point (25 iterations, beta 0.05) in the same run, and a cold start is reported
     entries = _noisy_entries(16, 2000, heavy=False, ncpu=2)
     assert [e["mode"] for e in entries] == ["streaming", "cold", "streaming", "streaming"]

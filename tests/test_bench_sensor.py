@@ -12,7 +12,7 @@ from psmat.sensor import fit
 
 @pytest.mark.slow
 def test_seed_reaches_the_annealers(tmp_path, capsys):
-    # regression (issue 10, item 6): the README quoted the 9-parameter annealing over seeds
+    # regression: the README quoted the 9-parameter annealing over seeds
     # 2, 4 and 6, but `bench sensor` had no --seed: no command printed those figures
     out = tmp_path / "sensor.json"
     assert main(["--quick", "--seed", "2", "--json", str(out)]) == 0

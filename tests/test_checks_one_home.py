@@ -1,4 +1,4 @@
-"""One validation module (issue 11): the checks of circuit, noise, the DAQ divider, the pressure
+"""One validation module: the checks of circuit, noise, the DAQ divider, the pressure
 protocols and the protocol encoders come from psmat._checks, so the same bad input gets the same
 answer everywhere (they used to have private validators with their own rules and messages)."""
 

@@ -1,6 +1,6 @@
 """Measurement chain (docs/spec.md §2): forward, inverse and flags, both sensor sides, Table 2.4.
 
-Expectations come from the independent reference vectors in ``shared/reference`` and from
+Expectations come from the independent reference vectors in ``tests/data/reference`` and from
 the circuit algebra written out here in resistance form, never from psmat itself.
 """
 

@@ -1,4 +1,4 @@
-"""The acquisition commands on the digital twin: calibrate, record, info, demo (issue 4)."""
+"""The acquisition commands on the digital twin: calibrate, record, info, demo."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""Command-line errors (issue 10, item 4): one line on stderr, exit status 1, no file written.
+"""Command-line errors: one line on stderr, exit status 1, no file written.
 
 Every subcommand that takes a shape, a duration or an output path is checked; the values are
 parsed by the shared argument types of ``psmat.commands._args``, before any device is opened.

@@ -1,4 +1,4 @@
-"""``psmat posture simulate`` (issue 13 item 3): a one-subject posture study written from the command
+"""``psmat posture simulate`` (docs/spec.md §8): a one-subject posture study written from the command
 line; errors are one line and exit status 1."""
 
 from __future__ import annotations

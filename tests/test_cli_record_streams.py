@@ -1,4 +1,4 @@
-"""``psmat record`` with several devices (issue 13 item 2): the mat and the spine IMUs into one file.
+"""``psmat record`` with several devices (docs/spec.md §8): the mat and the spine IMUs into one file.
 
 Real pseudo-terminals served by :class:`psmat.twin.SerialTwin` (the real firmware core) at
 their configured rates: the mat 100 Hz, the IMUs 10 Hz. Rates are judged from frame counts

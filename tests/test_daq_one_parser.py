@@ -1,4 +1,4 @@
-"""The material DAQ's lines have one parser (issue 11): the live reader and the log loader agree.
+"""The material DAQ's lines have one parser: the live reader and the log loader agree.
 
 The wire path (:func:`psmat.protocol.parse_daq_line`, :class:`psmat.protocol.DaqLineDecoder`)
 and the log path (:func:`psmat.sensor.load_daq_log`) used to parse lines on their own: the

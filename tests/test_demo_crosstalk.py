@@ -1,4 +1,4 @@
-"""``psmat demo --crosstalk`` on the twin's frame (issue 11: one synthetic world, one coordinate convention)."""
+"""``psmat demo --crosstalk`` on the twin's frame (one synthetic world, one coordinate convention)."""
 
 from __future__ import annotations
 

@@ -16,7 +16,7 @@ def recording(tmp_path_factory):
 
 @pytest.mark.slow
 def test_the_offset_is_the_twins_cell_gains(recording):
-    # issue 10, item 7: the corrected M-L trace sat ~0.27 cm off the platform, worse than raw
+    # regression: the corrected M-L trace sat ~0.27 cm off the platform, worse than raw
     # G. With the twin's own gains divided out, the same frames through the same chain (same
     # IECM, circuit and sensor model) land on the platform: what is left is noise, a few
     # hundredths of a cm (the chain on a twin without gain variability: about 0.02 cm RMS).

@@ -1,4 +1,4 @@
-"""The active-set Newton on what a mat delivers (issue 14): noisy twin frames, 1 mV and 12 bits.
+"""The active-set Newton on what a mat delivers: noisy twin frames, 1 mV and 12 bits.
 
 Every real frame is noisy, so the quiet cells end at the bound g = g_floor and the streaming
 path runs the bounded (complementarity) solver of docs/spec.md §3 on every frame. The reference is the
@@ -48,7 +48,7 @@ def _assert_same_solution(g: np.ndarray, g_ref: np.ndarray, G: np.ndarray) -> No
     bound, bound_ref = g <= G_FLOOR * (1 + 1e-9), g_ref <= G_FLOOR * (1 + 1e-9)
     assert np.array_equal(bound, bound_ref), f"{int((bound != bound_ref).sum())} cells differ in the bound set"
     free = ~bound_ref
-    # issue 14: within 1e-8 relative on the free cells, frame by frame (2-norm over the cells)
+    # the acceptance criterion: within 1e-8 relative on the free cells, frame by frame (2-norm over the cells)
     for k in range(len(g)):
         d, r = (g[k] - g_ref[k])[free[k]], g_ref[k][free[k]]
         assert np.linalg.norm(d) <= 1e-8 * np.linalg.norm(r), (k, float(np.linalg.norm(d) / np.linalg.norm(r)))
@@ -74,7 +74,7 @@ def test_active_set_returns_the_fischer_burmeister_solution(size, frames):
 
 @pytest.mark.parametrize("size", [16, 32])
 def test_the_solution_recorded_before_the_active_set_solver(size):
-    # issue 14: "today's solution", recorded: noisy twin frames and what bounded_newton returned
+    # the earlier default's solution, recorded: noisy twin frames and what bounded_newton returned
     # for them at commit 34b050e, before the active-set solver (and the forward model's later
     # round-off changes) existed; made_by in the file says how
     with np.load(Path(__file__).parent / "data" / "iecm_noisy_bounded.npz") as f:

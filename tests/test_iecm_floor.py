@@ -1,4 +1,4 @@
-"""Frames that g_floor decides are reported, not passed off as solutions (issue 10, item 3).
+"""Frames that g_floor decides are reported, not passed off as solutions.
 
 g_floor is the positivity bound of docs/spec.md §3 (1e-12 S by default), far below anything a mat
 measures. A frame whose every cell ends on it holds no signal above the floor, and a g_floor

@@ -116,7 +116,7 @@ def _readme_stream_example() -> str:
 
 
 def test_the_readme_stream_example_returns_every_frame():
-    # regression (issue 10, item 6): run as written, the example got 0 of 50 noisy frames from
+    # regression: run as written, the example got 0 of 50 noisy frames from
     # ready() (they arrive faster than they are solved) and left the rest unread at exit
     G = _noisy_twin_frames()
     ns = {"psmat": psmat, "np": np, "live_frames": list(G)}

@@ -1,4 +1,4 @@
-"""The package's layout stays readable (issue 11): no import cycle between modules, no
+"""The package's layout stays readable: no import cycle between modules, no
 source file far over 600 lines unless its reason is written here."""
 
 from __future__ import annotations

@@ -142,7 +142,7 @@ def test_cli_simulate_writes_a_screenshot(tmp_path, monkeypatch, capsys) -> None
 
 
 def test_a_host_still_reopening_a_vanished_twin_cannot_reach_the_views_twin(tmp_path, monkeypatch, capsys) -> None:
-    """The flake of issue 10: the view reported its pty disconnected after a few frames.
+    """A former flake: the view reported its pty disconnected after a few frames.
 
     The system hands a freed pty number to the next pty at once. A host that keeps re-opening a
     vanished twin's port (``reconnect=True``, or another process) then reached the view's new twin,

@@ -1,8 +1,12 @@
-"""Every notebook in notebooks/ runs top to bottom at its small size, without errors.
+"""The notebooks in notebooks/: stored with their outputs, and they still run top to bottom.
 
-Executed with nbclient on a python3 kernel (120 s per cell) against the installed package, in a
-temporary working directory, with figures going to a temporary PSMAT_FIGURES; the stored
-notebooks must carry no outputs.
+The stored notebooks carry the outputs of one run at their small size (``FULL = False``, refreshed by
+``python tools/run_notebooks.py``): figures inline as PNG, no stderr stream, no warning, each file
+below 300 kB. Each notebook is also executed here with nbclient on a python3 kernel against the
+installed package, in a temporary working directory, with figures going to a temporary
+PSMAT_FIGURES: it must raise nothing, print no warning, save its figures there and nowhere else,
+and produce output in the same cells, of the same kinds, as the stored copy (so the stored outputs
+are not stale).
 """
 
 from __future__ import annotations
@@ -11,13 +15,50 @@ import os
 from pathlib import Path
 
 import pytest
-from conftest import SHARED_DIR
 
 nbformat = pytest.importorskip("nbformat")
 nbclient = pytest.importorskip("nbclient")
 
 ROOT = Path(__file__).resolve().parents[1]
 NOTEBOOKS = sorted((ROOT / "notebooks").glob("*.ipynb"))
+MAX_BYTES = 300_000
+
+
+def code_cells(nb) -> list:
+    return [c for c in nb.cells if c.cell_type == "code"]
+
+
+def output_kinds(cell) -> list[tuple[str, ...]]:
+    """What a cell shows, without the values: ("stream", "stdout"), ("display_data", "image/png", ...)."""
+    kinds = set()
+    for out in cell.outputs:
+        if out.output_type == "stream":
+            kinds.add(("stream", out.name))
+        elif out.output_type in ("display_data", "execute_result"):
+            kinds.add(("display", *sorted(out.data)))
+        else:
+            kinds.add((out.output_type,))
+    return sorted(kinds)
+
+
+def warnings_in(nb) -> list[str]:
+    """Every stderr stream, error and output text that mentions a warning, as 'cell k: ...'."""
+    found = []
+    for k, cell in enumerate(code_cells(nb)):
+        for out in cell.outputs:
+            if out.output_type == "stream":
+                text = out.text
+                if out.name == "stderr":
+                    found.append(f"code cell {k}: stderr {text[:300]!r}")
+                    continue
+            elif out.output_type == "error":
+                found.append(f"code cell {k}: {out.ename}: {out.evalue}")
+                continue
+            else:
+                text = out.get("data", {}).get("text/plain", "")
+            if "warning" in text.lower():
+                found.append(f"code cell {k}: {text[:300]!r}")
+    return found
 
 
 def test_notebooks_exist():
@@ -27,31 +68,41 @@ def test_notebooks_exist():
 
 
 @pytest.mark.parametrize("path", NOTEBOOKS, ids=[p.stem for p in NOTEBOOKS])
-def test_notebook_is_clean(path):
+def test_stored_outputs(path):
+    size = path.stat().st_size
+    assert size < MAX_BYTES, f"{path.name}: {size} bytes stored, the limit is {MAX_BYTES}"
     nb = nbformat.read(path, as_version=4)
-    code = [c for c in nb.cells if c.cell_type == "code"]
-    assert code and code[0].source.strip().startswith("FULL = False")
-    for c in code:
-        assert c.outputs == [] and c.execution_count is None, f"{path.name}: stored outputs"
+    code = code_cells(nb)
+    assert code and code[0].source.strip().startswith("FULL = False"), "the first code cell must be FULL = False"
+    # one run, top to bottom: execution counts 1, 2, 3, ... over the code cells
+    assert [c.execution_count for c in code] == list(range(1, len(code) + 1)), f"{path.name}: not stored from one run"
+    pngs = [o for c in code for o in c.outputs if "image/png" in o.get("data", {})]
+    assert pngs, f"{path.name}: no figure stored inline"
+    assert warnings_in(nb) == []
 
 
 @pytest.mark.slow
 @pytest.mark.parametrize("path", NOTEBOOKS, ids=[p.stem for p in NOTEBOOKS])
 def test_notebook_runs(path, tmp_path):
+    stored = nbformat.read(path, as_version=4)
     nb = nbformat.read(path, as_version=4)
-    figures = tmp_path / "figures"
+    for cell in code_cells(nb):
+        cell.outputs, cell.execution_count = [], None
+    work, figures = tmp_path / "work", tmp_path / "figures"
+    work.mkdir()
     env = dict(os.environ)
     env["PSMAT_FIGURES"] = str(figures)
-    # the kernel imports the installed package, like every other test (not ../src, which
-    # holds no compiled extension in a fresh checkout)
-    env.setdefault("JUPYTER_PLATFORM_DIRS", "1")
-    # the kernel runs in tmp_path, where psmat.io.bds_dir cannot find shared/ by walking up
-    if (SHARED_DIR / "data" / "bds").is_dir():
-        env.setdefault("PSMAT_BDS_DIR", str(SHARED_DIR / "data" / "bds"))
-    client = nbclient.NotebookClient(
-        nb, timeout=120, kernel_name="python3", resources={"metadata": {"path": str(tmp_path)}}
-    )
+    env.setdefault("JUPYTER_PLATFORM_DIRS", "1")  # jupyter_core's own folders, without its deprecation notice
+    # run in work/, outside the checkout: the kernel imports the installed package, like every
+    # other test (not ../src, which holds no compiled extension in a fresh checkout)
+    client = nbclient.NotebookClient(nb, timeout=300, kernel_name="python3",
+                                     resources={"metadata": {"path": str(work)}})
     client.execute(env=env)  # raises CellExecutionError on any error
-    pngs = list(figures.glob("*.png"))
-    assert pngs, "the notebook saved no figure to PSMAT_FIGURES"
-    assert not list(tmp_path.glob("notebooks")), "the notebook wrote outside PSMAT_FIGURES"
+
+    assert list(figures.glob("*.png")), "the notebook saved no figure to PSMAT_FIGURES"
+    assert sorted(p.name for p in work.iterdir()) == [], "the notebook wrote outside PSMAT_FIGURES"
+    assert warnings_in(nb) == [], "the run printed a warning"
+    ran = [output_kinds(c) for c in code_cells(nb)]
+    kept = [output_kinds(c) for c in code_cells(stored)]
+    assert ran == kept, (f"{path.name}: the stored outputs differ in kind from a run's; "
+                         "refresh them with python tools/run_notebooks.py")

@@ -1,4 +1,4 @@
-"""Held-out subjects (issue 13 item 5): invariant inputs, the calibration phase and the windows
+"""Held-out subjects (beyond the thesis): invariant inputs, the calibration phase and the windows
 scored after it, the calibrated ridge, fine-tuning on a subject's calibration windows only, and
 ``heldout_study``'s table."""
 

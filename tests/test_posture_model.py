@@ -1,5 +1,5 @@
 """The §4.3 CNN (output shape, flatten size from the input, Kaiming init), R² and MSE per
-output against hand calculations, and PyTorch as an optional extra (issue 13 item 4)."""
+output against hand calculations, and PyTorch as an optional extra (docs/spec.md §8)."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""psmat.posture.simulate (issue 13 item 3): a simulated posture study in the docs/spec.md §6 layout.
+"""psmat.posture.simulate (docs/spec.md §8): a simulated posture study in the docs/spec.md §6 layout.
 
 A tiny study (2 subjects, 1 day, 20 s) is written once: its sessions load with
 psmat.io.load_session, the mat at ~100 Hz and the IMUs at ~10 Hz on one host clock, the

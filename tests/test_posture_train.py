@@ -1,5 +1,5 @@
 """Splits (KSI in contiguous blocks, the thesis' leaky KSI, LSO), training (loss, resume,
-Table 4.4 CSV, figures) and the ridge-PCA baseline (issue 13 items 4 and 5(c))."""
+Table 4.4 CSV, figures) and the ridge-PCA baseline (beyond the thesis)."""
 
 from __future__ import annotations
 

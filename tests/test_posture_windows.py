@@ -1,5 +1,5 @@
 """Windows of 50 frames at stride 1 without copies, their targets, the training-set
-standardisation and the augmentation (issue 13 item 4; thesis §4.3)."""
+standardisation and the augmentation (thesis §4.3)."""
 
 from __future__ import annotations
 

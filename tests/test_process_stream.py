@@ -1,4 +1,4 @@
-"""One processing chain (issue 11, item 2): :class:`psmat.process.Processor` pushed in chunks,
+"""One processing chain: :class:`psmat.process.Processor` pushed in chunks,
 :func:`psmat.process.process_counts` and the live view give the same numbers.
 
 Frames are 64 Hz so that every frame time k/64 s and every period between frames is an exact

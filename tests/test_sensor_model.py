@@ -141,7 +141,7 @@ def test_analytic_play_inverse_eq_2_21(thesis, rng):
 
 
 def test_polynomial_alone_has_a_negative_slope_but_the_model_is_invertible(thesis):
-    # the issue's remark: a1 + 2 a2 p + 3 a3 p^2 < 0 between ~13 and ~35 psi ...
+    # a remark on Table 2.11's parameters: a1 + 2 a2 p + 3 a3 p^2 < 0 between ~13 and ~35 psi ...
     prm = thesis.params
     pp = np.linspace(0, 32, 321)
     slope_poly = prm["a1"] + 2 * prm["a2"] * pp + 3 * prm["a3"] * pp**2

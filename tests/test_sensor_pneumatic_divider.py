@@ -1,4 +1,4 @@
-"""The material DAQ's divider is the measurement chain of ``psmat.Circuit`` (issue 11: one home).
+"""The material DAQ's divider is the measurement chain of ``psmat.Circuit`` (one implementation).
 
 The DAQ's divider (thesis §2.4.1) is the mat's circuit (docs/spec.md §2) with no multiplexer, an
 ideal ADC and ``V_ref`` normalised to 1, with the sensor either below the node (``"low"``,

@@ -1,4 +1,4 @@
-"""The dynamic correction of the mat's sway (issue 12, item 4b): fitted on other volunteers only.
+"""The dynamic correction of the mat's sway (beyond the thesis): fitted on other volunteers only.
 
 The constructed case: each volunteer's platform trace is band-limited random sway (white noise
 through a 4th-order Butterworth low-pass at 3 Hz, SD 0.5 cm per axis); the mat sees it through a

@@ -1,6 +1,6 @@
 """The twin's conductance frames (psmat.twin.swaying_feet, MatPhysics.conductance), its mat
 pitch and the random array of thesis Fig. 2.13 (psmat.twin.random_array): the one synthetic
-world of the tests, benchmarks and demos (issue 11).
+world of the tests, benchmarks and demos.
 
 Expectations from physics: the load the sensor model's inverse reads back is the body weight
 (Σ p·A, psi → Pa by hand), the CoP of the cell pressures is the continuous field's, an
@@ -83,7 +83,7 @@ def test_conductance_is_the_sensor_step_of_counts():
 
 
 def test_the_benchmark_frames_are_the_twin_s():
-    # regression (issue 11): the benchmark drew its frames from a second synthetic world, a
+    # regression: the benchmark drew its frames from a second synthetic world, a
     # power-law stand-in with a 1e-6..1e-5 S background; now they are the twin's
     g, G = bench_scene(16, 5, 0)
     assert np.min(g) == G_REST

@@ -1,4 +1,4 @@
-"""The reachable-CoP polygon of the pressure twin is scipy's convex hull (issue 11).
+"""The reachable-CoP polygon of the pressure twin is scipy's convex hull.
 
 Reference: Andrew's monotone chain, written out here as the hand-coded hull the twin used
 before; the hull (vertices, counter-clockwise order, area) must be the same.

@@ -348,7 +348,7 @@ def test_the_imu_twin_sends_psmat_protocol_bytes_of_the_seated_angles(proto):
     sess = seated_session(seed)
     np.testing.assert_allclose(served[:, :, 2], sess.true_angles(np.arange(len(served)) / rate)[:, :, 2], atol=1.5)
     size = protocol.v1_frame_size(protocol.IMU_SHAPE) if proto == "v1" else protocol.v2_frame_size((5, 3), "imu")
-    with SerialTwin("imu", rate, proto, seed=seed) as twin, serial.Serial(twin.port, timeout=0.05) as port:
+    with SerialTwin("imu", rate, proto, seed=seed) as twin, serial.serial_for_url(twin.port, timeout=0.05) as port:
         data = _read(port, (n + 1) * size)
     if proto == "v1":
         expected = b"".join(protocol.encode_imu_v1(a) for a in served[: n + 40])

@@ -17,5 +17,5 @@ from .calibration import Calibration
 from .circuit import Circuit
 
 
-__version__ = "0.1.0"
+from ._version import __version__  # the one place the version is written
 __all__ = ["acquire", "balance", "calibration_estimate", "experiments", "iecm", "io", "noise", "posture", "protocol", "qzpm", "sensor", "study", "twin", "Circuit", "Calibration", "__version__"]

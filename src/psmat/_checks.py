@@ -1,4 +1,4 @@
-"""Input validation for the whole package: one home (issue 11).
+"""Input validation for the whole package, in one module.
 
 Every public function of psmat that takes numbers from a user checks them here and raises
 one clear, one-line error naming the argument: ``TypeError`` for the wrong kind of value

@@ -3,6 +3,10 @@
 Commands live one per module in :mod:`psmat.commands` and are discovered here, so adding a
 command is adding a file. A command-line error (a bad or missing argument) is one line on
 stderr and exit status 1, like every other error a person can fix.
+
+Help is for people (:mod:`psmat._help`): each command's description is its module docstring
+as plain text, and every option shows its default and unit. ``psmat --version`` prints the
+package version.
 """
 
 from __future__ import annotations
@@ -14,6 +18,7 @@ import sys
 from typing import NoReturn
 
 from . import commands as _commands
+from ._help import HelpFormatter, plain
 
 
 def _command_modules() -> list:
@@ -38,14 +43,62 @@ class _Parser(argparse.ArgumentParser):
         raise UsageError(f"{self.prog}: {message} (see {self.prog} --help)")
 
 
+DESCRIPTION = """psmat: software for low-cost pressure-sensitive mats (PSM), resistive sensor arrays
+read row by row: record and view a mat or its simulation (the digital twin), remove the
+crosstalk between cells (IECM, the inverse of equivalent conductance method), compensate the
+sensor's hysteresis and creep, and run balance and posture studies as in the thesis."""
+EPILOG = "Run psmat COMMAND --help for a command's options."
+
+
+def _version() -> str:
+    from . import __version__
+
+    return f"psmat {__version__}"
+
+
+class _Version(argparse.Action):
+    """``--version``: print ``psmat X.Y.Z`` and exit 0 (the version read when asked for)."""
+
+    def __init__(self, option_strings: list[str], dest: str = argparse.SUPPRESS, **kwargs: object) -> None:
+        super().__init__(option_strings, dest, nargs=0, default=argparse.SUPPRESS,
+                         help="print the package version (psmat X.Y.Z) and exit")
+
+    def __call__(self, parser: argparse.ArgumentParser, namespace: argparse.Namespace, values: object,
+                 option_string: str | None = None) -> None:
+        print(_version())
+        parser.exit(0)
+
+
+def subparsers(parser: argparse.ArgumentParser) -> dict[str, argparse.ArgumentParser]:
+    """The subcommands of ``parser`` by name (``run`` and ``simulate`` of ``psmat study``, ...)."""
+    found: dict[str, argparse.ArgumentParser] = {}
+    for action in parser._actions:  # argparse keeps the actions only there
+        if isinstance(action, argparse._SubParsersAction):
+            found.update(action.choices)
+    return found
+
+
+def _for_people(parser: argparse.ArgumentParser) -> None:
+    """The help of ``parser`` and of every subcommand below it as plain, filled text with defaults."""
+    parser.formatter_class = HelpFormatter
+    parser.description = plain(parser.description)
+    for action in parser._actions:
+        if isinstance(action, argparse._SubParsersAction):
+            for choice in action._choices_actions:
+                choice.help = plain(choice.help)
+    for sub in subparsers(parser).values():
+        _for_people(sub)
+
+
 def build_parser() -> argparse.ArgumentParser:
-    parser = _Parser(prog="psmat", description="Low-cost pressure-sensitive mats")
-    sub = parser.add_subparsers(dest="command", required=True)
+    parser = _Parser(prog="psmat", description=DESCRIPTION, epilog=EPILOG)
+    parser.add_argument("--version", action=_Version)
+    sub = parser.add_subparsers(dest="command", required=True, metavar="command", title="commands")
     for mod in _command_modules():
-        p = sub.add_parser(mod.NAME, help=mod.HELP, description=mod.__doc__,
-                           add_help=getattr(mod, "ADD_HELP", True))
+        p = sub.add_parser(mod.NAME, help=mod.HELP, description=getattr(mod, "DESCRIPTION", None) or mod.__doc__)
         mod.add_arguments(p)
         p.set_defaults(func=mod.run, parser=p)
+    _for_people(parser)
     return parser
 
 

@@ -202,7 +202,7 @@ class Processor:
     def _solve_in_order(self, G: NDArray[np.float64], progress: bool | None) -> tuple[NDArray[np.float64],
                                                                                          iecm.SolveInfo]:
         """IECM on the carried one-worker stream, frame after frame."""
-        from tqdm.auto import tqdm
+        from psmat._progress import tqdm
 
         if self._stream is None:
             self._stream = iecm.Stream(self.shape, str(self.method), threads=1, max_pending=_PENDING,

@@ -22,7 +22,7 @@ from ..protocol import (CAL_RESUME, DAQ_START, DAQ_STOP, Gap, Opcode, Reply, Sta
 from .clock import HostClock
 from .errors import AcquireError, CommandRejected, CommandTimeout, DeviceDisconnected
 from .identify import describe, learn
-from .port import open_port
+from .port import close_port, open_port, read_chunk
 from .ring_buffer import FrameBatch, FrameRing
 from .stats import DeviceStats
 from .stream import Row, StreamDecoder, default_shape, frame_dtype
@@ -486,10 +486,7 @@ class Device:
     def _close_port(self) -> None:
         ser, self._ser = self._ser, None
         if ser is not None:
-            try:
-                ser.close()
-            except Exception:  # noqa: BLE001 - closing a vanished port
-                pass
+            close_port(ser)
 
     def _fail_waiters(self) -> None:
         with self._waiters_lock:
@@ -502,7 +499,7 @@ class Device:
             while not self._halt.is_set():
                 ser = self._ser
                 try:
-                    chunk = ser.read(max(1, ser.in_waiting))
+                    chunk = read_chunk(ser)
                 except _LINK_ERRORS + (TypeError, AttributeError) as exc:
                     if self._halt.is_set():
                         break
@@ -628,7 +625,7 @@ def open_device(port: str, kind: Literal["psm", "daq", "imu"] = "psm", protocol:
     ----------
     port : str
         ``/dev/ttyACM0``, a pty such as ``/dev/pts/3``, ``COM4``, or a pyserial URL
-        (``loop://``).
+        (``socket://127.0.0.1:5555`` - the twin on TCP, ``rfc2217://host:2217``, ``loop://``).
     kind : {"psm", "daq", "imu"}
         PSM mat, material DAQ (text lines, ``s``/``f``) or spine IMUs.
     protocol : {"v2", "v1"}

@@ -36,7 +36,8 @@ from .emulate import subgrids
 from .equilibrate import equilibrate
 from .scale import scale_factor
 
-__all__ = ["BASE_VARIANTS", "VARIANTS", "EXTRA_VARIANTS", "KNOWN_VARIANTS", "VariantTrace", "variant_traces"]
+__all__ = ["BASE_VARIANTS", "VARIANTS", "EXTRA_VARIANTS", "KNOWN_VARIANTS", "VariantName", "describe",
+           "legend_label", "VariantTrace", "variant_traces"]
 
 BASE_VARIANTS = ("PROP", "PROP-C", "CHC", "SCHC")
 #: The thesis' variants: what a study computes by default.
@@ -44,6 +45,80 @@ VARIANTS = BASE_VARIANTS + tuple(f"{v}-8x8" for v in BASE_VARIANTS)
 #: Variants beyond the thesis, computed when asked for by name.
 EXTRA_VARIANTS = ("SCHC-EQ",)
 KNOWN_VARIANTS = VARIANTS + EXTRA_VARIANTS
+
+
+@dataclass(frozen=True)
+class VariantName:
+    """What a variant's name stands for, for a person reading a report or a figure.
+
+    Attributes
+    ----------
+    name : str
+        As in ``metrics.csv`` (e.g. ``"SCHC-8x8"``).
+    expansion : str
+        The abbreviation spelled out (the thesis' list of acronyms), e.g. "Scaled Creep and
+        Hysteresis Compensation, on an emulated 8x8 mat".
+    recipe : str
+        What it computes, in one sentence; a composite (``SCHC-8x8``) names its base.
+    key : str
+        A short key for a figure legend ("IECM + sensor model, scaled to body weight").
+    """
+
+    name: str
+    expansion: str
+    recipe: str
+    key: str
+
+
+# (expansion, recipe, key) of each base name and of each suffix (thesis Tables 3.2, 3.4 and its
+# list of acronyms; IECM, the crosstalk removal, is spelled out by whoever shows these)
+_BASES = {
+    "FP": ("force platform", "the reference, the centre of pressure the platform measures",
+           "force platform (reference)"),
+    "PROP": ("proportional model", "crosstalk removed by IECM, then pressure taken proportional to the cell "
+             "conductance (thesis Tables 3.2, 3.4)", "IECM, pressure ∝ conductance"),
+    "PROP-C": ("proportional model without crosstalk removal", "pressure taken proportional to the raw "
+               "equivalent conductance, the crosstalk left in (no IECM; thesis Table 3.2)",
+               "no crosstalk removal, pressure ∝ conductance"),
+    "CHC": ("Creep and Hysteresis Compensation", "crosstalk removed by IECM, then the inverse sensor model, "
+            "which compensates the sensor's hysteresis and creep (thesis Table 3.4, §2.5)", "IECM + sensor model"),
+    "SCHC": ("Scaled Creep and Hysteresis Compensation", "crosstalk removed by IECM, the conductances scaled so "
+             "that the mat's total force matches the body weight (eq. 3.3), then the inverse sensor model "
+             "(thesis Table 3.4)", "IECM + sensor model, scaled to body weight"),
+}
+_SUFFIXES = {
+    "-8x8": ("on an emulated 8x8 mat", "on an emulated 8x8 mat: one of every two rows and columns of the 16x16 "
+             "(thesis Tables 3.2, 3.4; the four choices kept apart)", "emulated 8x8 mat"),
+    "-EQ": ("with per-cell equilibration", "with per-cell gains learned from the trial itself (beyond the "
+            "thesis)", "per-cell gains equilibrated"),
+    "-DYN": ("with a dynamic correction", "with its centre of pressure corrected by a linear filter fitted on "
+             "the other volunteers (beyond the thesis)", "filter fitted on other volunteers"),
+}
+
+
+def describe(name: str) -> VariantName | None:
+    """What ``name`` stands for: a base name (FP, PROP, PROP-C, CHC, SCHC) followed by any of the
+    suffixes -EQ, -DYN, -8x8 (e.g. ``"SCHC-8x8"``, ``"SCHC-DYN"``); None for a name psmat does not know."""
+    base, suffixes = name, []
+    while True:
+        suffix = next((s for s in _SUFFIXES if base.endswith(s) and len(base) > len(s)), None)
+        if suffix is None:
+            break
+        suffixes.insert(0, suffix)
+        base = base[: -len(suffix)]
+    if base not in _BASES:
+        return None
+    parts = [_BASES[base], *(_SUFFIXES[s] for s in suffixes)]
+    # a composite names its base (spelled out in its expansion) rather than repeating the base's recipe
+    recipe = parts[0][1] if not suffixes else f"{base} " + "; ".join(p[1] for p in parts[1:])
+    return VariantName(name, ", ".join(p[0] for p in parts), recipe, ", ".join(p[2] for p in parts))
+
+
+def legend_label(name: str) -> str:
+    """``"SCHC: IECM + sensor model, scaled to body weight"``: a variant with its short key (the name
+    alone when psmat does not know it)."""
+    found = describe(name)
+    return f"{name}: {found.key}" if found else name
 
 
 @dataclass

@@ -49,11 +49,12 @@ def _psmat_run(seconds: float, rate: int, protocol: str, faults: str) -> dict:
         dev.stop_recording()
         st = dev.stats
         sent = twin.stats.frames_sent
+        transport = twin.transport  # pty, or tcp where the system has no pty (Windows)
     cpu = time.process_time() - cpu0
     s = load_session(path)
     span = int(s.seq[-1] - s.seq[0] + 1) if s.seq is not None else s.n_frames
     return dict(frames=int(s.valid.sum()), invalid=int((~s.valid).sum()), lost=span - s.n_frames, span=span,
-                sent=sent, wall=wall, cpu=cpu, buffer_drops=st.dropped_buffer)
+                sent=sent, wall=wall, cpu=cpu, buffer_drops=st.dropped_buffer, transport=transport)
 
 
 def _read_exact(s, n: int, stop: threading.Event) -> bytes | None:
@@ -93,7 +94,7 @@ def thesis_read(s, shape: tuple[int, int], stop: threading.Event, out: dict) -> 
 def _thesis_reader(port: str, shape: tuple[int, int], stop: threading.Event, out: dict) -> None:
     import serial
 
-    with serial.Serial(port, timeout=0.2) as s:
+    with serial.serial_for_url(port, timeout=0.2) as s:  # a pty's path or the twin's socket:// URL
         s.reset_input_buffer()
         thesis_read(s, shape, stop, out)
 
@@ -113,19 +114,30 @@ def _thesis_run(seconds: float, rate: int, faults: str) -> dict:
     return out
 
 
-def main(argv: list[str] | None = None) -> int:
-    p = argparse.ArgumentParser(prog="python -m psmat.bench acquire", description=__doc__,
-                                formatter_class=argparse.RawDescriptionHelpFormatter)
-    p.add_argument("--seconds", type=float, default=600.0, help="clean-link run (s); docs/spec.md §10 target: 10 min")
-    p.add_argument("--fault-seconds", type=float, default=60.0, help="corrupted-link runs (s)")
-    p.add_argument("--rate", type=int, default=165)
-    p.add_argument("--faults", default="bit_flip=2e-6,drop_byte=2e-6,seed=1")
-    args = p.parse_args(argv)
+def build_parser(prog: str = "python -m psmat.bench acquire") -> argparse.ArgumentParser:
+    """The benchmark's options (its help: this module's docstring, every default and unit)."""
+    from .._help import HelpFormatter, plain
+
+    p = argparse.ArgumentParser(prog=prog, description=plain(__doc__), formatter_class=HelpFormatter)
+    p.add_argument("--seconds", type=float, default=600.0,
+                   help="length of the clean-link run, docs/spec.md §10's target is 10 min (s)")
+    p.add_argument("--fault-seconds", type=float, default=60.0,
+                   help="length of each corrupted-link run, psmat's and the thesis-style reader's (s)")
+    p.add_argument("--rate", type=int, default=165, help="the twin's frame rate (frames/s)")
+    p.add_argument("--faults", default="bit_flip=2e-6,drop_byte=2e-6,seed=1",
+                   help="the corrupted link's faults: probability per byte of a flipped bit and of a dropped "
+                        "byte, and the seed of their draws")
+    return p
+
+
+def main(argv: list[str] | None = None, prog: str = "python -m psmat.bench acquire") -> int:
+    args = build_parser(prog).parse_args(argv)
     t_start = time.monotonic()
     print(f"acquisition benchmark - {platform.processor() or platform.machine()}, {os.cpu_count()} CPUs, "
           f"Python {sys.version.split()[0]}", flush=True)
     r = _psmat_run(args.seconds, args.rate, "v2", "")
-    print(f"clean link, {args.rate} Hz, 16x16 v2, {r['wall']:.0f} s through the pty twin, psmat.acquire + session file:\n"
+    print(f"clean link, {args.rate} Hz, 16x16 v2, {r['wall']:.0f} s through the {r['transport']} twin, "
+          "psmat.acquire + session file:\n"
           f"  frames {r['frames']} valid, {r['invalid']} invalid, {r['lost']} lost (device seq span {r['span']}), "
           f"{r['buffer_drops']} buffer drops; {r['frames'] / r['wall']:.1f} frames/s; "
           f"host CPU {100 * r['cpu'] / r['wall']:.0f} % of one core (twin + reader + writer)", flush=True)

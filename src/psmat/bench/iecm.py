@@ -1,6 +1,8 @@
 """IECM benchmark: frames/s and accuracy of :func:`psmat.iecm.solve` beside the thesis' approach.
 
 ``python -m psmat.bench iecm [--quick] [--sizes 16,32,64] [--frames N] [--threads K] [--json PATH]``
+``python -m psmat.bench iecm --compare-native PORTABLE_PYTHON NATIVE_PYTHON``: two builds side by side
+(:mod:`psmat.bench.iecm_native`).
 
 What is measured (docs/spec.md §10)
 ---------------------------
@@ -21,7 +23,7 @@ model (:func:`psmat.bench.baseline_numpy.forward_numpy`), noise-free.
   targets ask for frames/s with every frame's complementarity residual <= 1e-6 and none
   over 50 iterations; the error against the true g is noise-limited there. Beside it, on the
   same noisy frames: psmat cold (every frame from g0 = G), the Fischer-Burmeister
-  ``bounded_newton`` that handled noisy frames before issue 14 (fewer frames above 32×32),
+  ``bounded_newton`` that was the earlier default for noisy frames (fewer frames above 32×32),
   and the thesis'/peer module's quick fixed point (25 iterations, β 0.05, streaming). Their
   ``resid`` is measured from the returned g alike (:func:`complementarity_residual`).
 
@@ -377,7 +379,7 @@ def run(sizes=(16, 32, 64), frames: int | None = None, threads=None, *, quick: b
                 emit(_measure_psmat(kw, fb, heavy, budget))
         # A real mat's data: noisy G (quiet cells end at the bound g = 0): psmat's default path
         # (Newton handing frames with bound cells to the active-set method), streaming and cold;
-        # in the same run the Fischer-Burmeister bounded Newton it replaced (issue 14) and the
+        # in the same run the Fischer-Burmeister bounded Newton it replaced (the earlier default) and the
         # thesis' quick fixed point (25 iterations, beta 0.05), with their measured residuals.
         for noisy in _noisy_entries(size, T, heavy, ncpu):
             kw = dict(size=size, threads=ncpu, seed=seed, min_time=min_time, max_time=budget,
@@ -440,7 +442,7 @@ def _noisy_entries(size: int, frames: int, heavy: bool, ncpu: int) -> list[dict]
         dict(mode="cold", frames=max(ncpu, min(frames, 2 * ncpu)) if heavy else frames,
              label=NOISY_LABEL.replace("newton,", "newton cold,")),
         dict(mode="streaming", frames=few, method="bounded_newton",
-             label="psmat bounded_newton (Fischer-Burmeister, before issue 14), noisy G"),
+             label="psmat bounded_newton (Fischer-Burmeister, the earlier default), noisy G"),
         dict(mode="streaming", frames=frames, method="fixed_point",
              solve_options=dict(beta=0.05, max_iter=25, rtol=1e-14),
              label="psmat fixed_point β=0.05, 25 it (thesis/peer), noisy G"),
@@ -457,12 +459,14 @@ def _int_list(text: str) -> list[int]:
     return vals
 
 
-def main(argv: list[str] | None = None) -> int:
-    p = argparse.ArgumentParser(
-        prog="python -m psmat.bench iecm",
-        description="IECM crosstalk removal: frames/s and accuracy of psmat beside the thesis' "
-                    "NumPy/SciPy approach, on swaying-feet recordings (docs/spec.md §10).")
-    p.add_argument("--sizes", type=_int_list, default=[16, 32, 64], help="array sizes N (N x N), default 16,32,64")
+def build_parser(prog: str = "python -m psmat.bench iecm") -> argparse.ArgumentParser:
+    """The benchmark's options (its help: this module's docstring, every default and unit)."""
+    from .._help import HelpFormatter, plain
+
+    p = argparse.ArgumentParser(prog=prog, description=plain(__doc__), formatter_class=HelpFormatter)
+    p.add_argument("--sizes", type=_int_list, default=None,
+                   help="comma-separated array sizes N, each an N x N mat (default: 16,32,64; with "
+                        "--compare-native 16,32)")
     p.add_argument("--frames", type=int, default=None,
                    help="frames per psmat streaming entry (default 2000 / 200 / 20 for 16 / 32 / 64; "
                         "--quick: a quarter); cold entries use at most this many")
@@ -471,17 +475,33 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--quick", action="store_true", help="short run (~1 minute for 16,32; 64x64 still costs its budget)")
     p.add_argument("--smoke", action="store_true",
                    help="seconds-long smoke test: minimal timing, no least squares, no fixed point to 1e-6")
-    p.add_argument("--min-time", type=float, default=None, help="seconds of timed work per entry (default 1, --quick 0.3)")
+    p.add_argument("--min-time", type=float, default=None,
+                   help="timed work per entry (s; default: 1, with --quick 0.3)")
     p.add_argument("--budget", type=float, default=None,
-                   help="wall-clock cap per entry in seconds (default 150, --quick 60)")
-    p.add_argument("--no-baselines", action="store_true", help="psmat Newton only")
-    p.add_argument("--seed", type=int, default=0, help="scene seed (default 0)")
-    p.add_argument("--json", metavar="PATH", default=None, help="also write the figures as JSON")
+                   help="wall-clock cap per entry (s; default: 150, with --quick 60)")
+    p.add_argument("--no-baselines", action="store_true", help="psmat Newton only, no baseline")
+    p.add_argument("--seed", type=int, default=0, help="seed of the swaying-feet scene")
+    p.add_argument("--json", metavar="PATH", default=None, help="also write the figures to this JSON file")
+    p.add_argument("--compare-native", nargs=2, metavar=("PORTABLE_PYTHON", "NATIVE_PYTHON"), default=None,
+                   help="instead: the streaming rows (noise-free and noisy G) measured by the psmat of each "
+                        "interpreter, a portable build and a PSMAT_NATIVE=ON one, side by side "
+                        "(psmat.bench.iecm_native)")
+    p.add_argument("--repeats", type=int, default=3,
+                   help="--compare-native: runs per row and build, alternating, the median reported")
+    return p
+
+
+def main(argv: list[str] | None = None, prog: str = "python -m psmat.bench iecm") -> int:
+    p = build_parser(prog)
     a = p.parse_args(argv)
     if a.frames is not None and a.frames < 1:
         p.error("--frames must be >= 1")
+    if a.sizes is None:
+        a.sizes = [16, 32] if a.compare_native else [16, 32, 64]
     if any(s < 2 for s in a.sizes):
         p.error("--sizes must be >= 2")
+    if a.compare_native:
+        return _compare_native(p, a)
     threads = a.threads
     t_start = time.perf_counter()
     res = run(a.sizes, a.frames, threads, quick=a.quick, smoke=a.smoke, min_time=a.min_time,
@@ -489,6 +509,29 @@ def main(argv: list[str] | None = None) -> int:
               log=lambda *x, **k: print(*x, file=sys.stderr, **k))
     print(format_table(res))
     print(f"- wall time of the whole benchmark: {time.perf_counter() - t_start:.0f} s")
+    if a.json:
+        with open(a.json, "w") as f:
+            json.dump(jsonable(res), f, indent=1)
+    return 0
+
+
+def _compare_native(p: argparse.ArgumentParser, a: argparse.Namespace) -> int:
+    """``--compare-native``: the table of :mod:`psmat.bench.iecm_native`."""
+    from .iecm_native import BUILDS, compare, format_comparison
+
+    if a.threads is not None and len(a.threads) != 1:
+        p.error("--compare-native takes one --threads value")
+    if a.repeats < 1:
+        p.error("--repeats must be >= 1")
+    t_start = time.perf_counter()
+    try:
+        res = compare(dict(zip(BUILDS, a.compare_native)), a.sizes, a.frames, a.threads and a.threads[0],
+                      quick=a.quick, repeats=a.repeats, seed=a.seed)
+    except (RuntimeError, OSError) as exc:
+        print(f"python -m psmat.bench iecm --compare-native: {exc}", file=sys.stderr)
+        return 1
+    print(format_comparison(res))
+    print(f"- wall time: {time.perf_counter() - t_start:.0f} s")
     if a.json:
         with open(a.json, "w") as f:
             json.dump(jsonable(res), f, indent=1)

@@ -1,4 +1,4 @@
-"""Sensor-model benchmark (docs/spec.md §10, issue 3): ``python -m psmat.bench sensor [--quick] [--seed K]``.
+"""Sensor-model benchmark (docs/spec.md §10): ``python -m psmat.bench sensor [--quick] [--seed K]``.
 
 1. Throughput of the C++ direct and inverse MPI + creep model on 256 cells, beside a NumPy
    implementation vectorised over cells (a Python loop over samples) run in the same process.
@@ -182,12 +182,20 @@ def run(quick: bool = False, seed: int = 0, log=print) -> dict:
     return {"machine": info, "seed": seed, "throughput": thr, "identification": ident, "data": data}
 
 
-def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(prog="python -m psmat.bench sensor", description=__doc__.split("\n\n")[0])
+def build_parser(prog: str = "python -m psmat.bench sensor") -> argparse.ArgumentParser:
+    """The benchmark's options (its help: this module's docstring, every default and unit)."""
+    from .._help import HelpFormatter, plain
+
+    ap = argparse.ArgumentParser(prog=prog, description=plain(__doc__), formatter_class=HelpFormatter)
     ap.add_argument("--quick", action="store_true", help="small data and budgets (about a minute)")
-    ap.add_argument("--seed", type=int, default=0, help="seed of the annealers, C++ and scipy (default 0); "
+    ap.add_argument("--seed", type=int, default=0, help="seed of the annealers, C++ and scipy; "
                     "the data do not change with it")
-    ap.add_argument("--json", help="write the figures to this file")
+    ap.add_argument("--json", metavar="PATH", help="also write the figures to this JSON file")
+    return ap
+
+
+def main(argv: list[str] | None = None, prog: str = "python -m psmat.bench sensor") -> int:
+    ap = build_parser(prog)
     args = ap.parse_args(argv)
     if args.seed < 0:
         ap.error(f"--seed must be >= 0, got {args.seed}")

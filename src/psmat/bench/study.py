@@ -1,4 +1,4 @@
-"""Balance-study benchmark (docs/spec.md §10, issue 12 item 6): ``python -m psmat.bench study``.
+"""Balance-study benchmark (docs/spec.md §10, thesis-size study): ``python -m psmat.bench study``.
 
 ``python -m psmat.bench study [--volunteers 42] [--seconds 60] [--rate 100] [--workers 2]
 [--dir PATH] [--seed K] [--no-baseline] [--json PATH]``
@@ -134,19 +134,27 @@ def format_report(r: dict[str, Any]) -> str:
     return "\n".join(lines)
 
 
-def main(argv: list[str] | None = None) -> int:
-    p = argparse.ArgumentParser(prog="python -m psmat.bench study", description=__doc__.split("\n\n")[0])
-    p.add_argument("--volunteers", type=int, default=42)
-    p.add_argument("--seconds", type=float, default=60.0)
-    p.add_argument("--rate", type=float, default=100.0, help="mat frame rate (Hz)")
-    p.add_argument("--workers", type=int, default=2)
-    p.add_argument("--seed", type=int, default=0)
-    p.add_argument("--dir", default=None, help="keep the simulated study here (reused when it matches)")
+def build_parser(prog: str = "python -m psmat.bench study") -> argparse.ArgumentParser:
+    """The benchmark's options (its help: this module's docstring, every default and unit)."""
+    from .._help import HelpFormatter, plain
+
+    p = argparse.ArgumentParser(prog=prog, description=plain(__doc__), formatter_class=HelpFormatter)
+    p.add_argument("--volunteers", type=int, default=42, help="volunteers of the simulated study, 3 trials each")
+    p.add_argument("--seconds", type=float, default=60.0, help="length of each trial (s)")
+    p.add_argument("--rate", type=float, default=100.0, help="the mats' frame rate (Hz)")
+    p.add_argument("--workers", type=int, default=2, help="processes, for psmat and for the baseline's pool")
+    p.add_argument("--seed", type=int, default=0, help="seed of the simulated study")
+    p.add_argument("--dir", metavar="PATH", default=None,
+                   help="keep the simulated study here, reused when it matches (default: a temporary folder)")
     p.add_argument("--no-baseline", action="store_true", help="skip the multiprocessing.Pool baseline")
-    p.add_argument("--json", default=None, help="also write the figures as JSON")
-    a = p.parse_args(argv)
+    p.add_argument("--json", metavar="PATH", default=None, help="also write the figures to this JSON file")
+    return p
+
+
+def main(argv: list[str] | None = None, prog: str = "python -m psmat.bench study") -> int:
+    a = build_parser(prog).parse_args(argv)
     if a.volunteers < 1 or a.seconds <= 0 or a.rate <= 0 or a.workers < 1:
-        print("python -m psmat.bench study: --volunteers, --seconds, --rate and --workers must be positive",
+        print(f"{prog}: --volunteers, --seconds, --rate and --workers must be positive",
               file=sys.stderr)
         return 2
     r = run(a.volunteers, a.seconds, a.rate, a.workers, a.seed, a.dir, not a.no_baseline)

@@ -9,7 +9,7 @@ from __future__ import annotations
 import argparse
 import math
 
-__all__ = ["shape", "seconds", "rate_hz", "positive_int"]
+__all__ = ["shape", "seconds", "rate_hz", "positive_int", "tcp_port"]
 
 #: rows and columns a mat may have: IECM needs at least 2 (docs/spec.md §3), the protocol's
 #: shape fields are one byte (docs/spec.md §5)
@@ -56,4 +56,15 @@ def positive_int(text: str) -> int:
         raise argparse.ArgumentTypeError(f"must be an integer, got {text!r}") from None
     if value < 1:
         raise argparse.ArgumentTypeError(f"must be >= 1, got {text!r}")
+    return value
+
+
+def tcp_port(text: str) -> int:
+    """A TCP port number 0 ... 65535 (0: a free one the system picks)."""
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"a TCP port is an integer 0 ... 65535, got {text!r}") from None
+    if not 0 <= value <= 65535:
+        raise argparse.ArgumentTypeError(f"a TCP port is 0 ... 65535, got {text!r}")
     return value

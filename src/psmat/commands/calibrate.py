@@ -16,12 +16,15 @@ HELP = "calibrate the box: R_adc from an open circuit, R_mux from shorted pairs;
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
-    p.add_argument("port", nargs="?", help="the box's serial port (omit with --simulate)")
+    p.add_argument("port", nargs="?", help="the box's serial port, or a pyserial URL such as "
+                   "socket://127.0.0.1:5555 (omit with --simulate)")
     p.add_argument("--simulate", action="store_true", help="calibrate the digital twin (no person needed)")
-    p.add_argument("--protocol", choices=("v1", "v2"), default="v2")
-    p.add_argument("--shape", type=_args.shape, default=(16, 16), help="rows x cols, e.g. 16x16")
-    p.add_argument("--pairs", default="corners", help="'corners', 'all', or pairs like 0,0;15,15")
-    p.add_argument("--seconds", type=_args.seconds, default=1.0, help="recording per step (s)")
+    p.add_argument("--protocol", choices=("v1", "v2"), default="v2",
+                   help="the box's frame format (docs/protocol.md)")
+    p.add_argument("--shape", type=_args.shape, default=(16, 16), help="the mat's rows x columns, e.g. 16x16")
+    p.add_argument("--pairs", default="corners",
+                   help="row,column pairs to short: 'corners', 'all', or a list like 0,0;15,15")
+    p.add_argument("--seconds", type=_args.seconds, default=1.0, help="recording length of each step (s)")
     p.add_argument("--per-pair", action="store_true", help="keep R_mux per pair (needs --pairs all)")
     p.add_argument("--out", default=None, help="file to write (default psmat_calibration_<serial>.json)")
     p.add_argument("--overwrite", action="store_true", help="replace an existing calibration file")

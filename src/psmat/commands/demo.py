@@ -18,17 +18,21 @@ HELP = "record, process and plot a swaying person on the simulated mat (or --por
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--out", default="psmat_demo.png", help="figure path (PNG)")
-    p.add_argument("--port", default=None, help="a real mat's serial port (default: a psmat box found on USB, "
-                   "else the digital twin)")
+    p.add_argument("--port", default=None, help="a real mat's serial port or pyserial URL (default: a psmat box "
+                   "found on USB, else the digital twin)")
     p.add_argument("--twin", action="store_true", help="use the digital twin even if a mat is plugged in")
     p.add_argument("--seconds", type=_args.seconds, default=8.0, help="recording length (s)")
-    p.add_argument("--rate", type=_args.positive_int, default=100, help="frames per second")
+    p.add_argument("--rate", type=_args.positive_int, default=100, help="frame rate of the recording (frames/s)")
     p.add_argument("--session", default="psmat_demo.h5", help="session file to write (HDF5)")
-    p.add_argument("--bds-trial", type=int, default=1, help="force-platform trial driving the twin")
+    p.add_argument("--bds-trial", type=int, default=1,
+                   help="trial of the BDS data set (force-platform recordings of human sway shipped with psmat) "
+                        "driving the twin")
     p.add_argument("--crosstalk", action="store_true", help="run the single-frame crosstalk demo instead")
-    p.add_argument("--shape", type=_args.shape, default=(16, 16), help="rows x cols of the simulated mat, e.g. 16x16")
-    p.add_argument("--noise-mv", type=float, default=1.0, help="ADC-node voltage noise SD in mV")
-    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--shape", type=_args.shape, default=(16, 16),
+                   help="rows x cols of the simulated mat, e.g. 16x16")
+    p.add_argument("--noise-mv", type=float, default=1.0,
+                   help="with --crosstalk: standard deviation of the voltage noise on the ADC node (mV)")
+    p.add_argument("--seed", type=int, default=0, help="seed of the simulation's random draws")
     p.add_argument("--show", action="store_true", help="also open a window")
 
 

@@ -12,7 +12,7 @@ that split, writing ``DIR/results/posture/table44_<split>.csv`` (thesis Table 4.
 ridge-on-PCA baseline beside it), figures as Figs. 4.13-4.16 and checkpoints (a killed training
 resumes). It needs PyTorch: ``pip install 'psmat[posture]'``.
 
-``psmat posture heldout DIR`` evaluates the held-out-subject models of issue 13 item 5 on the LSO
+``psmat posture heldout DIR`` evaluates the held-out-subject models (beyond the thesis) on the LSO
 test subjects (:mod:`psmat.posture.heldout`): the thesis' CNN, the CNN on subject-invariant
 inputs, both fine-tuned on each test subject's first 30 s, and the ridge-on-PCA baselines (raw,
 invariant, calibrated), all on the same windows after each session's calibration phase; it writes
@@ -54,54 +54,61 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                                    "bounces, slow rocking), the mat and the five spine IMUs recorded together; "
                                    "what the simulator knows goes to DIR/truth/.")
     s.add_argument("dir", metavar="DIR", help="the study folder to create")
-    s.add_argument("--subjects", type=_args.positive_int, default=12, help="number of subjects (default 12)")
-    s.add_argument("--days", type=_args.positive_int, default=3, help="sessions per subject, one a day (default 3)")
+    s.add_argument("--subjects", type=_args.positive_int, default=12, help="number of subjects")
+    s.add_argument("--days", type=_args.positive_int, default=3, help="sessions per subject, one a day")
     s.add_argument("--seed", type=int, required=True, help="seed of every random draw")
     s.add_argument("--seconds", type=_args.seconds, default=None,
-                   help="length of each session: the protocol scaled in time (default: the protocol's own, "
+                   help="length of each session, the protocol scaled in time (s; default: the protocol's own, "
                         "about 175 s)")
-    s.add_argument("--rate", type=_args.rate_hz, default=100.0, help="the mat's frame rate (Hz, default 100)")
+    s.add_argument("--rate", type=_args.rate_hz, default=100.0, help="the mat's frame rate (Hz)")
     s.add_argument("--quiet", action="store_true", help="no progress bar")
-    t = sub.add_parser("train", help="train the posture CNN on DIR's sessions (Table 4.4, Figs. 4.13-4.16)",
+    t = sub.add_parser("train", help="train the posture CNN (convolutional neural network) on DIR's sessions "
+                                     "(thesis Table 4.4, Figs. 4.13-4.16)",
                        description="Build each session's inputs (crosstalk removed, the mat averaged to the IMU "
                                    "rate; cached) and train the thesis' CNN on one split; write "
                                    "DIR/results/posture/table44_<split>.csv, figures and checkpoints.")
     t.add_argument("dir", metavar="DIR", help="the posture study folder (sessions/ with the mat and the IMUs)")
     t.add_argument("--split", choices=("ksi", "ksi-leaky", "lso"), required=True,
-                   help="ksi: the same subjects, contiguous 70/10/20 blocks of each session; ksi-leaky: the "
-                        "thesis' random 70/10/20 of overlapping windows (leaks); lso: subjects held out")
-    t.add_argument("--epochs", type=_args.positive_int, default=30, help="most epochs (default 30)")
+                   help="how the windows are split into training, validation and test sets (thesis Table 4.3): "
+                        "ksi (KSI, Keep Subjects In): the same subjects in every set, contiguous 70/10/20 %% "
+                        "blocks of each session; ksi-leaky: KSI as in the thesis, a random 70/10/20 %% of "
+                        "overlapping windows (a test window shares frames with training ones); lso (LSO, Leave "
+                        "Subjects Out): whole subjects held out of training")
+    t.add_argument("--epochs", type=_args.positive_int, default=30, help="most epochs")
     t.add_argument("--patience", type=_args.positive_int, default=5,
-                   help="early stopping after this many epochs without a lower validation loss (default 5)")
+                   help="early stopping after this many epochs without a lower validation loss")
     t.add_argument("--windows-per-epoch", type=_args.positive_int, default=8192,
-                   help="training windows drawn at random each epoch (default 8192)")
-    t.add_argument("--seed", type=int, default=0, help="seed of the split and the training (default 0)")
+                   help="training windows drawn at random each epoch")
+    t.add_argument("--seed", type=int, default=0, help="seed of the split and the training")
     t.add_argument("--workers", type=_args.positive_int, default=None,
                    help="processes building the inputs (default: every core)")
     t.add_argument("--out", default=None, help="output folder (default DIR/results/posture)")
     t.add_argument("--quiet", action="store_true", help="no progress bars")
-    h = sub.add_parser("heldout", help="held-out subjects (LSO test): invariant inputs, a 30 s calibration, "
-                                       "ridge-PCA baselines, on the same windows",
-                       description="Build each session's inputs (cached) and evaluate on the LSO test subjects, "
+    h = sub.add_parser("heldout", help="models for held-out subjects (the test subjects of LSO, Leave Subjects "
+                                       "Out): invariant inputs, a 30 s calibration, ridge regression on a PCA "
+                                       "(principal component analysis), on the same windows",
+                       description="Build each session's inputs (cached) and evaluate on the test subjects of the "
+                                   "LSO split (Leave Subjects Out: whole subjects held out of training), "
                                    "on the windows after each session's calibration phase: the thesis' CNN, the "
                                    "CNN on subject-invariant inputs, both fine-tuned on each test subject's "
                                    "calibration phase, and ridge on a PCA of the raw and invariant inputs "
                                    "(uncalibrated and offset-calibrated); write DIR/results/posture/heldout.csv "
                                    "and figures/heldout_r2.png.")
     h.add_argument("dir", metavar="DIR", help="the posture study folder (sessions/ with the mat and the IMUs)")
-    h.add_argument("--epochs", type=_args.positive_int, default=30, help="most epochs of each CNN (default 30)")
+    h.add_argument("--epochs", type=_args.positive_int, default=30,
+                   help="most epochs of each CNN (convolutional neural network)")
     h.add_argument("--patience", type=_args.positive_int, default=5,
-                   help="early stopping after this many epochs without a lower validation loss (default 5)")
+                   help="early stopping after this many epochs without a lower validation loss")
     h.add_argument("--windows-per-epoch", type=_args.positive_int, default=8192,
-                   help="training windows drawn at random each epoch (default 8192)")
+                   help="training windows drawn at random each epoch")
     h.add_argument("--calibration-s", type=_args.seconds, default=30.0,
-                   help="each session's calibration phase, the protocol's straight back (s, default 30)")
+                   help="each session's calibration phase, the protocol's straight back (s)")
     h.add_argument("--finetune-epochs", type=_args.positive_int, default=5,
-                   help="epochs of fine-tuning on a test subject's calibration windows (default 5)")
-    h.add_argument("--finetune-lr", type=_learning_rate, default=1e-3, help="its learning rate (default 1e-3)")
+                   help="epochs of fine-tuning on a test subject's calibration windows")
+    h.add_argument("--finetune-lr", type=_learning_rate, default=1e-3, help="the fine-tuning's learning rate")
     h.add_argument("--finetune-layers", choices=("last", "head", "all"), default="head",
-                   help="what the fine-tuning trains: the output layer, the dense layers (default) or all")
-    h.add_argument("--seed", type=int, default=0, help="seed of the trainings and fine-tunings (default 0)")
+                   help="what the fine-tuning trains: last (the output layer), head (the dense layers) or all")
+    h.add_argument("--seed", type=int, default=0, help="seed of the trainings and fine-tunings")
     h.add_argument("--workers", type=_args.positive_int, default=None,
                    help="processes building the inputs (default: every core)")
     h.add_argument("--out", default=None, help="output folder (default DIR/results/posture)")
@@ -151,7 +158,10 @@ def _train(args: argparse.Namespace) -> int:
     except (OSError, ValueError) as exc:
         print(f"psmat posture train: {_line(exc)}", file=sys.stderr)
         return 1
-    print(f"{len(study.recordings)} sessions, split {args.split}: best epoch {result.best_epoch}; "
+    from ..posture.splits import SPLIT_NAMES
+
+    print(f"{len(study.recordings)} sessions, split {args.split} = {SPLIT_NAMES[args.split]}: "
+          f"best epoch {result.best_epoch}; "
           f"{out / f'table44_{args.split}.csv'}")
     _print_rows([*result.rows, *result.baseline_rows])
     return 0
@@ -176,7 +186,8 @@ def _heldout(args: argparse.Namespace) -> int:
     except (OSError, ValueError) as exc:
         print(f"psmat posture heldout: {_line(exc)}", file=sys.stderr)
         return 1
-    print(f"{len(study.recordings)} sessions, LSO test subjects {', '.join(result.split.subjects['test'])}, "
+    print(f"{len(study.recordings)} sessions, test subjects of LSO (Leave Subjects Out) "
+          f"{', '.join(result.split.subjects['test'])}, "
           f"windows after the first {args.calibration_s:g} s; {result.table_path}")
     _print_rows(result.rows)
     return 0

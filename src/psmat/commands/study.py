@@ -18,6 +18,15 @@ NAME = "study"
 HELP = "run a balance study folder (metrics, summary, figures, report) or simulate one"
 
 
+def _variant_key() -> str:
+    """The variants spelled out, for --variants' help (from :mod:`psmat.balance.variants`)."""
+    from ..balance.variants import BASE_VARIANTS, EXTRA_VARIANTS, describe
+
+    keys = [f"{v}: {describe(v).key}" for v in (*BASE_VARIANTS, *EXTRA_VARIANTS)]  # type: ignore[union-attr]
+    return ("Variants: " + "; ".join(keys) + "; X-8x8: X on an emulated 8x8 mat; IECM: the Inverse of "
+            "Equivalent Conductance Method, the crosstalk removal.")
+
+
 def add_arguments(p: argparse.ArgumentParser) -> None:
     sub = p.add_subparsers(dest="action", required=True, metavar="{run,simulate}")
     r = sub.add_parser("run", help="process every session of DIR into DIR/results/ (resumable)",
@@ -29,9 +38,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     r.add_argument("--scheduler", metavar="ADDRESS", default=None,
                    help="a Dask distributed scheduler, e.g. tcp://host:8786 (DIR on a shared filesystem)")
     r.add_argument("--variants", metavar="NAMES", default=None,
-                   help="comma-separated variants to compute (default: the thesis' PROP, PROP-C, CHC, SCHC and "
-                        "their 8x8; 'default' stands for those, e.g. default,SCHC-EQ adds the per-cell "
-                        "equilibration)")
+                   help="comma-separated processing variants to compute (default: the thesis' PROP, PROP-C, "
+                        "CHC, SCHC and their 8x8; 'default' stands for those, e.g. default,SCHC-EQ adds the "
+                        "per-cell equilibration). " + _variant_key())
     r.add_argument("--quiet", action="store_true", help="no progress bar")
     s = sub.add_parser("simulate", help="write a simulated balance study into DIR",
                        description="Write a simulated balance study (docs/spec.md §7): three trials per volunteer "
@@ -40,9 +49,10 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     s.add_argument("--volunteers", type=_args.positive_int, required=True, help="number of volunteers")
     s.add_argument("--seconds", type=_args.seconds, required=True, help="length of each trial (s)")
     s.add_argument("--seed", type=int, required=True, help="seed of every random draw")
-    s.add_argument("--rate", type=_args.rate_hz, default=100.0, help="the mats' frame rate (Hz, default 100)")
+    s.add_argument("--rate", type=_args.rate_hz, default=100.0, help="the mats' frame rate (Hz)")
     s.add_argument("--bds", nargs="+", metavar="FILE", default=None,
-                   help="BDS trial files to draw trajectories from (default: the shared data set)")
+                   help="trial files of the BDS data set (force-platform recordings of human sway) to draw "
+                        "trajectories from (default: those shipped with psmat)")
 
 
 def run(args: argparse.Namespace) -> int:

@@ -27,19 +27,26 @@ EXIT_DISCONNECTED = 3
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
-    p.add_argument("port", nargs="?", default=None, help="the mat's serial port (/dev/ttyACM0, COM4, a pty)")
+    p.add_argument("port", nargs="?", default=None, help="the mat's serial port (/dev/ttyACM0, COM4, a pty) or a "
+                   "pyserial URL such as socket://127.0.0.1:5555")
     p.add_argument("--simulate", action="store_true", help="view the digital twin instead of a mat")
-    p.add_argument("--rate", type=_args.positive_int, default=100, help="twin frame rate, frames/s (with --simulate)")
-    p.add_argument("--protocol", choices=("v1", "v2"), default="v2", help="frame format")
-    p.add_argument("--scene", default="sway", help="twin scene (with --simulate): sway, quiet, single-leg, sitting")
+    p.add_argument("--rate", type=_args.positive_int, default=100,
+                   help="with --simulate: the twin's frame rate (frames/s)")
+    p.add_argument("--protocol", choices=("v1", "v2"), default="v2",
+                   help="the mat's frame format (docs/protocol.md)")
+    p.add_argument("--scene", default="sway",
+                   help="with --simulate: the twin's scene, sway, quiet, single-leg or sitting")
     p.add_argument("--shape", type=_args.shape, default=None,
-                   help="mat rows x cols, e.g. 16x16 (default: what the mat reports, else 16x16)")
+                   help="the mat's rows x columns, e.g. 16x16 (default: what the mat reports, else 16x16)")
     p.add_argument("--decimate", type=_args.positive_int, default=1, help="process and draw every Nth frame")
-    p.add_argument("--seconds", type=_args.seconds, default=None, help="close after this many seconds")
+    p.add_argument("--seconds", type=_args.seconds, default=None,
+                   help="close after this long (s; default: when the window is closed)")
     p.add_argument("--save", default=None, metavar="PNG", help="write a screenshot of the figure at the end")
-    p.add_argument("--no-iecm", action="store_true", help="raw image and raw CoP only (for slow machines)")
+    p.add_argument("--no-iecm", action="store_true",
+                   help="raw image and raw centre of pressure (CoP) only, without IECM (crosstalk removal), for "
+                        "slow machines")
     p.add_argument("--g-rest", type=float, default=1e-7,
-                   help="conductance of an unloaded cell (S), subtracted before the sensor model")
+                   help="conductance of an unloaded cell, subtracted before the sensor model (S)")
     p.add_argument("--interval", type=_args.seconds, default=0.05, help="pause between redraws (s)")
 
 

@@ -1,4 +1,4 @@
-"""Issue 12 item 4b measured in simulation: the dynamic correction of :mod:`psmat.study.dynamic`
+"""Measured in simulation, beyond the thesis: the dynamic correction of :mod:`psmat.study.dynamic`
 on volunteers it was not fitted on, against the base variant it corrects.
 
 The study is the honest simulation of docs/spec.md §7 (:func:`psmat.study.simulate.simulate_study`:
@@ -142,10 +142,13 @@ def dynamic_correction(volunteers: int = 8, seconds: float = 30.0, seed: int = 0
 
 def main(argv: Sequence[str] | None = None) -> None:
     """Print the tables (``--volunteers``, ``--seconds``, ``--seed``, ``--rate``)."""
-    ap = argparse.ArgumentParser(prog="python -m psmat.experiments.dynamic_correction", description=__doc__.split("\n")[0])
-    ap.add_argument("--volunteers", type=int, default=8)
-    ap.add_argument("--seconds", type=float, default=30.0)
-    ap.add_argument("--seed", type=int, default=0)
+    from .._help import HelpFormatter, plain
+
+    ap = argparse.ArgumentParser(prog="python -m psmat.experiments.dynamic_correction", description=plain(__doc__),
+                                 formatter_class=HelpFormatter)
+    ap.add_argument("--volunteers", type=int, default=8, help="volunteers of the simulated study, 3 trials each")
+    ap.add_argument("--seconds", type=float, default=30.0, help="length of each trial (s)")
+    ap.add_argument("--seed", type=int, default=0, help="seed of the simulated study")
     ap.add_argument("--rate", type=float, default=100.0, help="the mat's frame rate (Hz)")
     a = ap.parse_args(argv)
     r = dynamic_correction(a.volunteers, a.seconds, a.seed, a.rate)

@@ -1,4 +1,4 @@
-"""Issue 12 item 4a measured in simulation: SCHC-EQ (the per-cell equilibration of
+"""Measured in simulation, beyond the thesis: SCHC-EQ (the per-cell equilibration of
 :mod:`psmat.balance.equilibrate`) against SCHC on trials whose mat the processing does not know.
 
 Each case is built as ``tests/test_study_trial.py`` builds one: a BDS force-platform trajectory
@@ -187,10 +187,15 @@ def equilibration_study(trials: Sequence[int] = TRIALS, seeds: Sequence[int] = S
 
 def main(argv: Sequence[str] | None = None) -> None:
     """Print the table (``--trials``, ``--seeds``, ``--seconds``)."""
-    ap = argparse.ArgumentParser(prog="python -m psmat.experiments.equilibration", description=__doc__.split("\n")[0])
-    ap.add_argument("--trials", type=int, nargs="+", default=list(TRIALS), help="BDS trial numbers")
+    from .._help import HelpFormatter, plain
+
+    ap = argparse.ArgumentParser(prog="python -m psmat.experiments.equilibration", description=plain(__doc__),
+                                 formatter_class=HelpFormatter)
+    ap.add_argument("--trials", type=int, nargs="+", default=list(TRIALS),
+                    help="trial numbers of the BDS data set (force-platform recordings of human sway shipped "
+                         "with psmat)")
     ap.add_argument("--seeds", type=int, nargs="+", default=list(SEEDS), help="seeds of the cell gains and noise")
-    ap.add_argument("--seconds", type=float, default=25.0)
+    ap.add_argument("--seconds", type=float, default=25.0, help="length of each trial (s)")
     a = ap.parse_args(argv)
     r = equilibration_study(a.trials, a.seeds, a.seconds, progress=True)
     print(f"\nSCHC-EQ against SCHC (simulation: BDS trials {a.trials} x seeds {a.seeds}, {a.seconds:g} s at 50 Hz, "

@@ -307,7 +307,7 @@ def solve(
 
 def _wait(job, total: int, progress: bool | None) -> None:
     """Wait for a BatchJob, driving a progress bar and honouring Ctrl-C."""
-    from tqdm.auto import tqdm
+    from psmat._progress import tqdm
 
     show = progress if progress is not None else (total >= 2000)
     bar = tqdm(total=total, unit="frame", desc="IECM", disable=None if show else True, leave=False)

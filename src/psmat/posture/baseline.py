@@ -1,4 +1,4 @@
-"""A linear baseline (issue 13, 5(c)): ridge regression on a PCA of the window-averaged image.
+"""A linear baseline (beyond the thesis): ridge regression on a PCA of the window-averaged image.
 
 Features: the mean image of each window (``R·C`` cells), standardised as the CNN's input
 (training mean and SD), centred on the training mean; PCA by SVD of the training features;

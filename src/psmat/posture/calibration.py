@@ -1,4 +1,4 @@
-"""A new subject's calibration phase and the windows scored after it (issue 13, 5(b)); numpy only.
+"""A new subject's calibration phase and the windows scored after it (beyond the thesis); numpy only.
 
 Every session of the thesis' protocol opens with ``calibration_s`` = 30 s sitting with a straight
 back (§4.3). For a held-out subject that phase is the calibration (the thesis' own suggestion,

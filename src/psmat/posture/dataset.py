@@ -314,7 +314,7 @@ def load_posture_study(root: str | os.PathLike[str], *, workers: int | None = No
         The recordings, the problems (a session that failed is left out and named there) and how
         many sessions were computed rather than read from the cache.
     """
-    from tqdm.auto import tqdm
+    from psmat._progress import tqdm
 
     root = Path(root)
     p = {**DEFAULT_PARAMS, **(params or {})}

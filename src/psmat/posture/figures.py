@@ -24,7 +24,7 @@ def plot_predictions(measured: NDArray[np.float64], predicted: NDArray[np.float6
     path : str or Path
         PNG to write.
     title : str
-        Figure title (e.g. ``"KSI, test set (simulation)"``).
+        Figure title (e.g. ``"KSI (Keep Subjects In: ...), test set (simulation)"``: abbreviations spelled out).
     """
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
@@ -35,9 +35,9 @@ def plot_predictions(measured: NDArray[np.float64], predicted: NDArray[np.float6
     n = np.arange(len(measured))
     r2 = r2_per_output(measured, predicted)
     for j, (ax, name) in enumerate(zip(axes, OUTPUTS)):
-        ax.plot(n, measured[:, j], lw=0.8, color="k", label="measured (IMU)")
-        ax.plot(n, predicted[:, j], lw=0.8, color="tab:red", alpha=0.8, label="predicted (mat)")
-        ax.set_title(f"{name}  R² = {r2[j]:.3f}", fontsize=10)
+        ax.plot(n, measured[:, j], lw=0.8, color="k", label="measured by the spine IMUs (inertial measurement units)")
+        ax.plot(n, predicted[:, j], lw=0.8, color="tab:red", alpha=0.8, label="predicted from the mat")
+        ax.set_title(f"{name}  R² (coefficient of determination) = {r2[j]:.3f}", fontsize=10)
         ax.set_ylabel("angle (rad)")
     for ax in axes[-2:]:
         ax.set_xlabel("sample (window)")

@@ -1,4 +1,4 @@
-"""Fine-tuning the posture CNN on a new subject's calibration windows (issue 13, 5(b); thesis §4.4).
+"""Fine-tuning the posture CNN on a new subject's calibration windows (beyond the thesis, after its §4.4).
 
 The thesis: "if a new volunteer is going to use the system a kind of calibration stage would be
 required ... The model should be trained again to adapt to possible variations in the pressure

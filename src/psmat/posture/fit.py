@@ -17,8 +17,8 @@ from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
-from tqdm.auto import tqdm
 
+from .._progress import tqdm
 from ._torch import nn, torch
 from .torchdata import WindowDataset
 

@@ -1,4 +1,4 @@
-"""``heldout_study``: held-out subjects beyond the thesis (issue 13 item 5), all on the same windows.
+"""``heldout_study``: held-out subjects beyond the thesis (its §4.4 future work), all on the same windows.
 
 On the LSO split (:func:`~psmat.posture.splits.lso_split`, Table 4.3's subjects by default) every
 model is scored on the same windows: those of the validation and test subjects that start after
@@ -35,7 +35,6 @@ Writes ``out_dir/heldout.csv`` (Table 4.4's columns, ``model`` naming the varian
 
 from __future__ import annotations
 
-import os
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -43,9 +42,10 @@ from typing import Any, Literal
 
 import numpy as np
 from numpy.typing import NDArray
-from tqdm.auto import tqdm
 
 from .._checks import positive, positive_int
+from .._cpus import usable_cpus
+from .._progress import tqdm
 from ._torch import torch
 from .calibration import HeldoutWindows, apply_offsets, heldout_windows, offsets_from_calibration, ridge_variants
 from .finetune import FinetuneConfig, finetune
@@ -132,7 +132,7 @@ def heldout_study(recordings: Sequence[Recording], out_dir: str | Path, *, seed:
                   augment_invariant: bool = False, finetune_config: FinetuneConfig = FinetuneConfig(),
                   threads: int | None = None, resume: bool = True, progress: bool = True,
                   label: str | None = None) -> HeldoutResult:
-    """Every held-out-subject model of issue 13 item 5 on the LSO test subjects (see the module note).
+    """Every held-out-subject model (beyond the thesis) on the LSO test subjects (see the module note).
 
     Parameters
     ----------
@@ -200,7 +200,7 @@ def heldout_study(recordings: Sequence[Recording], out_dir: str | Path, *, seed:
 
     prev = torch.get_num_threads()
     torch.set_num_threads(positive_int("threads", threads) if threads is not None
-                          else max(1, len(os.sched_getaffinity(0)) - 1))
+                          else max(1, usable_cpus() - 1))
     drawn: dict[str, dict[str, NDArray[np.int64]]] = {}
     n_test_subjects = len(split.subjects["test"])
     try:
@@ -225,6 +225,6 @@ def heldout_study(recordings: Sequence[Recording], out_dir: str | Path, *, seed:
     table = write_table44(rows, out / TABLE)
     suffix = f" ({label})" if label else ""
     fig = plot_r2_bars([r for r in rows if r["subset"] == "test"], out / "figures" / FIGURE,
-                       title=f"Held-out subjects (LSO test: {', '.join(split.subjects['test'])}), windows after "
-                             f"the first {calibration_s:g} s{suffix}")
+                       title=f"Held-out subjects: the test subjects of LSO (Leave Subjects Out), "
+                             f"{', '.join(split.subjects['test'])}, windows after the first {calibration_s:g} s{suffix}")
     return HeldoutResult(rows, split, held, targets, preds, drawn, cnn, cnn_inv, table, fig)

@@ -1,4 +1,4 @@
-"""R² per output of each held-out-subject model, as grouped bars (issue 13 item 5); Agg, PNG."""
+"""R² per output of each held-out-subject model, as grouped bars (beyond the thesis); Agg, PNG."""
 
 from __future__ import annotations
 
@@ -14,6 +14,10 @@ __all__ = ["plot_r2_bars"]
 
 #: The axis' floor: R² runs to -inf (the thesis' LSO Sensor4: -2.4); lower bars are cut and labelled.
 R2_FLOOR = -1.0
+#: The abbreviations of the models' names, spelled out under the legend when a name uses them.
+TERMS = {"CNN": "the thesis' convolutional neural network (§4.3)",
+         "PCA": "principal component analysis of the window-mean image",
+         "ridge": "ridge regression"}
 
 
 def plot_r2_bars(rows: Sequence[dict[str, Any]], path: str | Path, *, title: str) -> Path:
@@ -48,8 +52,18 @@ def plot_r2_bars(rows: Sequence[dict[str, Any]], path: str | Path, *, title: str
     ax.set_xticks(x, OUTPUTS)
     ax.set_ylim(R2_FLOOR, 1.0)
     ax.set_ylabel("R²")
-    fig.legend(fontsize=8, loc="outside right upper")
-    ax.set_title(title)
+    from matplotlib.patches import Patch
+
+    handles, labels = ax.get_legend_handles_labels()
+    names = " ".join(str(row["model"]) for row in rows)
+    for term, meaning in TERMS.items():
+        if term in names:
+            handles.append(Patch(visible=False))
+            labels.append(f"{term}: {meaning}")
+    handles.append(Patch(visible=False))
+    labels.append("R²: coefficient of determination")
+    fig.legend(handles, labels, fontsize=8, loc="outside lower center", ncols=3)
+    fig.suptitle(title)
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(path, dpi=100)

@@ -1,4 +1,4 @@
-"""Subject-invariant inputs for held-out subjects (issue 13, 5(a)): numpy and scipy only.
+"""Subject-invariant inputs for held-out subjects (beyond the thesis): numpy and scipy only.
 
 A new person differs from the training subjects in weight (the whole image scales with it, and
 with the mat's unknown conductance scale, chapter 3's f) and in where they sit on the cushion

@@ -182,7 +182,7 @@ def simulate_posture_study(root: str | os.PathLike[str], *, subjects: int = 12, 
     FileExistsError
         ``root`` exists and is not an empty folder.
     """
-    from tqdm.auto import tqdm
+    from psmat._progress import tqdm
 
     n, n_days, seed_, rate, secs, shape_ = _check(subjects, days, seed, rate_hz, seconds, shape)
     out = _new_root(root)

@@ -26,13 +26,20 @@ from .._checks import fraction
 from .recording import Recording
 from .windows import WINDOW, all_windows
 
-__all__ = ["SUBSETS", "FRACTIONS", "SPLITS", "Split", "ksi_split", "ksi_leaky_split", "lso_subjects", "lso_split",
-           "make_split"]
+__all__ = ["SUBSETS", "FRACTIONS", "SPLITS", "SPLIT_NAMES", "Split", "ksi_split", "ksi_leaky_split", "lso_subjects",
+           "lso_split", "make_split"]
 
 SUBSETS = ("train", "validation", "test")
 #: Thesis §4.3: 70 % training, 10 % validation, 20 % test.
 FRACTIONS = (0.7, 0.1, 0.2)
 SPLITS = ("ksi", "ksi-leaky", "lso")
+#: Each split spelled out for a figure or a report (thesis §4.3, Table 4.3).
+SPLIT_NAMES = {
+    "ksi": "KSI (Keep Subjects In: the same subjects in every set), contiguous blocks of each session",
+    "ksi-leaky": "KSI (Keep Subjects In: the same subjects in every set) as in the thesis, random windows "
+                 "that share frames across sets",
+    "lso": "LSO (Leave Subjects Out: the validation and test subjects are not in training)",
+}
 
 
 @dataclass(frozen=True)

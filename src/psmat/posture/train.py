@@ -16,7 +16,6 @@ from __future__ import annotations
 import csv
 import hashlib
 import json
-import os
 from collections.abc import Callable, Sequence
 from dataclasses import asdict, dataclass
 from pathlib import Path
@@ -25,6 +24,7 @@ from typing import Any
 import numpy as np
 
 from .._checks import positive_int
+from .._cpus import usable_cpus
 from ._torch import torch
 from .baseline import ridge_pca_rows
 from .figures import plot_predictions
@@ -32,13 +32,14 @@ from .fit import FitConfig, fit, predict
 from .metrics import table44_row, write_table44
 from .model import POOLS, PostureCNN, n_parameters
 from .recording import Recording
-from .splits import SPLITS, Split, make_split
+from .splits import SPLIT_NAMES, SPLITS, Split, make_split
 from .torchdata import WindowDataset
 from .windows import WINDOW, Standardiser
 
 __all__ = ["PostureResult", "train_posture"]
 
-TITLES = {"ksi": "KSI (contiguous blocks)", "ksi-leaky": "KSI (thesis: random windows, leaky)", "lso": "LSO"}
+#: Figure titles: each split spelled out.
+TITLES = SPLIT_NAMES
 
 
 @dataclass
@@ -184,7 +185,7 @@ def train_posture(recordings: Sequence[Recording], out_dir: str | Path, *, split
 
     prev_threads = torch.get_num_threads()
     torch.set_num_threads(positive_int("threads", threads) if threads is not None
-                          else max(1, len(os.sched_getaffinity(0)) - 1))
+                          else max(1, usable_cpus() - 1))
     try:
         torch.manual_seed(seed)  # Kaiming initial weights
         model = PostureCNN(window, R * C, channels=channels, hidden=hidden, pools=pools)

@@ -251,7 +251,7 @@ def _run_chains(chain, chains, total, progress, counters):
     """Run ``chain(k)`` for k < chains on threads (the C++ releases the GIL) with a progress bar."""
     from concurrent.futures import ThreadPoolExecutor, wait
 
-    from tqdm.auto import tqdm
+    from psmat._progress import tqdm
 
     with ThreadPoolExecutor(max_workers=chains) as pool, tqdm(
         total=total, unit="eval", desc="annealing", leave=False, disable=None if progress is None else not progress

@@ -31,6 +31,7 @@ from typing import IO, Any
 
 import numpy as np
 
+from .._filelock import LockHeld, exclusive_lock
 from .trial import COLUMNS, Rows, Traces
 
 __all__ = ["SCHEMA", "file_sha256", "result_key", "canonical_json", "SessionStore", "TraceFiles", "study_lock"]
@@ -200,26 +201,20 @@ class TraceFiles(Mapping[tuple[str, str], Traces]):
 
 @contextlib.contextmanager
 def study_lock(results: Path) -> Iterator[None]:
-    """One run at a time per study: an exclusive lock on ``results/.lock`` (released by the
-    system even when the run is killed). Where ``fcntl`` is missing (Windows) nothing is locked.
+    """One run at a time per study: an exclusive lock on ``results/.lock``
+    (:func:`psmat._filelock.exclusive_lock`: ``flock`` on POSIX, ``msvcrt.locking`` on
+    Windows), released by the system even when the run is killed, so a killed run's lock
+    file never blocks the next one.
 
     Raises
     ------
     RuntimeError
         Another run holds the lock.
     """
-    try:
-        import fcntl
-    except ImportError:  # pragma: no cover - Windows
-        yield
-        return
     results.mkdir(parents=True, exist_ok=True)
-    with open(results / ".lock", "a+b") as fh:
+    with contextlib.ExitStack() as held:
         try:
-            fcntl.flock(fh.fileno(), fcntl.LOCK_EX | fcntl.LOCK_NB)
-        except BlockingIOError:
+            held.enter_context(exclusive_lock(results / ".lock"))
+        except LockHeld:
             raise RuntimeError(f"another psmat study run is writing {results}") from None
-        try:
-            yield
-        finally:
-            fcntl.flock(fh.fileno(), fcntl.LOCK_UN)
+        yield

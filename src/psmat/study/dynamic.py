@@ -1,5 +1,5 @@
 """A dynamic correction of the mat's smaller sway, fitted on some volunteers and applied to others
-(issue 12, item 4b; beyond the thesis).
+(beyond the thesis).
 
 The thesis (§3.3, Tables 3.5/3.6, Fig. 3.2) and the studies it reviews (§3.1) find that a mat's
 CoP spreads less than the force platform's; for one commercial mat (a Nitta C-scan against an

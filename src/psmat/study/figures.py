@@ -1,7 +1,8 @@
 """Figures of a balance study (thesis Figs. 3.2-3.7): bars of σ and Eu per variant, CoP
 traces against the platform, Bland–Altman of σ; matplotlib's object API (Agg), PNG.
 
-Every function takes an optional ``label`` (e.g. ``"simulation"``) shown in the title.
+Every function takes an optional ``label`` (e.g. ``"simulation"``) shown in the title. Each figure
+carries a key that spells out the variants it shows (:func:`psmat.balance.variants.legend_label`).
 """
 
 from __future__ import annotations
@@ -14,6 +15,7 @@ from typing import Any
 
 import numpy as np
 
+from ..balance.variants import legend_label
 from .summary import REFERENCE, SIGMAS, StudyRows
 
 __all__ = ["TRACE_VARIANTS", "sigma_bars", "eu_bars", "median_session", "ranking_variant", "trace_variants", "cop_traces",
@@ -22,6 +24,7 @@ __all__ = ["TRACE_VARIANTS", "sigma_bars", "eu_bars", "median_session", "ranking
 #: Variants drawn against FP in the trace figures when present (thesis Figs. 3.6, 3.7).
 TRACE_VARIANTS = ("PROP", "SCHC", "SCHC-8x8")
 AXES = {"sd_ml_cm": ("M-L", r"$\sigma_{ML}$"), "sd_ap_cm": ("A-P", r"$\sigma_{AP}$")}
+LONG_AXES = {"M-L": "the medial-lateral direction (M-L)", "A-P": "the anterior-posterior direction (A-P)"}
 DPI = 100
 
 
@@ -52,6 +55,20 @@ def _colours(variants: Sequence[str]) -> dict[str, Any]:
     cycle = colormaps["tab10"].colors
     others = [v for v in variants if v != REFERENCE]
     return {REFERENCE: "black", **{v: cycle[i % len(cycle)] for i, v in enumerate(others)}}
+
+
+def _key(fig: Any, variants: Sequence[str], colours: Mapping[str, Any] | None = None) -> None:
+    """Below the panels, each variant with what it stands for ("SCHC: IECM + sensor model, ..."), as
+    a coloured patch when ``colours`` is given; IECM, the crosstalk removal, spelled out once."""
+    from matplotlib.patches import Patch
+
+    labels = [legend_label(v) for v in variants]
+    if any("IECM" in label for label in labels):
+        labels.append("IECM: Inverse of Equivalent Conductance Method, the crosstalk removal")
+    handles = [Patch(facecolor=colours[v]) if colours else Patch(visible=False) for v in variants]
+    handles += [Patch(visible=False)] * (len(labels) - len(handles))
+    fig.legend(handles, labels, loc="outside lower center", ncols=2, fontsize="small", frameon=False,
+               **({} if colours else {"handlelength": 0, "handletextpad": 0}))
 
 
 def _order(summary: Sequence[Mapping[str, Any]], key: str) -> list[str]:
@@ -91,7 +108,9 @@ def sigma_bars(summary: Sequence[Mapping[str, Any]], path: str | os.PathLike[str
             _bars(ax[i, j], rows, f"{key}_mean_cm", f"{key}_sd_cm", colours)
             ax[i, j].set_ylabel(f"{AXES[metric][1]} (cm)")
             ax[i, j].set_title(f"{trial}, {AXES[metric][0]}")
-    fig.suptitle(_title("CoP standard deviation per variant, mean ± SD across volunteers", label))
+    _key(fig, _order(summary, "variant"), colours)
+    fig.suptitle(_title("Standard deviation σ of the centre of pressure per variant, mean ± SD across volunteers"
+                        "\nalong the medial-lateral (M-L) and anterior-posterior (A-P) directions", label))
     return _save(fig, path)
 
 
@@ -104,7 +123,9 @@ def eu_bars(summary: Sequence[Mapping[str, Any]], path: str | os.PathLike[str], 
         _bars(ax[0, j], rows, "eu_mean_cm", "eu_sd_cm", colours)
         ax[0, j].set_ylabel("Eu (cm)")
         ax[0, j].set_title(trial)
-    fig.suptitle(_title("Trajectory distance Eu to the force platform, mean ± SD across volunteers", label))
+    _key(fig, [v for v in _order(summary, "variant") if v != REFERENCE], colours)
+    fig.suptitle(_title("Trajectory distance Eu (eq. 3.1) to the force platform (FP), mean ± SD across "
+                        "volunteers", label))
     return _save(fig, path)
 
 
@@ -157,13 +178,14 @@ def cop_traces(study: StudyRows, traces: Mapping[tuple[str, str], Mapping[str, A
         c = np.asarray(tr[name], np.float64)
         c = c - np.nanmean(c, axis=0)
         for k in range(2):
-            ax[k, 0].plot(t, c[:, k], lw=1.4 if name == REFERENCE else 0.9, color=colours[name], label=name,
+            ax[k, 0].plot(t, c[:, k], lw=1.4 if name == REFERENCE else 0.9, color=colours[name],
                           zorder=3 if name == REFERENCE else 2)
-    for k, axis in enumerate(("M-L", "A-P")):
-        ax[k, 0].set_ylabel(f"{axis} CoP, mean removed (cm)")
-    ax[0, 0].legend(loc="upper right", fontsize="small", ncols=len(drawn) + 1)
+    for k, axis in enumerate(("medial-lateral (M-L)", "anterior-posterior (A-P)")):
+        ax[k, 0].set_ylabel(f"{axis} CoP,\nmean removed (cm)")
+    _key(fig, [n for n in (REFERENCE,) + drawn if n in tr], colours)
     ax[1, 0].set_xlabel("time (s)")
-    fig.suptitle(_title(f"CoP against the force platform: {subject}, {trial} (the median Eu of {rank})", label))
+    fig.suptitle(_title(f"Centre of pressure (CoP) against the force platform: {subject}, {trial}\n(the session "
+                        f"of median trajectory distance Eu of {rank})", label))
     return _save(fig, path)
 
 
@@ -198,5 +220,7 @@ def bland_altman_plot(study: StudyRows, summary: Sequence[Mapping[str, Any]], me
             a.set_title(f"{variant}, {trial}", fontsize="medium")
             a.set_xlabel(f"mean of {AXES[metric][1]} (cm)")
             a.set_ylabel(f"{AXES[metric][1]} − FP (cm)")
-    fig.suptitle(_title(f"Bland–Altman of {AXES[metric][0]} σ against FP (bias, 95 % limits)", label))
+    _key(fig, variants)
+    fig.suptitle(_title(f"Bland–Altman of σ, the standard deviation of the centre of pressure\nalong "
+                        f"{LONG_AXES[AXES[metric][0]]}, against the force platform (FP): bias, 95 % limits", label))
     return _save(fig, path)

@@ -7,17 +7,38 @@ Plain text from the rows with fixed number formats: the same rows give the same 
 from __future__ import annotations
 
 import math
+import re
 from collections.abc import Mapping, Sequence
 from typing import Any
 
 import numpy as np
 
+from ..balance.variants import describe
 from . import thesis_tables as thesis
 from .summary import StudyRows
 
 __all__ = ["render_report"]
 
 _AXIS = {"sd_ml_cm": "σ_ML", "sd_ap_cm": "σ_AP", "eu_cm": "Eu", "eu_ml_cm": "Eu_ML", "eu_ap_cm": "Eu_AP"}
+
+#: The report's other abbreviations and what each stands for (thesis §3.2), in the order they are
+#: listed; a meaning uses only the terms before it.
+TERMS = (
+    ("CoP", "centre of pressure"),
+    ("M-L", "medial-lateral direction"),
+    ("A-P", "anterior-posterior direction"),
+    ("SD", "standard deviation"),
+    ("σ_ML", "standard deviation of the CoP along M-L over a trial (cm)"),
+    ("σ_AP", "standard deviation of the CoP along A-P over a trial (cm)"),
+    ("Eu", "Euclidean trajectory distance to the force platform, √(Σd²)/N over the N samples of a trial, "
+           "d the distance between the two CoPs at a sample (eq. 3.1; cm)"),
+    ("Eu_ML", "Eu along M-L alone (eq. 3.2; cm)"),
+    ("Eu_AP", "Eu along A-P alone (eq. 3.2; cm)"),
+    ("r", "Pearson correlation coefficient"),
+    ("BA", "Bland–Altman analysis: the bias and 95 % limits of agreement of the differences"),
+)
+IECM = ("IECM, the Inverse of Equivalent Conductance Method (thesis §2.1.4), removes the crosstalk between the "
+        "mat's cells.")
 
 
 def _f(x: Any, fmt: str = ".3g") -> str:
@@ -46,7 +67,40 @@ def _lookup(rows: Sequence[Mapping[str, Any]], **key: str) -> Mapping[str, Any] 
     return next((r for r in rows if all(r[k] == v for k, v in key.items())), None)
 
 
-def _size(study: StudyRows, problems: Sequence[str]) -> list[str]:
+def _used(term: str, text: str) -> bool:
+    """Whether ``term`` appears in ``text`` as a name of its own (not inside SCHC-8x8 for SCHC)."""
+    return re.search(rf"(?<![\w-]){re.escape(term)}(?![\w-])", text) is not None
+
+
+def _key(study: StudyRows, body: str) -> list[str]:
+    """Every abbreviation of the report spelled out before its first use: IECM, the study's
+    variants, the other variants the thesis' tables name, then the :data:`TERMS` that ``body``
+    (or a meaning listed) uses."""
+    own = [d for d in map(describe, study.variants) if d]
+    others = [d for d in map(describe, dict.fromkeys(re.findall(r"[A-Z][\w-]*", body)))
+              if d and d.name not in study.variants]
+    variants = own + others
+    text = body + "".join(d.recipe for d in variants)
+    used: set[str] = set()
+    for term, meaning in reversed(TERMS):  # a meaning names only earlier terms
+        if _used(term, text):
+            used.add(term)
+            text += meaning
+    out = ["### Abbreviations", ""]
+    if any(_used("IECM", d.recipe) for d in variants):
+        out += [IECM, ""]
+    if own:
+        out += ["Variants of this study (thesis Tables 3.2, 3.4):", ""]
+        out += [f"- **{d.name}** ({d.expansion}): {d.recipe}." for d in own] + [""]
+    if others:
+        out += ["Other variants in the thesis' tables below:", ""]
+        out += [f"- **{d.name}** ({d.expansion}): {d.recipe}." for d in others] + [""]
+    if used:
+        out += ["Other terms:", ""] + [f"- **{t}**: {meaning}" for t, meaning in TERMS if t in used] + [""]
+    return out if len(out) > 2 else []
+
+
+def _size(study: StudyRows, problems: Sequence[str], body: str = "") -> list[str]:
     sessions = {(r["subject"], r["trial"]) for r in study.failed}
     for (trial, _), rows in study.ok.items():
         sessions |= {(s, trial) for s in rows}
@@ -55,9 +109,9 @@ def _size(study: StudyRows, problems: Sequence[str]) -> list[str]:
         failed.setdefault((str(r["subject"]), str(r["trial"]), str(r["status"])), []).append(str(r["variant"]))
     out = ["## Study", "",
            f"{len(study.subjects)} volunteers, {len(study.trials)} trials ({', '.join(study.trials)}), "
-           f"{len(sessions)} sessions; variants {', '.join(study.variants)}. "
-           f"{len(study.failed)} rows (subject × trial × variant) are not ok and are left out of every number below.",
-           ""]
+           f"{len(sessions)} sessions; the variants are listed below. {len(study.failed)} rows (subject × trial × "
+           "variant) are not ok and are left out of every number below.", ""]
+    out += _key(study, body)
     if failed:
         out += ["### Failed rows", ""]
         out += _table(("subject", "trial", "variants", "status"),
@@ -89,15 +143,15 @@ def _summary(summary: Sequence[Mapping[str, Any]]) -> list[str]:
 
 
 def _percent_table(table: thesis.PercentTable, summary: Sequence[Mapping[str, Any]]) -> list[str]:
-    header = ["", "thesis line"] + [f"{v} {who}" for v in table.variants for who in ("thesis", "ours")]
+    header = [""] + [f"{v} {who}" for v in table.variants for who in ("thesis", "ours")]
     rows = []
-    for (metric, trial), (line, values) in table.rows.items():
-        cells = [f"{_AXIS[metric]} ({trial})", str(line)]
+    for (metric, trial), values in table.rows.items():
+        cells = [f"{_AXIS[metric]} ({trial})"]
         for variant, value in zip(table.variants, values):
             ours = _lookup(summary, trial=trial, variant=variant)
             cells += [_pct(value), _pct(ours[f"pct_smaller_{metric[:-3]}"]) if ours else "—"]
         rows.append(cells)
-    return ([f"### {table.name}: {table.experiment}; thesis lines {table.lines[0]}-{table.lines[1]}", "",
+    return ([f"### Thesis {table.name} ({table.section}): {table.experiment}", "",
              "% of volunteers whose mat trace spreads less than the platform's (σ_variant < σ_FP).", ""]
             + _table(header, rows))
 
@@ -116,7 +170,7 @@ def _eu_table(table: thesis.EuTable, study: StudyRows) -> list[str]:
             ours.append(_f(float(np.mean(values)), ".4g") if len(values) else "—")
             counts.append(str(len(values)))
     rows += [ours, counts]
-    return ([f"### {table.name}: {thesis.SECOND}; thesis lines {table.lines[0]}-{table.lines[1]}", "",
+    return ([f"### Thesis {table.name} ({table.section}): {thesis.SECOND}", "",
              f"{_AXIS[table.metric]} (cm) by volunteer, SCHC against SCHC-8x8; the thesis' means beside ours.", ""]
             + _table(header, rows))
 
@@ -127,12 +181,12 @@ def _headlines(pairwise: Sequence[Mapping[str, Any]]) -> list[str]:
         for trial, value in h.values.items():
             ours = _lookup(pairwise, trial=trial, variant=h.variant, other=h.other, metric=h.metric)
             rows.append((f"{h.variant} vs {h.other}", _AXIS[h.metric], trial, _pct(value),
-                         f"{_pct(ours['pct_closer'])} (n={ours['n']})" if ours else "—", str(h.line)))
+                         f"{_pct(ours['pct_closer'])} (n={ours['n']})" if ours else "—", h.section))
     return (["### Percentages in the thesis' text", "",
              "% of volunteers for whom the first variant is closer to FP than the second: for σ, "
-             "|σ_v − σ_FP| < |σ_w − σ_FP|; for Eu, Eu_v < Eu_w. Lines up to 1439: first prototype; from 1484: "
+             "|σ_v − σ_FP| < |σ_w − σ_FP|; for Eu, Eu_v < Eu_w. Thesis §3.3.1: first prototype; §3.3.2: "
              "second. Every pair of our variants is in `pairwise.csv`.", ""]
-            + _table(("comparison", "metric", "trial", "thesis %", "ours %", "thesis line"), rows))
+            + _table(("comparison", "metric", "trial", "thesis %", "ours %", "thesis §"), rows))
 
 
 def _correlations(summary: Sequence[Mapping[str, Any]]) -> list[str]:
@@ -143,10 +197,10 @@ def _correlations(summary: Sequence[Mapping[str, Any]]) -> list[str]:
             r = _lookup(summary, trial=trial, variant=c.variant)
             ours.append(f"{trial} {_f(r[f'r_{c.metric[:-3]}'], '.2f')}" if r else f"{trial} —")
         rows.append((c.variant, _AXIS[c.metric], ", ".join(c.trials), f"{'> ' if c.bound else ''}{c.value:.2f}",
-                     "; ".join(ours), str(c.line)))
+                     "; ".join(ours), c.section))
     return (["### Correlations in the thesis' text", "",
              "Pearson r of σ across volunteers against FP.", ""]
-            + _table(("variant", "metric", "trials", "thesis r", "ours r", "thesis line"), rows))
+            + _table(("variant", "metric", "trials", "thesis r", "ours r", "thesis §"), rows))
 
 
 def _eu_gain(summary: Sequence[Mapping[str, Any]], trials: Sequence[str]) -> list[str]:
@@ -157,7 +211,7 @@ def _eu_gain(summary: Sequence[Mapping[str, Any]], trials: Sequence[str]) -> lis
         gain = 100.0 * (1.0 - float(schc["eu_mean_cm"]) / float(prop["eu_mean_cm"])) if schc and prop else math.nan
         ours.append(f"{trial} {_pct(gain)} %")
     return [f"Mean Eu of SCHC below PROP's (relative): thesis {lo:.0f} % to {hi:.0f} % depending on the trial "
-            f"(line {thesis.EU_GAIN_LINE}); ours: {', '.join(ours) or '—'}.", ""]
+            f"(thesis {thesis.EU_GAIN_SECTION}); ours: {', '.join(ours) or '—'}.", ""]
 
 
 def render_report(study: StudyRows, summary: Sequence[Mapping[str, Any]], pairwise: Sequence[Mapping[str, Any]],
@@ -177,9 +231,7 @@ def render_report(study: StudyRows, summary: Sequence[Mapping[str, Any]], pairwi
         What the numbers are (e.g. ``"simulation"``), in the title.
     """
     title = "Balance study results" + (f" ({label})" if label else "")
-    out = [f"# {title}", ""]
-    out += _size(study, problems)
-    out += _summary(summary)
+    out = _summary(summary)
     out += ["## Beside the thesis", "",
             "The thesis' numbers come from two experiments with real volunteers: "
             f"{thesis.FIRST}; {thesis.SECOND}. The Seating Mat is a commercial mat that is not reproduced here. "
@@ -196,4 +248,5 @@ def render_report(study: StudyRows, summary: Sequence[Mapping[str, Any]], pairwi
     if figures:
         out += ["## Figures", ""]
         out += [f"![{name}]({path})\n" for name, path in figures.items()]
+    out = [f"# {title}", "", *_size(study, problems, "\n".join(out)), *out]
     return "\n".join(out).rstrip("\n") + "\n"

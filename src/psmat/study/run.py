@@ -137,7 +137,7 @@ def run_study(root: str | os.PathLike[str], *, workers: int | None = None, sched
     RuntimeError
         Another run is writing the same study.
     """
-    from tqdm.auto import tqdm
+    from psmat._progress import tqdm
 
     from .. import __version__
 
@@ -180,7 +180,7 @@ def run_study(root: str | os.PathLike[str], *, workers: int | None = None, sched
         problems += _session_problems(layout.items, order, done, failed)
         traces: Mapping[tuple[str, str], Traces] = TraceFiles(
             {(tasks[s].subject, tasks[s].trial): t for s in keep if (t := done[s].traces)})
-        if "SCHC" in p["variants"]:  # beyond the thesis (issue 12, 4b): SCHC-DYN across volunteers
+        if "SCHC" in p["variants"]:  # beyond the thesis: SCHC-DYN across volunteers
             rows, traces = _with_dynamic(rows, traces)
         metrics = layout.results / "metrics.csv"
         write_metrics(metrics, rows)

@@ -21,7 +21,8 @@ pressure becomes conductance only through the sensor model (:class:`MatPhysics`)
 * :mod:`psmat.twin.arrays` — :func:`random_array`: the random array of thesis Fig. 2.13.
 * :mod:`psmat.twin.sources` — what each simulated device measures, tick by tick.
 * :mod:`psmat.twin.serial_twin` — :class:`SerialTwin`: the firmware core on the host,
-  served on a real pseudo-terminal, with fault injection.
+  served on a real pseudo-terminal or on TCP (``socket://127.0.0.1:PORT``, where the system
+  has no pty), with fault injection (:mod:`~psmat.twin.pty_link`, :mod:`~psmat.twin.tcp_link`).
 """
 
 from .anatomy import foot, two_feet

@@ -1,48 +1,44 @@
-"""The digital twin on a real pseudo-terminal (docs/spec.md §5).
+"""The digital twin on a real pseudo-terminal or a TCP socket (docs/spec.md §5).
 
 :class:`SerialTwin` runs a device's firmware core (``firmware/core``, compiled into
 ``psmat._core.firmware``) on the host, feeds its "ADC" from a source
-(:mod:`psmat.twin.sources`) and serves its bytes on a pseudo-terminal, paced by the
-firmware's own timer rate — what a reader sees is what it would see from the mat over USB:
-the same frames, the same replies to commands, at the configured rate. A frame carries
-the timer's time of its tick (µs since the start, on the grid of the frame period, as the
-MCU's timer-IRQ pacing gives, docs/spec.md §5), not the moment the host's scheduler ran the tick;
-ticks that come more than a period late are lost, like a timer's missed interrupts, and
-counted in ``late_ticks``.
+(:mod:`psmat.twin.sources`) and serves its bytes on a pseudo-terminal
+(:mod:`psmat.twin.pty_link`) or, where the system has none (Windows) or when asked, on a
+TCP socket on 127.0.0.1 that a host opens as ``socket://127.0.0.1:PORT``
+(:mod:`psmat.twin.tcp_link`), paced by the firmware's own timer rate — what a reader sees
+is what it would see from the mat over USB: the same frames, the same replies to commands,
+at the configured rate. A frame carries the timer's time of its tick (µs since the start, on
+the grid of the frame period, as the MCU's timer-IRQ pacing gives, docs/spec.md §5), not the
+moment the host's scheduler ran the tick; ticks that come more than a period late are lost,
+like a timer's missed interrupts, and counted in ``late_ticks``.
 
-A pty buffers unread data (about 20 KB); the twin writes without blocking, keeps up to
-``buffer_bytes`` more queued for a host that is briefly slow (as the device's and the host
-driver's buffers do on a real USB link), and beyond that drops whole frames (counted in
-``stats``) the way a device whose USB endpoint is not polled does.
+A pty buffers unread data (about 20 KB; on TCP the system's socket buffers); the twin
+writes without blocking, keeps up to ``buffer_bytes`` more queued for a host that is
+briefly slow (as the device's and the host driver's buffers do on a real USB link), and
+beyond that drops whole frames (counted in ``stats``) the way a device whose USB endpoint
+is not polled does; on TCP, so are the frames scanned while no host is connected.
 
 Fault injection (:class:`Faults`) for robustness tests: bit flips and dropped bytes at a
 given rate per byte, stalls (the link goes silent for a while, frames scanned meanwhile
-are lost, as on a device whose USB stalls), and a disconnect (the pty goes away, as when
-the cable is pulled).
+are lost, as on a device whose USB stalls), and a disconnect (the pty or the listening
+socket goes away, as when the cable is pulled).
 
-The port a host opens is a link to the pty in a private temporary folder (like udev's
-``/dev/serial/by-id`` names), removed when the twin stops or is disconnected. The system
-gives a freed pty number (``/dev/pts/N``) to the next pty opened anywhere on the machine,
-so a host still re-opening a vanished twin's ``/dev/pts/N`` (reconnecting, or another
-process) would land on a newer twin; two hosts on one pty take each other's bytes, and
-pyserial then reports the port gone. A link's path is never handed out again.
+:attr:`SerialTwin.port` is what a host opens, with :func:`psmat.acquire.open_device` or
+pyserial's ``serial_for_url``: a path to the pty (removed when the twin stops or is
+disconnected, never handed out again) or the ``socket://`` URL.
 """
 
 from __future__ import annotations
 
-import errno
 import math
-import os
-import select
-import shutil
-import tempfile
 import threading
 import time
-import tty
-import weakref
 from dataclasses import dataclass, field
 
 import numpy as np
+
+from .pty_link import PtyLink, pty_available
+from .tcp_link import TcpLink
 
 __all__ = ["Faults", "SerialTwin", "TwinStats"]
 
@@ -60,7 +56,7 @@ class Faults:
     stall_every_s, stall_s : float
         Every ``stall_every_s`` seconds the link is silent for ``stall_s`` (0 = never).
     disconnect_after_s : float or None
-        Close the port after this many seconds of serving.
+        Close the port (the pty, or the TCP listener and its host) after this many seconds of serving.
     seed : int
     """
 
@@ -122,7 +118,7 @@ class TwinStats:
 
 
 class SerialTwin:
-    """A simulated device served on a pseudo-terminal.
+    """A simulated device served on a pseudo-terminal or on TCP (127.0.0.1).
 
     Parameters
     ----------
@@ -145,19 +141,32 @@ class SerialTwin:
         Bytes queued for a host that is slow to read, beyond the pty's own ~20 KB (what the
         device's and the host driver's buffers hold on a real link; Linux's tty layer keeps
         up to 64 KiB). When it is full, packets are dropped whole and counted.
+    tcp_port : int, optional
+        Serve on this TCP port of 127.0.0.1 (0: a free port the system picks) instead of a
+        pseudo-terminal. Default None: a pseudo-terminal where the system has them, else a
+        free TCP port (Windows).
 
     Attributes
     ----------
     port : str
-        The path a host opens: a link to the pty in a private temporary folder, unique to
-        this twin and removed by :meth:`stop` and :meth:`disconnect` (see the module
-        docstring).
+        What a host opens: a path to the pty (a link in a private temporary folder, unique
+        to this twin and removed by :meth:`stop` and :meth:`disconnect`), or the pyserial
+        URL ``socket://127.0.0.1:PORT``.
+    transport : {"pty", "tcp"}
+        Which of the two serves.
+
+    Raises
+    ------
+    ValueError
+        Bad arguments (``tcp_port`` outside 0 ... 65535 included).
+    OSError
+        The TCP port cannot be listened on (in use).
     """
 
     def __init__(self, kind: str = "psm", rate_hz: float | None = None, protocol: str = "v2", *,
                  source=None, shape: tuple[int, int] = (16, 16), faults: Faults | None = None,
                  serial: str = "TWIN0001", scene: str = "sway", seed: int = 0,
-                 buffer_bytes: int = 65536) -> None:
+                 buffer_bytes: int = 65536, tcp_port: int | None = None) -> None:
         from .._core import firmware as fw
         from ..protocol import Opcode, encode_command
         from .sources import DaqSource, ImuSource, PsmSource
@@ -193,14 +202,13 @@ class SerialTwin:
             raise ValueError("buffer_bytes must be positive")
         self.buffer_bytes = int(buffer_bytes)
         self._pending = bytearray()
-        self._master, self._slave = os.openpty()
-        tty.setraw(self._slave)  # no echo, no line discipline: bytes pass untouched
-        os.set_blocking(self._master, False)
-        link_dir = tempfile.mkdtemp(prefix="psmat-twin-")
-        self.port = os.path.join(link_dir, f"tty{kind.upper()}")
-        os.symlink(os.ttyname(self._slave), self.port)
-        self._remove_port = weakref.finalize(self, shutil.rmtree, link_dir, True)  # also at exit
-        self._release_lock = threading.Lock()
+        if tcp_port is None and pty_available():
+            self._link: PtyLink | TcpLink = PtyLink(f"tty{kind.upper()}")
+        else:
+            self._link = TcpLink(0 if tcp_port is None else tcp_port)
+        self._queued_for = self._link.connection  # the host the queued bytes are meant for
+        self.port = self._link.port
+        self.transport = self._link.transport
         self._stop = threading.Event()
         self._thread: threading.Thread | None = None
         self._t0 = 0.0
@@ -233,24 +241,15 @@ class SerialTwin:
             self._release()
 
     def disconnect(self) -> None:
-        """Pull the cable: the port and the pty disappear; the host's reads fail."""
+        """Pull the cable: the port and the pty (or the TCP listener and connection) disappear;
+        the host's reads fail and it cannot open the port again."""
         self.disconnected = True
         self._stop.set()
         self._release()
 
     def _release(self) -> None:
-        """Remove the port's link, then close the pty; once, whichever thread comes first
-        (a second close of a number the system has handed out again would close another file)."""
-        with self._release_lock:
-            self._remove_port()
-            for name in ("_master", "_slave"):
-                fd = getattr(self, name)
-                if fd is not None:
-                    try:
-                        os.close(fd)
-                    except OSError:
-                        pass
-                    setattr(self, name, None)
+        """Close the link (the pty and its path, or the sockets); idempotent, from any thread."""
+        self._link.close()
 
     # -------------------------------------------------------------------- the device
     @property
@@ -270,12 +269,13 @@ class SerialTwin:
         return self.firmware.receive(data, t_us & 0xFFFFFFFF)
 
     def _send(self, data: bytes, t: float, is_frame: bool) -> None:
-        """Queue a packet for the host: whole, or (queue full, link stalled) not at all."""
+        """Queue a packet for the host: whole, or (queue full, link stalled, no host on TCP) not at all."""
         if not data:
             return
-        if self.faults.stalled(t):
+        if self.faults.stalled(t) or not self._link.connected:
             self.stats.frames_unsent += is_frame
             return
+        self._forget_gone_host()
         data, flipped, dropped = self.faults.apply(data)
         self.stats.bits_flipped += flipped
         self.stats.bytes_dropped += dropped
@@ -287,15 +287,19 @@ class SerialTwin:
         self._flush()
 
     def _flush(self) -> None:
-        """Move queued bytes into the pty as far as it takes them (never blocks)."""
+        """Move queued bytes into the link as far as it takes them (never blocks)."""
+        self._forget_gone_host()
         if not self._pending:
             return
-        try:
-            n = os.write(self._master, self._pending)
-        except BlockingIOError:
-            return
+        n = self._link.write(self._pending)
         del self._pending[:n]
         self.stats.bytes_sent += n
+
+    def _forget_gone_host(self) -> None:
+        """Drop bytes queued for a TCP host that has left: the next host starts at a packet boundary."""
+        if self._link.connection != self._queued_for or not self._link.connected:
+            self._pending.clear()
+            self._queued_for = self._link.connection
 
     def _serve(self) -> None:
         self._t0 = time.monotonic()
@@ -309,19 +313,11 @@ class SerialTwin:
                     return
                 wait = next_t - now
                 if wait > 0:
-                    r, w, _ = select.select([self._master], [self._master] if self._pending else [], [],
-                                            min(wait, 0.05))
+                    r, w = self._link.wait(min(wait, 0.05), bool(self._pending))
                     if w:
                         self._flush()
                     if r:
-                        try:
-                            data = os.read(self._master, 4096)
-                        except BlockingIOError:
-                            data = b""
-                        except OSError as exc:  # EIO: no host has the port open; keep serving
-                            if exc.errno != errno.EIO:
-                                raise
-                            data = b""
+                        data = self._link.read()
                         if data:
                             t_us = int((time.monotonic() - self._t0) * 1e6)
                             self._send(self._receive(data, t_us), elapsed, is_frame=False)

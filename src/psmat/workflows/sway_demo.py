@@ -1,4 +1,4 @@
-"""``psmat demo``: acquisition end to end on the digital twin (issue 4, item 8).
+"""``psmat demo``: acquisition end to end on the digital twin.
 
 With no mat given, the twin (:class:`psmat.twin.SerialTwin`: the PSM firmware core on a
 pseudo-terminal) streams a person swaying whose centre of pressure follows a recorded
@@ -68,7 +68,7 @@ def record_sway(*, seconds: float = 8.0, rate_hz: int = 100, session: str | Path
 
     Prints the frames, the losses and the CoP errors (cm RMS) against the force platform.
     """
-    from tqdm.auto import tqdm
+    from psmat._progress import tqdm
 
     from ..acquire import open_device
     from ..circuit import Circuit
