@@ -1,4 +1,4 @@
-"""A v2 header whose packet failed its CRC is not trusted (issue 10, item 2).
+"""A v2 header whose packet failed its CRC is not trusted.
 
 Neither its shape (one bad packet of another shape must not reject a recording) nor its
 length (overlapping fake headers must not become one invalid row each). Expectations come

@@ -1,4 +1,4 @@
-"""Pneumatic protocols of thesis §2.4.2 / docs/spec.md §4: shapes, durations and levels from the SPEC numbers."""
+"""Pneumatic protocols of thesis §2.4.2 / docs/spec.md §4: shapes, durations and levels from those numbers."""
 
 from __future__ import annotations
 

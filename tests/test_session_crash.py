@@ -210,7 +210,7 @@ def test_unflushed_frames_recovered_from_journal(tmp_path: Path) -> None:
 
 
 def test_sigkill_then_a_flipped_journal_byte_costs_one_frame(tmp_path: Path) -> None:
-    """The issue's case: SIGKILL after 3 000 acknowledged frames, one journal byte flipped mid-way."""
+    """docs/spec.md §6's integrity promise: SIGKILL after 3 000 acknowledged frames, one journal byte flipped."""
     path, last = run_writer(tmp_path, "psm", "hold", 0.0, kill_on=b"H ")
     assert last["A"] == 3000
     j = journal_path(path)

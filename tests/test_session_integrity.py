@@ -11,6 +11,7 @@ from __future__ import annotations
 import json
 import re
 import shutil
+import zlib
 from pathlib import Path
 
 import h5py
@@ -186,11 +187,58 @@ def test_a_flipped_byte_in_a_chunk_marks_its_frames_invalid(tmp_path: Path, name
     assert len(note) == 1 and "16..23" in note[0]
 
 
+def test_every_chunk_carries_a_crc32_bound_to_its_dataset_and_position(tmp_path: Path) -> None:
+    """The CRC-32 tables, recomputed here with zlib from the arrays that were written (docs/spec.md §6)."""
+    d = data(20)
+    p = write_complete(tmp_path / "crc.h5", d, chunk_frames=8)
+    written = {"counts": d["frames"], "host_time_s": d["t"], "valid": d["valid"].astype(np.uint8), "seq": d["seq"],
+               "device_time_us": d["dt"]}
+    with h5py.File(p, "r") as f:
+        for name, arr in written.items():
+            t = f["crc32"][name]
+            assert t.dtype == np.dtype("<u4") and t.compression is None and not t.fletcher32 and t.chunks is None
+            assert int(t.attrs["chunk_frames"]) == 8
+            want = [zlib.crc32(f"/{name}".encode() + b"\0" + k.to_bytes(8, "little")
+                               + arr[8 * k : 8 * k + 8].astype(arr.dtype.newbyteorder("<")).tobytes())
+                    for k in range(3)]  # frames 0..7, 8..15, 16..19
+            assert t[()].tolist() == want, name
+        counters = np.array([3, 0, 0, 11], "<i8")
+        assert int(f["counters"].attrs["crc32"]) == zlib.crc32(b"/counters\0" + bytes(8) + counters.tobytes())
+
+
+@pytest.mark.parametrize("name", ["counts", "seq"])
+def test_a_damaged_crc32_entry_costs_its_chunk_only(tmp_path: Path, name: str) -> None:
+    d = data(40)
+    p = write_complete(tmp_path / "e.h5", d, chunk_frames=8)
+    with h5py.File(p, "r") as f:
+        at = f["crc32"][name].id.get_offset() + 4 * 3  # entry 3: frames 24..31
+    flip(p, at + 1, mask=0x10)
+    s = load_session(p)
+    bad = (np.arange(40) >= 24) & (np.arange(40) < 32)
+    np.testing.assert_array_equal(s.valid, ~bad)
+    np.testing.assert_array_equal(s.counts[~bad], d["frames"][~bad])
+    note = [n for n in s.notes if f"/{name}:" in n]
+    assert len(note) == 1 and "24..31" in note[0]
+
+
+def test_a_file_without_crc32_tables_loads_and_says_so(tmp_path: Path) -> None:
+    """As psmat wrote it before the CRC-32 tables: still loads, with a note of what it cannot see."""
+    d = data(20)
+    p = write_complete(tmp_path / "old.h5", d, chunk_frames=8)
+    with h5py.File(p, "r+") as f:
+        del f["crc32"]
+        del f["counters"].attrs["crc32"]
+    s = load_session(p)
+    assert s.valid.all() and s.counters["dropped_frames"] == 3
+    np.testing.assert_array_equal(s.counts, d["frames"])
+    assert len(s.notes) == 1 and "Fletcher-32 only" in s.notes[0] and "00 00" in s.notes[0]
+
+
 def _rows(mask: np.ndarray, like: np.ndarray) -> np.ndarray:
     return mask.reshape(-1, *([1] * (like.ndim - 1)))
 
 
-def test_the_issue_case_a_count_above_12_bits_is_never_valid(tmp_path: Path) -> None:
+def test_a_flipped_bit_making_a_count_above_12_bits_is_never_valid(tmp_path: Path) -> None:
     d = data(300, shape=(16, 16))
     d["frames"] %= 4096
     p = write_complete(tmp_path / "i.h5", d, chunk_frames=256)

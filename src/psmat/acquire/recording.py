@@ -7,6 +7,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from ..io.session_counts import RowTally
+
 __all__ = ["SessionRecorder"]
 
 
@@ -24,9 +26,11 @@ class SessionRecorder:
 
     Notes
     -----
-    Counter mapping (:data:`psmat.io.COUNTER_NAMES`): ``dropped_frames`` = frames lost on
-    the wire (v2 ``seq`` gaps), ``bad_frames`` = invalid rows, ``bytes_discarded`` =
-    skipped bytes; ``resyncs`` is not measured and left as is.
+    Counter mapping (:data:`psmat.io.COUNTER_NAMES`): ``bad_frames`` = invalid rows and
+    ``dropped_frames`` = frames lost on the wire (v2 ``seq`` gaps no row stands for), both
+    counted over the rows this recorder appended (:class:`psmat.io.RowTally`, the definition
+    ``psmat info`` applies to the file), not since the device was opened; ``bytes_discarded``
+    = skipped bytes (the device's count); ``resyncs`` is not measured and left as is.
     """
 
     def __init__(self, writer: Any, kind: str | None = None, shape: tuple[int, ...] | None = None) -> None:
@@ -37,13 +41,16 @@ class SessionRecorder:
         if shape is not None and wshape is not None and tuple(wshape) != tuple(shape):
             raise ValueError(f"the session writer expects frames of shape {tuple(wshape)}, the device sends {shape}")
         self.writer = writer
+        self.tally = RowTally()
 
     def append(self, frames: NDArray[Any], host_time_s: NDArray[np.float64], valid: NDArray[np.bool_],
                seq: NDArray[np.int64], device_time_us: NDArray[np.int64]) -> None:
         """Append one batch (called from the reader thread)."""
         self.writer.append(frames, host_time_s, valid, seq, device_time_us)
+        self.tally.add(valid, seq)  # only what the writer took
 
     def finish(self, stats: Any) -> None:
         """Store the final counters from a :class:`~psmat.acquire.DeviceStats`."""
-        self.writer.set_counters(dropped_frames=stats.dropped_wire, bad_frames=stats.invalid,
+        rows = self.tally.counts
+        self.writer.set_counters(dropped_frames=rows.lost or 0, bad_frames=rows.invalid,
                                  bytes_discarded=stats.skipped_bytes)

@@ -2,7 +2,7 @@
 
 The first device (PORT, --device) is the session's root; each --also KIND=PORT is one more
 device, recorded as the stream KIND of the same file (e.g. the spine IMUs with the mat,
-issue 13). All devices share one host clock, so every stream's host_time_s is on the same
+docs/spec.md §8). All devices share one host clock, so every stream's host_time_s is on the same
 clock; each device's reader thread appends to its own stream.
 """
 
@@ -40,18 +40,24 @@ def also(text: str) -> Also:
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
-    p.add_argument("port", nargs="?", help="serial port of the first device (omit with --simulate)")
+    p.add_argument("port", nargs="?", help="serial port of the first device, or a pyserial URL such as "
+                   "socket://127.0.0.1:5555 (omit with --simulate)")
     p.add_argument("-o", "--out", required=True, help="session file to write (.h5)")
     p.add_argument("--simulate", action="store_true", help="record the digital twin (one per device)")
-    p.add_argument("--device", choices=KINDS, default="psm", help="kind of the first device")
+    p.add_argument("--device", choices=KINDS, default="psm",
+                   help="kind of the first device: psm (a pressure-sensitive mat), imu (spine IMUs, inertial "
+                        "measurement units) or daq (the material data-acquisition box)")
     p.add_argument("--also", type=also, action="append", default=[], metavar="KIND=PORT",
                    help="one more device recorded into the same file as stream KIND, on the same host clock "
                         "(e.g. --also imu=/dev/ttyACM1; with --simulate just --also imu); repeatable, each kind once")
-    p.add_argument("--protocol", choices=("v1", "v2"), default="v2")
-    p.add_argument("--shape", type=_args.shape, default=(16, 16), help="PSM rows x cols, e.g. 16x16")
+    p.add_argument("--protocol", choices=("v1", "v2"), default="v2",
+                   help="the devices' frame format (docs/protocol.md)")
+    p.add_argument("--shape", type=_args.shape, default=(16, 16), help="the mat's rows x columns, e.g. 16x16")
     p.add_argument("--rate", type=_args.rate_hz, default=None,
-                   help="ask the first device for this frame rate (Hz); the others keep theirs")
-    p.add_argument("--seconds", type=_args.seconds, default=None, help="stop after this long (default: until Ctrl-C)")
+                   help="ask the first device for this frame rate, the others keep theirs (Hz; default: the "
+                        "device's own)")
+    p.add_argument("--seconds", type=_args.seconds, default=None,
+                   help="stop after this long (s; default: at Ctrl-C)")
     p.add_argument("--calibration", default=None, help="calibration JSON of the box (psmat calibrate)")
     p.add_argument("--subject", default="", help="subject id (metadata)")
     p.add_argument("--trial", default="", help="trial name (metadata)")
@@ -102,7 +108,7 @@ def run(args: argparse.Namespace) -> int:
     import sys
 
     from ..acquire import HostClock, open_device
-    from ..io import SessionWriter
+    from ..io import SessionWriter, load_session, row_counts
 
     problem = _check(args)
     if problem:
@@ -145,11 +151,14 @@ def run(args: argparse.Namespace) -> int:
         for src in sources:
             src.dev.start()
         status = _loop(sources, args)
-    for src in sources:  # the writer closed: every count is in the file
+    saved = load_session(args.out)  # the writer closed: count the file's rows, as psmat info does
+    for src in sources:
         st = src.dev.stats
+        rc = row_counts(saved if src.name is None else saved.streams[src.name])
         where = args.out if src.name is None else f"{args.out} [{src.name}]"
-        print(f"{where}: {src.writer.n_frames} frames recorded, {st.invalid} invalid, {st.dropped_wire} lost on the "
-              f"wire, {st.dropped_buffer} dropped by the host buffer"
+        lost = "losses on the wire unknown" if rc.lost is None else f"{rc.lost} lost on the wire"
+        print(f"{where}: {rc.frames} frames recorded, {rc.invalid} invalid, {lost}, "
+              f"{st.dropped_buffer} dropped by the host buffer"
               + (f"; ended early: {src.ended}" if src.ended and len(sources) > 1 else ""))
     return status
 
@@ -172,7 +181,7 @@ def _loop(sources: list[_Source], args: argparse.Namespace) -> int:
     import sys
     import time
 
-    from tqdm.auto import tqdm
+    from psmat._progress import tqdm
 
     from ..acquire import DeviceDisconnected
 

@@ -18,6 +18,7 @@ from .forceplate import (
     load_forceplate_csv,
 )
 from .imu_log import ImuLog, load_imu_log, write_imu_log
+from .session_counts import RowCounts, RowTally, row_counts
 from .session import (
     COUNTER_NAMES,
     FORMAT_NAME,
@@ -62,6 +63,9 @@ __all__ = [
     "load_forceplate_csv",
     "load_session",
     "repair_session",
+    "row_counts",
+    "RowCounts",
+    "RowTally",
     "save_product",
     "stream_csv_path",
 ]

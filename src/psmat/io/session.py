@@ -42,7 +42,9 @@ checksum): any HDF5 reader (h5py, MATLAB ``h5read``, R ``rhdf5``, HDFView, ``h5d
 reads it; no pickles, no compound types, no enums. ``T`` is the number of frames; the time
 axis is always the first one, chunked (``chunk_frames`` frames per chunk, the same for
 every per-frame dataset) and resizable (``maxshape=None``). Every per-frame dataset and
-``/counters`` carry HDF5's Fletcher-32 checksum filter, one checksum per chunk. Every
+``/counters`` carry HDF5's Fletcher-32 checksum filter, one checksum per chunk, and a CRC-32
+per chunk bound to the dataset's path and the chunk's index (:mod:`.session_crc`: it sees a
+``00 00`` word turned ``FF FF`` and a chunk moved, which Fletcher-32 cannot). Every
 dataset has a string attribute ``unit``. String attributes are fixed-length UTF-8 (h5py
 reads them as ``bytes``): variable-length strings would live in HDF5's global heap, which
 has no checksum.
@@ -62,8 +64,13 @@ dataset             shape               dtype      unit     content
 ``/counters``       (4,)                int64      1        reader error counters, names in the attribute
                                                             ``names``: dropped_frames, bad_frames,
                                                             resyncs, bytes_discarded
+``/crc32/NAME``     (ceil(T/c),)        uint32     1        CRC-32 of each chunk of ``/NAME`` (the frame
+                                                            dataset and the four above); attribute
+                                                            ``chunk_frames`` = c; no filter, so a damaged
+                                                            entry costs its own chunk only
 ``/products/NAME``  any                 any        any      processed product (e.g. G, g, pressure, cop),
-                                                            Fletcher-32 when it has elements
+                                                            Fletcher-32 when it has elements; its CRC-32
+                                                            (and ``/counters``') in the attribute ``crc32``
 ``/streams/NAME/``  group                                   another device of the same recording (below)
 ==================  ==================  =========  =======  ==============================================
 
@@ -80,6 +87,7 @@ in ``/streams/NAME/``          shape        content
 ``valid``, ``seq``,            (T_k,)       as at the root
 ``device_time_us``
 ``counters``                   (4,)         the stream's reader error counters
+``crc32/NAME``                 (⌈T_k/c⌉,)   CRC-32 per chunk of the stream's datasets, as at the root
 ``device`` (group)                          the stream's device description (``json`` attribute)
 =============================  ===========  ===================================================
 
@@ -106,6 +114,15 @@ that made it, JSON), the scalar parameters as attributes of their own, and ``cre
 
 Format 1 (psmat before the checksums) had no Fletcher-32 filter and a ``/committed``
 dataset; :func:`load_session` still reads it, with a note that its frames are unchecked.
+Files of a psmat before the CRC-32 tables (same format versions: the tables are an addition
+an older reader ignores) load with a note that they carry Fletcher-32 only.
+
+A file received from elsewhere is untrusted (:mod:`.session_storage`): before any data is
+read, the loader refuses anything but groups and plain datasets of numbers stored in the
+file (external storage, virtual datasets, soft and external links, filters other than
+Fletcher-32), frame and per-frame datasets whose dtype, rank or frame shape is not the kind's,
+lengths that disagree, and extents whose chunks are not stored; what it allocates is bounded
+by the file's size.
 
 Crash safety: one mechanism, the journal
 ========================================

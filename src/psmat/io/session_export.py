@@ -11,6 +11,7 @@ from typing import Any
 
 import numpy as np
 
+from .session_counts import row_counts
 from .session_layout import COUNTER_NAMES, Session
 from .session_reader import load_session
 
@@ -83,23 +84,39 @@ def _frame_lines(s: Session, pad: str) -> list[str]:
         f"{pad}frames        {n}, duration {s.duration_s:.3f} s, rate "
         + (f"{rate:.2f} Hz (from host times)" if math.isfinite(rate) else "n/a")
     ]
-    n_bad = int(n - np.count_nonzero(s.valid))
-    pct = 100.0 * n_bad / n if n else 0.0
-    lines.append(f"{pad}invalid       {n_bad} frames ({pct:.2f} %)")
+    rc = row_counts(s)  # the one definition, shared with psmat record's summary (.session_counts)
+    pct = 100.0 * rc.invalid / n if n else 0.0
+    lines.append(f"{pad}invalid       {rc.invalid} frames ({pct:.2f} %)")
+    lines.append(f"{pad}lost          " + ("unknown (no sequence numbers)" if rc.lost is None else
+                                           f"{rc.lost} frames (sequence numbers with no row)"))
     c = s.counters
     counters = ", ".join(f"{k} {c.get(k, 0)}" for k in COUNTER_NAMES) if c else "unknown (damaged)"
-    lines.append(f"{pad}counters      {counters}")
-    if s.seq is not None:
-        known = s.seq[s.seq >= 0]
-        gaps = int(np.sum(np.clip(np.diff(known) - 1, 0, None))) if known.size > 1 else 0
-        lines.append(f"{pad}seq           {int(known[0]) if known.size else '-'}..{int(known[-1]) if known.size else '-'}, "
-                     f"{gaps} frames missing by sequence number")
+    lines.append(f"{pad}counters      {counters} (as the reader counted while recording)")
+    if rc.first_seq is not None:
+        lines.append(f"{pad}seq           {rc.first_seq}..{rc.last_seq}"
+                     + (f", {rc.restarts} restart(s) of the device's numbering" if rc.restarts else ""))
+    v1 = _v1_limit(s)
+    if v1:
+        lines.append(f"{pad}check         {v1}")
     if s.device_time_us is not None:
         known = s.device_time_us[s.device_time_us >= 0]
         if known.size > 1:
             lines.append(f"{pad}device clock  {(known[-1] - known[0]) / 1e6:.3f} s span")
     lines.append(f"{pad}device        {_kv(s.device)}")
     return lines
+
+
+def _v1_limit(s: Session) -> str:
+    """What the v1 framing's check cannot see (docs/protocol.md), for a session recorded with it; else ''."""
+    proto = s.device.get("proto", s.device.get("protocol"))
+    v1 = str(proto).lower() in ("1", "v1") or (s.kind in ("psm", "imu") and s.seq is None and s.n_frames > 0)
+    if not v1 or s.kind not in ("psm", "imu"):
+        return ""
+    what = ("two cells swapped, or errors that cancel in the sum (the same bit set in one cell and cleared in "
+            "another)" if s.kind == "psm" else "an error in bits 12-15 of a payload word, or errors that cancel "
+            "in the sum")
+    return (f"protocol v1: each frame's only check is the sum of its 16-bit words mod 4096, which cannot see "
+            f"{what}; a frame so damaged on the wire is in the file marked valid (docs/protocol.md)")
 
 
 def info(session: Session | str | os.PathLike[str]) -> str:

@@ -34,7 +34,8 @@ from numpy.typing import NDArray
 
 from ..frames import FrameBatch
 
-from .session_layout import (COUNTER_NAMES, FORMAT_NAME, FORMAT_VERSION, KINDS, Header, SessionFormatError,
+from .session_layout import (COUNTER_NAMES, FORMAT_NAME, FORMAT_VERSION, KINDS, MAX_CHUNK_FRAMES,
+                             STREAMS_FORMAT_VERSION, Header, SessionFormatError, check_stream_name, frame_shape_of,
                              stream_journal_candidates)
 
 MAGIC = b"PSMATJ02"
@@ -167,34 +168,31 @@ class Journal:
 
     @classmethod
     def open(cls, path: Path) -> Journal:
-        """Read and check the header; :class:`SessionFormatError` if it is not an intact journal header."""
+        """Read and check the header; :class:`SessionFormatError` if it is not an intact journal header.
+
+        Intact means its CRC-32 matches and every field is what a psmat writer writes
+        (:func:`_header_fields`): a header whose CRC matches is still not trusted with a kind
+        psmat does not know, a shape that is not positive or not the kind's, a size out of
+        bounds (a frame holds at most ``session_layout.MAX_FRAME_VALUES`` values, so no record size a
+        header claims makes the reader allocate more than the journal holds) or a dtype that is
+        not the kind's.
+        """
+        size = path.stat().st_size
         with open(path, "rb") as fh:
             head = fh.read(12)
             if len(head) < 12 or head[:8] != MAGIC:
                 raise SessionFormatError(f"{path}: not a psmat session journal (bad or missing magic)")
             hlen = int.from_bytes(head[8:12], "little")
+            if 12 + hlen + 4 > size:  # before reading (allocating) hlen bytes
+                raise SessionFormatError(f"{path}: journal header truncated ({size - 12} of {hlen + 4} bytes)")
             hb = fh.read(hlen + 4)
-        size = path.stat().st_size
         if len(hb) < hlen + 4:
             raise SessionFormatError(f"{path}: journal header truncated ({len(hb)} of {hlen + 4} bytes)")
         if zlib.crc32(hb[:hlen]) != int.from_bytes(hb[hlen:], "little"):
             raise SessionFormatError(f"{path}: journal header damaged (CRC-32 mismatch)")
         try:
             doc = json.loads(hb[:hlen].decode("utf-8"))
-            kind = str(doc["kind"])
-            h = Header(kind=kind, frame_shape=tuple(int(x) for x in doc["frame_shape"]),
-                       device=dict(doc["device"] or {}), calibration=doc["calibration"],
-                       metadata=dict(doc["metadata"] or {}), created_utc=str(doc["created_utc"]),
-                       chunk_frames=int(doc["chunk_frames"]))
-            if kind not in KINDS or np.dtype(doc["frame_dtype"]) != KINDS[kind].dtype:
-                raise ValueError(f"kind {kind!r} with frame dtype {doc['frame_dtype']!r}")
-            rec = record_dtype(payload_bytes(h))
-            if rec.itemsize != int(doc["record_bytes"]):
-                raise ValueError(f"record size {doc['record_bytes']}, the frame shape needs {rec.itemsize}")
-            version = int(doc["format_version"])
-            stream, session = doc.get("stream"), doc.get("session")
-            if not all(x is None or isinstance(x, str) for x in (stream, session)):
-                raise ValueError(f"stream {stream!r} of session {session!r}")
+            h, version, rec, stream, session = _header_fields(doc)
         except (UnicodeDecodeError, ValueError, KeyError, TypeError) as e:
             raise SessionFormatError(f"{path}: journal header is not a psmat journal header ({e})") from None
         return cls(path=path, header=h, format_version=version, record=rec, body_offset=12 + hlen + 4,
@@ -328,6 +326,60 @@ class Journal:
         if self.tail_bytes:
             notes.append(f"journal tail of {self.tail_bytes} bytes discarded (incomplete last record)")
         return notes
+
+
+def _int(doc: Mapping[str, Any], key: str, lo: int, hi: int) -> int:
+    v = doc[key]
+    if not isinstance(v, int) or isinstance(v, bool) or not lo <= v <= hi:
+        raise ValueError(f"{key} {v!r} is not an integer in [{lo}, {hi}]")
+    return v
+
+
+def _dict(doc: Mapping[str, Any], key: str, none_ok: bool = False) -> dict[str, Any] | None:
+    v = doc[key]
+    if v is None and none_ok:
+        return None
+    if not isinstance(v, dict):
+        raise ValueError(f"{key} is a {type(v).__name__}, not a JSON object")
+    return v
+
+
+def _header_fields(doc: Any) -> tuple[Header, int, np.dtype, str | None, str | None]:
+    """A journal header's fields, each checked against what psmat writes; ValueError naming the first that is not."""
+    if not isinstance(doc, dict):
+        raise ValueError("not a JSON object")
+    if doc.get("format", FORMAT_NAME + "-journal") != FORMAT_NAME + "-journal":
+        raise ValueError(f"format {doc['format']!r}")
+    version = _int(doc, "format_version", 1, STREAMS_FORMAT_VERSION)
+    kind = doc["kind"]
+    if not isinstance(kind, str) or kind not in KINDS:
+        raise ValueError(f"kind {kind!r} is not one of {sorted(KINDS)}")
+    shape = doc["frame_shape"]
+    if not isinstance(shape, list) or not all(isinstance(x, int) and not isinstance(x, bool) for x in shape):
+        raise ValueError(f"frame_shape {shape!r} is not a list of integers")
+    fshape = frame_shape_of(kind, tuple(shape))  # positive, the kind's rank, at most MAX_FRAME_VALUES values
+    if not isinstance(doc["frame_dtype"], str) or np.dtype(doc["frame_dtype"]) != KINDS[kind].dtype:
+        raise ValueError(f"kind {kind!r} with frame dtype {doc['frame_dtype']!r}")
+    created = doc["created_utc"]
+    if not isinstance(created, str):
+        raise ValueError(f"created_utc {created!r} is not a string")
+    h = Header(kind=kind, frame_shape=fshape, device=_dict(doc, "device") or {},
+               calibration=_dict(doc, "calibration", none_ok=True), metadata=_dict(doc, "metadata") or {},
+               created_utc=created, chunk_frames=_int(doc, "chunk_frames", 1, MAX_CHUNK_FRAMES))
+    p = payload_bytes(h)
+    rec = record_dtype(p)
+    if "payload_bytes" in doc and _int(doc, "payload_bytes", 0, 2**62) != p:
+        raise ValueError(f"payload size {doc['payload_bytes']}, the frame shape needs {p}")
+    if _int(doc, "record_bytes", 0, 2**62) != rec.itemsize:
+        raise ValueError(f"record size {doc['record_bytes']}, the frame shape needs {rec.itemsize}")
+    if doc.get("counter_names", list(COUNTER_NAMES)) != list(COUNTER_NAMES):
+        raise ValueError(f"counter_names {doc['counter_names']!r}, expected {list(COUNTER_NAMES)}")
+    stream, session = doc.get("stream"), doc.get("session")
+    if stream is not None:
+        check_stream_name(stream)
+    if session is not None and (not isinstance(session, str) or not 0 < len(session) <= 64):
+        raise ValueError(f"session id {session!r}")
+    return h, version, rec, stream, session
 
 
 def stream_journals(path: Path, session: str | None) -> tuple[dict[str, Journal], list[str]]:

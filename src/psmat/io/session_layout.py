@@ -21,6 +21,8 @@ from numpy.typing import NDArray
 
 from ..frames import FrameBatch
 
+from .session_crc import CRC_NAME, ChunkCrcs, chunk_crc
+
 FORMAT_NAME = "psmat-session"
 FORMAT_VERSION = 2
 #: the version of a file with more than one device (group ``/streams``): an older psmat,
@@ -28,6 +30,10 @@ FORMAT_VERSION = 2
 STREAMS_FORMAT_VERSION = 3
 COUNTER_NAMES: tuple[str, ...] = ("dropped_frames", "bad_frames", "resyncs", "bytes_discarded")
 PER_FRAME: tuple[str, ...] = ("host_time_s", "valid", "seq", "device_time_us")
+#: the most values one frame may hold (a 1024 x 1024 mat; the wire protocols stop far below it)
+MAX_FRAME_VALUES = 1 << 20
+#: the most frames per HDF5 chunk (the unit one checksum covers; 256 by default)
+MAX_CHUNK_FRAMES = 1 << 16
 
 
 @dataclass(frozen=True)
@@ -61,7 +67,7 @@ class SessionFormatError(ValueError):
 # names a stream may not take: the datasets and groups of a session (a stream's name is
 # also part of its journal's and its CSV's file name)
 RESERVED_NAMES = frozenset({"counts", "angles", *PER_FRAME, "counters", "products", "device", "calibration",
-                            "metadata", "streams", "journal", "partial"})
+                            "metadata", "streams", "journal", "partial", CRC_NAME})
 
 
 def check_stream_name(name: Any) -> str:
@@ -147,6 +153,8 @@ def frame_shape_of(kind: str, shape: int | tuple[int, ...]) -> tuple[int, ...]:
         raise ValueError(f"a daq frame shape is (n_sensors,), got {fshape}")
     if any(x < 1 for x in fshape):
         raise ValueError(f"frame shape must be positive, got {fshape}")
+    if int(np.prod(fshape, dtype=np.float64)) > MAX_FRAME_VALUES:
+        raise ValueError(f"a frame holds at most {MAX_FRAME_VALUES} values, got shape {fshape}")
     return fshape
 
 
@@ -353,6 +361,7 @@ def write_product(f: h5py.File, name: str, array: Any, params: Mapping[str, Any]
         arr = arr.astype(np.uint8)
     chunked = arr.ndim > 0 and arr.size > 0
     ds = g.create_dataset(name, data=arr, chunks=True if chunked else None, fletcher32=chunked)
+    put_attr(ds, CRC_NAME, np.uint32(chunk_crc(ds.name, 0, arr)))  # what Fletcher-32 misses (.session_crc)
     put_attr(ds, "unit", str(unit))
     pj = to_json(dict(params))
     put_attr(ds, "params_json", pj)
@@ -394,6 +403,7 @@ def _write_frames(g: h5py.Group, header: Header, blocks: Iterable[FrameBatch], c
     """The frames, per-frame datasets, device description and counters of one device into ``g``."""
     ds = _create_frames(g, header)
     dname = header.spec.dataset
+    crcs = {name: ChunkCrcs(d.name, header.chunk_frames, d.dtype) for name, d in ds.items()}
     n = 0
     for b in blocks:
         m = len(b)
@@ -404,9 +414,20 @@ def _write_frames(g: h5py.Group, header: Header, blocks: Iterable[FrameBatch], c
         for name, arr in cols.items():
             ds[name].resize(n + m, axis=0)
             ds[name][n : n + m] = arr
+            crcs[name].feed(arr)
         n += m
-    k = g.create_dataset("counters", data=np.array([int(counters.get(c, 0)) for c in COUNTER_NAMES], np.int64),
-                         chunks=(len(COUNTER_NAMES),), fletcher32=True)
+    # docs/spec.md §6: a CRC-32 per chunk, bound to its dataset and position (.session_crc); no filter, so a
+    # damaged entry costs its own chunk's frames only
+    cg = g.create_group(CRC_NAME)
+    for name, c in crcs.items():
+        t = cg.create_dataset(name, data=c.table())
+        put_attr(t, "unit", "1")
+        put_attr(t, "chunk_frames", np.int64(header.chunk_frames))
+        put_attr(t, "description", f"CRC-32 of each chunk of {ds[name].name}: zlib.crc32 of the path, NUL, "
+                                   "the chunk index (int64 LE), the chunk's rows (LE)")
+    values = np.array([int(counters.get(c, 0)) for c in COUNTER_NAMES], np.int64)
+    k = g.create_dataset("counters", data=values, chunks=(len(COUNTER_NAMES),), fletcher32=True)
+    put_attr(k, CRC_NAME, np.uint32(chunk_crc(k.name, 0, values)))
     put_attr(k, "unit", "1")
     put_attr(k, "names", list(COUNTER_NAMES))
     put_attr(g, "n_frames", np.int64(n))
@@ -470,7 +491,8 @@ def _write_file(tmp: Path, header: Header, blocks: Iterable[FrameBatch], counter
 
 
 def fsync_file(path: Path) -> None:
-    fd = os.open(path, os.O_RDONLY)
+    """Flush ``path``'s data to disk (Windows needs a handle open for writing to do so)."""
+    fd = os.open(path, os.O_RDWR | getattr(os, "O_BINARY", 0) if os.name == "nt" else os.O_RDONLY)
     try:
         os.fsync(fd)
     finally:

@@ -9,8 +9,10 @@ from pathlib import Path
 from typing import Any
 
 import h5py
+import numpy as np
 from numpy.typing import ArrayLike
 
+from .session_crc import CRC_NAME, chunk_crc
 from .session_layout import FORMAT_NAME, Product, SessionFormatError, attr_str, journal_path, write_product
 
 
@@ -45,7 +47,7 @@ def save_product(
 
 
 def read_products(f: h5py.File, notes: list[str]) -> dict[str, Product]:
-    """Every readable ``/products/NAME``; a damaged one (checksum, attributes) is left out with a note."""
+    """Every readable ``/products/NAME``; a damaged one (Fletcher-32, CRC-32, attributes) is left out with a note."""
     out: dict[str, Product] = {}
     if "products" not in f:
         return out
@@ -57,8 +59,14 @@ def read_products(f: h5py.File, notes: list[str]) -> dict[str, Product]:
             params = json.loads(attr_str(ds.attrs.get("params_json", "{}")))
             if not isinstance(params, dict):
                 raise ValueError("params_json is not a JSON object")
-            out[name] = Product(data=ds[()], unit=attr_str(ds.attrs.get("unit", "")), params=params,
+            data = ds[()]  # its storage and dtype were checked with the file's (.session_storage)
+            crc = ds.attrs.get(CRC_NAME)
+            if crc is None:
+                notes.append(f"product {name!r} carries Fletcher-32 only (written by an older psmat)")
+            elif chunk_crc(ds.name, 0, np.asarray(data)) != int(np.asarray(crc).reshape(-1)[0]):
+                raise ValueError("CRC-32 mismatch")
+            out[name] = Product(data=data, unit=attr_str(ds.attrs.get("unit", "")), params=params,
                                 created_utc=attr_str(ds.attrs.get("created_utc", "")))
-        except (OSError, KeyError, ValueError) as e:
+        except (OSError, KeyError, ValueError, TypeError, IndexError) as e:
             notes.append(f"product {name!r} damaged and left out ({type(e).__name__}: {e})")
     return out

@@ -37,7 +37,9 @@ from .session_layout import (
     utc_now,
     write_session_file,
 )
+from .session_crc import CRC_NAME, chunk_crc
 from .session_products import read_products
+from .session_storage import check_device, check_objects
 
 # what h5py and NumPy raise on bytes that do not decode (damaged metadata, wrong types)
 _DECODE_ERRORS = (OSError, KeyError, ValueError, TypeError, RuntimeError, IndexError, AttributeError, OverflowError)
@@ -212,6 +214,7 @@ def _read_open(f: h5py.File, path: Path, notes: list[str]) -> Session:
             f"{path}: session format version {version} is not supported (this psmat reads 1..{STREAMS_FORMAT_VERSION})"
         )
     complete = bool(int(a.get("complete", 0)))
+    check_objects(f, path, stored=complete)  # before any data is read: nothing but plain datasets stored here
     kind, block = _read_device(f, path, complete, notes)
     metadata = _group_json(f, "metadata", path) or {}
     created = attr_str(a.get("created_utc", ""))
@@ -242,52 +245,77 @@ def _read_open(f: h5py.File, path: Path, notes: list[str]) -> Session:
 
 
 def _read_device(g: h5py.Group, path: Path, complete: bool, notes: list[str]) -> tuple[str, FrameBatch]:
-    """One device's frames from ``g`` (``/`` or ``/streams/NAME``): its kind and frames, damaged chunks invalid."""
+    """One device's frames from ``g`` (``/`` or ``/streams/NAME``): its kind and frames, damaged chunks invalid.
+
+    Kind, dtypes, shapes and lengths are checked (:func:`check_device`) before anything is
+    read; each chunk is then read alone and checked against its Fletcher-32 and, in files that
+    have them, its CRC-32 (:mod:`.session_crc`).
+    """
     a = g.attrs
     kind = attr_str(a["kind"])
     if kind not in KINDS or attr_str(a.get("frame_dataset", KINDS[kind].dataset)) != KINDS[kind].dataset:
         raise SessionFormatError(f"{path}: corrupt session, unknown kind {kind!r} or frame dataset in {g.name}")
     dname = KINDS[kind].dataset
-    missing = [n for n in (dname, *PER_FRAME) if n not in g]
-    if missing:
-        raise SessionFormatError(f"{path}: corrupt session, missing dataset(s) {missing} in {g.name}")
-    lengths = {n: int(g[n].shape[0]) for n in (dname, *PER_FRAME)}
-    if complete:
-        n = int(a.get("n_frames", lengths[dname]))
-        if len(set(lengths.values())) != 1 or n != lengths[dname]:
-            raise SessionFormatError(
-                f"{path}: corrupt session, per-frame datasets of {g.name} disagree in length {lengths} (n_frames={n})"
-            )
-    else:  # a format-1 SWMR file whose writer was killed, its flag cleared (h5clear -s)
-        n = min(lengths.values())
-        if "committed" in g:
-            n = min(n, int(g["committed"][0]))
+    n = check_device(g, path, kind, complete)[1]
+    if not complete:  # a format-1 SWMR file whose writer was killed, its flag cleared (h5clear -s)
         notes.append(f"interrupted recording (not closed): {n} committed frames in the HDF5 file")
-
+    names = (dname, *PER_FRAME)
+    tables = _crc_tables(g, names, n, path)
     fill = 0 if KINDS[kind].dtype.kind in "ui" else np.nan
-    frames, bad = _read_chunked(g[dname], n, fill, notes)
+    frames, bad = _read_chunked(g[dname], n, fill, notes, tables.get(dname))
     cols = {}
     for name in PER_FRAME:
-        cols[name], bad_k = _read_chunked(g[name], n, PER_FRAME_SPEC[name][3], notes)
+        cols[name], bad_k = _read_chunked(g[name], n, PER_FRAME_SPEC[name][3], notes, tables.get(name))
         bad |= bad_k
-    unchecked = [n_ for n_ in (dname, *PER_FRAME) if not g[n_].fletcher32]
+    unchecked = [n_ for n_ in names if not g[n_].fletcher32]
     if unchecked:
         notes.append(f"{', '.join(unchecked)} carry no checksums (written by an older psmat): "
                      "damage there cannot be seen")
+    elif not tables:
+        notes.append("the frames carry Fletcher-32 only (written by an older psmat, no CRC-32 per chunk): "
+                     "a 16-bit word changed between 00 00 and FF FF, or a chunk moved to another position, "
+                     "cannot be seen")
     valid = cols["valid"].astype(bool) & ~bad  # docs/spec.md §6: a damaged frame is never returned as valid
     return kind, FrameBatch(frames, cols["host_time_s"], valid, cols["seq"], cols["device_time_us"])
 
 
-def _read_chunked(ds: h5py.Dataset, n: int, fill: Any, notes: list[str]) -> tuple[NDArray[Any], NDArray[np.bool_]]:
-    """Rows ``[0, n)`` of ``ds``, chunk by chunk: a chunk failing its checksum becomes ``fill``, flagged."""
+def _crc_tables(g: h5py.Group, names: tuple[str, ...], n: int, path: Path) -> dict[str, NDArray[np.uint32]]:
+    """The CRC-32 tables of ``g``'s per-frame datasets (none in a file of an older psmat), each checked for shape."""
+    if CRC_NAME not in g:
+        return {}
+    cg = g[CRC_NAME]
+    out = {}
+    for name in names:
+        t = cg.get(name) if isinstance(cg, h5py.Group) else None
+        ds = g[name]
+        c = int(ds.chunks[0]) if ds.chunks else max(n, 1)
+        want = -(-n // c)
+        if (not isinstance(t, h5py.Dataset) or t.dtype != np.dtype("<u4") or t.shape != (want,)
+                or int(np.asarray(t.attrs.get("chunk_frames", -1)).reshape(-1)[0]) != c):
+            raise SessionFormatError(f"{path}: {g.name.rstrip('/')}/{CRC_NAME}/{name} is not the CRC-32 table of "
+                                     f"{ds.name} ({want} chunks of {c} frames)")
+        out[name] = t[()]
+    return out
+
+
+def _read_chunked(ds: h5py.Dataset, n: int, fill: Any, notes: list[str],
+                  crcs: NDArray[np.uint32] | None = None) -> tuple[NDArray[Any], NDArray[np.bool_]]:
+    """Rows ``[0, n)`` of ``ds``, chunk by chunk: a chunk failing a checksum becomes ``fill``, flagged.
+
+    ``crcs``: the dataset's CRC-32 per chunk (:mod:`.session_crc`), checked after its Fletcher-32.
+    """
     out = np.empty((n, *ds.shape[1:]), ds.dtype)
     bad = np.zeros(n, bool)
     step = ds.chunks[0] if ds.chunks else max(n, 1)
-    for a in range(0, n, step):
+    for i, a in enumerate(range(0, n, step)):
         b = min(a + step, n)
         try:
             out[a:b] = ds[a:b]
         except OSError:  # Fletcher-32 mismatch (or an unreadable chunk)
+            out[a:b] = fill
+            bad[a:b] = True
+            continue
+        if crcs is not None and chunk_crc(ds.name, i, out[a:b]) != int(crcs[i]):
             out[a:b] = fill
             bad[a:b] = True
     if bad.any():
@@ -329,9 +357,15 @@ def _counters(g: h5py.Group, notes: list[str]) -> dict[str, int]:
         return counters
     ds = g["counters"]
     names = [attr_str(x) for x in ds.attrs.get("names", list(COUNTER_NAMES))]
+    if not isinstance(ds, h5py.Dataset) or ds.dtype.kind not in "iu" or ds.shape != (len(names),) or len(names) > 64:
+        raise SessionFormatError(f"{g.file.filename}: {g.name.rstrip('/')}/counters is not {len(names)} counters "
+                                 f"(dtype {getattr(ds, 'dtype', None)}, shape {getattr(ds, 'shape', None)})")
     try:
         values = ds[()]
     except OSError:
+        values = None
+    crc = ds.attrs.get(CRC_NAME)
+    if values is None or (crc is not None and chunk_crc(ds.name, 0, values) != int(np.asarray(crc).reshape(-1)[0])):
         notes.append(f"{ds.name}: damaged (checksum failed), the reader's counters are unknown")
         return {}
     counters.update({k: int(v) for k, v in zip(names, values)})

@@ -23,6 +23,7 @@ from ..frames import FrameBatch
 from . import session_journal as jr
 from .session_layout import (
     COUNTER_NAMES,
+    MAX_CHUNK_FRAMES,
     Header,
     StreamBlocks,
     as_dict,
@@ -34,6 +35,9 @@ from .session_layout import (
     utc_now,
     write_session_file,
 )
+
+#: the journal is bytes: no newline translation on Windows (0 elsewhere)
+_O_BINARY = getattr(os, "O_BINARY", 0)
 
 
 class StreamWriter:
@@ -68,7 +72,7 @@ class StreamWriter:
         self._sync_lock = threading.Lock()  # one fsync at a time
         self._error: BaseException | None = None
         self._closed = False
-        self._jfd = os.open(jpath, os.O_WRONLY | os.O_CREAT | os.O_TRUNC | os.O_APPEND, 0o644)
+        self._jfd = os.open(jpath, os.O_WRONLY | os.O_CREAT | os.O_TRUNC | os.O_APPEND | _O_BINARY, 0o644)
         _write_all(self._jfd, jr.encode_header(header, session, stream=name))
         os.fsync(self._jfd)
         fsync_dir(jpath.parent)
@@ -311,8 +315,9 @@ class SessionWriter(StreamWriter):
         overwrite: bool = False,
     ) -> None:
         fshape = frame_shape_of(kind, shape)
-        if chunk_frames < 1 or flush_frames < 1 or not flush_interval_s > 0:
-            raise ValueError("chunk_frames and flush_frames must be >= 1 and flush_interval_s > 0")
+        if not 1 <= chunk_frames <= MAX_CHUNK_FRAMES or flush_frames < 1 or not flush_interval_s > 0:
+            raise ValueError(f"chunk_frames must be in [1, {MAX_CHUNK_FRAMES}], flush_frames >= 1 and "
+                             "flush_interval_s > 0")
         self.path = Path(path)
         jpath = journal_path(self.path)
         for p in (self.path, jpath):
