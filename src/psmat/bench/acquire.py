@@ -12,6 +12,8 @@
    checks the sum, a bad one stored as a missing row. When a byte is lost, that read runs
    into the next frame's marker, so the next frame leaves no row at all; psmat's decoders
    resync byte by byte after a failed check and find it.
+3. The v2 decoder's cost per MiB on valid 16x16 frames, random bytes, and fake headers
+   claiming 8 KiB every 18 bytes (docs/protocol.md, "Decoding cost").
 """
 
 from __future__ import annotations
@@ -26,7 +28,7 @@ import time
 
 import numpy as np
 
-__all__ = ["main", "thesis_read"]
+__all__ = ["main", "thesis_read", "decode_cost"]
 
 
 def _psmat_run(seconds: float, rate: int, protocol: str, faults: str) -> dict:
@@ -114,6 +116,34 @@ def _thesis_run(seconds: float, rate: int, faults: str) -> dict:
     return out
 
 
+def decode_cost(mib: float = 1.0) -> dict[str, tuple[float, float]]:
+    """Cost of :class:`~psmat.protocol.V2Decoder` on ``mib`` MiB fed in 4 KiB reads.
+
+    Returns
+    -------
+    dict
+        ``{"valid" | "random" | "fake headers": (seconds per MiB, CRC bytes per input byte)}``
+        for valid 16x16 frames, random bytes, and 64x64 headers (8 KiB claimed) every 18 bytes.
+    """
+    from ..protocol import V2Decoder, encode_v2
+
+    n = int(mib * (1 << 20))
+    rng = np.random.default_rng(0)
+    frames = b"".join(encode_v2(f, i, 6061 * i) for i, f in enumerate(rng.integers(0, 4096, (n // 530 + 1, 16, 16))))
+    fake = encode_v2(np.zeros((64, 64), np.uint16), 0, 0)[:16] + b"\0\0"
+    streams = {"valid": frames[:n], "random": rng.integers(0, 256, n, dtype=np.uint8).tobytes(),
+               "fake headers": (fake * (n // 18 + 1))[:n]}
+    out = {}
+    for name, data in streams.items():
+        dec = V2Decoder()
+        t0 = time.perf_counter()
+        for i in range(0, n, 4096):
+            dec.feed(data[i:i + 4096])
+        dec.finish()
+        out[name] = ((time.perf_counter() - t0) * (1 << 20) / n, dec.crc_bytes / n)
+    return out
+
+
 def build_parser(prog: str = "python -m psmat.bench acquire") -> argparse.ArgumentParser:
     """The benchmark's options (its help: this module's docstring, every default and unit)."""
     from .._help import HelpFormatter, plain
@@ -151,5 +181,7 @@ def main(argv: list[str] | None = None, prog: str = "python -m psmat.bench acqui
     b = _thesis_run(args.fault_seconds, args.rate, args.faults)
     print(f"  thesis-style v1 reader : {b.get('frames', 0)} valid, {b.get('invalid', 0)} invalid rows, "
           f"of {b.get('sent', 0)} sent (INIT INIT, then a fixed-size read)", flush=True)
+    cost = ", ".join(f"{k} {s:.3f} s ({c:.2f})" for k, (s, c) in decode_cost().items())
+    print(f"v2 decoder per MiB (CRC bytes per input byte): {cost}", flush=True)
     print(f"wall time of the whole benchmark: {time.monotonic() - t_start:.0f} s", flush=True)
     return 0

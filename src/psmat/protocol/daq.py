@@ -6,8 +6,9 @@ decimal, separated by commas, ending ``\\r\\n``::
     512,498,1023,0,77,301,290,288,1001,12\\r\\n
 
 Host commands are single characters: ``s`` starts, ``f`` stops. :class:`DaqLineDecoder`
-splits an arbitrary byte stream into lines (keeping a partial line for the next chunk) and
-reports malformed lines instead of raising. Logs on disk are read by
+splits an arbitrary byte stream into lines (keeping a partial line, at most ``max_line``
+bytes, for the next chunk) and reports malformed lines instead of raising; a longer line is
+garbage, dropped up to its newline without being held. Logs on disk are read by
 :func:`psmat.sensor.load_daq_log`. Both go through :func:`parse_daq_fields`, the one parser
 of these lines (which also takes semicolons or white space between the fields, as logs saved
 by other tools have them).
@@ -188,30 +189,48 @@ class DaqLineDecoder:
     n_sensors : int
         Fields per line (10).
     max_line : int
-        A partial line longer than this (bytes) without a newline is reported as malformed
-        and discarded (guards against a stream of garbage).
+        Longest line kept (bytes before its ``\\n``, >= 1; a 10-sensor DAQ line holds at most
+        50, its ``\\r`` included). A longer
+        line is garbage: one :class:`DaqMalformed` (its first 80 bytes) as soon as
+        ``max_line`` is exceeded, then its bytes are dropped up to and including the next
+        ``\\n`` without being held, and counted in ``skipped``. So the decoder holds at most
+        ``max_line`` bytes whatever the stream.
 
     Notes
     -----
     Lines end at ``\\n`` (a preceding ``\\r`` is removed). Blank lines are ignored (counted
-    in ``blank``). Counters: ``bytes_in``, ``lines`` (non-blank lines seen), ``samples``,
-    ``malformed``, ``blank``.
+    in ``blank``). Counters: ``bytes_in``, ``lines`` (non-blank lines seen, overlong ones
+    included), ``samples``, ``malformed``, ``blank``, ``skipped`` (bytes of overlong lines).
     """
 
     def __init__(self, n_sensors: int = DAQ_SENSORS, max_line: int = 256) -> None:
         self.n_sensors = int(n_sensors)
         self.max_line = int(max_line)
+        if self.max_line < 1:
+            raise ValueError(f"max_line must be >= 1 byte, got {max_line}")
         self._partial = bytearray()
+        self._discarding = False   # inside an overlong line: drop bytes up to the next newline
         self.bytes_in = 0
         self.lines = 0
         self.samples = 0
         self.malformed = 0
         self.blank = 0
+        self.skipped = 0
 
     @property
     def stats(self) -> dict[str, int]:
         """The counters as a dict."""
-        return {k: getattr(self, k) for k in ("bytes_in", "lines", "samples", "malformed", "blank")}
+        return {k: getattr(self, k) for k in ("bytes_in", "lines", "samples", "malformed", "blank", "skipped")}
+
+    @property
+    def pending(self) -> int:
+        """Bytes held for the next :meth:`feed` (a partial line, at most ``max_line``)."""
+        return len(self._partial)
+
+    def _overlong(self, head: bytes, events: list[DaqEvent]) -> None:
+        self.lines += 1
+        self.malformed += 1
+        events.append(DaqMalformed(bytes(head[:80]), f"line longer than {self.max_line} bytes", self.lines - 1))
 
     def _line(self, raw: bytes, events: list[DaqEvent]) -> None:
         raw = raw.rstrip(b"\r")
@@ -231,25 +250,42 @@ class DaqLineDecoder:
 
     def feed(self, data: bytes | bytearray | memoryview) -> list[DaqEvent]:
         """Add a chunk; return the :class:`DaqSample` / :class:`DaqMalformed` of the lines it completed."""
-        chunk = as_bytes(data)
+        chunk = bytes(as_bytes(data))
         self.bytes_in += len(chunk)
-        self._partial += chunk
         events: list[DaqEvent] = []
-        parts = self._partial.split(b"\n")
-        self._partial = parts.pop()
-        for raw in parts:
-            self._line(bytes(raw), events)
-        if len(self._partial) > self.max_line:
-            self.lines += 1
-            self.malformed += 1
-            events.append(DaqMalformed(bytes(self._partial[:80]), f"line longer than {self.max_line} bytes",
-                                       self.lines - 1))
+        if self._discarding:
+            nl = chunk.find(b"\n")
+            if nl < 0:
+                self.skipped += len(chunk)
+                return events
+            self.skipped += nl + 1
+            chunk = chunk[nl + 1:]
+            self._discarding = False
+        if b"\n" in chunk:       # the held partial line is copied once, when its line ends
+            parts = (bytes(self._partial) + chunk).split(b"\n")
             self._partial = bytearray()
+            tail = parts.pop()
+            for raw in parts:
+                if len(raw) > self.max_line:
+                    self._overlong(raw.rstrip(b"\r"), events)
+                    self.skipped += len(raw) + 1
+                else:
+                    self._line(raw, events)
+        else:
+            tail = chunk
+        if len(self._partial) + len(tail) > self.max_line:      # overlong: report, then drop
+            self._overlong(bytes(self._partial[:80]) + tail[:80], events)
+            self.skipped += len(self._partial) + len(tail)
+            self._discarding = True
+            self._partial = bytearray()
+        else:
+            self._partial += tail
         return events
 
     def finish(self) -> list[DaqEvent]:
         """End of stream: a pending partial line is parsed if complete, else reported malformed."""
         events: list[DaqEvent] = []
+        self._discarding = False
         if self._partial:
             raw, self._partial = bytes(self._partial), bytearray()
             self._line(raw, events)

@@ -13,22 +13,51 @@ incomplete packet for the next call, and return the events completed so far:
 
 Resynchronisation is byte by byte: after garbage or a failed check the decoder looks for
 the next marker (``0xFF 0xFF`` for v1, ``0xA5 0x5A`` for v2) after the failed one's first
-byte. In v1 a failed candidate is an invalid row, except (a) a false start: directly followed by
-another marker byte (``FF FF FF``), its first byte is garbage; (b) a candidate that starts
-inside the span of the previous invalid row is a row of its own only if a marker follows
-right after its span (else it is a marker-like pair inside the corrupted frame: one
-corrupted frame gives one invalid row, not several). In v2 a packet with a plausible header
-and a bad CRC is an invalid row, but its header failed the check too and is trusted only as
-far as it agrees with what is known: a candidate inside the span of the previous invalid row
-is no row (the sequence numbers count a real frame lost there), nor is one whose shape
-differs from the last valid frame of its type (a fake header in garbage or in a payload).
-So invalid rows never overlap: they hold at most as many bytes as the stream.
+byte, so a valid frame is found wherever it starts. In v1 a failed candidate is an invalid
+row, except (a) a false start: directly followed by another marker byte (``FF FF FF``), its
+first byte is garbage; (b) a candidate that starts inside the span of a reported row
+or reply is no row (a marker-like pair inside a corrupted frame, or garbage). In v2 a packet
+with a plausible header and a bad CRC is an invalid row, but its header failed the check too
+and is trusted only as far as it agrees with what is known: a candidate inside the span of
+a reported row or reply is no row (the sequence numbers count a real frame lost
+there), nor is one whose shape differs from the last valid frame of its type (a fake header
+in garbage or in a payload).
+
+Invalid rows never overlap and each stands for a whole frame's bytes (v1: ``2 + payload +
+2``; v2: ``16 + n + 2`` of its header), so a stream of ``N`` bytes yields at most
+``N // frame_bytes`` invalid rows of a shape, whatever it holds (``FF FF 00 00`` repeated
+is one invalid row per frame's worth of bytes, not one per 4 bytes). The price: a frame
+shortened by lost bytes and followed by a corrupted one gives one invalid row for the two
+(v2's sequence numbers still count the second as dropped).
+
+Cost per input byte is bounded whatever the input holds (counted in ``crc_bytes``,
+``check_bytes``, ``candidates``, also :attr:`~_Decoder.work`):
+
+* every marker is judged once, with O(1) work before its check: a v2 header must be
+  plausible (version, type, ``n <= 8192``, ``n`` agreeing with ``R``, ``C``; ``R = C = 0``
+  for a reply); a v1 candidate whose check word exceeds 4095 cannot be valid, nor can a v1
+  PSM candidate whose span holds ``FF FF`` after its marker (every high byte of a valid
+  frame is <= 0x0F; one scan of the span); the false starts of a run of 0xFF bytes are
+  skipped in one step;
+* v2 CRCs of overlapping candidates come from prefix registers
+  (:class:`~psmat.protocol.span_crc.SpanCrc`): at most 2 CRC bytes per input byte plus 32
+  per overlapping candidate, instead of the claimed payload per candidate;
+* the v1 PSM checks that pass the pre-check cover each byte at most about twice (two checked
+  candidates closer than a frame are the two last positions of an ``FF`` run), and so do
+  the pre-check's scans: about 4 check bytes per input byte at most; an IMU check reads 62
+  bytes, and each checked IMU candidate has a 0xFF byte (its first) and a check byte <= 0x0F
+  (its last) of its own, so at most half the bytes start one: 31 check bytes per input byte;
+* memory: the bytes of one pending packet (at most ``16 + 8192 + 2``) plus fewer than 16
+  bytes of CRC state, beside the chunk being fed.
 
 Counters (attributes, also :attr:`~_Decoder.stats`): ``bytes_in``, ``frames`` (valid
 frames), ``invalid`` (invalid rows), ``skipped`` (garbage bytes that belong to no reported
 row or reply), ``dropped`` (v2: frames missing from the ``seq`` sequence, wrap-aware, net of
 the invalid rows reported in their place), ``replies``, ``restarts`` (v2: ``seq`` went
-backwards, i.e. the device restarted; no drop is counted).
+backwards, i.e. the device restarted; no drop is counted). Work counters (not in ``stats``:
+they depend on how the stream was chunked, the events do not): ``candidates`` (markers
+judged), ``crc_bytes`` (bytes run through the CRC-16), ``check_bytes`` (bytes read by v1
+checks and their pre-check).
 
 v2 ``t_us`` is unwrapped into a monotonic 64-bit device clock (microseconds since the
 device's counter origin, first frame's raw value as the starting point): each frame adds
@@ -47,7 +76,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from .._checks import as_bytes, shape2
-from .crc import crc16
+from .span_crc import SpanCrc
 from .v1 import IMU_SHAPE, V1_MAX_COUNT
 from .v2 import CRC_SIZE, HEADER_SIZE, MAX_PAYLOAD, SYNC, VERSION, Opcode, PacketType, Status
 
@@ -58,6 +87,7 @@ _WRAP = 1 << 32
 _HALF = 1 << 31
 _HDR = struct.Struct("<BBIIBBH")  # version, type, seq, t_us, rows, cols, n (from offset 2)
 _MARKERS = re.compile(rb"\xff\xff|\xa5\x5a")
+_NOT_FF = re.compile(rb"[^\xff]")
 _NEED_MORE = -1
 _BAD = -2
 
@@ -149,7 +179,7 @@ class _Decoder(ABC):
         self._buf = bytearray()
         self._base = 0          # stream offset of _buf[0]
         self._pos = 0           # next index of _buf to examine
-        self._owned_end = 0     # stream offset where the last reported row/reply ends
+        self._owned_end = 0     # stream offset where the reported rows/replies end
         self._last_t: int | None = None
         self._clock = 0
         self.bytes_in = 0
@@ -159,6 +189,9 @@ class _Decoder(ABC):
         self.dropped = 0
         self.replies = 0
         self.restarts = 0
+        self.candidates = 0
+        self.check_bytes = 0
+        self._span = SpanCrc()
 
     # -- public -------------------------------------------------------------------------
     @property
@@ -166,6 +199,16 @@ class _Decoder(ABC):
         """The counters as a dict."""
         return {k: getattr(self, k) for k in
                 ("bytes_in", "frames", "invalid", "skipped", "dropped", "replies", "restarts")}
+
+    @property
+    def crc_bytes(self) -> int:
+        """Bytes run through the CRC-16 so far (v2 packets, replies)."""
+        return self._span.bytes
+
+    @property
+    def work(self) -> dict[str, int]:
+        """Work done so far: ``candidates`` (markers judged), ``crc_bytes``, ``check_bytes``."""
+        return {"candidates": self.candidates, "crc_bytes": self.crc_bytes, "check_bytes": self.check_bytes}
 
     @property
     def pending(self) -> int:
@@ -209,13 +252,14 @@ class _Decoder(ABC):
 
     # -- helpers ------------------------------------------------------------------------
     def _compact(self) -> None:
-        if self._pos:
-            del self._buf[:self._pos]
-            self._base += self._pos
-            self._pos = 0
+        cut = self._span.keep_from(self._base + self._pos) - self._base
+        if cut > 0:
+            del self._buf[:cut]
+            self._base += cut
+            self._pos -= cut
 
     def _skip(self, a: int, b: int) -> None:
-        """Count buffer bytes [a, b) as garbage, except those inside the last reported span."""
+        """Count buffer bytes [a, b) as garbage, except those inside a reported span."""
         if b > a:
             start = max(self._base + a, self._owned_end)
             end = self._base + b
@@ -258,12 +302,15 @@ class _Decoder(ABC):
         elif typ == PacketType.IMU:
             if rows < 1 or cols < 1 or n != 4 * rows * cols:
                 return _BAD, None
+        elif rows or cols:                      # a reply has rows = cols = 0
+            return _BAD, None
         end = k + HEADER_SIZE + n + CRC_SIZE
         if end > n_buf:
             return (_BAD, None) if final else (_NEED_MORE, None)
-        body = bytes(buf[k + 2:end - 2])
-        crc_ok = crc16(body) == (buf[end - 2] | (buf[end - 1] << 8))
-        return end, (crc_ok, typ, seq, t_raw, rows, cols, body[HEADER_SIZE - 2:])
+        crc = self._span.crc(buf, self._base, self._base + k + 2, self._base + end - 2)
+        crc_ok = crc == (buf[end - 2] | (buf[end - 1] << 8))
+        payload = bytes(buf[k + HEADER_SIZE:end - 2]) if crc_ok else b""
+        return end, (crc_ok, typ, seq, t_raw, rows, cols, payload)
 
     @abstractmethod
     def _process(self, events: list[Event], final: bool) -> None:
@@ -277,16 +324,24 @@ class _V1Base(_Decoder):
     """v1 framing: ``FF FF | payload | check``, plus interleaved v2 replies."""
 
     _kind: str = "psm"
+    #: A candidate ``j`` inside a run of 0xFF bytes with ``buf[j + _run_fails]`` still in the
+    #: run cannot pass its check (and is a false start): the whole stretch is skipped at once.
+    _run_fails: int = 3
 
     def __init__(self, shape: tuple[int, int], payload_size: int) -> None:
         super().__init__()
         self.shape = shape
         self._payload_size = payload_size
         self._frame_size = 2 + payload_size + 2
+        self._run_end = 0       # stream offset where the last 0xFF run looked at ends
 
     @abstractmethod
     def _check(self, payload: bytes, check: int) -> NDArray[Any] | None:
         """The frame's data if ``payload`` passes its check, else None."""
+
+    def _may_pass(self, buf: bytearray, k: int, end: int) -> bool:
+        """O(1) or one scan: False when the candidate ``buf[k:end]`` cannot pass its check."""
+        return buf[end - 1] <= 0x0F             # check word <= 4095
 
     @abstractmethod
     def _invalid_data(self) -> NDArray[Any]:
@@ -316,27 +371,26 @@ class _V1Base(_Decoder):
                     self._skip(k, k + 1)
                     pos = k + 1
                     continue
-                payload = bytes(buf[k + 2:end - 2])
-                data = self._check(payload, buf[end - 2] | (buf[end - 1] << 8))
+                self.candidates += 1
+                data = None
+                if self._may_pass(buf, k, end):
+                    self.check_bytes += size - 2
+                    data = self._check(bytes(buf[k + 2:end - 2]), buf[end - 2] | (buf[end - 1] << 8))
                 if data is not None:
                     self.frames += 1
                     events.append(Frame(self._kind, data, True, None, None, self._base + k))
-                    self._owned_end = self._base + end
+                    self._owned_end = max(self._owned_end, self._base + end)
                     pos = end
                     continue
                 if buf[k + 2] == 0xFF:          # FF FF FF: false start, resync one byte on
-                    self._skip(k, k + 1)
-                    pos = k + 1
+                    if self._run_end <= self._base + k + 2:
+                        m = _NOT_FF.search(buf, k + 2)
+                        self._run_end = self._base + (m.start() if m else n_buf)
+                    nxt = max(k + 1, self._run_end - self._base - self._run_fails)
+                    self._skip(k, nxt)
+                    pos = nxt
                     continue
-                row = self._base + k >= self._owned_end
-                if not row:
-                    # Overlaps the previous invalid row: a frame of its own only if the next
-                    # marker follows right after its span (else a marker-like pair inside the
-                    # corrupted frame).
-                    if end + 2 > n_buf and not final:
-                        break
-                    row = bytes(buf[end:end + 2]) in (b"\xff\xff", SYNC)
-                if row:
+                if self._base + k >= self._owned_end:   # no overlap with a reported span
                     self.invalid += 1
                     events.append(Frame(self._kind, self._invalid_data(), False, None, None, self._base + k))
                     self._owned_end = self._base + end
@@ -347,13 +401,14 @@ class _V1Base(_Decoder):
                 end, info = self._v2_packet(buf, k, final, _REPLY_ONLY)
                 if end == _NEED_MORE:
                     break
+                self.candidates += 1
                 if end == _BAD or not info[0]:
                     self._skip(k, k + 1)
                     pos = k + 1
                     continue
                 _, _, seq, t_raw, _, _, payload = info
                 events.append(self._reply(payload, seq, t_raw, k))
-                self._owned_end = self._base + end
+                self._owned_end = max(self._owned_end, self._base + end)
                 pos = end
         self._pos = pos
 
@@ -381,6 +436,14 @@ class V1Decoder(_V1Base):
         self._zeros = np.zeros((r, c), dtype=np.uint16)
         self._zeros.setflags(write=False)
 
+    def _may_pass(self, buf: bytearray, k: int, end: int) -> bool:
+        """No ``FF FF`` after the marker and a check word <= 4095 (high bytes <= 0x0F)."""
+        if buf[end - 1] > 0x0F:
+            return False
+        m = buf.find(b"\xff\xff", k + 2, end)
+        self.check_bytes += (m + 2 if m >= 0 else end) - (k + 2)
+        return m < 0
+
     def _check(self, payload: bytes, check: int) -> NDArray[np.uint16] | None:
         if check > V1_MAX_COUNT:
             return None
@@ -407,6 +470,7 @@ class ImuV1Decoder(_V1Base):
     """
 
     _kind = "imu"
+    _run_fails = 2 + 4 * IMU_SHAPE[0] * IMU_SHAPE[1] + 1    # the check's high byte
 
     def __init__(self) -> None:
         super().__init__(IMU_SHAPE, 4 * IMU_SHAPE[0] * IMU_SHAPE[1])
@@ -429,13 +493,13 @@ class V2Decoder(_Decoder):
     """Incremental decoder of a v2 stream (PSM and IMU frames, replies).
 
     A header is trusted only within the limits of docs/protocol.md (version 2, type 0x01,
-    0x02 or 0x11, ``n <= 8192``, ``n == 2*R*C`` / ``4*R*C`` with ``R, C >= 1`` for frames);
-    otherwise its first byte is garbage. A frame with a plausible header and a bad CRC is
-    an invalid :class:`Frame` (``seq``/``t_us`` None) unless it starts inside the previous
-    invalid row or names another shape than the last valid frame of its type (then its
-    first byte is garbage); before the first valid frame its shape is its header's,
-    untrusted. A gap in ``seq`` not filled by invalid rows emits a :class:`Gap` and adds to
-    ``dropped``.
+    0x02 or 0x11, ``n <= 8192``, ``n == 2*R*C`` / ``4*R*C`` with ``R, C >= 1`` for frames,
+    ``R = C = 0`` for a reply); otherwise its first byte is garbage. A frame with a
+    plausible header and a bad CRC is an invalid :class:`Frame` (``seq``/``t_us`` None)
+    unless it starts inside the span of a reported row or reply or names another shape
+    than the last valid frame of its type (then its first byte is garbage); before the
+    first valid frame its shape is its header's, untrusted. A gap in ``seq`` not filled by
+    invalid rows emits a :class:`Gap` and adds to ``dropped``.
     """
 
     def __init__(self) -> None:
@@ -455,11 +519,13 @@ class V2Decoder(_Decoder):
                 self._skip(pos, n_buf - keep)
                 pos = n_buf - keep
                 break
-            self._skip(pos, k)
-            pos = k
+            if k > pos:
+                self._skip(pos, k)
+                pos = k
             end, info = self._v2_packet(buf, k, final, _V2_TYPES)
             if end == _NEED_MORE:
                 break
+            self.candidates += 1
             if end == _BAD:
                 self._skip(k, k + 1)
                 pos = k + 1
@@ -481,7 +547,7 @@ class V2Decoder(_Decoder):
                     self._skip(k, k + 1)
                 pos = k + 1
                 continue
-            self._owned_end = self._base + end
+            self._owned_end = max(self._owned_end, self._base + end)
             pos = end
             if typ == PacketType.REPLY:
                 events.append(self._reply(payload, seq, t_raw, k))
