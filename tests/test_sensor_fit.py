@@ -98,7 +98,7 @@ def _non_invertible_data(rng):
 
 
 def test_linear_parameters_are_solved_under_the_invertibility_constraints(rng):
-    from scipy.optimize import minimize
+    from scipy.optimize import LinearConstraint, minimize
 
     from psmat.sensor.invertible_lsq import constrained_coefficients, slope_constraints
 
@@ -113,16 +113,17 @@ def test_linear_parameters_are_solved_under_the_invertibility_constraints(rng):
                                  lambda c: not MPICreep(*sp.theta(z, c)[:5], l=sp.theta(z, c)[5:6],
                                                         w=sp.theta(z, c)[6:]).invertibility_problem())
     cost = float(np.sum((A @ c - b) ** 2))
-    # an independent solver (scipy SLSQP, not NLopt's) on the same QP with a finer grid
+    # an independent solver (scipy, not NLopt) on the same QP with a finer grid
     n = np.linalg.norm(A, axis=0)
     As, M = A / n, slope_constraints(0.3, 6, 32.0, A.shape[1], 257) / n
     H, f, bb = As.T @ As, As.T @ b, b @ b
     x0 = np.zeros(A.shape[1])
     x0[0] = 10 * margin * n[0]
+    # trust-constr (an interior-point method): SLSQP stopped short of the bound on some builds
     ref = minimize(lambda x: (x @ H @ x - 2 * f @ x + bb) / bb, x0, jac=lambda x: 2 * (H @ x - f) / bb,
-                   method="SLSQP", constraints=[dict(type="ineq", fun=lambda x: (M @ x - margin) / margin,
-                                                     jac=lambda x: M / margin)],
-                   options=dict(ftol=1e-15, maxiter=1000))
+                   hess=lambda x: 2 * H / bb, method="trust-constr",
+                   constraints=[LinearConstraint(M / margin, lb=1.0)],
+                   options=dict(gtol=1e-12, xtol=1e-12, maxiter=2000))
     assert (M @ ref.x).min() >= margin * (1 - 1e-6)
     cost_ref = float(np.sum((A @ (ref.x / n) - b) ** 2))
     assert cost_free < cost <= cost_ref * (1 + 1e-3)
