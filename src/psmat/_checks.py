@@ -37,7 +37,21 @@ __all__ = [
     "finite_values",
     "nonnegative",
     "conductances",
+    "MAX_RATE_HZ",
+    "MAX_SESSION_S",
+    "rate_hz",
+    "duration_s",
+    "int_at_most",
 ]
+
+#: The fastest frame rate a psmat device takes (frames/s): the PSM firmware's SET_RATE range is
+#: 1 ... 1000 (firmware/core/psm_core.h, ``PSM_RATE_MAX``; docs/spec.md §5: 100 Hz by default,
+#: 165 Hz or more at most). Nothing psmat records or simulates runs faster.
+MAX_RATE_HZ = 1000
+#: The longest simulated session (s): an hour, sixty times a thesis balance trial (60 s,
+#: docs/spec.md §7) and twenty times a posture session (about 175 s, §8); a simulation holds a
+#: whole session's times and trajectory in memory.
+MAX_SESSION_S = 3600.0
 
 
 def is_int(value: Any) -> bool:
@@ -254,3 +268,35 @@ def conductances(G: Any, name: str = "G") -> NDArray[np.float64]:
     if bad.any():
         raise ValueError(f"{name} must be >= 0 (S); negative value {float(g[first_bad(bad)])!r} at index {first_bad(bad)}")
     return g
+
+
+def rate_hz(name: str, value: Any, *, maximum: float = MAX_RATE_HZ, whole: bool = False,
+            limit: str = "the PSM firmware's fastest, docs/spec.md §5") -> float:
+    """A frame rate (Hz): finite, > 0, at most ``maximum`` (``limit`` says why) and, with
+    ``whole``, a whole number of frames per second (a firmware's timer counts whole frames)."""
+    v = _scalar(name, value, "a rate in Hz")
+    if not (math.isfinite(v) and v > 0):
+        raise ValueError(f"{name} must be > 0 Hz, got {value!r}")
+    if v > maximum:
+        raise ValueError(f"{name} must be at most {maximum:g} Hz ({limit}), got {v:g}")
+    if whole and v != math.floor(v):
+        raise ValueError(f"{name} must be a whole number of frames per second, 1 ... {maximum:g} "
+                         f"(the firmware's timer), got {v:g}")
+    return v
+
+
+def duration_s(name: str, value: Any, *, maximum: float = MAX_SESSION_S,
+               limit: str = "an hour: the longest session psmat simulates") -> float:
+    """A duration (s): finite, > 0 and at most ``maximum`` (``limit`` says why)."""
+    v = positive(name, value)
+    if v > maximum:
+        raise ValueError(f"{name} must be at most {maximum:g} s ({limit}), got {v:g}")
+    return v
+
+
+def int_at_most(name: str, value: Any, maximum: int, *, minimum: int = 1, why: str = "") -> int:
+    """An integer (not a float, not a bool) in ``[minimum, maximum]``; ``why`` explains the maximum."""
+    if not is_int(value) or not minimum <= value <= maximum:
+        raise ValueError(f"{name} must be an integer {minimum} ... {maximum}{f' ({why})' if why else ''}, "
+                         f"got {value!r}")
+    return int(value)

@@ -268,9 +268,14 @@ class Calibration:
             what = f"missing key {exc}" if isinstance(exc, KeyError) else str(exc)
             raise ValueError(f"invalid calibration data: {what}") from exc
 
-    def save(self, path: str | Path) -> None:
-        """Write the calibration as JSON (UTF-8) to ``path``."""
-        Path(path).write_text(json.dumps(self.to_dict(), indent=2, allow_nan=False) + "\n", encoding="utf-8")
+    def save(self, path: str | Path, *, overwrite: bool = True) -> None:
+        """Write the calibration as JSON (UTF-8) to ``path``, whole or not at all
+        (:func:`psmat._atomic.write_text_atomic`); with ``overwrite=False`` an existing ``path`` is
+        an error (:class:`psmat._atomic.OutputRefused`)."""
+        from ._atomic import write_text_atomic
+
+        text = json.dumps(self.to_dict(), indent=2, allow_nan=False) + "\n"
+        write_text_atomic(path, text, overwrite=overwrite)
 
     @classmethod
     def load(cls, path: str | Path) -> Calibration:

@@ -2,7 +2,8 @@
 
 Commands live one per module in :mod:`psmat.commands` and are discovered here, so adding a
 command is adding a file. A command-line error (a bad or missing argument) is one line on
-stderr and exit status 1, like every other error a person can fix.
+stderr and exit status 1, like every other error a person can fix. SIGTERM and SIGHUP stop a
+command as Ctrl-C does (:mod:`psmat._signals`): a recording is closed into its file.
 
 Help is for people (:mod:`psmat._help`): each command's description is its module docstring
 as plain text, and every option shows its default and unit. ``psmat --version`` prints the
@@ -116,8 +117,14 @@ def main(argv: list[str] | None = None) -> int:
     except UsageError as exc:
         print(exc, file=sys.stderr)
         return 1
+    from ._signals import Terminated, stop_on_termination
+
     try:
-        return int(args.func(args))
+        with stop_on_termination():  # SIGTERM and SIGHUP stop a command as Ctrl-C does
+            return int(args.func(args))
+    except Terminated as exc:
+        print(f"psmat {args.command}: {exc}", file=sys.stderr)
+        return exc.exit_status
     except KeyboardInterrupt:
         print("interrupted", file=sys.stderr)
         return 130

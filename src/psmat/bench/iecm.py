@@ -56,6 +56,7 @@ import warnings
 import numpy as np
 
 from .. import twin
+from .._atomic import OutputRefused, check_outputs, open_atomic
 from .baseline_numpy import forward_numpy
 from .iecm_report import format_table, jsonable, machine_info
 
@@ -482,6 +483,7 @@ def build_parser(prog: str = "python -m psmat.bench iecm") -> argparse.ArgumentP
     p.add_argument("--no-baselines", action="store_true", help="psmat Newton only, no baseline")
     p.add_argument("--seed", type=int, default=0, help="seed of the swaying-feet scene")
     p.add_argument("--json", metavar="PATH", default=None, help="also write the figures to this JSON file")
+    p.add_argument("--overwrite", action="store_true", help="replace an existing --json file")
     p.add_argument("--compare-native", nargs=2, metavar=("PORTABLE_PYTHON", "NATIVE_PYTHON"), default=None,
                    help="instead: the streaming rows (noise-free and noisy G) measured by the psmat of each "
                         "interpreter, a portable build and a PSMAT_NATIVE=ON one, side by side "
@@ -500,6 +502,11 @@ def main(argv: list[str] | None = None, prog: str = "python -m psmat.bench iecm"
         a.sizes = [16, 32] if a.compare_native else [16, 32, 64]
     if any(s < 2 for s in a.sizes):
         p.error("--sizes must be >= 2")
+    try:  # before any work: an existing file only with --overwrite (psmat._atomic)
+        check_outputs([a.json], overwrite=a.overwrite)
+    except OutputRefused as exc:
+        print(f"{prog}: {exc}", file=sys.stderr)
+        return 1
     if a.compare_native:
         return _compare_native(p, a)
     threads = a.threads
@@ -510,7 +517,7 @@ def main(argv: list[str] | None = None, prog: str = "python -m psmat.bench iecm"
     print(format_table(res))
     print(f"- wall time of the whole benchmark: {time.perf_counter() - t_start:.0f} s")
     if a.json:
-        with open(a.json, "w") as f:
+        with open_atomic(a.json, "w") as f:
             json.dump(jsonable(res), f, indent=1)
     return 0
 
@@ -533,6 +540,6 @@ def _compare_native(p: argparse.ArgumentParser, a: argparse.Namespace) -> int:
     print(format_comparison(res))
     print(f"- wall time: {time.perf_counter() - t_start:.0f} s")
     if a.json:
-        with open(a.json, "w") as f:
+        with open_atomic(a.json, "w") as f:
             json.dump(jsonable(res), f, indent=1)
     return 0

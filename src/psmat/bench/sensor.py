@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import sys
 import time
 
 import numpy as np
@@ -191,6 +192,7 @@ def build_parser(prog: str = "python -m psmat.bench sensor") -> argparse.Argumen
     ap.add_argument("--seed", type=int, default=0, help="seed of the annealers, C++ and scipy; "
                     "the data do not change with it")
     ap.add_argument("--json", metavar="PATH", help="also write the figures to this JSON file")
+    ap.add_argument("--overwrite", action="store_true", help="replace an existing --json file")
     return ap
 
 
@@ -199,10 +201,17 @@ def main(argv: list[str] | None = None, prog: str = "python -m psmat.bench senso
     args = ap.parse_args(argv)
     if args.seed < 0:
         ap.error(f"--seed must be >= 0, got {args.seed}")
+    from .._atomic import OutputRefused, check_outputs, open_atomic
+
+    try:  # before any work: an existing file only with --overwrite
+        check_outputs([args.json], overwrite=args.overwrite)
+    except OutputRefused as exc:
+        print(f"{prog}: {exc}", file=sys.stderr)
+        return 1
     t_start = time.perf_counter()
     res = run(quick=args.quick, seed=args.seed)
     print(f"wall time of the whole benchmark: {time.perf_counter() - t_start:.0f} s")
     if args.json:
-        with open(args.json, "w") as f:
+        with open_atomic(args.json, "w") as f:
             json.dump(res, f, indent=1, default=float)
     return 0

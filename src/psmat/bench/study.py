@@ -148,6 +148,7 @@ def build_parser(prog: str = "python -m psmat.bench study") -> argparse.Argument
                    help="keep the simulated study here, reused when it matches (default: a temporary folder)")
     p.add_argument("--no-baseline", action="store_true", help="skip the multiprocessing.Pool baseline")
     p.add_argument("--json", metavar="PATH", default=None, help="also write the figures to this JSON file")
+    p.add_argument("--overwrite", action="store_true", help="replace an existing --json file")
     return p
 
 
@@ -157,8 +158,15 @@ def main(argv: list[str] | None = None, prog: str = "python -m psmat.bench study
         print(f"{prog}: --volunteers, --seconds, --rate and --workers must be positive",
               file=sys.stderr)
         return 2
+    from .._atomic import OutputRefused, check_outputs, write_text_atomic
+
+    try:  # before any work: an existing file only with --overwrite
+        check_outputs([a.json], overwrite=a.overwrite)
+    except OutputRefused as exc:
+        print(f"{prog}: {exc}", file=sys.stderr)
+        return 1
     r = run(a.volunteers, a.seconds, a.rate, a.workers, a.seed, a.dir, not a.no_baseline)
     print(format_report(r))
     if a.json:
-        Path(a.json).write_text(json.dumps(r, indent=2, default=str))
+        write_text_atomic(a.json, json.dumps(r, indent=2, default=str))
     return 0

@@ -42,6 +42,7 @@ def _pairs(text: str, R: int, C: int) -> list[tuple[int, int]]:
 def run(args: argparse.Namespace) -> int:
     import sys
 
+    from .._atomic import OutputRefused, check_outputs
     from ..acquire import open_device
     from ..workflows.calibrate_steps import run_calibration
 
@@ -49,6 +50,9 @@ def run(args: argparse.Namespace) -> int:
         print("psmat calibrate: give a PORT or --simulate", file=sys.stderr)
         return 1
     R, C = args.shape
+    if args.simulate and (twin_problem := _args.twin_shape_problem(args.shape)):
+        print(f"psmat calibrate: {twin_problem}", file=sys.stderr)
+        return 1
     try:
         pairs = _pairs(args.pairs, R, C)
     except ValueError:
@@ -67,8 +71,10 @@ def run(args: argparse.Namespace) -> int:
         with open_device(port, "psm", args.protocol, (R, C)) as dev:
             # the file name is known once the box has said its serial: refuse before any step
             out = Path(args.out or f"psmat_calibration_{(dev.description or {}).get('serial') or 'unknown'}.json")
-            if out.exists() and not args.overwrite:
-                print(f"psmat calibrate: {out} exists; add --overwrite to replace it", file=sys.stderr)
+            try:
+                check_outputs([out], inputs=[port], overwrite=args.overwrite)
+            except OutputRefused as exc:
+                print(f"psmat calibrate: {exc}", file=sys.stderr)
                 return 1
             dev.start()
             cal = run_calibration(dev, pairs, seconds=args.seconds, prompt=prompt,
@@ -80,7 +86,11 @@ def run(args: argparse.Namespace) -> int:
     finally:
         if twin is not None:
             twin.stop()
-    cal.save(out)
+    try:
+        cal.save(out, overwrite=args.overwrite)  # whole or not at all
+    except OutputRefused as exc:
+        print(f"psmat calibrate: {exc}", file=sys.stderr)
+        return 1
     r_mux = cal.r_mux if isinstance(cal.r_mux, float) else f"per pair, median {float(__import__('numpy').median(cal.r_mux)):.1f}"
     print(f"R_adc = {cal.r_adc / 1e6:.3g} MOhm, R_mux = {r_mux if isinstance(r_mux, str) else f'{r_mux:.1f}'} Ohm "
           f"(box {cal.serial or 'without serial'})")

@@ -10,6 +10,7 @@ from __future__ import annotations
 import argparse
 import sys
 
+from .. import _checks
 from . import _args
 
 NAME = "demo"
@@ -17,11 +18,12 @@ HELP = "record, process and plot a swaying person on the simulated mat (or --por
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--out", default="psmat_demo.png", help="figure path (PNG)")
+    p.add_argument("--out", type=_args.figure_file, default="psmat_demo.png",
+                   help="figure path (its suffix names the format: .png, .pdf, .svg, ...)")
     p.add_argument("--port", default=None, help="a real mat's serial port or pyserial URL (default: a psmat box "
                    "found on USB, else the digital twin)")
     p.add_argument("--twin", action="store_true", help="use the digital twin even if a mat is plugged in")
-    p.add_argument("--seconds", type=_args.seconds, default=8.0, help="recording length (s)")
+    p.add_argument("--seconds", type=_args.session_seconds, default=8.0, help="recording length, at most an hour (s)")
     p.add_argument("--rate", type=_args.positive_int, default=100, help="frame rate of the recording (frames/s)")
     p.add_argument("--session", default="psmat_demo.h5", help="session file to write (HDF5)")
     p.add_argument("--bds-trial", type=int, default=1,
@@ -30,14 +32,53 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--crosstalk", action="store_true", help="run the single-frame crosstalk demo instead")
     p.add_argument("--shape", type=_args.shape, default=(16, 16),
                    help="rows x cols of the simulated mat, e.g. 16x16")
-    p.add_argument("--noise-mv", type=float, default=1.0,
+    p.add_argument("--noise-mv", type=_args.nonnegative, default=1.0,
                    help="with --crosstalk: standard deviation of the voltage noise on the ADC node (mV)")
     p.add_argument("--seed", type=int, default=0, help="seed of the simulation's random draws")
     p.add_argument("--show", action="store_true", help="also open a window")
+    p.add_argument("--overwrite", action="store_true",
+                   help="replace an existing figure or session file (each only once its new one is complete)")
+
+
+def _check(args: argparse.Namespace) -> str | None:
+    """Why the outputs may not be written (one line), or None; nothing is touched."""
+    from .._atomic import OutputRefused, check_outputs
+    from ..io import journal_path
+    from ..io.session_unfinished import unfinished_line
+
+    if args.rate > _checks.MAX_RATE_HZ:
+        return (f"--rate is at most {_checks.MAX_RATE_HZ} frames/s (the PSM firmware's fastest, docs/spec.md §5), "
+                f"got {args.rate}")
+    if args.port is None and (twin := _args.twin_shape_problem(args.shape)):
+        return twin
+    if args.port is None and not args.crosstalk:  # the twin's scene, as workflows.sway_demo sizes it
+        from ..twin.sources import check_scene
+
+        try:
+            check_scene(max(60.0, args.seconds + 1), args.rate, args.shape)
+        except ValueError as exc:
+            return f"--seconds {args.seconds:g} at --rate {args.rate} on --shape {args.shape[0]}x{args.shape[1]}: {exc}"
+    outputs = [args.out] if args.crosstalk else [args.out, args.session]
+    if not args.crosstalk:
+        unfinished = unfinished_line(args.session)  # its journal is the only copy of that recording
+        if unfinished:
+            return (f"{unfinished} ({journal_path(args.session)} is its only copy: not recorded over, even with "
+                    "--overwrite)")
+        if journal_path(args.session).exists() and not args.overwrite:
+            return f"{journal_path(args.session)} exists; add --overwrite to replace it"
+    try:
+        check_outputs(outputs, inputs=[args.port], overwrite=args.overwrite)
+    except OutputRefused as exc:
+        return str(exc)
+    return None
 
 
 def run(args: argparse.Namespace) -> int:
     rows, cols = args.shape
+    problem = _check(args)  # before a port is opened or anything is recorded
+    if problem:
+        print(f"psmat demo: {problem}", file=sys.stderr)
+        return 1
     if not args.crosstalk:
         from ..acquire import find_devices
         from ..workflows.sway_demo import run_sway_demo
@@ -51,7 +92,8 @@ def run(args: argparse.Namespace) -> int:
         print(f"psmat demo: {args.seconds:g} s of a person swaying, {rows}x{cols} at {args.rate} Hz")
         try:
             run_sway_demo(args.out, seconds=args.seconds, rate_hz=args.rate, session=args.session,
-                          bds_trial=args.bds_trial, port=args.port, shape=args.shape, seed=args.seed)
+                          bds_trial=args.bds_trial, port=args.port, shape=args.shape, seed=args.seed,
+                          overwrite=args.overwrite)
         except FileNotFoundError as exc:  # the force-platform trial the twin follows is not there
             print(f"psmat demo: {exc}", file=sys.stderr)
             return 1

@@ -57,7 +57,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     s.add_argument("--subjects", type=_args.positive_int, default=12, help="number of subjects")
     s.add_argument("--days", type=_args.positive_int, default=3, help="sessions per subject, one a day")
     s.add_argument("--seed", type=int, required=True, help="seed of every random draw")
-    s.add_argument("--seconds", type=_args.seconds, default=None,
+    s.add_argument("--seconds", type=_args.session_seconds, default=None,
                    help="length of each session, the protocol scaled in time (s; default: the protocol's own, "
                         "about 175 s)")
     s.add_argument("--rate", type=_args.rate_hz, default=100.0, help="the mat's frame rate (Hz)")
@@ -130,9 +130,26 @@ def _study(args: argparse.Namespace, verb: str) -> tuple[Any, Path] | None:
         print(f"psmat posture {verb}: {root} has no sessions/ folder (a posture study, docs/spec.md §6)", file=sys.stderr)
         return None
     study = load_posture_study(root, workers=args.workers, progress=not args.quiet)
+    if not study.recordings:  # one line, not one per session
+        print(f"psmat posture {verb}: {_no_recording(root, study.problems)}", file=sys.stderr)
+        return None
     for p in study.problems:
         print(f"psmat posture {verb}: left out {p}", file=sys.stderr)
+    for n in study.notes:
+        print(f"psmat posture {verb}: {n}", file=sys.stderr)
     return study, Path(args.out) if args.out else root / "results" / "posture"
+
+
+def _no_recording(root: Path, problems: list[str]) -> str:
+    """Why a study gave no recording, as one line."""
+    from ..posture.dataset import NO_IMU
+
+    line = f"{root}: no session can be used ({len(problems)} left out"
+    line += f"; the first, {problems[0]})" if problems else ")"
+    if problems and all(NO_IMU in p for p in problems):
+        line += ("; posture needs the mat recorded with the spine IMUs: is this a balance study? "
+                 "(psmat study run processes those)")
+    return " ".join(line.split())
 
 
 def _print_rows(rows: list[dict[str, Any]]) -> None:

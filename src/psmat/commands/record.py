@@ -58,18 +58,22 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                         "device's own)")
     p.add_argument("--seconds", type=_args.seconds, default=None,
                    help="stop after this long (s; default: at Ctrl-C)")
-    p.add_argument("--calibration", default=None, help="calibration JSON of the box (psmat calibrate)")
+    p.add_argument("--calibration", type=_args.input_file, default=None,
+                   help="calibration JSON of the box (psmat calibrate)")
     p.add_argument("--subject", default="", help="subject id (metadata)")
     p.add_argument("--trial", default="", help="trial name (metadata)")
     p.add_argument("--note", default="", help="free text (metadata)")
-    p.add_argument("--overwrite", action="store_true", help="replace an existing session file")
+    p.add_argument("--overwrite", action="store_true",
+                   help="replace an existing session file (it stays as it is until the new one is complete)")
 
 
 def _check(args: argparse.Namespace) -> str | None:
     """What is wrong with the command line that argparse cannot see, or None."""
     import os
 
+    from .._atomic import OutputRefused, check_outputs
     from ..io import journal_path
+    from ..io.session_unfinished import unfinished_line
 
     if bool(args.port) == bool(args.simulate):
         return "give a PORT or --simulate"
@@ -81,8 +85,21 @@ def _check(args: argparse.Namespace) -> str | None:
             return f"with --simulate, --also takes a kind only (--also {a.kind}), not a port"
         if not args.simulate and not a.port:
             return f"--also {a.kind} needs the device's port: --also {a.kind}=PORT"
-    paths = [args.out, journal_path(args.out), *(journal_path(args.out, k) for k in kinds)]
-    taken = [p for p in paths if os.path.lexists(p)]
+    if args.simulate and (twin := _args.twin_shape_problem(args.shape)):
+        return twin
+    if args.rate and args.device == "imu" and args.rate > _args.IMU_MAX_RATE_HZ:
+        return (f"the spine IMUs run at most {_args.IMU_MAX_RATE_HZ} Hz (the BNO055's fusion output), "
+                f"got --rate {args.rate:g}")
+    unfinished = unfinished_line(args.out)  # its journals are the only copy of that recording: never replaced
+    if unfinished:
+        return f"{unfinished} ({journal_path(args.out)} is its only copy: not recorded over, even with --overwrite)"
+    try:  # an existing file only with --overwrite, an input never (psmat._atomic)
+        check_outputs([args.out], inputs=[args.calibration, args.port, *(a.port for a in args.also)],
+                      overwrite=args.overwrite)
+    except OutputRefused as exc:
+        return str(exc)
+    journals = [journal_path(args.out), *(journal_path(args.out, k) for k in kinds)]
+    taken = [p for p in journals if os.path.lexists(p)]
     if taken and not args.overwrite:
         return f"{taken[0]} exists; add --overwrite to replace it"
     return None
@@ -118,7 +135,11 @@ def run(args: argparse.Namespace) -> int:
     if args.calibration:
         from ..calibration import Calibration
 
-        calibration = Calibration.load(args.calibration).to_dict()
+        try:
+            calibration = Calibration.load(args.calibration).to_dict()
+        except (OSError, ValueError) as exc:  # unreadable, not JSON, not a calibration: named by the loader
+            print(f"psmat record: {' '.join(str(exc).split())}", file=sys.stderr)
+            return 1
     wanted = [Also(args.device, args.port), *args.also]
     clock = HostClock()  # one host clock for every device's frames
     with contextlib.ExitStack() as stack:  # closed in reverse: recording stopped, writer, devices, twins

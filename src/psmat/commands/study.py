@@ -1,10 +1,12 @@
 """``psmat study``: a balance study folder (docs/spec.md §6 layout) in batch.
 
 ``psmat study run DIR`` processes every session into ``DIR/results/`` (metrics.csv, summary,
-figures, report), resuming where an earlier run stopped; ``--scheduler tcp://HOST:8786`` runs
-the sessions on a Dask distributed cluster (``pip install 'psmat[cluster]'``; the folder must
-be on a filesystem the workers share). ``psmat study simulate DIR`` writes a simulated study
-(docs/spec.md §7): BDS force-platform trajectories through mats the processing does not know.
+figures, report), resuming where an earlier run stopped; ``--scheduler tcp://HOST:8786`` (or
+``--scheduler-file``, with ``--tls-*`` for TLS) runs the sessions on a Dask distributed cluster
+(``pip install 'psmat[cluster]'``; the folder must be on a filesystem the workers share; the
+cluster must be trusted, its workers run arbitrary code by design: :mod:`psmat.study.cluster`).
+``psmat study simulate DIR`` writes a simulated study (docs/spec.md §7): BDS force-platform
+trajectories through mats the processing does not know.
 """
 
 from __future__ import annotations
@@ -36,7 +38,19 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     r.add_argument("--workers", type=_args.positive_int, default=None,
                    help="processes, one session each (default: every core; 1: in this process)")
     r.add_argument("--scheduler", metavar="ADDRESS", default=None,
-                   help="a Dask distributed scheduler, e.g. tcp://host:8786 (DIR on a shared filesystem)")
+                   help="a Dask distributed scheduler, e.g. tcp://host:8786 or tls://host:8786 (DIR on a shared "
+                        "filesystem; a cluster you trust: its workers run arbitrary code by design)")
+    r.add_argument("--scheduler-file", metavar="FILE", default=None,
+                   help="the JSON file a Dask scheduler wrote (dask scheduler --scheduler-file), instead of "
+                        "--scheduler")
+    r.add_argument("--tls-ca-file", metavar="FILE", default=None,
+                   help="TLS to the cluster: the PEM file of the CA that signed its certificates")
+    r.add_argument("--tls-cert", metavar="FILE", default=None,
+                   help="TLS to the cluster: this client's PEM certificate (Dask's TLS is mutual)")
+    r.add_argument("--tls-key", metavar="FILE", default=None,
+                   help="TLS to the cluster: this client's PEM private key (if not in --tls-cert's file)")
+    r.add_argument("--require-encryption", action="store_true",
+                   help="refuse any connection to the cluster that is not TLS")
     r.add_argument("--variants", metavar="NAMES", default=None,
                    help="comma-separated processing variants to compute (default: the thesis' PROP, PROP-C, "
                         "CHC, SCHC and their 8x8; 'default' stands for those, e.g. default,SCHC-EQ adds the "
@@ -47,7 +61,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                                    "(right-leg, left-leg, rotation) driven by BDS force-platform trajectories.")
     s.add_argument("dir", metavar="DIR", help="the study folder to create")
     s.add_argument("--volunteers", type=_args.positive_int, required=True, help="number of volunteers")
-    s.add_argument("--seconds", type=_args.seconds, required=True, help="length of each trial (s)")
+    s.add_argument("--seconds", type=_args.session_seconds, required=True,
+                   help="length of each trial, at most an hour (s)")
     s.add_argument("--seed", type=int, required=True, help="seed of every random draw")
     s.add_argument("--rate", type=_args.rate_hz, default=100.0, help="the mats' frame rate (Hz)")
     s.add_argument("--bds", nargs="+", metavar="FILE", default=None,
@@ -62,8 +77,8 @@ def run(args: argparse.Namespace) -> int:
 def _run(args: argparse.Namespace) -> int:
     from ..study import run_study
 
-    if args.workers is not None and args.scheduler is not None:
-        print("psmat study run: give --workers or --scheduler, not both", file=sys.stderr)
+    if args.workers is not None and (args.scheduler is not None or args.scheduler_file is not None):
+        print("psmat study run: give --workers or --scheduler/--scheduler-file, not both", file=sys.stderr)
         return 1
     params = None
     if args.variants is not None:
@@ -72,8 +87,11 @@ def _run(args: argparse.Namespace) -> int:
         names = [n.strip() for n in args.variants.split(",") if n.strip()]
         params = {"variants": [v for n in names for v in (VARIANTS if n == "default" else (n,))]}
     try:
+        from ..study.cluster import security
+
+        tls = security(args.tls_ca_file, args.tls_cert, args.tls_key, args.require_encryption)
         report = run_study(args.dir, workers=args.workers, scheduler=args.scheduler, params=params,
-                           progress=not args.quiet)
+                           progress=not args.quiet, scheduler_file=args.scheduler_file, security=tls)
     except (OSError, ValueError, ImportError, RuntimeError) as exc:
         print(f"psmat study run: {_line(exc)}", file=sys.stderr)
         return 1

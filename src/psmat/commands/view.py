@@ -41,11 +41,13 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--decimate", type=_args.positive_int, default=1, help="process and draw every Nth frame")
     p.add_argument("--seconds", type=_args.seconds, default=None,
                    help="close after this long (s; default: when the window is closed)")
-    p.add_argument("--save", default=None, metavar="PNG", help="write a screenshot of the figure at the end")
+    p.add_argument("--save", type=_args.figure_file, default=None, metavar="PNG",
+                   help="write a screenshot of the figure at the end (its suffix names the format: .png, .pdf, ...)")
+    p.add_argument("--overwrite", action="store_true", help="replace an existing screenshot file")
     p.add_argument("--no-iecm", action="store_true",
                    help="raw image and raw centre of pressure (CoP) only, without IECM (crosstalk removal), for "
                         "slow machines")
-    p.add_argument("--g-rest", type=float, default=1e-7,
+    p.add_argument("--g-rest", type=_args.conductance, default=1e-7,
                    help="conductance of an unloaded cell, subtracted before the sensor model (S)")
     p.add_argument("--interval", type=_args.seconds, default=0.05, help="pause between redraws (s)")
 
@@ -86,6 +88,25 @@ def _pick_backend(args: argparse.Namespace) -> tuple[bool, str | None]:
     return interactive, None
 
 
+def _check_files(args: argparse.Namespace) -> str | None:
+    """A session file given as the port, or a screenshot that may not be written: one line, or None."""
+    import os
+
+    from .._atomic import OutputRefused, check_outputs
+    from ..io import journal_path
+    from ..io.session_unfinished import unfinished_line
+
+    port = args.port
+    if port is not None and (os.path.isfile(port) or journal_path(port).is_file()):
+        return unfinished_line(port) or (f"{port} is a file, not a serial port: psmat view shows a live mat; "
+                                         f"psmat info {port} summarises a recorded session")
+    try:
+        check_outputs([args.save], inputs=[port], overwrite=args.overwrite)
+    except OutputRefused as exc:
+        return str(exc)
+    return None
+
+
 def run(args: argparse.Namespace) -> int:
     import sys
 
@@ -98,6 +119,10 @@ def run(args: argparse.Namespace) -> int:
 
     if (args.port is None) == (not args.simulate):
         err("give a PORT or --simulate (not both)")
+        return 1
+    problem = _check_files(args)
+    if problem:
+        err(problem)
         return 1
     interactive, problem = _pick_backend(args)
     if problem:

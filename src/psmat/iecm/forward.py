@@ -9,7 +9,7 @@ from __future__ import annotations
 import numpy as np
 
 from .. import _core
-from ._validate import as_frames
+from ._validate import as_frames, check_dense_size
 
 __all__ = ["forward", "jacobian", "hadamard_product"]
 
@@ -54,6 +54,7 @@ def jacobian(g) -> np.ndarray:
         The diagonal is exactly 1.
     """
     frames, _ = as_frames(g, "g", allow_zero=True, max_ndim=2)
+    check_dense_size(frames.shape[1:], "jacobian")
     return _core.iecm.jacobian(frames[0])
 
 

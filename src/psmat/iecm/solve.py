@@ -48,7 +48,8 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .. import _core
-from ._validate import as_frames
+from .._checks import int_at_most
+from ._validate import as_frames, check_dense_size
 
 __all__ = ["solve", "SolveInfo", "METHODS", "make_options"]
 
@@ -57,6 +58,8 @@ METHODS = ("newton", "active_set", "bounded_newton", "lm", "bounded_lsq", "fixed
 # recordings, at most ~12 in a simulated study session); bounded_newton's Fischer-Burmeister
 # iteration converges only linearly: about 1 frame in 200 needs a few hundred iterations (most
 # need 15-40), so all three allow 1000 before reporting max_iterations
+#: the most iterations per frame: the C++ core counts them in an ``int``
+_MAX_ITER = 2**31 - 1
 _DEFAULT_MAX_ITER = {"newton": 1000, "active_set": 1000, "bounded_newton": 1000, "lm": 200, "bounded_lsq": 200,
                      "fixed_point": 20000}
 _STATUS_NAMES = np.array(["converged", "max_iterations", "stalled", "singular", "least_squares", "bounded"])
@@ -190,8 +193,9 @@ def make_options(
         raise ValueError(f"rtol must be a positive number, got {rtol!r}")
     if max_iter is None:
         max_iter = _DEFAULT_MAX_ITER[method]
-    if int(max_iter) != max_iter or max_iter < 1:
-        raise ValueError(f"max_iter must be a positive integer, got {max_iter!r}")
+    if isinstance(max_iter, (float, np.floating)) and float(max_iter).is_integer():
+        max_iter = int(max_iter)  # 1000.0 as 1000, as before
+    max_iter = int_at_most("max_iter", max_iter, _MAX_ITER, why="the solver counts iterations in a 32-bit integer")
     if not (np.isfinite(beta) and beta > 0):
         raise ValueError(f"beta must be a positive number, got {beta!r}")
     if not (np.isfinite(g_floor) and g_floor > 0):
@@ -288,6 +292,7 @@ def solve(
     if nthreads < 1:
         raise ValueError(f"threads must be >= 1, got {threads!r}")
     nthreads = min(nthreads, T)
+    check_dense_size(frames.shape[1:], method, threads=nthreads, fallback=fallback)  # before the core allocates
 
     t0 = time.perf_counter()
     if single:

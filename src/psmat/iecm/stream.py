@@ -20,7 +20,7 @@ import warnings
 import numpy as np
 
 from .. import _core
-from ._validate import as_frames
+from ._validate import as_frames, check_dense_size
 from .solve import SolveInfo, make_options
 
 __all__ = ["Stream"]
@@ -65,6 +65,7 @@ class Stream:
         self.method = method
         self.max_pending = int(max_pending)
         opts = make_options(method, **options)
+        check_dense_size(self.shape, method, threads=int(threads), fallback=bool(opts.fallback))
         self._g_floor = float(opts.g_floor)
         # seq -> smallest measured G, for solve's floor statuses; a consumer thread may pop a
         # frame before its producer has filed it, so pop waits on the condition for the entry

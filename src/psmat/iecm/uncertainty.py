@@ -11,7 +11,7 @@ from __future__ import annotations
 import numpy as np
 
 from .. import _core
-from ._validate import as_frames
+from ._validate import as_frames, check_dense_size
 from .forward import forward
 from .solve import solve
 
@@ -27,6 +27,7 @@ def _sigma_G_default(G: np.ndarray) -> np.ndarray:
 def inverse_jacobian(g) -> np.ndarray:
     """dg/dG = (dG/dg)^-1 (eq. 2.14) at cell conductances g (S), shape (R*C, R*C)."""
     frames, _ = as_frames(g, "g", allow_zero=False, max_ndim=2)
+    check_dense_size(frames.shape[1:], "inverse_jacobian")
     return _core.iecm.inverse_jacobian(frames[0])
 
 
@@ -48,6 +49,7 @@ def propagate_uncertainty(g, sigma_G=None) -> np.ndarray:
         sigma_g in S, shape of g.
     """
     frames, single = as_frames(g, "g", allow_zero=False)
+    check_dense_size(frames.shape[1:], "propagate_uncertainty")
     out = np.empty_like(frames)
     for t, gt in enumerate(frames):
         if sigma_G is None:

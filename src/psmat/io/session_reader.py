@@ -97,17 +97,26 @@ def load_session(path: str | os.PathLike[str], *, use_journal: bool = True) -> S
     return s
 
 
-def repair_session(path: str | os.PathLike[str]) -> Session:
+def repair_session(path: str | os.PathLike[str], *, replace_finished: bool = False) -> Session:
     """Turn an interrupted recording into a complete file (from its journals), then reload it.
 
     The recovered frames (of every stream) are written to ``PATH.partial``, which replaces
     ``path`` atomically; the journals are removed afterwards. A complete file is returned
-    unchanged.
+    unchanged, unless ``replace_finished`` and its journal is another recording's (started at
+    another time: one that was to replace the file, e.g. ``psmat record --overwrite``, and did
+    not close, :func:`psmat.io.session_unfinished.replacement_journal`): that recording then
+    replaces the file.
     """
     path = Path(path)
     s = load_session(path)
     if s.complete:
-        return s
+        from .session_unfinished import replacement_journal
+
+        j = replacement_journal(path, s) if replace_finished else None
+        if j is None:
+            return s
+        s = _from_journal(path, j.path, f"{path.name} held an earlier recording (created {s.created_utc}), "
+                                        "replaced by this one")
     streams = {name: StreamBlocks(_header(st, s.created_utc), [_block(st)], st.counters)
                for name, st in s.streams.items()}
     write_session_file(path, _header(s, s.created_utc), [_block(s)], s.counters, products=s.products,

@@ -293,6 +293,8 @@ class SessionWriter(StreamWriter):
         the batch and writes its journal records — safe to call from a serial reader thread
         at 165 Hz. False: :meth:`append` syncs inline when due.
     overwrite : bool
+        Replace an existing file: it stays as it is until :meth:`close` moves the new one over
+        it (the journals of an interrupted recording at ``path`` are removed at once).
 
     Thread safety: :meth:`append`, :meth:`set_counters` and :meth:`flush` may be called from
     any thread (calls are serialised internally); frames are stored in call order. Each
@@ -449,7 +451,9 @@ def _device(device: Mapping[str, Any], kind: str, shape: tuple[int, ...]) -> dic
 
 
 def _remove_interrupted(path: Path) -> None:
-    """Before overwriting ``path``: the file, the journal and the stream journals of its recording."""
+    """Before overwriting ``path``: the journal and the stream journals of its recording. The file
+    itself stays until the new one replaces it (:meth:`SessionWriter.close`), so a recording that
+    never closes costs nothing of it."""
     jpath = journal_path(path)
     try:
         session = jr.Journal.open(jpath).session if jpath.is_file() else None
@@ -457,7 +461,7 @@ def _remove_interrupted(path: Path) -> None:
         session = None
     for j in jr.stream_journals(path, session)[0].values():
         j.path.unlink(missing_ok=True)
-    for p in (path, jpath, partial_path(path)):
+    for p in (jpath, partial_path(path)):
         p.unlink(missing_ok=True)
 
 

@@ -460,8 +460,12 @@ class LiveView:
             canvas.draw()
 
     def save(self, path: str) -> str:
-        """Write a screenshot of the figure (PNG) and return its path."""
-        self.fig.savefig(path, dpi=110)
+        """Write a screenshot of the figure (PNG) and return its path; ``path`` gets the whole
+        image or keeps what it had (:func:`psmat._atomic.replacing`)."""
+        from .._atomic import replacing
+
+        with replacing(path) as tmp:
+            self.fig.savefig(tmp, dpi=110)
         return str(path)
 
     def close(self) -> None:
@@ -523,8 +527,8 @@ def run_view(view: LiveView, *, seconds: float | None = None, interval_s: float 
             if interactive:
                 view.fig.canvas.flush_events()
                 view.fig.canvas.start_event_loop(interval_s)
-    except KeyboardInterrupt:
-        reason, message = "interrupted", "interrupted (Ctrl-C)"
+    except KeyboardInterrupt as exc:  # Ctrl-C, or SIGTERM/SIGHUP (psmat._signals.Terminated: "stopped by SIGTERM")
+        reason, message = "interrupted", f"interrupted ({exc or 'Ctrl-C'})"
     finally:
         if on_close is not None:
             on_close()

@@ -19,22 +19,23 @@ filled by linear interpolation between their neighbours when inside the recordin
 
 The products are cached per session in ``DIR/results/posture/inputs/<stem>.npz``, keyed by the
 bytes of the inputs, the parameters and the psmat version (as :mod:`psmat.study.cache`), so a
-second run reads them back and a changed session recomputes only itself.
+second run reads them back and a changed session recomputes only itself. A cached file is
+used only when its digest proves it (:mod:`psmat.posture.input_cache`); one that fails is
+recomputed and named among the problems.
 """
 
 from __future__ import annotations
 
-import json
 import os
-import tempfile
 from collections.abc import Iterator, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
+from .input_cache import read_cached, write_cached
 from .recording import Recording
 
 __all__ = ["DEFAULT_PARAMS", "session_recording", "load_posture_study", "PostureStudy", "mean_over_samples"]
@@ -45,16 +46,20 @@ DEFAULT_PARAMS: dict[str, Any] = {
     "pitch_column": 2,  # Euler angle of the sagittal tilt: (heading, roll, pitch), docs/spec.md §5
     "max_lag_s": 30.0,  # alignment search range for recordings made apart, s
 }
-_INPUTS_SCHEMA = "psmat-posture-inputs/1"
+_INPUTS_SCHEMA = "psmat-posture-inputs/2"
+#: why a session without the spine IMUs is left out (a balance study's sessions, for instance)
+NO_IMU = "no 'imu' stream and no IMU log"
 
 
 @dataclass
 class PostureStudy:
-    """What :func:`load_posture_study` found: the recordings and the problems (one line each)."""
+    """What :func:`load_posture_study` found: the recordings, the problems (sessions left out,
+    one line each) and the notes (cached inputs that failed their check and were recomputed)."""
 
     recordings: list[Recording]
     problems: list[str]
     computed: int  # sessions computed in this call (the rest were read from the cache)
+    notes: list[str] = field(default_factory=list)
 
 
 def mean_over_samples(t_src: NDArray[np.float64], x_src: NDArray[Any], t_dst: NDArray[np.float64]
@@ -186,7 +191,7 @@ def session_recording(path: str | os.PathLike[str], *, calibration: str | os.Pat
         t_imu, pitch, ok = _imu_together(s, p["pitch_column"])
         meta["aligned_by"] = "one host clock (recorded together)"
     else:
-        raise ValueError(f"{Path(path).name}: no 'imu' stream and no IMU log")
+        raise ValueError(f"{Path(path).name}: {NO_IMU}")
     order = np.flatnonzero(np.isfinite(t_imu))
     t_imu, pitch, ok = t_imu[order], pitch[order], ok[order]
     image, n = mean_over_samples(t_mat, g, t_imu)
@@ -219,22 +224,34 @@ def _tasks(root: Path, params: dict[str, Any], problems: list[str]) -> list[_Tas
     from ..study.cache import file_sha256, result_key
     from ..io import journal_path, load_session, SessionFormatError
     from ..io.session_layout import psmat_version
+    from ..io.session_unfinished import journal_only, not_closed_line, unfinished_reason
 
     sessions = sorted((root / "sessions").glob("*.h5"))
+    unclosed = journal_only(root / "sessions")  # never skipped silently: each is a problem line
+    problems += [f"{path.stem}: {not_closed_line(path)}" for path in unclosed]
     if not sessions:
-        raise FileNotFoundError(f"{root}: no sessions/*.h5 (a posture study folder, docs/spec.md §6)")
+        raise FileNotFoundError(f"{root}: no sessions/*.h5 (a posture study folder, docs/spec.md §6)"
+                                + (f"; {not_closed_line(unclosed[0])}" if unclosed else ""))
     tasks = []
     for path in sessions:
         stem = path.stem
         try:
-            device = load_session(path).device
+            s = load_session(path)
         except (SessionFormatError, OSError) as exc:
             problems.append(f"{stem}: unreadable session: {exc}")
             continue
+        why = unfinished_reason(path, s)
+        if why:  # left out until psmat repair finishes it
+            problems.append(f"{stem}: {why}")
+            continue
+        device = s.device
         cal = root / "calibration" / f"{device.get('serial')}.json"
         cal = cal if cal.is_file() else None
         log = root / "imu" / f"{stem}.txt"
         log = log if log.is_file() else None
+        if log is None and "imu" not in s.streams:  # known before any IECM is computed
+            problems.append(f"{stem}: {NO_IMU} (imu/{stem}.txt)")
+            continue
         jp = journal_path(path)
         inputs = {"product": _INPUTS_SCHEMA, "version": psmat_version(), "params": params, "stem": stem,
                   "session": file_sha256(path), "journal": file_sha256(jp) if jp.exists() else None,
@@ -255,42 +272,10 @@ def _cache_path(root: Path, stem: str) -> Path:
     return root / "results" / "posture" / "inputs" / f"{stem}.npz"
 
 
-def _read_cached(path: Path, key: str) -> Recording | None:
-    try:
-        with np.load(path, allow_pickle=False) as z:
-            if str(z["key"]) != key:
-                return None
-            info = json.loads(str(z["info"]))
-            return Recording(subject=info["subject"], day=int(info["day"]), t_s=z["t_s"], image=z["image"],
-                             angles_rad=z["angles_rad"], meta=info["meta"])
-    except (OSError, KeyError, ValueError):
-        return None
-
-
-def _write_cached(path: Path, key: str, rec: Recording) -> None:
-    path.parent.mkdir(parents=True, exist_ok=True)
-    info = json.dumps({"subject": rec.subject, "day": rec.day, "meta": rec.meta})
-    fd, tmp = tempfile.mkstemp(prefix=".tmp-" + path.name + ".", suffix=".npz", dir=path.parent)
-    try:
-        with os.fdopen(fd, "wb") as fh:
-            np.savez(fh, key=np.array(key), info=np.array(info), t_s=rec.t_s, image=rec.image,
-                     angles_rad=rec.angles_rad)
-            fh.flush()
-            os.fsync(fh.fileno())
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
-
-
 def _execute(todo: Sequence[_Task], workers: int | None) -> Iterator[tuple[str, Recording | None, str | None]]:
-    from joblib import Parallel, cpu_count, delayed
+    from .._parallel import map_unordered  # workers that end with this process, even after kill -9
 
-    n = min(workers or cpu_count(), len(todo))
-    if n <= 1:
-        yield from map(_run, todo)
-        return
-    yield from Parallel(n_jobs=n, backend="loky", return_as="generator_unordered")(delayed(_run)(t) for t in todo)
+    yield from map_unordered(_run, todo, workers)
 
 
 def load_posture_study(root: str | os.PathLike[str], *, workers: int | None = None,
@@ -311,8 +296,9 @@ def load_posture_study(root: str | os.PathLike[str], *, workers: int | None = No
     Returns
     -------
     PostureStudy
-        The recordings, the problems (a session that failed is left out and named there) and how
-        many sessions were computed rather than read from the cache.
+        The recordings, the problems (a session that failed is left out and named there), how
+        many sessions were computed rather than read from the cache, and the notes (a cached
+        file that failed its check, recomputed).
     """
     from psmat._progress import tqdm
 
@@ -324,9 +310,12 @@ def load_posture_study(root: str | os.PathLike[str], *, workers: int | None = No
     problems: list[str] = []
     tasks = _tasks(root, p, problems)
     found: dict[str, Recording] = {}
+    notes: list[str] = []
     todo = []
     for t in tasks:
-        rec = _read_cached(_cache_path(root, t.stem), t.key)
+        rec, problem = read_cached(_cache_path(root, t.stem), t.key, root / "results")
+        if problem is not None:  # on disk but not proven: recomputed, and said so
+            notes.append(f"{t.stem}: {problem}")
         if rec is None:
             todo.append(t)
         else:
@@ -337,7 +326,7 @@ def load_posture_study(root: str | os.PathLike[str], *, workers: int | None = No
             if rec is None:
                 problems.append(str(problem))
             else:
-                _write_cached(_cache_path(root, stem), by_stem[stem].key, rec)
+                write_cached(_cache_path(root, stem), by_stem[stem].key, rec)
                 found[stem] = rec
             bar.update(1)
-    return PostureStudy([found[t.stem] for t in tasks if t.stem in found], problems, len(todo))
+    return PostureStudy([found[t.stem] for t in tasks if t.stem in found], problems, len(todo), notes)

@@ -45,5 +45,8 @@ def plot_predictions(measured: NDArray[np.float64], predicted: NDArray[np.float6
     fig.suptitle(title)
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=100)
+    from .._atomic import replacing
+
+    with replacing(path) as tmp:  # whole or not at all
+        fig.savefig(tmp, dpi=100)
     return path

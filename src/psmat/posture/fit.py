@@ -91,6 +91,25 @@ def _save(path: Path, state: dict[str, Any]) -> None:
     os.replace(tmp, path)  # atomic: a kill mid-write leaves the previous checkpoint
 
 
+def _one_line(exc: BaseException) -> str:
+    return " ".join(str(exc).split()) or type(exc).__name__
+
+
+def _load_checkpoint(path: Path) -> dict[str, Any]:
+    """The checkpoint at ``path``; one that cannot be read (truncated, damaged, not a checkpoint) is
+    a ValueError naming the file (torch says "[Errno 22] Invalid argument" or "failed finding
+    central directory" without it)."""
+    try:
+        ck = torch.load(path, weights_only=True)
+    except Exception as exc:  # noqa: BLE001 - torch raises RuntimeError, OSError, EOFError, UnpicklingError...
+        raise ValueError(f"{path}: not a readable checkpoint, truncated or damaged ({type(exc).__name__}: "
+                         f"{_one_line(exc)[:200]}); remove it to train from the start") from None
+    if not isinstance(ck, dict):
+        raise ValueError(f"{path}: not a checkpoint of a posture training (a {type(ck).__name__}); remove it to "
+                         "train from the start")
+    return ck
+
+
 def fit(model: nn.Module, train: WindowDataset, validation: WindowDataset, config: FitConfig, checkpoint_dir: Path, *,
         fingerprint: str, resume: bool = True, progress: bool = True,
         on_epoch: Callable[[int, dict[str, float]], None] | None = None) -> FitResult:
@@ -121,16 +140,20 @@ def fit(model: nn.Module, train: WindowDataset, validation: WindowDataset, confi
     best_state = copy.deepcopy(model.state_dict())
     bad, epoch = 0, 0
     if resume and ckpt_path.exists():
-        ck = torch.load(ckpt_path, weights_only=True)
-        if ck["fingerprint"] != fingerprint:
+        ck = _load_checkpoint(ckpt_path)
+        if ck.get("fingerprint") != fingerprint:
             raise ValueError(f"{ckpt_path} was written by another training (data, split or settings); "
                              "remove it or pass resume=False")
-        model.load_state_dict(ck["model"])
-        opt.load_state_dict(ck["optimizer"])
-        best_state, bad, epoch = ck["best_state"], int(ck["bad_epochs"]), int(ck["epoch"])
-        res.history, res.best_epoch = list(ck["history"]), int(ck["best_epoch"])
-        res.best_val_loss = float(ck["best_val"])
-        res.stopped_early, res.resumed_from = bool(ck["stopped"]), epoch
+        try:
+            model.load_state_dict(ck["model"])
+            opt.load_state_dict(ck["optimizer"])
+            best_state, bad, epoch = ck["best_state"], int(ck["bad_epochs"]), int(ck["epoch"])
+            res.history, res.best_epoch = list(ck["history"]), int(ck["best_epoch"])
+            res.best_val_loss = float(ck["best_val"])
+            res.stopped_early, res.resumed_from = bool(ck["stopped"]), epoch
+        except (KeyError, TypeError, ValueError, RuntimeError) as exc:
+            raise ValueError(f"{ckpt_path}: not a checkpoint of this training ({_one_line(exc)}); remove it to train "
+                             "from the start, or pass resume=False") from None
     else:
         res.history = [{"epoch": 0, "train_loss": float("nan"), "val_loss": _val_loss(model, validation),
                         "train_s": 0.0, "n_train": 0}]

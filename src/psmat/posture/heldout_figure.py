@@ -66,5 +66,8 @@ def plot_r2_bars(rows: Sequence[dict[str, Any]], path: str | Path, *, title: str
     fig.suptitle(title)
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=100)
+    from .._atomic import replacing
+
+    with replacing(path) as tmp:  # whole or not at all
+        fig.savefig(tmp, dpi=100)
     return path

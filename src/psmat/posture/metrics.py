@@ -57,9 +57,11 @@ def table44_row(model: str, split: str, subset: str, y_true: ArrayLike, y_pred: 
 
 def write_table44(rows: Sequence[dict[str, Any]], path: str | Path) -> Path:
     """Write Table 4.4 rows as CSV (columns :data:`TABLE44_COLUMNS`)."""
+    from .._atomic import open_atomic
+
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    with path.open("w", newline="") as f:
+    with open_atomic(path, "w") as f:  # whole or not at all
         w = csv.DictWriter(f, fieldnames=TABLE44_COLUMNS, extrasaction="raise")
         w.writeheader()
         for row in rows:

@@ -112,8 +112,8 @@ def _check(subjects: Any, days: Any, seed: Any, rate_hz: Any, seconds: Any, shap
     n = _checks.positive_int("subjects", subjects)
     d = _checks.positive_int("days", days)
     k = _checks.nonneg_int("seed", seed)
-    rate = _checks.positive("rate_hz", rate_hz)
-    secs = None if seconds is None else _checks.positive("seconds", seconds)
+    rate = _checks.rate_hz("rate_hz", rate_hz)
+    secs = None if seconds is None else _checks.duration_s("seconds", seconds)
     if secs is not None and secs < MIN_SECONDS:
         raise ValueError(f"seconds must be at least {MIN_SECONDS:g} s (the protocol's phases need room), got {secs:g}")
     R, C = _checks.shape2(shape)

@@ -200,10 +200,12 @@ def train_posture(recordings: Sequence[Recording], out_dir: str | Path, *, split
     rows = [table44_row("cnn", split, k, data[k].targets, pred[k]) for k in ("validation", "test")]
     baseline_rows = ridge_pca_rows(recordings, sp, std)[1] if baseline else []
     table = write_table44(rows + baseline_rows, out / f"table44_{split}.csv")
-    torch.save({"state_dict": model.state_dict(), "settings": settings, "R": R, "C": C,
-                "standardiser": {"mean": std.mean, "sd": std.sd}, "best_epoch": res.best_epoch},
-               out / f"model_{split}.pt")
-    with (out / f"history_{split}.csv").open("w", newline="") as f:
+    from .._atomic import open_atomic, replacing
+
+    with replacing(out / f"model_{split}.pt") as tmp:  # each output whole or not at all
+        torch.save({"state_dict": model.state_dict(), "settings": settings, "R": R, "C": C,
+                    "standardiser": {"mean": std.mean, "sd": std.sd}, "best_epoch": res.best_epoch}, tmp)
+    with open_atomic(out / f"history_{split}.csv", "w") as f:
         wr = csv.DictWriter(f, fieldnames=["epoch", "train_loss", "val_loss", "train_s", "n_train"])
         wr.writeheader()
         wr.writerows(res.history)

@@ -13,8 +13,13 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .. import _core
+from .._checks import first_bad
 
-__all__ = ["MPICreep", "SensorState", "THESIS_TABLE_2_11"]
+__all__ = ["MPICreep", "SensorState", "THESIS_TABLE_2_11", "P_BEYOND"]
+
+#: :meth:`MPICreep.direct` refuses pressures above this many times ``p_max``: a mat's loads reach
+#: a few times the identified range (a heel), a thousand psi is a wrong unit or a wrong number
+P_BEYOND = 10.0
 
 #: Thesis Table 2.11 (Velostat), SSE_N = 2.74e-9 S^2.
 THESIS_TABLE_2_11 = dict(
@@ -153,12 +158,31 @@ class MPICreep:
         state : SensorState, optional
             Operator state to start from and to update in place (a live stream in chunks);
             default: the sensor at rest.
+
+        Raises
+        ------
+        ValueError
+            A negative pressure, one above :data:`P_BEYOND` times ``p_max``, or one whose
+            conductance is not a finite number (the state is then left as it was).
         """
         flat, periods, state = self._stream(p, "p", dt, state)
         if np.any(flat < 0):
             raise ValueError("p must be >= 0 psi (the OSP operators are one-sided)")
-        g = self._m.direct(flat, periods, state._s)
-        return np.asarray(g).reshape(np.shape(p))
+        top = P_BEYOND * self.p_max
+        if np.any(flat > top):
+            k = first_bad(flat > top)
+            raise ValueError(f"p = {flat[k]:g} psi at sample {k[0]} is beyond {top:g} psi ({P_BEYOND:g} x p_max), "
+                             f"where the model means nothing (identified on 0 ... {self.p_max:g} psi); pressures "
+                             "are in psi")
+        before = state._s.copy()  # a refused stream leaves the state as it was
+        g = np.asarray(self._m.direct(flat, periods, state._s))
+        bad = ~np.isfinite(g) & np.isfinite(flat)  # NaN in, NaN out: a skipped sample, not an overflow
+        if bad.any():
+            state._s = before
+            k = first_bad(bad)
+            raise ValueError(f"p = {flat[k]:g} psi at sample {k[0]} gives a conductance of {g[k]:g} S, not a finite "
+                             f"number: check the model's parameters {self!r}")
+        return g.reshape(np.shape(p))
 
     def inverse(self, g, dt: float | np.ndarray, state: SensorState | None = None, *, return_clipped: bool = False):
         """Pressure (psi) from a conductance stream (S): the exact inverse of :meth:`direct`.

@@ -1,4 +1,5 @@
-"""Per-session results of a study run on disk (docs/spec.md §12): keyed by content, written atomically.
+"""Per-session results of a study run on disk (docs/spec.md §12): keyed by content, proven when read,
+written atomically.
 
 ``DIR/results/sessions/<stem>.json`` holds one session's rows and the inputs they were made
 from; its traces (:func:`psmat.study.trial.process_trial` with ``traces=True``) are
@@ -10,8 +11,28 @@ subject, trial, body weight, sha256 of the session file (and of its journal if o
 beside it), of the platform file, of the study's calibration file if one is used})``
 
 so a changed session, platform file, weight, calibration or parameter reruns exactly the
-sessions it touches. Each file is written to a hidden temporary name, flushed to disk and
-moved into place with :func:`os.replace`: a killed run leaves either the old result or the
+sessions it touches.
+
+**Each entry proves itself.** The JSON holds ``schema``, ``key``, ``inputs``, ``rows``,
+``traces`` (the file name or null), ``traces_sha256`` (SHA-256 of that file's bytes) and
+
+``digest = sha256(len(c) as 8 bytes, big-endian || c)``, ``c`` the canonical JSON (sorted keys,
+no spaces, UTF-8) of every other field,
+
+so the digest covers the rows, the key, the inputs and, through ``traces_sha256``, every byte
+of the traces file. An entry whose stored key differs from the current key is stale and is
+recomputed quietly. An entry with the current key is used only if it parses, has exactly
+these fields, its digest and its inputs' key match, its rows are those of the session
+(:func:`psmat.study.plain.check_rows`: one per variant asked for, never none), its traces file
+is the one name it may have (``<stem>.<key16>.npz``, in this folder once links are resolved:
+no entry can lead a run outside ``results/sessions``) and that file's bytes match
+``traces_sha256``. Anything else is recomputed, never trusted and never fatal, and
+:meth:`SessionStore.load` says why (the run lists it among its problems). The digest detects
+corruption and edits; it is not a signature — whoever can write ``results/`` can also write
+``metrics.csv``.
+
+Each file is written to a hidden temporary name, flushed to disk and moved into place with
+:func:`os.replace` (:func:`psmat._atomic.open_atomic`): a killed run leaves either the old result or the
 new one, never half of one (the traces are moved first, the JSON that names them last).
 """
 
@@ -19,25 +40,28 @@ from __future__ import annotations
 
 import contextlib
 import hashlib
+import io
 import json
-import math
 import os
 import re
-import tempfile
 from collections.abc import Iterator, Mapping
 from dataclasses import dataclass
 from pathlib import Path
-from typing import IO, Any
+from typing import Any
 
 import numpy as np
 
+from .._atomic import TMP_PREFIX, open_atomic, write_text_atomic
 from .._filelock import LockHeld, exclusive_lock
-from .trial import COLUMNS, Rows, Traces
+from .plain import TEXT_COLUMNS, Expect, check_rows, digest, first_line, parse_json, plain_rows
+from .trial import Rows, Traces
 
-__all__ = ["SCHEMA", "file_sha256", "result_key", "canonical_json", "SessionStore", "TraceFiles", "study_lock"]
+__all__ = ["SCHEMA", "file_sha256", "result_key", "canonical_json", "entry_digest", "SessionStore", "Stored",
+           "Lookup", "TraceFiles", "study_lock", "normalise_rows", "write_text_atomic"]
 
-SCHEMA = "psmat-study-session/1"
-_TMP_PREFIX = ".tmp-"
+SCHEMA = "psmat-study-session/2"
+#: the fields of an entry (see the module docstring)
+FIELDS = frozenset({"schema", "key", "inputs", "rows", "traces", "traces_sha256", "digest"})
 
 
 def file_sha256(path: str | os.PathLike[str] | None) -> str | None:
@@ -64,48 +88,19 @@ def result_key(inputs: Mapping[str, Any]) -> str:
     return hashlib.sha256(canonical_json({"schema": SCHEMA, **inputs}).encode()).hexdigest()
 
 
-def _plain(value: Any) -> Any:
-    """A row value as JSON: NaN → null, NumPy scalars → Python numbers."""
-    if isinstance(value, (bool, np.bool_)):
-        return bool(value)
-    if isinstance(value, (int, np.integer)):
-        return int(value)
-    if isinstance(value, (float, np.floating)):
-        return None if math.isnan(value) else float(value)
-    return value
-
-
-def _unplain(column: str, value: Any) -> Any:
-    return math.nan if value is None and column not in ("subject", "trial", "variant", "status") else value
-
-
 def normalise_rows(rows: Rows) -> Rows:
     """Rows exactly as they come back from disk (JSON numbers, NaN for null), columns in order."""
-    return [{c: _unplain(c, _plain(r[c])) for c in COLUMNS} for r in rows]
+    return [{c: (float("nan") if v is None and c not in TEXT_COLUMNS else v) for c, v in r.items()}
+            for r in plain_rows(rows)]
 
 
-@contextlib.contextmanager
-def _atomic(path: Path, mode: str) -> Iterator[IO[Any]]:
-    """Write ``path`` through a hidden temporary file in its folder, fsync, then os.replace."""
-    fd, tmp = tempfile.mkstemp(prefix=_TMP_PREFIX + path.name + ".", dir=path.parent)
-    try:
-        if hasattr(os, "fchmod"):
-            os.fchmod(fd, 0o644)  # results are for everyone to read (mkstemp makes them private)
-        with os.fdopen(fd, mode, **({"encoding": "utf-8", "newline": ""} if "b" not in mode else {})) as fh:
-            yield fh
-            fh.flush()
-            os.fsync(fh.fileno())
-        os.replace(tmp, path)
-    except BaseException:
-        with contextlib.suppress(OSError):
-            os.unlink(tmp)
-        raise
+def entry_digest(doc: Mapping[str, Any]) -> str:
+    """The digest of an entry: of the canonical JSON of every field but ``digest`` (module docstring)."""
+    return digest(canonical_json({k: v for k, v in doc.items() if k != "digest"}))
 
 
-def write_text_atomic(path: Path, text: str) -> None:
-    """``path`` gets ``text`` whole or keeps what it had (temporary file + os.replace)."""
-    with _atomic(path, "w") as fh:
-        fh.write(text)
+class _Stale(Exception):
+    """The entry was made from other inputs: recompute, nothing to report."""
 
 
 @dataclass(frozen=True)
@@ -114,6 +109,16 @@ class Stored:
 
     rows: Rows
     traces: Path | None
+
+
+@dataclass(frozen=True)
+class Lookup:
+    """What :meth:`SessionStore.load` found: a result proven to be that of the current inputs,
+    or none; ``problem`` says why an entry on disk was not trusted (None when there was no
+    entry or it was made from other inputs)."""
+
+    stored: Stored | None
+    problem: str | None = None
 
 
 class SessionStore:
@@ -126,32 +131,75 @@ class SessionStore:
     def path(self, stem: str) -> Path:
         return self.folder / f"{stem}.json"
 
-    def load(self, stem: str, key: str) -> Stored | None:
-        """The stored result of ``stem`` if it was made from inputs with ``key``; else None."""
+    @staticmethod
+    def traces_name(stem: str, key: str) -> str:
+        """The one name the traces file of ``stem`` made from inputs with ``key`` may have."""
+        return f"{stem}.{key[:16]}.npz"
+
+    def _inside(self, path: Path) -> Path:
+        """``path`` with links resolved, or ValueError if that leaves this folder."""
+        real = path.resolve()
+        if not real.is_relative_to(self.folder.resolve()):
+            raise ValueError(f"{path.name} leads outside {self.folder} (to {real}); not read")
+        return real
+
+    def load(self, stem: str, key: str, expect: Expect) -> Lookup:
+        """The stored result of ``stem`` if it is proven to be that of inputs with ``key`` (see
+        the module docstring); never raises for what is on disk."""
         p = self.path(stem)
+        if not p.exists() and not p.is_symlink():
+            return Lookup(None)
         try:
-            doc = json.loads(p.read_text(encoding="utf-8"))
-        except (OSError, ValueError):
-            return None
-        if not isinstance(doc, dict) or doc.get("key") != key or not isinstance(doc.get("rows"), list):
-            return None
-        traces = None if doc.get("traces") is None else self.folder / str(doc["traces"])
-        if traces is not None and not traces.is_file():
-            return None
-        try:
-            rows = [{c: _unplain(c, r[c]) for c in COLUMNS} for r in doc["rows"]]
-        except (KeyError, TypeError):
-            return None
-        return Stored(rows, traces)
+            return Lookup(self._verified(p, stem, key, expect))
+        except _Stale:
+            return Lookup(None)
+        except Exception as exc:  # noqa: BLE001 - whatever is wrong on disk, the session is recomputed
+            what = str(exc) if isinstance(exc, ValueError) else f"{type(exc).__name__}: {exc}"
+            return Lookup(None, f"stored result {p.name} not used ({first_line(what)}); recomputed")
+
+    def _verified(self, p: Path, stem: str, key: str, expect: Expect) -> Stored:
+        """The entry at ``p``, every check of the module docstring passed; _Stale, ValueError or OSError."""
+        doc = parse_json(self._inside(p).read_bytes())
+        if not isinstance(doc, dict):
+            raise ValueError("not a JSON object")
+        if doc.get("key") != key:
+            raise _Stale
+        if set(doc) != FIELDS or doc["schema"] != SCHEMA:
+            raise ValueError(f"not a {SCHEMA} entry (fields {sorted(doc)})")
+        if doc["digest"] != entry_digest(doc):
+            raise ValueError("digest mismatch: its rows, inputs or traces entry changed after it was written")
+        if not isinstance(doc["inputs"], dict) or result_key(doc["inputs"]) != key:
+            raise ValueError("its inputs do not give its key")
+        rows = check_rows(doc["rows"], expect)
+        name, sha = doc["traces"], doc["traces_sha256"]
+        if name is None:
+            if sha is not None:
+                raise ValueError("a traces digest without a traces file")
+            return Stored(rows, None)
+        want = self.traces_name(stem, key)
+        if name != want:
+            raise ValueError(f"it names the traces file {first_line(repr(name), 80)}, not {want} in its folder")
+        traces = self._inside(self.folder / want)
+        if not traces.is_file():
+            raise ValueError(f"its traces file {want} is missing")
+        if file_sha256(traces) != sha:
+            raise ValueError(f"its traces file {want} changed after it was written (SHA-256 mismatch)")
+        return Stored(rows, self.folder / want)
 
     def save(self, stem: str, key: str, inputs: Mapping[str, Any], rows: Rows, traces: Traces) -> Stored:
         """Write one session's result (traces first, then the JSON naming them) and drop older traces."""
-        name = f"{stem}.{key[:16]}.npz" if traces else None
+        name = self.traces_name(stem, key) if traces else None
+        sha = None
         if name is not None:
-            with _atomic(self.folder / name, "wb") as fh:
-                np.savez(fh, **{k: np.asarray(v, np.float64) for k, v in traces.items()})
-        plain = [{c: _plain(r[c]) for c in COLUMNS} for r in rows]
-        doc = {"key": key, "inputs": dict(inputs), "rows": plain, "traces": name}
+            buf = io.BytesIO()
+            np.savez(buf, **{k: np.asarray(v, np.float64) for k, v in traces.items()})
+            data = buf.getvalue()
+            with open_atomic(self.folder / name, "wb") as fh:
+                fh.write(data)
+            sha = hashlib.sha256(data).hexdigest()
+        doc: dict[str, Any] = {"schema": SCHEMA, "key": key, "inputs": dict(inputs), "rows": plain_rows(rows),
+                               "traces": name, "traces_sha256": sha}
+        doc["digest"] = entry_digest(doc)
         write_text_atomic(self.path(stem), json.dumps(doc, indent=1, allow_nan=False) + "\n")
         own = re.compile(re.escape(stem) + r"\.[0-9a-f]{16}\.npz")
         for old in self.folder.glob(f"{glob_escape(stem)}.*.npz"):
@@ -166,7 +214,7 @@ class SessionStore:
     def remove_temporaries(self) -> int:
         """Delete temporary files a killed run left (call only while holding :func:`study_lock`)."""
         n = 0
-        for p in self.folder.glob(_TMP_PREFIX + "*"):
+        for p in self.folder.glob(TMP_PREFIX + "*"):
             p.unlink(missing_ok=True)
             n += 1
         return n

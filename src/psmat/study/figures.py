@@ -43,8 +43,11 @@ def _title(text: str, label: str | None) -> str:
 
 
 def _save(fig: Any, path: str | os.PathLike[str]) -> Path:
+    from .._atomic import replacing
+
     path = Path(path)
-    fig.savefig(path, dpi=DPI, metadata={"Software": None})
+    with replacing(path) as tmp:  # whole or not at all
+        fig.savefig(tmp, dpi=DPI, metadata={"Software": None})
     return path
 
 

@@ -3,7 +3,9 @@ its subject, and say what is missing — without stopping at the first problem.
 
 ```
 DIR/subjects.csv          subject, weight_kg, height_cm, age, sex, ...
-DIR/sessions/*.h5         mat sessions; metadata holds subject and trial
+DIR/sessions/*.h5         mat sessions; metadata holds subject and trial (a recording that was
+                          not closed, *.h5.journal alone, is listed with a status saying that
+                          ``psmat repair`` finishes it)
 DIR/forceplate/*.csv      force-platform CoP, same stem as the session it belongs to
 DIR/calibration/*.json    optional, per box serial number
 DIR/results/              written by ``psmat study run``
@@ -19,7 +21,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-__all__ = ["Subject", "StudyItem", "StudyLayout", "read_subjects", "find_study"]
+__all__ = ["Subject", "StudyItem", "StudyLayout", "read_subjects", "scan_subjects", "SubjectsFile", "find_study"]
 
 
 @dataclass(frozen=True)
@@ -47,6 +49,9 @@ class StudyItem:
     trial: str | None
     problems: list[str] = field(default_factory=list)
     simulated: bool = False  # the session's metadata says a simulator wrote it
+    #: the recording was not closed (only its journal is there): why, and the psmat repair command
+    #: that finishes it (:func:`psmat.io.session_unfinished.unfinished_reason`); such a session is not processed
+    not_closed: str | None = None
 
     @property
     def ok(self) -> bool:
@@ -62,6 +67,8 @@ class StudyLayout:
     items: list[StudyItem]
     calibrations: dict[str, Path]
     problems: list[str] = field(default_factory=list)
+    #: subjects whose row of subjects.csv was refused, and why (:func:`scan_subjects`)
+    refused_subjects: dict[str, str] = field(default_factory=dict)
 
     @property
     def results(self) -> Path:
@@ -74,44 +81,104 @@ class StudyLayout:
 
 
 def read_subjects(path: str | os.PathLike[str]) -> dict[str, Subject]:
-    """``subjects.csv`` → {subject id: Subject}; a missing or bad weight is one clear ValueError."""
+    """``subjects.csv`` → {subject id: Subject}; the first bad row (a missing or bad weight, an id
+    twice) or an unreadable file is one clear ValueError. :func:`find_study` instead keeps the good
+    rows (:func:`scan_subjects`)."""
+    found = scan_subjects(path)
+    if found.problems:
+        raise ValueError(found.problems[0])
+    return found.subjects
+
+
+@dataclass
+class SubjectsFile:
+    """What :func:`scan_subjects` read: the good rows, and each bad row's problem (one line)."""
+
+    subjects: dict[str, Subject]
+    #: the problem of each subject id whose row was refused (that subject has no body weight)
+    refused: dict[str, str]
+    #: every problem, in file order (a file that cannot be read at all is one)
+    problems: list[str]
+
+
+def scan_subjects(path: str | os.PathLike[str]) -> SubjectsFile:
+    """``subjects.csv`` row by row: a bad row is refused alone, with its line number and why.
+
+    The file is UTF-8 text, with or without a byte-order mark (as spreadsheets save CSV); it
+    needs the columns ``subject`` and ``weight_kg`` (kg, in (0, 500)). A row whose id appears
+    twice is refused with the other: which weight is right is not known.
+    """
     path = Path(path)
-    with open(path, newline="", encoding="utf-8") as fh:
-        reader = csv.DictReader(fh)
-        names = [n.strip() for n in (reader.fieldnames or [])]
-        for need in ("subject", "weight_kg"):
-            if need not in names:
-                raise ValueError(f"{path}: needs a column {need!r}, has {names}")
-        out: dict[str, Subject] = {}
-        for k, row in enumerate(reader, start=2):
-            row = {(a or "").strip(): (b or "").strip() for a, b in row.items()}
-            sid = row.pop("subject")
-            if not sid:
-                raise ValueError(f"{path}:{k}: empty subject id")
-            if sid in out:
-                raise ValueError(f"{path}:{k}: subject {sid!r} appears twice")
-            try:
-                w = float(row.pop("weight_kg"))
-            except ValueError:
-                raise ValueError(f"{path}:{k}: weight_kg of {sid!r} is not a number") from None
-            if not 0 < w < 500:
-                raise ValueError(f"{path}:{k}: weight_kg of {sid!r} is {w:g}; expected kg in (0, 500)")
-            out[sid] = Subject(sid, w, row)
-    return out
+    subjects: dict[str, Subject] = {}
+    refused: dict[str, str] = {}
+    problems: list[str] = []
+    first_line: dict[str, int] = {}
 
-
-def _session_meta(path: Path) -> tuple[str | None, str | None, str | None, bool]:
-    """(subject, trial, problem, simulated) from a session's metadata (the loader checks the whole file)."""
-    from ..io import SessionFormatError, load_session
+    def refuse(sid: str, line: int, why: str) -> None:
+        msg = f"{path}:{line}: {why}"
+        problems.append(msg)
+        if sid:
+            refused.setdefault(sid, msg)
+            subjects.pop(sid, None)
 
     try:
-        meta = load_session(path).metadata
+        with open(path, newline="", encoding="utf-8-sig") as fh:
+            reader = csv.DictReader(fh, restkey="\0extra")
+            names = [(n or "").strip() for n in (reader.fieldnames or [])]
+            for need in ("subject", "weight_kg"):
+                if need not in names:
+                    return SubjectsFile({}, {}, [f"{path}: needs a column {need!r}, has {names}"])
+            for row in reader:
+                k = reader.line_num
+                extra = row.pop("\0extra", None)
+                row = {(a or "").strip(): (b or "").strip() for a, b in row.items()}
+                sid = row.pop("subject")
+                if not sid:
+                    refuse("", k, "empty subject id: the row is left out")
+                    continue
+                if sid in first_line:
+                    refuse(sid, k, f"subject {sid!r} appears twice (lines {first_line[sid]} and {k}): "
+                                   "neither row is used")
+                    continue
+                first_line[sid] = k
+                if extra:
+                    refuse(sid, k, f"{len(names) + len(extra)} fields for {len(names)} columns: the row is left out")
+                    continue
+                text = row.pop("weight_kg")
+                try:
+                    w = float(text)
+                except ValueError:
+                    refuse(sid, k, f"weight_kg of {sid!r} is not a number ({text!r}): the row is left out")
+                    continue
+                if not 0 < w < 500:
+                    refuse(sid, k, f"weight_kg of {sid!r} is {w:g}; expected kg in (0, 500): the row is left out")
+                    continue
+                if sid not in refused:
+                    subjects[sid] = Subject(sid, w, row)
+    except UnicodeDecodeError as exc:
+        return SubjectsFile({}, {}, [f"{path} is not UTF-8 text (byte 0x{exc.object[exc.start]:02x} at offset "
+                                     f"{exc.start}); save it as CSV in UTF-8"])
+    except csv.Error as exc:
+        return SubjectsFile({}, {}, [f"{path} is not a readable CSV file ({exc})"])
+    return SubjectsFile(subjects, refused, problems)
+
+
+def _session_meta(path: Path) -> tuple[str | None, str | None, str | None, bool, str | None]:
+    """(subject, trial, problem, simulated, not closed) from a session's metadata (the loader checks the
+    whole file, or reads the journal of a recording that was not closed)."""
+    from ..io import SessionFormatError, load_session
+    from ..io.session_unfinished import not_closed_line, unfinished_reason
+
+    try:
+        s = load_session(path)
     except (SessionFormatError, OSError) as exc:
-        return None, None, f"unreadable session: {exc}", False
+        not_closed = not_closed_line(path) if not path.exists() else None
+        return None, None, f"unreadable session: {exc}", False, not_closed
+    meta = s.metadata
     subject = meta.get("subject")
     trial = meta.get("trial")
     return ((None if subject is None else str(subject)), (None if trial is None else str(trial)), None,
-            meta.get("simulated") is True)
+            meta.get("simulated") is True, unfinished_reason(path, s))
 
 
 def find_study(root: str | os.PathLike[str]) -> StudyLayout:
@@ -122,6 +189,8 @@ def find_study(root: str | os.PathLike[str]) -> StudyLayout:
     FileNotFoundError
         ``root`` or ``root/sessions`` does not exist.
     """
+    from ..io.session_unfinished import journal_only
+
     root = Path(root)
     if not root.is_dir():
         raise FileNotFoundError(f"study folder not found: {root}")
@@ -130,25 +199,29 @@ def find_study(root: str | os.PathLike[str]) -> StudyLayout:
         raise FileNotFoundError(f"{root} has no sessions/ folder (docs/spec.md §6 study layout)")
     problems: list[str] = []
     subjects: dict[str, Subject] = {}
+    refused: dict[str, str] = {}
     sub_csv = root / "subjects.csv"
     if sub_csv.is_file():
-        try:
-            subjects = read_subjects(sub_csv)
-        except ValueError as exc:
-            problems.append(str(exc))
+        found = scan_subjects(sub_csv)  # a bad row costs its own subject only
+        subjects, refused = found.subjects, found.refused
+        problems += found.problems
     else:
         problems.append(f"{sub_csv} not found: no body weights")
     plates = {p.stem: p for p in sorted((root / "forceplate").glob("*")) if p.suffix.lower() in (".csv", ".tsv", ".txt")}
     cal = {p.stem: p for p in sorted((root / "calibration").glob("*.json"))}
     items = []
-    for s in sorted(sessions.glob("*.h5")):
-        subject, trial, problem, simulated = _session_meta(s)
-        item = StudyItem(s.stem, s, plates.get(s.stem), subject, trial, simulated=simulated)
+    for s in sorted({*sessions.glob("*.h5"), *journal_only(sessions)}):  # journal-only: never skipped silently
+        subject, trial, problem, simulated, not_closed = _session_meta(s)
+        item = StudyItem(s.stem, s, plates.get(s.stem), subject, trial, simulated=simulated, not_closed=not_closed)
+        if not_closed:
+            item.problems.append(not_closed)
         if problem:
             item.problems.append(problem)
         else:
             if subject is None:
                 item.problems.append("session metadata has no subject")
+            elif subject in refused:
+                item.problems.append(refused[subject])
             elif subject not in subjects:
                 item.problems.append(f"subject {subject!r} is not in subjects.csv")
             if trial is None:
@@ -158,7 +231,9 @@ def find_study(root: str | os.PathLike[str]) -> StudyLayout:
         items.append(item)
     if not items:
         problems.append(f"{sessions} holds no *.h5 session")
-    return StudyLayout(root, subjects, items, cal, problems)
+    told = {refused[i.subject] for i in items if i.subject in refused}  # said by their sessions, not twice
+    problems = [p for p in problems if p not in told]
+    return StudyLayout(root, subjects, items, cal, problems, refused)
 
 
 def describe(layout: StudyLayout) -> dict[str, Any]:

@@ -13,7 +13,9 @@ tables are bit-identical whatever the number of workers, or on a Dask cluster.
 finishes, keyed by the content of its inputs and the parameters (:mod:`psmat.study.cache`);
 a killed run resumes with the sessions it had not finished, and a changed weight, file,
 calibration or parameter reruns only the sessions it touches. A session whose processing
-failed (status ``error: …``) is not stored: it is tried again next run. ``metrics.csv`` is
+failed (status ``error: …``) is not stored: it is tried again next run; nor is a recording that
+was not closed (its journal alone, :mod:`psmat.io.session_unfinished`), which is not processed:
+its rows' status says which ``psmat repair`` command finishes it. ``metrics.csv`` is
 written after the sessions, then :func:`psmat.study.results.write_results` (summary, figures,
 report) — skipped when ``metrics.csv``, the problems and the traces are those it last wrote
 from (``results/.outputs.json``). One run per study at a time (``results/.lock``).
@@ -23,11 +25,17 @@ thesis) corrects each session's SCHC trace by a model fitted on the other volunt
 computed for the study as a whole, never cached per session. A study whose sessions all say in
 their metadata that a simulator wrote them is labelled "simulation" in its figures and report.
 
-**On a cluster** (``scheduler="tcp://host:8786"``, the extra ``psmat[cluster]``): the same
-tasks go to a Dask distributed scheduler and come back as they complete; this process writes
-the results. Tasks carry file paths, not file contents, so the study folder must be on a
-filesystem the workers share (the same path on every worker), and the workers need psmat
-installed.
+**Stored results are proven, not trusted** (:mod:`psmat.study.cache`): an entry under
+``results/sessions`` whose digest, rows, traces file or paths do not check out is recomputed,
+and the run says so among its problems.
+
+**On a cluster** (``scheduler="tcp://host:8786"`` or ``scheduler_file``, TLS through
+``security``; the extra ``psmat[cluster]``): the same tasks go to a Dask distributed scheduler
+and come back as they complete, as plain bytes that this process parses without pickle,
+checks and writes (:mod:`psmat.study.cluster`). A Dask cluster must be trusted: its workers run
+arbitrary code by design. Tasks carry file paths, not file contents, so the study folder must
+be on a filesystem the workers share (the same path on every worker), and the workers need
+psmat installed.
 """
 
 from __future__ import annotations
@@ -45,6 +53,7 @@ from ..balance.variants import KNOWN_VARIANTS
 from .cache import SessionStore, Stored, TraceFiles, canonical_json, file_sha256, normalise_rows, result_key, \
     study_lock, write_text_atomic
 from .layout import StudyItem, StudyLayout, find_study
+from .plain import Expect
 from .trial import COLUMNS, DEFAULT_PARAMS, Rows, Traces, process_trial
 
 __all__ = ["RunReport", "SessionTask", "run_study", "run_task", "write_metrics", "TRIALS"]
@@ -68,6 +77,11 @@ class SessionTask:
     key: str
     inputs: dict[str, Any]
     notes: tuple[str, ...] = ()
+
+    @property
+    def expect(self) -> Expect:
+        """What this session's result must be (checked when it is read back or received)."""
+        return Expect(self.stem, self.subject, self.trial, tuple(self.params["variants"]))
 
 
 def run_task(task: SessionTask) -> tuple[str, Rows, Traces]:
@@ -105,7 +119,8 @@ class RunReport:
 
 
 def run_study(root: str | os.PathLike[str], *, workers: int | None = None, scheduler: str | None = None,
-              params: dict[str, Any] | None = None, progress: bool = True) -> RunReport:
+              params: dict[str, Any] | None = None, progress: bool = True,
+              scheduler_file: str | os.PathLike[str] | None = None, security: Any = None) -> RunReport:
     """Process every session of the study folder ``root`` into ``root/results/``.
 
     Parameters
@@ -115,12 +130,17 @@ def run_study(root: str | os.PathLike[str], *, workers: int | None = None, sched
     workers : int, optional
         Processes (default: every core); 1 runs the sessions in this process.
     scheduler : str, optional
-        Address of a Dask distributed scheduler (``tcp://host:8786``) to run the sessions on
-        instead; needs ``psmat[cluster]`` and the study folder on a shared filesystem.
+        Address of a Dask distributed scheduler (``tcp://host:8786``, ``tls://host:8786``) to
+        run the sessions on instead; needs ``psmat[cluster]``, the study folder on a shared
+        filesystem and a cluster you trust (:mod:`psmat.study.cluster`).
     params : dict, optional
         Overrides of :data:`psmat.study.trial.DEFAULT_PARAMS` (they are part of every key).
     progress : bool
         A progress bar over sessions on stderr.
+    scheduler_file : path, optional
+        The scheduler's file (``dask scheduler --scheduler-file``) instead of ``scheduler``.
+    security : distributed.Security, optional
+        TLS credentials for the cluster (:func:`psmat.study.cluster.security`).
 
     Returns
     -------
@@ -131,19 +151,32 @@ def run_study(root: str | os.PathLike[str], *, workers: int | None = None, sched
     FileNotFoundError
         ``root`` is not a study folder.
     ValueError
-        Unknown parameters or variants, a bad ``workers``, or both ``workers`` and ``scheduler``.
+        Unknown parameters or variants, a bad ``workers``, both ``workers`` and a cluster, both
+        ``scheduler`` and ``scheduler_file``, or ``security`` without a cluster.
     ImportError
-        ``scheduler`` without Dask distributed installed.
+        A cluster without Dask distributed installed.
     RuntimeError
-        Another run is writing the same study.
+        Another run is writing the same study, or a ``tls://`` scheduler without credentials.
+    OSError
+        The cluster cannot be reached or refused the connection (e.g. TLS credentials of
+        another CA), or the scheduler file does not exist.
     """
     from psmat._progress import tqdm
 
     from .. import __version__
 
     p = _checked_params(params)
-    if scheduler is not None and workers is not None:
+    if (scheduler is not None or scheduler_file is not None) and workers is not None:
         raise ValueError("give workers or a scheduler, not both (the cluster's workers run the sessions)")
+    if scheduler is not None and scheduler_file is not None:
+        raise ValueError("give a scheduler address or a scheduler file, not both")
+    if security is not None and scheduler is None and scheduler_file is None:
+        raise ValueError("TLS settings are for a cluster: give a scheduler address or a scheduler file too")
+    cluster = None
+    if scheduler is not None or scheduler_file is not None:
+        from .cluster import Cluster
+
+        cluster = Cluster(scheduler, None if scheduler_file is None else os.fspath(scheduler_file), security)
     if workers is not None and (isinstance(workers, bool) or not isinstance(workers, int) or workers < 1):
         raise ValueError(f"workers must be an integer >= 1, got {workers!r}")
     layout = find_study(root)
@@ -158,14 +191,21 @@ def run_study(root: str | os.PathLike[str], *, workers: int | None = None, sched
             problems.append(f"{store.folder} holds results of {len(stale)} session(s) no longer in the study, "
                             f"ignored (not deleted): {', '.join(stale)}")
         done: dict[str, Stored] = {}
+        unclosed = _unclosed(layout.items, tasks)  # recordings not closed: a status row each, never processed
         for stem, t in tasks.items():
-            if (s := store.load(stem, t.key)) is not None:
-                done[stem] = s
+            if stem in unclosed:
+                continue
+            found = store.load(stem, t.key, t.expect)
+            if found.stored is not None:
+                done[stem] = found.stored
+            elif found.problem is not None:  # on disk but not proven: recomputed, and said so
+                problems.append(f"{stem}: {found.problem}")
         reused = len(done)
-        failed: set[str] = set()
+        failed: set[str] = set(unclosed)
+        done.update(unclosed)
         todo = [t for stem, t in tasks.items() if stem not in done]
         with tqdm(total=len(tasks), initial=reused, unit="session", desc="sessions", disable=not progress) as bar:
-            for stem, rows, traces in _execute(todo, workers, scheduler):
+            for stem, rows, traces in _execute(todo, workers, cluster):
                 t = tasks[stem]
                 rows = _with_notes(rows, t.notes)
                 if all(r["status"].startswith("error:") for r in rows):
@@ -242,29 +282,17 @@ class _MergedTraces(Mapping[tuple[str, str], Traces]):
 
 def _write_outputs(results: Path, rows: Rows, traces: Mapping[tuple[str, str], Traces], problems: list[str],
                    version: str, label: str | None = None) -> dict[str, Path]:
-    """:func:`psmat.study.results.write_results` (summary, figures, report), skipped when its
-    inputs (metrics.csv, the problems, the traces files, the label) are those of the outputs on disk."""
+    """:func:`psmat.study.results.write_outputs` (summary, figures, report), skipped when its
+    inputs (metrics.csv, the problems, the traces files, the label) are those of the outputs on
+    disk and those outputs are unchanged."""
     import hashlib
-    import json
 
-    from .results import write_results  # matplotlib: imported when a study is run, not with psmat
+    from .results import write_outputs  # matplotlib: imported when a study is run, not with psmat
 
     digest = hashlib.sha256(canonical_json({
         "psmat": version, "metrics": file_sha256(results / "metrics.csv"), "problems": problems, "label": label,
         "traces": sorted([*k, traces.path(k).name] for k in traces)}).encode()).hexdigest()
-    index = results / ".outputs.json"
-    try:
-        doc = json.loads(index.read_text(encoding="utf-8"))
-        if doc["digest"] == digest:
-            done = {name: results / rel for name, rel in doc["outputs"].items()}
-            if all(p.is_file() for p in done.values()):
-                return done
-    except (OSError, ValueError, KeyError, TypeError, AttributeError):
-        pass
-    outputs = write_results(results, rows, traces, problems, label=label)
-    rel = {name: Path(p).resolve().relative_to(results.resolve()).as_posix() for name, p in outputs.items()}
-    write_text_atomic(index, json.dumps({"digest": digest, "outputs": rel}, indent=1) + "\n")
-    return outputs
+    return write_outputs(results, rows, traces, problems, digest, label)
 
 
 def _cell(v: Any) -> str:
@@ -379,42 +407,37 @@ def _session_problems(items: Sequence[StudyItem], order: Sequence[str], done: di
     return out
 
 
+def _unclosed(items: Sequence[StudyItem], tasks: Mapping[str, SessionTask]) -> dict[str, Stored]:
+    """The rows of each session whose recording was not closed (:attr:`StudyItem.not_closed`): no
+    numbers, the status says which ``psmat repair`` command finishes it; not stored, so the next
+    run processes the repaired file."""
+    return {i.stem: Stored(normalise_rows(_status_rows(tasks[i.stem], i.not_closed)), None)
+            for i in items if i.not_closed}
+
+
+def _status_rows(t: SessionTask, status: str) -> Rows:
+    """A row per variant (and FP) of ``t`` with no numbers and this status."""
+    return [{**dict.fromkeys(COLUMNS, math.nan), "subject": t.subject, "trial": t.trial, "variant": v,
+             "status": status} for v in ("FP", *t.params["variants"])]
+
+
 def _error_rows(t: SessionTask, exc: BaseException) -> Rows:
     status = f"error: {type(exc).__name__}: {exc}".replace("\n", " ")
     return [{**dict.fromkeys(COLUMNS, math.nan), "subject": t.subject, "trial": t.trial, "variant": v,
              "status": status} for v in ("FP", *t.params["variants"])]
 
 
-def _execute(todo: list[SessionTask], workers: int | None, scheduler: str | None
+def _execute(todo: list[SessionTask], workers: int | None, cluster: Any
              ) -> Iterator[tuple[str, Rows, Traces]]:
-    """(stem, rows, traces) of each task, in the order they finish."""
+    """(stem, rows, traces) of each task, in the order they finish (``cluster``: a
+    :class:`psmat.study.cluster.Cluster`, or None for this machine)."""
     if not todo:
         return
-    if scheduler is not None:
-        yield from _on_dask(todo, scheduler)
+    if cluster is not None:
+        from .cluster import on_cluster
+
+        yield from on_cluster(todo, cluster)
         return
-    from joblib import Parallel, cpu_count, delayed
+    from .._parallel import map_unordered  # workers that end with this process, even after kill -9
 
-    n = min(workers or cpu_count(), len(todo))
-    if n == 1:
-        yield from map(run_task, todo)
-        return
-    yield from Parallel(n_jobs=n, backend="loky", return_as="generator_unordered")(delayed(run_task)(t) for t in todo)
-
-
-def _on_dask(todo: list[SessionTask], address: str) -> Iterator[tuple[str, Rows, Traces]]:
-    """The tasks on a Dask distributed cluster, gathered as they complete (a task that raises on
-    a worker, e.g. a worker lost, becomes error rows: it is tried again next run)."""
-    try:
-        from distributed import Client, as_completed
-    except ImportError:
-        raise ImportError("a scheduler needs Dask distributed: pip install 'psmat[cluster]'") from None
-    with Client(address) as client:
-        futures = {client.submit(run_task, t, key=f"psmat-study-{t.key}"): t for t in todo}
-        for fut in as_completed(futures):
-            t = futures[fut]
-            try:
-                yield fut.result()
-            except Exception as exc:  # noqa: BLE001 - the run goes on; the status says what happened
-                yield t.stem, _error_rows(t, exc), {}
-            fut.release()
+    yield from map_unordered(run_task, todo, workers)

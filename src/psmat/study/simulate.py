@@ -150,9 +150,9 @@ def _check(volunteers: Any, seconds: Any, seed: Any, rate_hz: Any, shape: Any
            ) -> tuple[int, float, int, float, tuple[int, int]]:
     """The checked arguments of :func:`simulate_study` (one-line ValueErrors)."""
     n = _checks.positive_int("volunteers", volunteers)
-    s = _checks.positive("seconds", seconds)
+    s = _checks.duration_s("seconds", seconds)
     k = _checks.nonneg_int("seed", seed)
-    rate = _checks.positive("rate_hz", rate_hz)
+    rate = _checks.rate_hz("rate_hz", rate_hz)
     R, C = _checks.shape2(shape)
     if R < 16 or C < 16:
         raise ValueError(f"shape must be at least (16, 16) cells of {PITCH_CM:g} cm so that the feet fit, got {(R, C)}")

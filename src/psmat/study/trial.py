@@ -66,6 +66,23 @@ def _metrics(t: np.ndarray, c: np.ndarray, fs: float, t_ref: np.ndarray | None, 
     return out
 
 
+def _forceplate(path: Path, load: Any) -> Any:
+    """The force-platform file through ``load``; a file that is not UTF-8 text, has fewer than two
+    samples or whose times do not advance is a ValueError saying so."""
+    try:
+        fp = load(path)
+    except UnicodeDecodeError as exc:
+        raise ValueError(f"force-platform file {path.name} is not text (byte 0x{exc.object[exc.start]:02x} at offset "
+                         f"{exc.start} is not UTF-8)") from None
+    if fp.t.size < 2:
+        raise ValueError(f"force-platform file {path.name} has {fp.t.size} sample(s); it needs at least 2")
+    step = float(np.median(np.diff(fp.t)))
+    if not step > 0:
+        raise ValueError(f"force-platform file {path.name}: its times do not advance (median step {step:g} s "
+                         "between samples)")
+    return fp
+
+
 def process_trial(session: str | os.PathLike[str], forceplate: str | os.PathLike[str] | None, subject: str,
                   trial: str, weight_kg: float | None, params: dict[str, Any] | None = None, *,
                   calibration: str | os.PathLike[str] | None = None,
@@ -136,8 +153,11 @@ def _process(session: Path, forceplate: Path | None, subject: str, trial: str, w
         t = np.interp(k, good, t[good])
         t[: good[0]] = t[good[0]] - (good[0] - k[: good[0]]) * step  # lost at the start or the end:
         t[good[-1] + 1:] = t[good[-1]] + (k[good[-1] + 1:] - good[-1]) * step  # extend the grid
-    periods = np.diff(t, prepend=t[0] - np.median(np.diff(t)))
-    fs = 1.0 / float(np.median(np.diff(t)))
+    step = float(np.median(np.diff(t)))
+    if not step > 0:  # a clock that stands still or runs backwards: no rate, no sway metric
+        raise ValueError(f"the session's frame times do not advance (median step {step:g} s between frames)")
+    periods = np.diff(t, prepend=t[0] - step)
+    fs = 1.0 / step
     sensor = MPICreep(**p["sensor"]) if p["sensor"] else MPICreep.thesis()
     circuit = session_circuit(s.calibration, s.device, calibration)
     with Processor(s.frame_shape, circuit=circuit, sensor=sensor, pitch_cm=p["pitch_cm"], method=p["method"],
@@ -162,7 +182,7 @@ def _process(session: Path, forceplate: Path | None, subject: str, trial: str, w
             rows.append(_row(subject, trial, v, "no force-platform file: no Eu, no lag", **base,
                              **dict(zip(METRICS, m))))
         return rows
-    fp = load_forceplate_csv(forceplate)
+    fp = _forceplate(forceplate, load_forceplate_csv)
     t_fp, c_fp = fp.t, fp.cop_cm
     fs_fp = 1.0 / float(np.median(np.diff(t_fp)))
     ref = traces[p["align_on"]].cop_cm[0]

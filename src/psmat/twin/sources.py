@@ -16,25 +16,54 @@ Sources are computed in blocks (one ``forward`` batch per block), so a tick cost
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
 
+from .. import _checks
 from . import scenes as _scenes
 from .mat import MatPhysics
 from .seated import seated_session
 from .seated_imu import draw_imu_device, imu_readings
 from .sway import time_base
 
-__all__ = ["PsmSource", "ImuSource", "DaqSource", "CalibrationFixture", "SCENES", "make_scene"]
+__all__ = ["PsmSource", "ImuSource", "DaqSource", "CalibrationFixture", "SCENES", "make_scene", "check_scene",
+           "MAX_SCENE_VALUES"]
 
 SCENES = ("sway", "quiet", "single-leg", "sitting")
+#: the most pressure values (frames x cells) a scene holds: 2**28 float64, 2 GiB
+MAX_SCENE_VALUES = 2**28
+
+
+def check_scene(duration_s: float, rate_hz: float, shape: tuple[int, int]) -> tuple[float, float]:
+    """``(rate_hz, duration_s)`` checked for a scene (:func:`make_scene`), or ValueError: a rate above
+    the PSM firmware's 1000 Hz, a duration that is not a positive number, or more than
+    :data:`MAX_SCENE_VALUES` pressure values (frames x cells)."""
+    rate_hz = _checks.rate_hz("rate_hz", rate_hz)
+    duration_s = _checks.positive("duration_s", duration_s)
+    R, C = _checks.shape2(shape)
+    values = math.ceil(duration_s * rate_hz) * R * C
+    if values > MAX_SCENE_VALUES:
+        raise ValueError(f"a scene of {duration_s:g} s at {rate_hz:g} Hz on {R}x{C} cells holds {values:,} pressure "
+                         f"values ({8 * values / 1e9:.3g} GB); at most {MAX_SCENE_VALUES:,} (shorten duration_s or "
+                         "lower rate_hz)")
+    return rate_hz, duration_s
 
 
 def make_scene(name: str, duration_s: float, rate_hz: float, shape: tuple[int, int] = (16, 16), *,
                bds_trial: int = 1, seed: int = 0) -> _scenes.PressureScene:
-    """A named pressure scene (psi) of ``duration_s`` at ``rate_hz`` (see the module docstring)."""
+    """A named pressure scene (psi) of ``duration_s`` at ``rate_hz`` (see the module docstring).
+
+    Raises
+    ------
+    ValueError
+        A rate above the PSM firmware's 1000 Hz, a duration that is not a positive number, or a
+        scene of more than :data:`MAX_SCENE_VALUES` pressure values; checked before anything is
+        computed.
+    """
+    rate_hz, duration_s = check_scene(duration_s, rate_hz, shape)
     if name == "sway":
         from ..io.forceplate import bds_trial as _bds
 

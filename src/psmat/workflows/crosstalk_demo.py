@@ -98,7 +98,10 @@ def _figure(g_true, G_meas, g_hat, sigma, pitch, out, res, show):
         f"{res['cop_error_iecm_cm']:.3f} cm after IECM",
         fontsize=11,
     )
-    fig.savefig(out, dpi=110)
+    from .._atomic import replacing
+
+    with replacing(out) as tmp:  # the figure whole or not at all
+        fig.savefig(tmp, dpi=110)
     if show:
         plt.show()
     plt.close(fig)

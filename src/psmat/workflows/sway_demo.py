@@ -63,13 +63,16 @@ class SwayRecording:
 
 def record_sway(*, seconds: float = 8.0, rate_hz: int = 100, session: str | Path = "psmat_demo.h5",
                 bds_trial: int = 1, port: str | None = None, shape: tuple[int, int] = (16, 16), seed: int = 0,
-                progress: bool | None = None, log=print) -> SwayRecording:
+                progress: bool | None = None, log=print, overwrite: bool = False) -> SwayRecording:
     """Record ``seconds`` from the twin (or the mat on ``port``), process and compare.
 
-    Prints the frames, the losses and the CoP errors (cm RMS) against the force platform.
+    Prints the frames, the losses and the CoP errors (cm RMS) against the force platform. An
+    existing ``session`` is an error (:class:`psmat._atomic.OutputRefused`) unless ``overwrite``;
+    it is then replaced only when the new recording is complete (:class:`psmat.io.SessionWriter`).
     """
     from psmat._progress import tqdm
 
+    from .._atomic import check_outputs
     from ..acquire import open_device
     from ..circuit import Circuit
     from ..io import SessionWriter, load_session
@@ -78,8 +81,7 @@ def record_sway(*, seconds: float = 8.0, rate_hz: int = 100, session: str | Path
     from ..twin import PsmSource, SerialTwin
 
     session = Path(session)
-    if session.exists():
-        session.unlink()
+    check_outputs([session], overwrite=overwrite)  # before the twin or the port is touched
     twin = source = None
     if port is None:
         source = PsmSource.named("sway", rate_hz, shape, duration_s=max(60.0, seconds + 1), bds_trial=bds_trial,
@@ -95,7 +97,8 @@ def record_sway(*, seconds: float = 8.0, rate_hz: int = 100, session: str | Path
             desc.setdefault("rate", rate_hz)
             meta = {"subject": "digital twin" if twin else "unknown", "task": "quiet standing, eyes open",
                     "force_platform": (source.scene.meta.get("source") if source else None)}
-            with SessionWriter(session, shape, device=desc, calibration=circuit.as_dict(), metadata=meta) as writer:
+            with SessionWriter(session, shape, device=desc, calibration=circuit.as_dict(), metadata=meta,
+                               overwrite=overwrite) as writer:
                 dev.record_to(writer)
                 dev.start()
                 t0 = time.monotonic()
@@ -166,21 +169,28 @@ def _cop_with_known_gains(proc, sensor, g_rest: float, gain: np.ndarray) -> np.n
 def run_sway_demo(out: str | Path = "psmat_demo.png", *, seconds: float = 8.0, rate_hz: int = 100,
                   session: str | Path = "psmat_demo.h5", bds_trial: int = 1, port: str | None = None,
                   shape: tuple[int, int] = (16, 16), seed: int = 0, progress: bool | None = None,
-                  log=print) -> dict[str, Any]:
+                  log=print, overwrite: bool = False) -> dict[str, Any]:
     """Record ``seconds`` from the twin (or the mat on ``port``), process, compare, plot.
 
-    Returns a dict of what it printed: frames, losses, CoP errors (cm) and the paths.
+    Returns a dict of what it printed: frames, losses, CoP errors (cm) and the paths. Existing
+    files ``out`` and ``session`` are an error (:class:`psmat._atomic.OutputRefused`, before
+    anything is recorded) unless ``overwrite``; each is replaced only by a complete new one.
     """
     import matplotlib
+
+    from .._atomic import check_outputs, replacing
+
+    check_outputs([out, session], overwrite=overwrite)
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
     rec = record_sway(seconds=seconds, rate_hz=rate_hz, session=session, bds_trial=bds_trial, port=port,
-                      shape=shape, seed=seed, progress=progress, log=log)
+                      shape=shape, seed=seed, progress=progress, log=log, overwrite=overwrite)
     fig = sway_figure(rec)
     out = Path(out)
-    fig.savefig(out, dpi=110)
+    with replacing(out, overwrite=overwrite) as tmp:
+        fig.savefig(tmp, dpi=110)
     plt.close(fig)
     rec.res["figure"] = str(out)
     log(f"figure: {out}")
