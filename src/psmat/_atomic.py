@@ -28,7 +28,7 @@ from pathlib import Path
 from typing import IO, Any
 
 __all__ = ["TMP_PREFIX", "OutputRefused", "check_outputs", "replacing", "open_atomic", "write_text_atomic",
-           "same_file"]
+           "same_file", "fsync_dir", "fsync_file"]
 
 #: the name of every temporary file begins so (a study run removes those a killed run left)
 TMP_PREFIX = ".tmp-"
@@ -107,7 +107,7 @@ def check_outputs(outputs: Iterable[PathLike | None], *, inputs: Iterable[PathLi
     return outs
 
 
-def _fsync_dir(folder: Path) -> None:
+def fsync_dir(folder: Path) -> None:
     """Make a rename in ``folder`` durable (best effort: not every system or file system allows it)."""
     try:
         fd = os.open(folder, os.O_RDONLY)
@@ -121,7 +121,7 @@ def _fsync_dir(folder: Path) -> None:
         os.close(fd)
 
 
-def _fsync_file(path: Path) -> None:
+def fsync_file(path: Path) -> None:
     """Flush ``path``'s data to disk (Windows needs a handle open for writing to do so)."""
     fd = os.open(path, (os.O_RDWR | getattr(os, "O_BINARY", 0)) if os.name == "nt" else os.O_RDONLY)
     try:
@@ -163,7 +163,7 @@ def replacing(path: PathLike, *, overwrite: bool = True) -> Iterator[Path]:
         except OSError:
             os.chmod(tmp, _NEW_FILE_MODE)
         yield tmp
-        _fsync_file(tmp)
+        fsync_file(tmp)
         if not overwrite and os.path.lexists(path):
             keep = True
             raise OutputRefused(f"{path} appeared while it was being written; the new content is in {tmp}")
@@ -173,7 +173,7 @@ def replacing(path: PathLike, *, overwrite: bool = True) -> Iterator[Path]:
             with contextlib.suppress(OSError):
                 tmp.unlink()
         raise
-    _fsync_dir(folder)
+    fsync_dir(folder)
 
 
 @contextlib.contextmanager

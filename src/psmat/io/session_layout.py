@@ -19,6 +19,7 @@ import h5py
 import numpy as np
 from numpy.typing import NDArray
 
+from .._atomic import fsync_dir, fsync_file
 from ..frames import FrameBatch
 
 from .session_crc import CRC_NAME, ChunkCrcs, chunk_crc
@@ -490,24 +491,3 @@ def _write_file(tmp: Path, header: Header, blocks: Iterable[FrameBatch], counter
     return n
 
 
-def fsync_file(path: Path) -> None:
-    """Flush ``path``'s data to disk (Windows needs a handle open for writing to do so)."""
-    fd = os.open(path, os.O_RDWR | getattr(os, "O_BINARY", 0) if os.name == "nt" else os.O_RDONLY)
-    try:
-        os.fsync(fd)
-    finally:
-        os.close(fd)
-
-
-def fsync_dir(path: Path) -> None:
-    """Make a rename or an unlink in ``path`` durable (best effort: not every file system allows it)."""
-    try:
-        fd = os.open(path, os.O_RDONLY)
-    except OSError:
-        return
-    try:
-        os.fsync(fd)
-    except OSError:
-        pass
-    finally:
-        os.close(fd)
