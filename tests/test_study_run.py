@@ -106,6 +106,11 @@ def test_metrics_csv_has_a_row_per_subject_trial_variant_and_a_rerun_reuses_ever
     assert ("V01", "left-leg") not in _by_session(copy / "results" / "metrics.csv")
 
 
+def _entries(folder: Path) -> list[Path]:
+    """The finished session entries: not the hidden temporary files an unfinished write leaves (.tmp-*)."""
+    return [p for p in folder.glob("*.json") if not p.name.startswith(".")]
+
+
 def test_a_killed_run_resumes_with_the_unfinished_sessions_only(study, tmp_path) -> None:
     root, _, metrics = study
     copy = _copy(root, tmp_path / "killed", results=False)
@@ -114,13 +119,13 @@ def test_a_killed_run_resumes_with_the_unfinished_sessions_only(study, tmp_path)
                             stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     try:
         deadline = time.monotonic() + 120
-        while not list(results.glob("*.json")) and proc.poll() is None and time.monotonic() < deadline:
+        while not _entries(results) and proc.poll() is None and time.monotonic() < deadline:
             time.sleep(0.01)
         os.kill(proc.pid, signal.SIGKILL)
     finally:
         proc.wait()
     assert proc.returncode == -signal.SIGKILL
-    finished = {p: p.stat().st_mtime_ns for p in results.glob("*.json")}
+    finished = {p: p.stat().st_mtime_ns for p in _entries(results)}
     assert 1 <= len(finished) < 4, sorted(p.name for p in finished)
     assert not (copy / "results" / "metrics.csv").exists()
     resumed = run_study(copy, workers=1, progress=False)

@@ -21,7 +21,7 @@ from collections.abc import Iterator
 from types import FrameType
 from typing import Any
 
-__all__ = ["Terminated", "stop_on_termination", "STOP_SIGNALS"]
+__all__ = ["Terminated", "stop_on_termination", "stop_requests", "STOP_SIGNALS"]
 
 #: the signals handled, where the system has them
 STOP_SIGNALS: tuple[signal.Signals, ...] = tuple(
@@ -68,6 +68,40 @@ def stop_on_termination() -> Iterator[None]:
             previous[sig] = old
             signal.signal(sig, handler)
         yield
+    finally:
+        for sig, old in previous.items():
+            signal.signal(sig, old if old is not None else signal.SIG_DFL)
+
+
+@contextlib.contextmanager
+def stop_requests() -> Iterator[threading.Event]:
+    """Within the block, Ctrl-C, SIGTERM and SIGHUP set the returned event instead of raising.
+
+    For a loop that can stop cleanly at its next turn (``psmat record``): an exception raised
+    at an arbitrary point of the loop may leave a lock of another thread's held (a progress
+    bar's, a buffer's) and hang the close that follows; setting an event cannot. A second
+    signal while the event is set raises :class:`KeyboardInterrupt` (stop now). Outside the
+    main thread it only yields an event nobody sets. The previous handlers are restored.
+    """
+    stop = threading.Event()
+    if threading.current_thread() is not threading.main_thread():
+        yield stop
+        return
+
+    def handler(signum: int, frame: FrameType | None) -> None:
+        if stop.is_set():
+            raise KeyboardInterrupt
+        stop.set()
+
+    previous: dict[signal.Signals, Any] = {}
+    try:
+        for sig in (signal.SIGINT, *STOP_SIGNALS):
+            old = signal.getsignal(sig)
+            if old is signal.SIG_IGN:  # e.g. SIGHUP under nohup
+                continue
+            previous[sig] = old
+            signal.signal(sig, handler)
+        yield stop
     finally:
         for sig, old in previous.items():
             signal.signal(sig, old if old is not None else signal.SIG_DFL)

@@ -31,6 +31,7 @@ __all__ = ["Device", "DeviceStats", "open_device"]
 
 _LINK_ERRORS = (serial.SerialException, OSError)
 _JOIN_S = 1.0
+_START_TRIES = 3  # START sent at most this many times when its reply does not come (a noisy link)
 
 
 class _Waiter:
@@ -241,7 +242,7 @@ class Device:
         DeviceDisconnected
             The port is gone for good.
         CommandRejected, CommandTimeout
-            The device refused or did not answer START.
+            The device refused START, or did not answer it in three tries of 1 s.
         """
         self._check_open()
         if self._gone:
@@ -253,7 +254,15 @@ class Device:
         if self.kind == "daq":
             self._write(DAQ_START)
         elif wait and self.identified:
-            self.send_command(Opcode.START)
+            # START is idempotent: on a noisy link its reply (or the command) can be lost to a
+            # corrupted byte, so it is sent again before the recording is given up
+            for attempt in range(_START_TRIES):
+                try:
+                    self.send_command(Opcode.START)
+                    break
+                except CommandTimeout:
+                    if attempt == _START_TRIES - 1:
+                        raise
         else:
             self._write(encode_command(Opcode.START))
 

@@ -203,15 +203,17 @@ def _loop(sources: list[_Source], args: argparse.Namespace) -> int:
     import time
 
     from psmat._progress import tqdm
+    from psmat._signals import stop_requests
 
     from ..acquire import DeviceDisconnected
 
     status = 0
     t0 = time.monotonic()
     many = len(sources) > 1
-    with tqdm(unit=" frames", desc=f"recording {args.out}") as bar:
+    # Ctrl-C, SIGTERM and SIGHUP end the loop at its next turn (at most 0.25 s), never in the middle of it
+    with stop_requests() as stop, tqdm(unit=" frames", desc=f"recording {args.out}") as bar:
         try:
-            while args.seconds is None or time.monotonic() - t0 < args.seconds:
+            while (args.seconds is None or time.monotonic() - t0 < args.seconds) and not stop.is_set():
                 live = [s for s in sources if s.ended is None]
                 if not live:
                     break
