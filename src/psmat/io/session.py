@@ -124,6 +124,17 @@ Fletcher-32), frame and per-frame datasets whose dtype, rank or frame shape is n
 lengths that disagree, and extents whose chunks are not stored; what it allocates is bounded
 by the file's size.
 
+Order in the file, so that a copy cut short loses trailing frames only (:mod:`.session_truncated`):
+all HDF5 metadata first (one metadata block at the start, sized for the whole file, chunk
+indexes included), then the CRC-32 tables, counters and products, then the frames' chunks
+in frame order (chunk ``k`` of every per-frame dataset before chunk ``k + 1`` of any; the root
+device, then each stream). A file shorter than its superblock records is loaded with the
+missing tail read as zeros: the chunks not wholly before the cut are lost (their frames
+invalid, noted ``file truncated at byte N of M: frames a..b lost``; with a journal beside it, the
+journal is loaded instead); a cut before the first frame's chunk is one
+:class:`SessionFormatError`. A product saved later (:func:`save_product`) puts its metadata
+after the frames, where a cut costs the whole file.
+
 Crash safety: one mechanism, the journal
 ========================================
 
@@ -137,8 +148,10 @@ and survives the process being killed) and fsync'd every ``flush_interval_s`` /
 record's CRC-32 and skips a damaged one, going on with the next (records have one size).
 
 The HDF5 file is written once, when the writer closes: the journal is read back record by
-record into ``PATH.partial``, which is marked complete, fsync'd and renamed over ``PATH``;
-then the journal is removed. So ``PATH`` exists only complete, and an interrupted recording
+record into ``PATH.partial``, which is marked complete, fsync'd, read back and checked against
+the journal's frames (frame counts, every chunk's CRC-32: :mod:`.session_verify`) and only
+then renamed over ``PATH``; then the journal is removed (on a difference the journal stays and
+:meth:`SessionWriter.close` raises). So ``PATH`` exists only complete, and an interrupted recording
 is its journal alone (:func:`load_session` reads it, :func:`repair_session` turns it into
 the file). Format 1 also wrote the HDF5 file in SWMR mode during the recording; that was
 dropped: it could not hold the first promise alone (frames between flushes live only in

@@ -40,6 +40,15 @@ from .session_layout import (
 from .session_crc import CRC_NAME, chunk_crc
 from .session_products import read_products
 from .session_storage import check_device, check_objects
+from .session_truncated import (
+    TRUNCATED,
+    PaddedFile,
+    array_lost,
+    check_recorded_size,
+    chunk_lost,
+    lost_note,
+    truncation,
+)
 
 # what h5py and NumPy raise on bytes that do not decode (damaged metadata, wrong types)
 _DECODE_ERRORS = (OSError, KeyError, ValueError, TypeError, RuntimeError, IndexError, AttributeError, OverflowError)
@@ -72,7 +81,10 @@ def load_session(path: str | os.PathLike[str], *, use_journal: bool = True) -> S
         Neither the file nor its journal exists.
     SessionFormatError
         Anything else that keeps the file from loading: not an HDF5 file, not a psmat
-        session, a newer format version, damaged metadata; the message names the file.
+        session, a newer format version, damaged metadata, a file cut short inside its
+        metadata; the message names the file. A file cut short among its frames loads with
+        the frames of the chunks before the cut (:mod:`.session_truncated`); with its journal
+        beside it, from the journal.
     """
     path = Path(path)
     jpath = journal_path(path)
@@ -92,6 +104,13 @@ def load_session(path: str | os.PathLike[str], *, use_journal: bool = True) -> S
         return _from_journal(path, jpath, f"{path.name} unusable ({e})")
     if have_j and not s.complete:
         return _from_journal(path, jpath, f"{path.name} was not closed")
+    cut = [x for x in s.notes if x.startswith(TRUNCATED)] if have_j else []
+    if cut:  # a file cut short lost frames its journal still holds
+        try:
+            return _from_journal(path, jpath, f"{path.name} unusable as it is ({cut[0]})")
+        except SessionFormatError as e:
+            s.notes.append(str(e))
+            return s
     if have_j:
         s.notes.append(f"stale journal {jpath.name} ignored: the HDF5 file is complete")
     return s
@@ -188,6 +207,12 @@ def _session(path: Path, kind: str, b: FrameBatch, **kw: Any) -> Session:
 # ====================================================================== HDF5
 def _from_h5(path: Path, notes: list[str]) -> Session:
     try:
+        cut = truncation(path)  # shorter than its superblock records: HDF5 alone refuses it
+    except OSError:
+        cut = None
+    if cut is not None:
+        return _from_cut_h5(path, notes, cut)
+    try:
         is_h5 = h5py.is_hdf5(path)
     except OSError:
         is_h5 = False
@@ -210,7 +235,28 @@ def _from_h5(path: Path, notes: list[str]) -> Session:
         raise SessionFormatError(f"{path}: corrupt session file ({type(e).__name__}: {e})".replace("\n", " ")) from None
 
 
-def _read_open(f: h5py.File, path: Path, notes: list[str]) -> Session:
+def _from_cut_h5(path: Path, notes: list[str], cut: tuple[int, int]) -> Session:
+    """A file cut short (:mod:`.session_truncated`): read with zeros past the cut; the chunks there are lost."""
+    why = f"{path}: truncated at byte {cut[0]} of {cut[1]} (the size its superblock records)"
+    padded = PaddedFile(path, cut[1])
+    try:
+        try:
+            f = h5py.File(padded, "r")
+        except OSError as e:
+            raise SessionFormatError(f"{why}; the cut is in its metadata, it cannot be opened ({e})") from None
+        with f:
+            return _read_open(f, path, notes, cut)
+    except SessionFormatError:
+        raise
+    except _DECODE_ERRORS as e:
+        raise SessionFormatError(f"{why}; the cut is in its metadata ({type(e).__name__}: {e})"
+                                 .replace("\n", " ")) from None
+    finally:
+        padded.close()
+
+
+def _read_open(f: h5py.File, path: Path, notes: list[str], cut: tuple[int, int] | None = None) -> Session:
+    """The session in the open file ``f``; ``cut``: ``(bytes held, bytes recorded)`` of a file cut short."""
     a = f.attrs
     fmt = attr_str(a["format"]) if "format" in a else None
     if fmt != FORMAT_NAME:
@@ -223,8 +269,11 @@ def _read_open(f: h5py.File, path: Path, notes: list[str]) -> Session:
             f"{path}: session format version {version} is not supported (this psmat reads 1..{STREAMS_FORMAT_VERSION})"
         )
     complete = bool(int(a.get("complete", 0)))
-    check_objects(f, path, stored=complete)  # before any data is read: nothing but plain datasets stored here
-    kind, block = _read_device(f, path, complete, notes)
+    # before any data is read: nothing but plain datasets stored here (a cut file: in the size it records)
+    check_objects(f, path, stored=complete, size=None if cut is None else cut[1])
+    if cut is not None:
+        check_recorded_size(f, path, cut)
+    kind, block = _read_device(f, path, complete, notes, cut)
     metadata = _group_json(f, "metadata", path) or {}
     created = attr_str(a.get("created_utc", ""))
     s = _session(
@@ -243,7 +292,7 @@ def _read_open(f: h5py.File, path: Path, notes: list[str]) -> Session:
         st_notes: list[str] = []
         try:
             g = f["streams"][check_stream_name(name)]
-            kind_k, block_k = _read_device(g, path, complete, st_notes)
+            kind_k, block_k = _read_device(g, path, complete, st_notes, cut)
             streams[name] = _session(path, kind_k, block_k, device=_group_json(g, "device", path) or {},
                                      calibration=None, metadata=dict(metadata), counters=_counters(g, st_notes),
                                      version=version, created=created, complete=complete, recovered=False,
@@ -253,12 +302,15 @@ def _read_open(f: h5py.File, path: Path, notes: list[str]) -> Session:
     return _add_streams(s, streams, lost)
 
 
-def _read_device(g: h5py.Group, path: Path, complete: bool, notes: list[str]) -> tuple[str, FrameBatch]:
+def _read_device(g: h5py.Group, path: Path, complete: bool, notes: list[str],
+                 cut: tuple[int, int] | None = None) -> tuple[str, FrameBatch]:
     """One device's frames from ``g`` (``/`` or ``/streams/NAME``): its kind and frames, damaged chunks invalid.
 
     Kind, dtypes, shapes and lengths are checked (:func:`check_device`) before anything is
     read; each chunk is then read alone and checked against its Fletcher-32 and, in files that
-    have them, its CRC-32 (:mod:`.session_crc`).
+    have them, its CRC-32 (:mod:`.session_crc`). In a file cut short (``cut``: bytes held,
+    bytes recorded) a chunk not wholly stored before the cut is lost, not read: its frames are
+    invalid, noted with the cut (:mod:`.session_truncated`).
     """
     a = g.attrs
     kind = attr_str(a["kind"])
@@ -269,13 +321,17 @@ def _read_device(g: h5py.Group, path: Path, complete: bool, notes: list[str]) ->
     if not complete:  # a format-1 SWMR file whose writer was killed, its flag cleared (h5clear -s)
         notes.append(f"interrupted recording (not closed): {n} committed frames in the HDF5 file")
     names = (dname, *PER_FRAME)
-    tables = _crc_tables(g, names, n, path)
+    tables = _crc_tables(g, names, n, path, cut)
     fill = 0 if KINDS[kind].dtype.kind in "ui" else np.nan
-    frames, bad = _read_chunked(g[dname], n, fill, notes, tables.get(dname))
+    held = None if cut is None else cut[0]
+    lost = np.zeros(n, bool)
+    frames, bad = _read_chunked(g[dname], n, fill, notes, tables.get(dname), held, lost)
     cols = {}
     for name in PER_FRAME:
-        cols[name], bad_k = _read_chunked(g[name], n, PER_FRAME_SPEC[name][3], notes, tables.get(name))
+        cols[name], bad_k = _read_chunked(g[name], n, PER_FRAME_SPEC[name][3], notes, tables.get(name), held, lost)
         bad |= bad_k
+    if cut is not None:
+        notes.append(lost_note(cut, format_ranges(np.flatnonzero(lost))))
     unchecked = [n_ for n_ in names if not g[n_].fletcher32]
     if unchecked:
         notes.append(f"{', '.join(unchecked)} carry no checksums (written by an older psmat): "
@@ -288,8 +344,13 @@ def _read_device(g: h5py.Group, path: Path, complete: bool, notes: list[str]) ->
     return kind, FrameBatch(frames, cols["host_time_s"], valid, cols["seq"], cols["device_time_us"])
 
 
-def _crc_tables(g: h5py.Group, names: tuple[str, ...], n: int, path: Path) -> dict[str, NDArray[np.uint32]]:
-    """The CRC-32 tables of ``g``'s per-frame datasets (none in a file of an older psmat), each checked for shape."""
+def _crc_tables(g: h5py.Group, names: tuple[str, ...], n: int, path: Path,
+                cut: tuple[int, int] | None = None) -> dict[str, NDArray[np.uint32]]:
+    """The CRC-32 tables of ``g``'s per-frame datasets (none in a file of an older psmat), each checked for shape.
+
+    ``cut``: a file cut short, whose tables must be stored before the cut (a session file
+    stores them before its frames).
+    """
     if CRC_NAME not in g:
         return {}
     cg = g[CRC_NAME]
@@ -303,21 +364,32 @@ def _crc_tables(g: h5py.Group, names: tuple[str, ...], n: int, path: Path) -> di
                 or int(np.asarray(t.attrs.get("chunk_frames", -1)).reshape(-1)[0]) != c):
             raise SessionFormatError(f"{path}: {g.name.rstrip('/')}/{CRC_NAME}/{name} is not the CRC-32 table of "
                                      f"{ds.name} ({want} chunks of {c} frames)")
+        if cut is not None and array_lost(t, cut[0]):
+            raise SessionFormatError(f"{path}: truncated at byte {cut[0]} of {cut[1]}, which cuts {t.name}, the "
+                                     f"CRC-32 table of {ds.name}")
         out[name] = t[()]
     return out
 
 
-def _read_chunked(ds: h5py.Dataset, n: int, fill: Any, notes: list[str],
-                  crcs: NDArray[np.uint32] | None = None) -> tuple[NDArray[Any], NDArray[np.bool_]]:
+def _read_chunked(ds: h5py.Dataset, n: int, fill: Any, notes: list[str], crcs: NDArray[np.uint32] | None = None,
+                  held: int | None = None, lost: NDArray[np.bool_] | None = None
+                  ) -> tuple[NDArray[Any], NDArray[np.bool_]]:
     """Rows ``[0, n)`` of ``ds``, chunk by chunk: a chunk failing a checksum becomes ``fill``, flagged.
 
     ``crcs``: the dataset's CRC-32 per chunk (:mod:`.session_crc`), checked after its Fletcher-32.
+    ``held``: the bytes a file cut short holds; a chunk not wholly within them is not read but
+    becomes ``fill``, flagged in ``bad`` and in ``lost`` (no damage note: the caller notes the cut).
     """
     out = np.empty((n, *ds.shape[1:]), ds.dtype)
     bad = np.zeros(n, bool)
+    gone = np.zeros(n, bool)  # past the cut
     step = ds.chunks[0] if ds.chunks else max(n, 1)
     for i, a in enumerate(range(0, n, step)):
         b = min(a + step, n)
+        if held is not None and (array_lost(ds, held) if ds.chunks is None else chunk_lost(ds, a, held)):
+            out[a:b] = fill  # past the cut: zeros, never returned as frames
+            bad[a:b] = gone[a:b] = True
+            continue
         try:
             out[a:b] = ds[a:b]
         except OSError:  # Fletcher-32 mismatch (or an unreadable chunk)
@@ -327,8 +399,11 @@ def _read_chunked(ds: h5py.Dataset, n: int, fill: Any, notes: list[str],
         if crcs is not None and chunk_crc(ds.name, i, out[a:b]) != int(crcs[i]):
             out[a:b] = fill
             bad[a:b] = True
-    if bad.any():
-        idx = np.flatnonzero(bad)
+    if lost is not None:
+        lost |= gone
+    damaged = bad & ~gone
+    if damaged.any():
+        idx = np.flatnonzero(damaged)
         notes.append(f"{ds.name}: damaged chunk(s) (checksum failed), frames {format_ranges(idx)} "
                      f"loaded as invalid")
     return out, bad

@@ -33,15 +33,16 @@ _MAX_OBJECTS = 1 << 16  # far more groups and datasets than any session has
 _FRAME_DATASETS = frozenset({*(k.dataset for k in KINDS.values()), *PER_FRAME})
 
 
-def check_objects(f: h5py.File, path: Path, *, stored: bool) -> None:
+def check_objects(f: h5py.File, path: Path, *, stored: bool, size: int | None = None) -> None:
     """Every object of ``f``: a group, or a dataset that :func:`check_dataset` accepts; links hard.
 
     ``stored``: require every dataset to store its whole extent. False for a format-1 file
     whose writer was killed, whose frame and per-frame datasets may have rows beyond what it
     committed (:func:`check_device` checks the committed ones); its other datasets must
-    still be whole.
+    still be whole. ``size``: the file's size in bytes (default: on disk; for a file cut
+    short, the size its superblock records, :mod:`.session_truncated`).
     """
-    size = path.stat().st_size
+    size = path.stat().st_size if size is None else int(size)
     seen = {h5py.h5o.get_info(f.id).addr}  # object header addresses: a hard link back up is not a cycle
     total = 0
     todo: list[h5py.Group] = [f]

@@ -414,7 +414,8 @@ class SessionWriter(StreamWriter):
         """Sync the journals, write the complete HDF5 file from them, remove them. Idempotent.
 
         Raises RuntimeError (keeping the journals, which :func:`psmat.io.load_session`
-        recovers) if the file cannot be completed.
+        recovers) if the file cannot be completed, or if the file read back differs from the
+        journals' frames (it then never replaces ``path``: :mod:`.session_verify`).
         """
         with self._streams_lock:
             if self._closed:
@@ -425,8 +426,11 @@ class SessionWriter(StreamWriter):
             err = w._close_journal() or err
         if err is None:
             try:
+                # read back and checked against the journals' frames before it replaces PATH (.session_verify)
                 write_session_file(self.path, self.header, self._checked_blocks(), self._counters,
-                                   streams={name: StreamBlocks(w.header, w._checked_blocks(), w._counters)
+                                   n_frames=self._n_appended,
+                                   streams={name: StreamBlocks(w.header, w._checked_blocks(), w._counters,
+                                                               w._n_appended)
                                             for name, w in streams.items()})
             except Exception as e:  # noqa: BLE001 - whatever went wrong, the journals are kept
                 err = e
