@@ -25,6 +25,7 @@ from psmat.io import (
     journal_path,
     load_session,
     save_product,
+    save_products,
 )
 
 DEVICE = {"serial": "0000A1B2", "r_o": 2200.0, "v_ref": 3.3, "bits": 12, "fw": "0.1.0", "protocol": 2, "rate": 100}
@@ -381,6 +382,23 @@ def test_save_product_refuses_unfinished(tmp_path: Path) -> None:
     finally:
         w.close()
     save_product(p, "x", np.zeros(3), {}, "1")
+
+
+def test_saving_products_never_touches_the_recording_until_complete(tmp_path: Path) -> None:
+    """Products go into a copy that replaces the file only when complete: a save that fails midway
+    (here the second product's parameters cannot be written) leaves the recording byte for byte."""
+    frames, t, valid, *_ = psm_data(12)
+    p = write(tmp_path / "keep.h5", frames, t, valid)
+    before = p.read_bytes()
+    G = np.ones((12, 6, 5))
+    with pytest.raises(TypeError):
+        save_products(p, {"G": (G, {"ok": 1}, "S"), "bad": (G, {"not json": object()}, "S")})
+    assert p.read_bytes() == before
+    assert sorted(x.name for x in tmp_path.iterdir()) == ["keep.h5"]  # no temporary file left
+    save_products(p, {"G": (G, {"ok": 1}, "S"), "cop": (np.zeros((12, 2)), {}, "cm")})
+    s = load_session(p)
+    assert set(s.products) == {"G", "cop"} and s.complete
+    np.testing.assert_array_equal(s.counts, frames)
 
 
 # ---------------------------------------------------------------------- CSV

@@ -336,7 +336,7 @@ def process_session(path: str | os.PathLike[str], *, circuit: Circuit | None = N
     The frame period is taken from the device clock (v2) or the host clock; the circuit
     from the session's calibration when it has one (``r_mux``, ``r_adc``), else ``circuit``.
     """
-    from .io import load_session, save_product
+    from .io import load_session, save_products
 
     s = load_session(path)
     if s.kind != "psm":
@@ -350,8 +350,6 @@ def process_session(path: str | os.PathLike[str], *, circuit: Circuit | None = N
     out = process_counts(s.counts, dt, valid=s.valid, circuit=circuit, sensor=sensor, g_rest=g_rest,
                          pitch_cm=pitch_cm, progress=progress)
     if save:
-        save_product(path, "G", out.G, out.params, "S")
-        save_product(path, "g", out.g, out.params, "S")
-        save_product(path, "pressure", out.pressure_kpa, out.params, "kPa")
-        save_product(path, "cop", out.cop_cm, out.params, "cm")
+        save_products(path, {"G": (out.G, out.params, "S"), "g": (out.g, out.params, "S"),
+                             "pressure": (out.pressure_kpa, out.params, "kPa"), "cop": (out.cop_cm, out.params, "cm")})
     return out

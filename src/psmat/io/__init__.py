@@ -35,6 +35,7 @@ from .session import (
     load_session,
     repair_session,
     save_product,
+    save_products,
     stream_csv_path,
 )
 
@@ -67,5 +68,6 @@ __all__ = [
     "RowCounts",
     "RowTally",
     "save_product",
+    "save_products",
     "stream_csv_path",
 ]

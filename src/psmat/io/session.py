@@ -132,8 +132,9 @@ device, then each stream). A file shorter than its superblock records is loaded 
 missing tail read as zeros: the chunks not wholly before the cut are lost (their frames
 invalid, noted ``file truncated at byte N of M: frames a..b lost``; with a journal beside it, the
 journal is loaded instead); a cut before the first frame's chunk is one
-:class:`SessionFormatError`. A product saved later (:func:`save_product`) puts its metadata
-after the frames, where a cut costs the whole file.
+:class:`SessionFormatError`. A product saved later (:func:`save_product`, :func:`save_products`)
+is written into a copy of the file that replaces it when complete (the recording is never
+modified in place); its metadata lands after the frames, where a cut costs the whole file.
 
 Crash safety: one mechanism, the journal
 ========================================
@@ -178,7 +179,7 @@ from .session_layout import (
     SessionFormatError,
     journal_path,
 )
-from .session_products import save_product
+from .session_products import save_product, save_products
 from .session_reader import load_session, repair_session
 from .session_writer import SessionWriter, StreamWriter
 
@@ -198,5 +199,6 @@ __all__ = [
     "load_session",
     "repair_session",
     "save_product",
+    "save_products",
     "stream_csv_path",
 ]

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import os
+import shutil
 from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
@@ -12,6 +13,7 @@ import h5py
 import numpy as np
 from numpy.typing import ArrayLike
 
+from .._atomic import replacing
 from .session_crc import CRC_NAME, chunk_crc
 from .session_layout import FORMAT_NAME, Product, SessionFormatError, attr_str, journal_path, write_product
 
@@ -24,11 +26,24 @@ def save_product(
     ``params`` (JSON-serialisable: numbers, strings, lists, dicts, NumPy values) records
     how it was made (method, model parameters, calibration serial, …). A product of the
     same name is replaced. The session must be complete (closed, or repaired with
-    :func:`psmat.io.repair_session`).
+    :func:`psmat.io.repair_session`). See :func:`save_products`: the recording is never
+    modified in place.
+    """
+    save_products(path, {name: (array, params, unit)})
+
+
+def save_products(path: str | os.PathLike[str],
+                  products: Mapping[str, tuple[ArrayLike, Mapping[str, Any], str]]) -> None:
+    """Store several products at once: ``{name: (array, params, unit)}`` (see :func:`save_product`).
+
+    The session file is never modified in place: the products are written into a copy beside
+    it, which replaces the file only when complete (:func:`psmat._atomic.replacing`), so a
+    process killed meanwhile leaves the recording exactly as it was.
     """
     path = Path(path)
-    if not name or "/" in name or name in (".", ".."):
-        raise ValueError(f"invalid product name {name!r}")
+    for name in products:
+        if not name or "/" in name or name in (".", ".."):
+            raise ValueError(f"invalid product name {name!r}")
     if not path.is_file():
         if journal_path(path).exists():
             raise SessionFormatError(
@@ -36,14 +51,17 @@ def save_product(
                 f"({journal_path(path).name} exists); close the writer or call repair_session() first"
             )
         raise FileNotFoundError(f"session file not found: {path}")
-    try:
-        f = h5py.File(path, "r+", libver="latest")  # new objects get checksummed headers too
-    except OSError as e:
-        raise SessionFormatError(f"{path}: cannot open for writing ({e})") from None
-    with f:
-        if attr_str(f.attrs.get("format", "")) != FORMAT_NAME:
-            raise SessionFormatError(f"{path}: HDF5 file but not a psmat session")
-        write_product(f, name, array, params, unit)
+    with replacing(path) as tmp:
+        shutil.copyfile(path, tmp)
+        try:
+            f = h5py.File(tmp, "r+", libver="latest")  # new objects get checksummed headers too
+        except OSError as e:
+            raise SessionFormatError(f"{path}: cannot open for writing ({e})") from None
+        with f:
+            if attr_str(f.attrs.get("format", "")) != FORMAT_NAME:
+                raise SessionFormatError(f"{path}: HDF5 file but not a psmat session")
+            for name, (array, params, unit) in products.items():
+                write_product(f, name, array, params, unit)
 
 
 def read_products(f: h5py.File, notes: list[str]) -> dict[str, Product]:
