@@ -8,6 +8,7 @@ package (``psmat.io.bds_dir()``).
 from __future__ import annotations
 
 import json
+import signal
 from pathlib import Path
 
 import numpy as np
@@ -15,6 +16,18 @@ import pytest
 
 #: ``tests/data`` in the repository (this file is ``<root>/tests/conftest.py``).
 DATA_DIR = Path(__file__).resolve().parent / "data"
+
+
+def default_stop_signals() -> None:
+    """``preexec_fn`` for a child that a test stops with SIGINT or SIGHUP: their default handling.
+
+    A process started in the background by a non-interactive shell ignores SIGINT, and one under
+    ``nohup`` ignores SIGHUP; a child inherits that, and Python keeps an ignored signal ignored,
+    so without this the child never sees the signal the test sends.
+    """
+    for name in ("SIGINT", "SIGHUP", "SIGTERM"):
+        if hasattr(signal, name):
+            signal.signal(getattr(signal, name), signal.SIG_DFL)
 
 
 def load_reference(name: str) -> dict:

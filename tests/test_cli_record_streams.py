@@ -24,6 +24,8 @@ from psmat.cli import main
 from psmat.io import STREAMS_FORMAT_VERSION, journal_path, load_session
 from psmat.twin import Faults, SerialTwin
 
+from conftest import default_stop_signals
+
 MAT_HZ, IMU_HZ = 100.0, 10.0  # the twins' default rates (SerialTwin)
 
 
@@ -92,7 +94,8 @@ def test_ctrl_c_stops_every_device_and_completes_the_file(tmp_path: Path) -> Non
     out = tmp_path / "c.h5"
     psmat = str(Path(sys.executable).parent / "psmat")
     proc = subprocess.Popen([psmat, "record", "--simulate", "--also", "imu", "-o", str(out)],
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                            preexec_fn=default_stop_signals)  # SIGINT not left ignored by a background shell
     try:
         ij = journal_path(out, "imu")
         deadline = time.monotonic() + 60  # a hang guard, not a duration
@@ -110,7 +113,7 @@ def test_ctrl_c_stops_every_device_and_completes_the_file(tmp_path: Path) -> Non
     finally:
         if proc.poll() is None:
             proc.kill()
-            proc.wait()
+            proc.communicate()  # closes the pipes too
     assert proc.returncode == 0, stderr
     s = load_session(out)
     assert s.complete and not s.recovered and s.n_frames > 0 and s.streams["imu"].n_frames >= 3

@@ -37,6 +37,8 @@ import pytest
 from psmat._atomic import OutputRefused, check_outputs, replacing
 from psmat.io import journal_path, load_session
 
+from conftest import default_stop_signals
+
 #: generous bound for a subprocess to reach a state or to end (s); never asserted as a duration
 WAIT_S = 120.0
 
@@ -184,7 +186,20 @@ def test_a_replacement_that_fails_leaves_the_file_as_it_was(tmp_path) -> None:
 # ------------------------------------------------------------------ killed and stopped recordings
 def _start_record(out: Path, *extra: str) -> subprocess.Popen:
     return subprocess.Popen([sys.executable, "-m", "psmat", "record", "--simulate", "-o", str(out), *extra],
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                            preexec_fn=default_stop_signals if os.name == "posix" else None)
+
+
+def _stopped(proc: subprocess.Popen, sig: int) -> str:
+    """Send ``sig`` and wait for the process to end; its stderr. A process that does not end is
+    killed (and its pipes closed) before the test fails."""
+    proc.send_signal(sig)
+    try:
+        return proc.communicate(timeout=WAIT_S)[1]
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.communicate()
 
 
 def _wait_for_frames(proc: subprocess.Popen, journal: Path) -> None:
@@ -211,8 +226,7 @@ def test_a_stop_signal_closes_a_recording_as_ctrl_c_does(sig, tmp_path) -> None:
     out = tmp_path / "s.h5"
     proc = _start_record(out, "--also", "imu")
     _wait_for_frames(proc, journal_path(out))
-    proc.send_signal(sig)
-    _, err = proc.communicate(timeout=WAIT_S)
+    err = _stopped(proc, sig)
     assert proc.returncode == 0, err
     assert sorted(p.name for p in tmp_path.iterdir()) == ["s.h5"]  # the journals gone, nothing else left
     s = load_session(out)
@@ -225,10 +239,10 @@ def test_a_stop_signal_closes_the_demos_recording(tmp_path) -> None:
     session = tmp_path / "d.h5"
     proc = subprocess.Popen([sys.executable, "-m", "psmat", "demo", "--twin", "--seconds", "120", "--session",
                              str(session), "--out", str(tmp_path / "d.png")], stdout=subprocess.PIPE,
-                            stderr=subprocess.PIPE, text=True, env={**os.environ, "MPLBACKEND": "Agg"})
+                            stderr=subprocess.PIPE, text=True, env={**os.environ, "MPLBACKEND": "Agg"},
+                            preexec_fn=default_stop_signals if os.name == "posix" else None)
     _wait_for_frames(proc, journal_path(session))
-    proc.send_signal(signal.SIGTERM)
-    _, err = proc.communicate(timeout=WAIT_S)
+    err = _stopped(proc, signal.SIGTERM)
     assert proc.returncode == 128 + signal.SIGTERM and "stopped by SIGTERM" in err, err
     s = load_session(session)
     assert s.complete and s.n_frames > 0

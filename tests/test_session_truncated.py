@@ -18,7 +18,7 @@ import h5py
 import numpy as np
 import pytest
 
-import psmat.io.session_layout as layout
+import psmat.io.session_build as build
 from psmat.io import SessionFormatError, SessionWriter, journal_path, load_session, repair_session
 from psmat.io.session_truncated import recorded_size
 
@@ -359,7 +359,7 @@ def test_recorded_size_reads_each_superblock_version(tmp_path: Path, libver: str
 # ---------------------------------------------------------------------- close checks the file before the journal goes
 def _corrupting_fsync(monkeypatch: pytest.MonkeyPatch, dataset: str, chunk: int) -> None:
     """Flip a byte of one chunk of the file close() has just written, as a failing disk would, before its check."""
-    real = layout.fsync_file
+    real = build.fsync_file
 
     def fsync_then_damage(path: Path) -> None:
         with h5py.File(path, "r") as f:
@@ -371,7 +371,7 @@ def _corrupting_fsync(monkeypatch: pytest.MonkeyPatch, dataset: str, chunk: int)
             fh.write(bytes([b ^ 0x01]))
         real(path)
 
-    monkeypatch.setattr(layout, "fsync_file", fsync_then_damage)
+    monkeypatch.setattr(build, "fsync_file", fsync_then_damage)
 
 
 def test_close_keeps_the_journal_when_the_written_file_differs(tmp_path: Path,

@@ -15,7 +15,8 @@ from numpy.typing import ArrayLike
 
 from .._atomic import replacing
 from .session_crc import CRC_NAME, chunk_crc
-from .session_layout import FORMAT_NAME, Product, SessionFormatError, attr_str, journal_path, write_product
+from .session_build import write_product
+from .session_layout import FORMAT_NAME, Product, SessionFormatError, attr_str, journal_path
 
 
 def save_product(

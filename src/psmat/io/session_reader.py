@@ -16,9 +16,11 @@ import h5py
 import numpy as np
 from numpy.typing import NDArray
 
+from .._atomic import fsync_dir
 from ..frames import FrameBatch
 
 from .session_journal import Journal, format_ranges, stream_journals
+from .session_build import write_session_file
 from .session_layout import (
     COUNTER_NAMES,
     FORMAT_NAME,
@@ -32,10 +34,8 @@ from .session_layout import (
     StreamBlocks,
     attr_str,
     check_stream_name,
-    fsync_dir,
     journal_path,
     utc_now,
-    write_session_file,
 )
 from .session_crc import CRC_NAME, chunk_crc
 from .session_products import read_products

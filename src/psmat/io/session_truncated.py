@@ -4,7 +4,7 @@ A copy or a download that stopped, a full disk or a file system that lost a file
 a session file shorter than the end-of-file address its HDF5 superblock records, and HDF5
 refuses to open it (``truncated file: eof = N, sblock->base_addr = 0, stored_eof = M``). A
 session file keeps all of its HDF5 metadata before its frames
-(:func:`psmat.io.session_layout.write_session_file`), so a cut usually costs trailing chunks
+(:func:`psmat.io.session_build.write_session_file`), so a cut usually costs trailing chunks
 only. The loader reads the superblock itself (:func:`recorded_size`), opens the file as if
 its missing tail were zeros (:class:`PaddedFile`: nothing is copied or written) and treats
 every chunk stored wholly or partly past the cut as lost (:func:`chunk_lost`): its frames

@@ -1,6 +1,6 @@
 """Checking a session file just written against the frames it was written from (docs/spec.md §6).
 
-:func:`psmat.io.session_layout.write_session_file` builds ``PATH.partial`` from the journal,
+:func:`psmat.io.session_build.write_session_file` builds ``PATH.partial`` from the journal,
 then, before the file replaces ``PATH`` and the journal is removed, reads it back: the file
 is complete, each device holds the frame count the journal held, its stored CRC-32 tables
 are the ones computed from the journal's frames as they were written, and every chunk read

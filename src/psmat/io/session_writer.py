@@ -18,9 +18,11 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from .._atomic import fsync_dir
 from ..frames import FrameBatch
 
 from . import session_journal as jr
+from .session_build import write_session_file
 from .session_layout import (
     COUNTER_NAMES,
     MAX_CHUNK_FRAMES,
@@ -29,11 +31,9 @@ from .session_layout import (
     as_dict,
     check_stream_name,
     frame_shape_of,
-    fsync_dir,
     journal_path,
     partial_path,
     utc_now,
-    write_session_file,
 )
 
 #: the journal is bytes: no newline translation on Windows (0 elsewhere)
