@@ -326,7 +326,8 @@ def test_a_study_on_a_tls_cluster_gives_the_same_metrics(study, tls_cluster, tmp
     # no credentials, or credentials from another CA: refused, one line, nothing written
     with pytest.raises(RuntimeError, match="a tls:// scheduler needs --tls-ca-file"):
         run_study(copy, scheduler=cluster.scheduler_address, params=PARAMS, progress=False)
-    with dask.config.set({"distributed.comm.timeouts.connect": "10s"}), pytest.raises(OSError):
+    with dask.config.set({"distributed.comm.timeouts.connect": "10s"}), \
+            pytest.raises(RuntimeError, match="cannot connect to the Dask scheduler tls://"):
         run_study(copy, scheduler=cluster.scheduler_address, security=distributed.Security.temporary(),
                   params=PARAMS, progress=False)
     assert not (copy / "results" / "metrics.csv").exists()

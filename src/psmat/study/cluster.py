@@ -132,6 +132,11 @@ def _client(cluster: Cluster) -> Any:
     except TypeError as exc:  # distributed's words for a tls:// address without credentials
         raise RuntimeError(f"cannot connect to the Dask scheduler {where}: {' '.join(str(exc).split())} "
                            "(a tls:// scheduler needs --tls-ca-file, --tls-cert and --tls-key)") from None
+    except Exception as exc:  # noqa: BLE001 - refused, timed out, a TLS handshake that failed: one line
+        # (distributed reports a failed handshake as an OSError, or, depending on timing, an
+        # AssertionError from the thread of its event loop)
+        why = " ".join(str(exc).split()) or type(exc).__name__
+        raise RuntimeError(f"cannot connect to the Dask scheduler {where}: {why}") from None
 
 
 def on_cluster(todo: Sequence[SessionTask], cluster: Cluster, fn: Callable[[SessionTask], Any] = run_encoded
