@@ -188,13 +188,19 @@ def test_a_cut_in_the_metadata_is_one_error_or_the_journal(tmp_path: Path) -> No
     np.testing.assert_array_equal(s.valid, d["valid"])
 
 
-def test_a_cut_file_beside_its_journal_loads_from_the_journal(tmp_path: Path) -> None:
-    d = mat_data(64)
+def _closed_keeping_journal(tmp_path: Path, n: int) -> tuple[dict, Path, Path]:
+    """A finished session of ``n`` frames (chunks of 8) and a copy of the journal it was written from."""
+    d = mat_data(n)
     p = tmp_path / "s.h5"
     w = SessionWriter(p, (4, 4), DEVICE, CAL, META, chunk_frames=8, background=False)
     append(w, d, 7)
     shutil.copyfile(journal_path(p), tmp_path / "journal.copy")
     w.close()
+    return d, p, tmp_path / "journal.copy"
+
+
+def test_a_cut_file_beside_its_journal_loads_from_the_journal(tmp_path: Path) -> None:
+    d, p, _ = _closed_keeping_journal(tmp_path, 64)
     p.write_bytes(p.read_bytes()[:-100])  # among the frames: the file alone loses its last chunk
     assert not load_session(p, use_journal=False).valid[-1]
     shutil.copyfile(tmp_path / "journal.copy", journal_path(p))
@@ -261,13 +267,8 @@ def test_all_metadata_precedes_the_data_and_chunks_are_in_frame_order(tmp_path: 
 
 
 def test_a_repaired_file_keeps_the_layout(tmp_path: Path) -> None:
-    d = mat_data(90)
-    p = tmp_path / "s.h5"
-    w = SessionWriter(p, (4, 4), DEVICE, CAL, META, chunk_frames=8, background=False)
-    append(w, d, 7)
-    shutil.copyfile(journal_path(p), tmp_path / "j.copy")
-    w.close()
-    shutil.copyfile(tmp_path / "j.copy", journal_path(p))
+    d, p, journal = _closed_keeping_journal(tmp_path, 90)
+    shutil.copyfile(journal, journal_path(p))
     p.unlink()
     s = repair_session(p)
     assert s.n_frames == 90
