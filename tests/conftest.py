@@ -8,11 +8,18 @@ package (``psmat.io.bds_dir()``).
 from __future__ import annotations
 
 import json
+import os
 import signal
 from pathlib import Path
 
-import numpy as np
-import pytest
+# One BLAS thread, here and in every process a test starts (they inherit it), unless the caller
+# chose: OpenBLAS's threads spin while they wait, and on a 2-core machine with other work
+# running (the suite's own subprocesses, or anyone else's) an SVD of a 1100 x 256 matrix took
+# 1-4 s with two threads against 0.03 s with one. Set before numpy is first imported.
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+
+import numpy as np  # noqa: E402 (after the BLAS setting above)
+import pytest  # noqa: E402
 
 #: ``tests/data`` in the repository (this file is ``<root>/tests/conftest.py``).
 DATA_DIR = Path(__file__).resolve().parent / "data"

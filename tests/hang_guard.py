@@ -64,4 +64,4 @@ def read_until_gone(dev: Any) -> None:
     Meant to run under :func:`returns`: a device that never reports its loss hangs here.
     """
     while True:
-        dev.read(1000, timeout=0.5)
+        dev.read(1000, timeout_s=0.5)

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from psmat.posture.recording import Recording
+from psmat.posture import Recording
 
 RATE_HZ = 10.0
 

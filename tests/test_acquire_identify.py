@@ -7,7 +7,7 @@ import time
 import pytest
 
 from psmat.acquire import open_device
-from psmat.acquire.identify import IDENTIFY_FIELDS
+from psmat.acquire import IDENTIFY_FIELDS
 from psmat.protocol import Opcode, V2Decoder, encode_command, parse_identify
 from test_acquire_fake import IDENTIFY_TEXT, FakeDevice
 
@@ -29,14 +29,14 @@ def _wait_until(condition, timeout: float = 30.0) -> None:
 def test_identify_is_retried_when_the_link_stalls_at_open() -> None:
     # the first IDENTIFY is lost on the way in; the second is answered
     with FakeDevice(lose_commands=1, stream_on_start=True) as fake, \
-            open_device(fake.port, identify_timeout=0.3) as dev:
+            open_device(fake.port, identify_timeout_s=0.3) as dev:
         assert dev.description == FULL and dev.identified
         assert fake.lost == 1
 
 
 def test_a_silent_device_is_asked_a_bounded_number_of_times_and_said_unknown() -> None:
     with FakeDevice(identify=None, stream_on_start=False) as fake:
-        dev = open_device(fake.port, identify_timeout=0.1, identify_attempts=4)
+        dev = open_device(fake.port, identify_timeout_s=0.1, identify_attempts=4)
         try:
             _wait_until(lambda: _identifies(fake) >= 4)          # the fake logs every command it reads
             assert _identifies(fake) == 4
@@ -72,7 +72,7 @@ def test_fields_a_reply_leaves_out_are_unknown() -> None:
 def test_a_rate_set_later_is_no_longer_unknown() -> None:
     # all three IDENTIFYs are lost, then the link recovers and SET_RATE is answered
     with FakeDevice(lose_commands=3, stream_on_start=False) as fake:
-        dev = open_device(fake.port, identify_timeout=0.1)
+        dev = open_device(fake.port, identify_timeout_s=0.1)
         try:
             assert "rate" in dev.description["unknown"]
             dev.set_rate(200)

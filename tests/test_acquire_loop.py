@@ -27,7 +27,7 @@ def test_loop_frames_round_trip(loop: Device) -> None:
     loop.start()                      # START goes into the loop too: skipped as garbage
     for i in range(5):
         loop.serial.write(encode_v2(_frame(i), 100 + i, 1000 * i))
-    b = loop.read(5, timeout=HANG_GUARD_S)
+    b = loop.read(5, timeout_s=HANG_GUARD_S)
     assert len(b) == 5
     np.testing.assert_array_equal(b.frames[:, 3, 4], np.arange(5))
     np.testing.assert_array_equal(b.seq, 100 + np.arange(5))
@@ -48,7 +48,7 @@ def _wait_until(condition, timeout: float = HANG_GUARD_S) -> None:
 def test_read_returns_what_it_has_when_its_timeout_ends(loop: Device) -> None:
     loop.start()
     loop.serial.write(encode_v2(_frame(1), 0, 0))
-    b = loop.read(10, timeout=0.2)              # only one frame will come
+    b = loop.read(10, timeout_s=0.2)              # only one frame will come
     assert len(b) == 1 and b.seq.tolist() == [0]
     assert len(loop.read()) == 0                # n=None, no timeout: what is buffered (nothing)
     assert len(loop.read(0)) == 0
@@ -75,14 +75,14 @@ def test_latest_and_frames_before_start_are_ignored(loop: Device) -> None:
 
 def test_command_timeout_message(loop: Device) -> None:
     with pytest.raises(CommandTimeout, match=r"no reply to IDENTIFY \(0x04\) from psm on loop:// within 0.05 s"):
-        loop.send_command(Opcode.IDENTIFY, timeout=0.05)
+        loop.send_command(Opcode.IDENTIFY, timeout_s=0.05)
     with pytest.raises(TimeoutError):
         loop.set_rate(100)
 
 
 def test_identify_unanswered_is_recorded() -> None:
     # loop:// echoes the command, which is no reply: every field stays unknown
-    with open_device("loop://", identify_timeout=0.1, identify_attempts=2) as dev:
+    with open_device("loop://", identify_timeout_s=0.1, identify_attempts=2) as dev:
         assert dev.description["unknown"][:2] == ["device", "fw"] and not dev.identified
         assert dev.description["note"] == "no reply to IDENTIFY after 2 attempts of 0.1 s"
         assert "IDENTIFY" in dev.stats.last_error and dev.stats.replies == 0
@@ -93,7 +93,7 @@ def test_daq_on_loop() -> None:
         assert dev.shape == (10,)
         # the loop echoes start()'s "s" first: a malformed line of its own
         dev.serial.write(b"\r\n" + encode_daq_line(np.arange(10) * 3) + b"oops\r\n")
-        b = dev.read(3, timeout=HANG_GUARD_S)
+        b = dev.read(3, timeout_s=HANG_GUARD_S)
         assert b.valid.tolist() == [False, True, False]
         np.testing.assert_array_equal(b.frames[1], np.arange(10) * 3)
         assert dev.stats.invalid == 2 and (b.frames[~b.valid] == 0).all()
@@ -143,7 +143,7 @@ def test_record_to_adapter_with_a_fake_writer(loop: Device) -> None:
     loop.start()
     for i in range(4):
         loop.serial.write(encode_v2(_frame(i), i, 0))
-    assert len(loop.read(4, timeout=HANG_GUARD_S)) == 4
+    assert len(loop.read(4, timeout_s=HANG_GUARD_S)) == 4
     loop.stop_recording()
     assert sum(len(b[2]) for b in w.batches) == 4
     assert w.counters == {"dropped_frames": 0, "bad_frames": 0, "bytes_discarded": 11}
@@ -154,7 +154,7 @@ def test_record_to_adapter_with_a_fake_writer(loop: Device) -> None:
 
     loop.record_to(Broken())
     loop.serial.write(encode_v2(_frame(9), 9, 0))
-    assert len(loop.read(1, timeout=HANG_GUARD_S)) == 1     # acquisition goes on
+    assert len(loop.read(1, timeout_s=HANG_GUARD_S)) == 1     # acquisition goes on
     assert "disk full" in loop.stats.last_error
 
     class Other(Writer):

@@ -19,7 +19,7 @@ def _read(dev, n: int, timeout: float = 30.0):  # a hang guard: returns once n f
     seq = []
     deadline = time.monotonic() + timeout
     while len(seq) < n and time.monotonic() < deadline:
-        seq.extend(dev.read(n - len(seq), timeout=0.5).seq.tolist())
+        seq.extend(dev.read(n - len(seq), timeout_s=0.5).seq.tolist())
     return np.asarray(seq)
 
 

@@ -10,7 +10,7 @@ import pytest
 import serial
 
 from psmat.acquire import (AcquireError, CommandRejected, CommandTimeout, DeviceDisconnected, open_device)
-from psmat.acquire.identify import IDENTIFY_FIELDS
+from psmat.acquire import IDENTIFY_FIELDS
 from psmat.protocol import Opcode, Status
 from hang_guard import HANG_GUARD_S, WAIT_LONGER_S, read_until_gone, returns
 from test_acquire_fake import FakeDevice, daq_counts, imu_frame, psm_frame
@@ -32,7 +32,7 @@ def _collect(dev, n: int, timeout: float = HANG_GUARD_S):
     got = 0
     deadline = time.monotonic() + timeout
     while got < n and time.monotonic() < deadline:
-        b = dev.read(n - got, timeout=0.5)
+        b = dev.read(n - got, timeout_s=0.5)
         parts.append(b)
         got += len(b)
     return parts, got
@@ -102,7 +102,7 @@ def test_identify_and_commands_round_trip() -> None:
                 dev.set_rate(0)
             with pytest.raises(ValueError):
                 dev.cal_hold(16, 0)
-            assert dev.read(20, timeout=HANG_GUARD_S).valid.all()
+            assert dev.read(20, timeout_s=HANG_GUARD_S).valid.all()
             assert dev.stats.replies >= 7
         assert [c for c in fake.commands if c[0] == Opcode.CAL_HOLD] == [(Opcode.CAL_HOLD, 3 << 8 | 5),
                                                                           (Opcode.CAL_HOLD, 0xFFFFFFFF)]
@@ -112,13 +112,13 @@ def test_a_second_host_on_the_same_port_is_refused_and_the_first_keeps_its_frame
     # open_port takes pyserial's exclusive flock before touching settings or the input buffer,
     # so a second host cannot flush or read bytes meant for the first
     with FakeDevice(rate=200) as fake, open_device(fake.port) as first:
-        before = first.read(20, timeout=HANG_GUARD_S)
+        before = first.read(20, timeout_s=HANG_GUARD_S)
         assert len(before) == 20
         with pytest.raises(serial.SerialException) as info:
             open_device(fake.port)
         message = str(info.value)
         assert "\n" not in message and fake.port in message and "in use" in message
-        after = first.read(100, timeout=HANG_GUARD_S)
+        after = first.read(100, timeout_s=HANG_GUARD_S)
         assert len(after) == 100 and after.valid.all()
         seq = np.concatenate([before.seq, after.seq])
         np.testing.assert_array_equal(seq, seq[0] + np.arange(len(seq)))    # not one frame stolen
@@ -127,33 +127,33 @@ def test_a_second_host_on_the_same_port_is_refused_and_the_first_keeps_its_frame
 
 def test_set_protocol_switches_decoder_mid_stream() -> None:
     with FakeDevice(protocol=2, rate=200) as fake, open_device(fake.port) as dev:
-        before = dev.read(20, timeout=HANG_GUARD_S)
+        before = dev.read(20, timeout_s=HANG_GUARD_S)
         assert len(before) == 20 and (before.seq >= 0).all()
         dev.set_protocol(1)
         assert dev.protocol == 1
         dev.read()  # whatever straddled the switch
-        after = dev.read(20, timeout=HANG_GUARD_S)
+        after = dev.read(20, timeout_s=HANG_GUARD_S)
         assert len(after) == 20 and after.valid.all() and (after.seq == -1).all()
         k = int(after.frames[0, 0, 0])
         np.testing.assert_array_equal(after.frames[:, 0, 0], (k + np.arange(20)) % 4096)
         dev.set_protocol(2)
         dev.read()
-        again = dev.read(10, timeout=HANG_GUARD_S)
+        again = dev.read(10, timeout_s=HANG_GUARD_S)
         assert len(again) == 10 and (np.diff(again.seq) == 1).all()
         assert dev.stats.invalid == 0
 
 
 def test_no_identify_reply_leaves_every_field_unknown() -> None:
     with FakeDevice(identify=None, stream_on_start=False, rate=200) as fake:
-        dev = open_device(fake.port, identify_timeout=0.2)
+        dev = open_device(fake.port, identify_timeout_s=0.2)
         try:
             assert dev.description == {"unknown": list(IDENTIFY_FIELDS["psm"]),
                                        "note": "no reply to IDENTIFY after 3 attempts of 0.2 s"}
             assert "IDENTIFY" in dev.stats.last_error
             with pytest.raises(CommandTimeout, match=r"no reply to SET_RATE \(0x03\) .* within 0.1 s"):
-                dev.send_command(Opcode.SET_RATE, 100, timeout=0.1)
+                dev.send_command(Opcode.SET_RATE, 100, timeout_s=0.1)
             dev.start()                          # START written without waiting for a reply
-            assert len(dev.read(10, timeout=HANG_GUARD_S)) == 10
+            assert len(dev.read(10, timeout_s=HANG_GUARD_S)) == 10
             assert dev.stats.ignored > 0         # streamed from power-up, before start()
         finally:
             dev.close()
@@ -204,11 +204,11 @@ def test_pulled_cable_raises_device_disconnected_and_stop_is_fast() -> None:
     dev = open_device(fake.port)
     try:
         dev.start()
-        assert len(dev.read(20, timeout=HANG_GUARD_S)) == 20
+        assert len(dev.read(20, timeout_s=HANG_GUARD_S)) == 20
         time.sleep(0.1)
         fake.hangup()
         # only the loss can end this wait in time: its own timeout is longer than the hang guard
-        waited = returns(lambda: dev.read(10_000, timeout=WAIT_LONGER_S), "read woken by the pulled cable")
+        waited = returns(lambda: dev.read(10_000, timeout_s=WAIT_LONGER_S), "read woken by the pulled cable")
         assert len(waited) > 0                       # what was buffered comes back first
         _wait_until(lambda: not dev.connected)
         with pytest.raises(DeviceDisconnected, match=fake.port) as info:
@@ -233,7 +233,7 @@ def test_waiting_command_is_woken_by_a_lost_link() -> None:
         import threading
         threading.Timer(0.2, fake.hangup).start()
         with pytest.raises(DeviceDisconnected):      # not CommandTimeout: its timeout outlasts the guard
-            returns(lambda: dev.send_command(Opcode.IDENTIFY, timeout=WAIT_LONGER_S), "command woken by the loss")
+            returns(lambda: dev.send_command(Opcode.IDENTIFY, timeout_s=WAIT_LONGER_S), "command woken by the loss")
     finally:
         dev.close()
         fake.close()
@@ -258,8 +258,8 @@ def test_reconnect_to_the_same_port(tmp_path) -> None:
         os.replace(tmp, link)
         _wait_until(lambda: dev.stats.reconnects > 0)
         assert dev.stats.reconnects == 1 and dev.connected
-        b = dev.read(10_000, timeout=0.2)
-        b = dev.read(10, timeout=HANG_GUARD_S)      # the restarted stream (START re-sent)
+        b = dev.read(10_000, timeout_s=0.2)
+        b = dev.read(10, timeout_s=HANG_GUARD_S)      # the restarted stream (START re-sent)
         assert len(b) == 10 and (b.seq >= 10_000).all()
         assert (Opcode.START, 0) in fake2.commands
         returns(dev.close, "close of a reconnected device")

@@ -32,7 +32,7 @@ def test_a_165_hz_recording_holds_every_frame_sent(protocol, tmp_path):
         parts = []
         deadline = time.monotonic() + HANG_GUARD_S
         while sum(map(len, parts)) < n and time.monotonic() < deadline:
-            parts.append(dev.read(n - sum(map(len, parts)), timeout=0.5))
+            parts.append(dev.read(n - sum(map(len, parts)), timeout_s=0.5))
         dev.stop()
         dev.stop_recording()
         st = dev.stats
@@ -64,17 +64,17 @@ def test_the_imu_and_material_daq_twins_through_the_same_api():
     # spine IMUs: five sensors' Euler angles (degrees), v2 framing
     with SerialTwin("imu", 20, "v2") as twin, open_device(twin.port, "imu", "v2") as dev:
         assert dev.description.get("device") == "imu"
-        batch = dev.read(n=10, timeout=HANG_GUARD_S)
+        batch = dev.read(n=10, timeout_s=HANG_GUARD_S)
     assert len(batch) >= 10 and batch.frames.shape[1:] == (5, 3) and batch.valid.all()
     assert np.all(np.diff(batch.seq) == 1)
     # consecutive samples of the seated twin's IMUs (psmat.twin.seated), float32 as sent
-    served = ImuSource(20.0, 0).angles
+    served = ImuSource(20.0, 0).angles_deg
     first = np.flatnonzero(np.all(served == batch.frames[0], axis=(1, 2)))
     assert first.size == 1
     np.testing.assert_array_equal(batch.frames, served[first[0] + batch.seq - batch.seq[0]])
     # material DAQ: text lines of 10 counts, started by 's'
     with SerialTwin("daq", 20) as twin, open_device(twin.port, "daq") as dev:
-        batch = dev.read(n=5, timeout=HANG_GUARD_S)
+        batch = dev.read(n=5, timeout_s=HANG_GUARD_S)
     assert len(batch) >= 5 and batch.frames.shape[1:] == (10,) and batch.valid.all()
     assert batch.frames.max() <= 1023
 
@@ -83,7 +83,7 @@ def test_psmat_boxes_are_recognised_by_their_usb_identity():
     from serial.tools.list_ports_linux import SysFS
 
     from psmat.acquire import find_devices
-    from psmat.acquire.discover import is_psmat_port
+    from psmat.acquire import is_psmat_port
 
     assert is_psmat_port(0x1209, 0x0001)  # the firmware's descriptors (firmware/stm32/common/usb_desc.c)
     assert is_psmat_port(0x0483, 0x5740, manufacturer="psmat")

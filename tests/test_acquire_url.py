@@ -17,7 +17,7 @@ import pytest
 import serial
 
 from psmat.acquire import open_device
-from psmat.acquire.port import open_port, read_chunk
+from psmat.acquire import open_port, read_chunk
 from psmat.cli import main
 from psmat.protocol import Opcode, encode_command, encode_v2
 from hang_guard import HANG_GUARD_S, returns
@@ -100,7 +100,7 @@ def test_open_device_decodes_frames_from_a_socket_url() -> None:
 def _read_n(dev, n: int) -> list:
     parts: list = []
     while sum(map(len, parts)) < n:
-        parts.append(dev.read(n - sum(map(len, parts)), timeout=0.5))
+        parts.append(dev.read(n - sum(map(len, parts)), timeout_s=0.5))
     return parts
 
 
@@ -108,7 +108,7 @@ def test_loop_url_is_accepted() -> None:
     counts = np.arange(12, dtype=np.uint16).reshape(3, 4) * 300
     with open_device("loop://", "psm", "v2", (3, 4), identify=False) as dev:
         dev.serial.write(encode_v2(counts, 5, 77))
-        batch = returns(lambda: dev.read(1, timeout=2 * HANG_GUARD_S), "the looped-back frame")
+        batch = returns(lambda: dev.read(1, timeout_s=2 * HANG_GUARD_S), "the looped-back frame")
     np.testing.assert_array_equal(batch.frames[0], counts)
     assert (int(batch.seq[0]), int(batch.device_time_us[0])) == (5, 77)
 

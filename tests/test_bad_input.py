@@ -28,7 +28,7 @@ import psmat
 from psmat.io import SessionWriter
 from psmat.sensor import MPICreep
 from psmat.study import find_study
-from psmat.study.trial import process_trial
+from psmat.study import process_trial
 
 # ---------------------------------------------------------------------------------- command line
 
@@ -106,9 +106,9 @@ def test_a_bad_command_line_is_one_line_exit_1_and_writes_nothing(argv, words, t
 @pytest.fixture(scope="module")
 def balance_study(tmp_path_factory):
     """A small simulated balance study: the mat and the force platform, no spine IMUs."""
-    from psmat.study.simulate import simulate_study
+    from psmat.synth import simulate_study
 
-    return simulate_study(tmp_path_factory.mktemp("bal") / "study", volunteers=1, seconds=2.0, seed=0)
+    return simulate_study(tmp_path_factory.mktemp("bal") / "study", volunteers=1, duration_s=2.0, seed=0)
 
 
 @pytest.mark.parametrize("action", [["train", "--split", "ksi"], ["heldout"]])
@@ -268,7 +268,7 @@ def _truncated_zip(path: Path) -> None:
 @pytest.mark.parametrize("damage", ["empty", "half", "one byte short", "not a dict"])
 def test_a_damaged_checkpoint_is_one_error_naming_the_file(damage, tmp_path):
     torch = pytest.importorskip("torch")
-    from psmat.posture.train import train_posture
+    from psmat.posture.learn import train_posture
 
     recs = ps.study(3, 1, 200, 8, 8)
     kw = dict(split="ksi", epochs=1, window=20, windows_per_epoch=64, augment=False, progress=False,

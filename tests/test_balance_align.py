@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from psmat.balance import align
-from psmat.io.forceplate import bds_trial
+from psmat.io import bds_trial
 
 
 @pytest.fixture(scope="module")

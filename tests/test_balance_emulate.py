@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from psmat.balance.emulate import subgrid_cops, subgrids
+from psmat.balance import subgrid_cops, subgrids
 
 
 def test_four_choices_of_one_in_two_rows_and_columns() -> None:

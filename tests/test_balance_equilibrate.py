@@ -9,7 +9,7 @@ import pytest
 
 from psmat import twin
 from psmat.balance import equilibrate
-from psmat.balance.variants import EXTRA_VARIANTS, KNOWN_VARIANTS, VARIANTS, variant_traces
+from psmat.balance import EXTRA_VARIANTS, KNOWN_VARIANTS, VARIANTS, variant_traces
 from psmat.io import bds_trial
 from psmat.process import Processor
 from psmat.sensor import THESIS_TABLE_2_11, MPICreep
@@ -96,7 +96,7 @@ def twin_trial():
     rec = bds_trial(3)
     keep = rec.t <= rec.t[0] + 12.0
     scene = twin.trajectory_sway(rec.t[keep], rec.cop_ml_cm[keep], rec.cop_ap_cm[keep], rec.fz_n[keep], 50.0)
-    pressure = np.minimum(scene.pressure, 32.0)
+    pressure = np.minimum(scene.pressure_psi, 32.0)
     out = {}
     for variability in (0.15, 0.0):
         mat = twin.MatPhysics((16, 16), dt=0.02, sensor=_mat_model(2.0), variability=variability, seed=5)
@@ -122,7 +122,7 @@ def test_on_a_twin_trial_the_gain_induced_cop_bias_shrinks(twin_trial) -> None:
     # the gains move SCHC's CoP by about 2 mm from the gain-free mat's, mostly a static offset
     # toward the high-gain cells; the equilibration takes a quarter of it away on this trial
     # (measured 1.99 -> 1.50 mm; over 12 held-out trials lower in 10, see
-    # python -m psmat.experiments.equilibration)
+    # python -m psmat.experiments equilibration)
     assert _rms(schc, ref) > 0.1
     assert _rms(eq, ref) < 0.8 * _rms(schc, ref)
     # what it does not do: the mean-removed trace (what Eu and σ see) was hardly moved by the

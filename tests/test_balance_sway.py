@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from psmat.balance import sway
-from psmat.io.forceplate import bds_trial, bds_trials_table
+from psmat.io import bds_trial, bds_trials_table
 
 TRIALS = bds_trials_table()
 

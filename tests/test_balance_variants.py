@@ -8,7 +8,7 @@ import pytest
 
 from psmat import iecm, twin
 from psmat.balance import cop, mean_force_n
-from psmat.balance.variants import VARIANTS, variant_traces
+from psmat.balance import VARIANTS, variant_traces
 from psmat.sensor import MPICreep
 from psmat.units import PSI_PA
 
@@ -16,7 +16,7 @@ from psmat.units import PSI_PA
 @pytest.fixture(scope="module")
 def trial():
     scene = twin.quiet_standing(3.0, 50.0, seed=2)  # psi on the 16x16, 2 cm mat
-    p = np.minimum(scene.pressure, 32.0)
+    p = np.minimum(scene.pressure_psi, 32.0)
     sensor = MPICreep.thesis()
     g = sensor.direct(p, 0.02) / 0.5  # a mat twice as conductive as the nominal model
     G = iecm.forward(g + 1e-7)  # the unloaded cells leak 10 MOhm, as the twin's, or the network falls apart

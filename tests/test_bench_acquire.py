@@ -12,7 +12,7 @@ import serial
 
 tty = pytest.importorskip("tty", reason="pseudo-terminals are POSIX only")  # Windows: no termios
 
-from psmat.bench.acquire import thesis_read
+from psmat.bench.baselines import thesis_read
 from psmat.protocol import encode_v1
 
 

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from psmat import twin
-from psmat.bench.baseline_numpy import (
+from psmat.bench.baselines import (
     forward_numpy,
     jacobian_numpy,
     solve_fixed_point_numpy,
@@ -144,11 +144,11 @@ def test_bench_cli_smoke(tmp_path):
 def test_sensor_bench_numpy_baseline_agrees_with_the_core():
     # the benchmark's NumPy direct/inverse models are independent implementations: they must
     # agree with the C++ model, so the throughput comparison compares like with like
-    from psmat.bench.sensor import _numpy_direct, _numpy_inverse
+    from psmat.bench.baselines import direct_numpy, inverse_numpy
     from psmat.sensor import MPICreep
 
     m = MPICreep.thesis()
     p = np.repeat(np.random.default_rng(0).uniform(0, 32, (20, 5)), 6, axis=0)
     g = m.direct(p, 0.5)
-    np.testing.assert_allclose(_numpy_direct(m, p, 0.5), g, rtol=1e-12, atol=1e-18)
-    np.testing.assert_allclose(_numpy_inverse(m, g, 0.5), p, atol=1e-9)
+    np.testing.assert_allclose(direct_numpy(m, p, 0.5), g, rtol=1e-12, atol=1e-18)
+    np.testing.assert_allclose(inverse_numpy(m, g, 0.5), p, atol=1e-9)

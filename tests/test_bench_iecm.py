@@ -5,11 +5,12 @@ from __future__ import annotations
 import numpy as np
 
 import psmat.iecm as iecm
-from psmat.bench.iecm import _noisy_entries, _row, _target, complementarity_residual
+from psmat.bench.iecm import apply_target, complementarity_residual, noisy_entries
+from psmat.bench.iecm_setup import row
 
 
 def _noisy(size=16, fps=2500.0, threads=2, max_iterations=40, max_residual=1e-7, **kw):
-    return _row(size=size, mode="streaming", solver="psmat newton, noisy G (1 mV, 12 bit)", threads=threads,
+    return row(size=size, mode="streaming", solver="psmat newton, noisy G (1 mV, 12 bit)", threads=threads,
                 fps=fps, fps_per_core=fps / threads, max_iterations=max_iterations, max_residual=max_residual,
                 noise_v=1e-3, **kw)
 
@@ -19,49 +20,49 @@ def test_noisy_rows_carry_the_spec_targets():
     # the benchmark printed no target on the noisy rows (docs/spec.md §10: 16x16 >= 2000 fps/core, 32x32
     # >= 200 fps, 64x64 >= 20 fps, residual <= 1e-6, no frame over 50 iterations)
     met = _noisy(fps=5000.0)  # 2500 fps/core
-    _target(met)
+    apply_target(met)
     assert met["target"] == ">= 2000 fps/core, residual <= 1e-06, <= 50 it" and met["target_met"] is True
     slow = _noisy(fps=371.6)  # 185.8 fps/core: below the target
-    _target(slow)
+    apply_target(slow)
     assert slow["target_met"] is False
     long = _noisy(fps=5000.0, max_iterations=51)
-    _target(long)
+    apply_target(long)
     assert long["target_met"] is False
     loose = _noisy(fps=5000.0, max_residual=2e-6)
-    _target(loose)
+    apply_target(loose)
     assert loose["target_met"] is False
     r32 = _noisy(size=32, fps=210.0)
-    _target(r32)
+    apply_target(r32)
     assert r32["target"].startswith(">= 200 fps,") and r32["target_met"] is True
     r64 = _noisy(size=64, fps=float("nan"))  # stopped by its budget
-    _target(r64)
+    apply_target(r64)
     assert r64["target"].startswith(">= 20 fps,") and r64["target_met"] is False
 
 
 def test_noise_free_targets_are_only_the_specs():
-    cold = _row(size=16, mode="cold", solver="psmat newton", threads=1, fps=400.0, fps_per_core=400.0,
+    cold = row(size=16, mode="cold", solver="psmat newton", threads=1, fps=400.0, fps_per_core=400.0,
                 err_loaded=1e-9)
-    _target(cold)
+    apply_target(cold)
     assert cold["target"] == ">= 300 fps/core, err <= 1e-06" and cold["target_met"] is True
-    inaccurate = _row(size=16, mode="streaming", solver="psmat newton", threads=1, fps=4000.0,
+    inaccurate = row(size=16, mode="streaming", solver="psmat newton", threads=1, fps=4000.0,
                       fps_per_core=4000.0, err_loaded=2e-6)
-    _target(inaccurate)
+    apply_target(inaccurate)
     assert inaccurate["target_met"] is False
-    r32 = _row(size=32, mode="streaming", solver="psmat newton", threads=2, fps=600.0, fps_per_core=300.0,
+    r32 = row(size=32, mode="streaming", solver="psmat newton", threads=2, fps=600.0, fps_per_core=300.0,
                err_loaded=1e-9)
-    _target(r32)  # docs/spec.md §10 sets no noise-free 32x32 target
+    apply_target(r32)  # docs/spec.md §10 sets no noise-free 32x32 target
     assert r32["target"] == "" and r32["target_met"] is None
 
 
 def test_noisy_entries_compare_the_old_solver_and_the_quick_fixed_point():
     # the noisy rows sit beside the earlier default (Fischer-Burmeister bounded_newton) and the thesis'
     # quick fixed point (25 iterations, beta 0.05) in the same run, and a cold start is reported
-    entries = _noisy_entries(16, 2000, heavy=False, ncpu=2)
+    entries = noisy_entries(16, 2000, heavy=False, ncpu=2)
     assert [e["mode"] for e in entries] == ["streaming", "cold", "streaming", "streaming"]
     assert entries[2]["method"] == "bounded_newton"
     assert entries[3]["method"] == "fixed_point"
     assert entries[3]["solve_options"] == dict(beta=0.05, max_iter=25, rtol=1e-14)
-    heavy = _noisy_entries(64, 20, heavy=True, ncpu=2)
+    heavy = noisy_entries(64, 20, heavy=True, ncpu=2)
     assert heavy[2]["frames"] == 4 and heavy[1]["frames"] == 4 and heavy[0]["frames"] == 20
 
 

@@ -4,7 +4,7 @@ checked: no test asserts a time; what it runs and compares is)."""
 from __future__ import annotations
 
 from psmat.bench.study import format_report, run
-from psmat.study.trial import DEFAULT_PARAMS
+from psmat.study import DEFAULT_PARAMS
 
 
 def test_the_benchmark_runs_both_ways_and_the_rerun_reuses_every_session(tmp_path) -> None:

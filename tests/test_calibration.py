@@ -158,17 +158,18 @@ def test_calibration_save_load_round_trip(tmp_path):
     np.testing.assert_array_equal(Calibration.load(path).r_mux, per_pair.r_mux)
 
 
-def test_circuit_from_calibration():
+def test_a_calibration_is_applied_to_a_circuit():
     cal = _calibration()
-    c = Circuit.from_calibration(cal)
+    c = Circuit().calibrated(cal)
     assert (c.r_adc, c.r_mux, c.r_o, c.v_ref, c.bits) == (cal.r_adc, cal.r_mux, 2200.0, 3.3, 12)
-    assert Circuit().calibrated(cal) == c
+    # the circuit keeps its side of the divider; R_adc and R_mux are the calibration's
+    assert Circuit(sensor_side="high").calibrated(cal).sensor_side == "high"
     with pytest.raises(ValueError, match="r_o"):
         Circuit(r_o=1000.0).calibrated(cal)
     with pytest.raises(ValueError, match="bits"):
         Circuit(bits=10).calibrated(cal)
     with pytest.raises(TypeError):
-        Circuit.from_calibration({"r_adc_ohm": 1.0})
+        Circuit().calibrated({"r_adc_ohm": 1.0})
 
 
 @pytest.mark.parametrize(

@@ -18,7 +18,7 @@ from psmat.sensor.pneumatic import divider_counts
 ])
 def test_conductance_checks_agree(bad, msg):
     # Circuit, the noise model and the DAQ divider reject the same G with the same message
-    for fn in (Circuit().voltage, noise.sigma_G, noise.relative_sigma, divider_counts):
+    for fn in (Circuit().voltage, noise.table_sigma_G, noise.voltage_sigma_G, noise.relative_sigma, divider_counts):
         with pytest.raises(ValueError, match=msg):
             fn(bad)
 

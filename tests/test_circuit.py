@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 
 from psmat.circuit import OK, OPEN, SHORT, Circuit
+from psmat.noise import voltage_sigma_G
 
 from conftest import load_reference
 
@@ -65,9 +66,24 @@ def test_counts_match_reference(circuit_ref):
     np.testing.assert_array_equal(c, circuit_ref["counts"])
 
 
-def test_reference_against_own_algebra(circuit_ref):
-    # the reference itself agrees with the resistance-form algebra (both sides checked)
-    np.testing.assert_allclose(v_of_r(circuit_ref["R_eq"]), circuit_ref["V_x"], rtol=1e-12)
+def test_reference_read_back_through_the_circuit(circuit_ref):
+    """The way back of psmat.Circuit against the reference: its voltages give back the reference
+    resistances, and its counts give back resistances within the reference's own count."""
+    R = np.asarray(circuit_ref["R_eq"])
+    c = Circuit(r_o=2200.0, r_mux=145.0, r_adc=6.9e6, v_ref=3.3, bits=12)
+    G, flags = c.conductance_from_voltage(circuit_ref["V_x"], return_flags=True)
+    assert np.all(flags == OK)
+    np.testing.assert_allclose(1.0 / G, R, rtol=1e-10)
+    counts = np.asarray(circuit_ref["counts"])
+    G, flags = c.conductance(counts, return_flags=True)
+    assert np.all(flags == OK)
+    np.testing.assert_array_equal(c.counts(G), counts)  # the count's centre reads as that count
+    # 1/R_eq read at its count's centre: off by at most half a count of voltage, |dG/dV| LSB/2
+    # (the resistance-form derivative dv_dg, linearised: 1 % margin for the curvature over half
+    # a count, which spans at most 6 % of G here, at 1 MΩ)
+    np.testing.assert_array_less(np.abs(G - 1.0 / R), 0.5 * LSB / dv_dg(1.0 / R) * 1.01)
+    # and the reference itself agrees with the resistance-form algebra used by the tests below
+    np.testing.assert_allclose(v_of_r(R), circuit_ref["V_x"], rtol=1e-12)
 
 
 # --------------------------------------------------------------------- forward model
@@ -237,7 +253,7 @@ def test_voltage_rejects_bad_G(bad, exc, msg):
     with pytest.raises(exc):
         c.counts(bad)
     with pytest.raises(exc):
-        c.sigma_G(bad)
+        voltage_sigma_G(bad, circuit=c)
 
 
 @pytest.mark.parametrize(
@@ -362,7 +378,7 @@ def test_table_2_4_first_prototype(k):
     # box runs at 100 Hz), and 123 kΩ matches the high-resistance rows better (10 kΩ: ratio
     # 0.99 vs 0.96; 220 kΩ: 1.00 vs 0.97, see the next test). With R_mux = 145 Ω all five
     # rows agree within 15 % (worst: +8 % at 1 kΩ, +7 % at 100 Ω).
-    s = Circuit.first_prototype().sigma_G(1.0 / TABLE_R[k], TABLE_SIGMA_V[k])
+    s = voltage_sigma_G(1.0 / TABLE_R[k], TABLE_SIGMA_V[k], Circuit.first_prototype())
     assert s == pytest.approx(TABLE_SIGMA_G[k], rel=0.15)
     # same value from the independent derivative
     assert s == pytest.approx(TABLE_SIGMA_V[k] / dv_dg(1.0 / TABLE_R[k], r_adc=R_ADC_FIRST), rel=1e-12)
@@ -370,11 +386,11 @@ def test_table_2_4_first_prototype(k):
 
 def test_table_2_4_prefers_first_prototype_at_high_resistance():
     G, sv, sg = 1.0 / np.array(TABLE_R[2:]), np.array(TABLE_SIGMA_V[2:]), np.array(TABLE_SIGMA_G[2:])
-    err_first = np.abs(np.log(Circuit.first_prototype().sigma_G(G, sv) / sg)).sum()
-    err_improved = np.abs(np.log(Circuit().sigma_G(G, sv) / sg)).sum()
+    err_first = np.abs(np.log(voltage_sigma_G(G, sv, Circuit.first_prototype()) / sg)).sum()
+    err_improved = np.abs(np.log(voltage_sigma_G(G, sv, Circuit()) / sg)).sum()
     assert err_first < err_improved
     # the improved prototype is still within 15 % everywhere: R_adc matters little here
-    np.testing.assert_allclose(Circuit().sigma_G(1 / np.array(TABLE_R), TABLE_SIGMA_V), TABLE_SIGMA_G, rtol=0.15)
+    np.testing.assert_allclose(voltage_sigma_G(1 / np.array(TABLE_R), TABLE_SIGMA_V), TABLE_SIGMA_G, rtol=0.15)
 
 
 @pytest.mark.parametrize("r_adc", [R_ADC_FIRST, R_ADC_IMPROVED])
@@ -387,11 +403,11 @@ def test_sigma_G_against_monte_carlo(r_adc):
     draws = c.counts(np.broadcast_to(G, (20000, 4)), noise_v=sigma_v, rng=11)
     g, flags = c.conductance(draws, return_flags=True)
     assert np.all(flags == OK)
-    np.testing.assert_allclose(g.std(axis=0), c.sigma_G(G, sigma_v), rtol=0.10)
+    np.testing.assert_allclose(g.std(axis=0), voltage_sigma_G(G, sigma_v, c), rtol=0.10)
     np.testing.assert_allclose(g.std(axis=0), sigma_v / dv_dg(G, r_adc=r_adc), rtol=0.10)
 
 
 def test_sigma_G_open_cell_is_finite():
-    s = Circuit().sigma_G(0.0)
+    s = voltage_sigma_G(0.0)
     # dV/dG at G = 0: V_ref R_o / (1 + R_o/R_adc)^2
     assert s == pytest.approx(1e-3 * (1 + R_O / R_ADC_IMPROVED) ** 2 / (V_REF * R_O), rel=1e-12)

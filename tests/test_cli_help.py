@@ -21,9 +21,11 @@ import pytest
 import psmat
 import psmat.experiments
 from psmat.bench.__main__ import BENCHMARKS, benchmark_parser
+from psmat.experiments.__main__ import EXPERIMENTS
+from psmat.experiments.__main__ import main as experiments_main
 from psmat.cli import build_parser, main, subparsers
-from psmat.study.results import write_results
-from psmat.study.trial import COLUMNS
+from psmat.study import write_results
+from psmat.study import COLUMNS
 
 RST = re.compile(r"``|:[a-z]+:`|`_\b")  # ``literal``, :role:`x`, `link`_
 #: options with a unit, by destination: the unit the help must name
@@ -39,8 +41,6 @@ def _tree(parser: argparse.ArgumentParser, path: tuple[str, ...] = ()):
 
 
 COMMANDS = [path for path, _ in _tree(build_parser())]
-EXPERIMENTS = [m.name for m in pkgutil.iter_modules(psmat.experiments.__path__)
-               if hasattr(importlib.import_module(f"psmat.experiments.{m.name}"), "main")]
 
 
 def _help(argv: list[str], capsys, call=main) -> str:
@@ -144,11 +144,10 @@ def test_each_benchmark_help_is_plain_and_complete(name, capsys) -> None:
     _check_screen(text, benchmark_parser(name, "psmat bench"))
 
 
-@pytest.mark.parametrize("name", EXPERIMENTS)
+@pytest.mark.parametrize("name", list(EXPERIMENTS))
 def test_each_experiment_help_is_plain_and_complete(name, capsys) -> None:
-    mod = importlib.import_module(f"psmat.experiments.{name}")
-    text = _help(["--help"], capsys, mod.main)
-    assert text.startswith(f"usage: python -m psmat.experiments.{name} ")
+    text = _help([name, "--help"], capsys, experiments_main)
+    assert text.startswith(f"usage: python -m psmat.experiments {name} ")
     assert not RST.search(text) and "default: None" not in text
     for key, shown in _entries(text).items():
         assert shown.strip(), (key, text)
@@ -165,6 +164,37 @@ def test_python_m_psmat_bench_help() -> None:
                           timeout=120, check=False)
     assert proc.returncode == 0, proc.stderr
     assert proc.stdout.startswith("usage: python -m psmat.bench ") and "* iecm: " in proc.stdout
+    for name in BENCHMARKS:  # one entry each
+        assert len(re.findall(rf"^\* {name}: ", proc.stdout, re.M)) == 1, name
+
+
+def test_every_benchmark_module_is_behind_python_m_psmat_bench() -> None:
+    # a module of psmat.bench that runs as a benchmark (build_parser and main) is one of BENCHMARKS:
+    # no benchmark that --help does not list
+    import psmat.bench
+    from psmat.bench.__main__ import MODULES
+
+    runnable = set()
+    for m in pkgutil.iter_modules(psmat.bench.__path__):
+        mod = importlib.import_module(f"psmat.bench.{m.name}")
+        if not m.name.startswith("_") and hasattr(mod, "main") and hasattr(mod, "build_parser"):
+            runnable.add(m.name)
+    assert runnable == {MODULES.get(name, name) for name in BENCHMARKS}
+
+
+def test_python_m_psmat_experiments_help_lists_every_experiment() -> None:
+    # every module of psmat.experiments that a user can run is behind the one entry point
+    runnable = sorted(m.name for m in pkgutil.iter_modules(psmat.experiments.__path__)
+                      if not m.name.startswith("_") and hasattr(importlib.import_module(f"psmat.experiments.{m.name}"),
+                                                                "main"))
+    assert runnable == sorted(EXPERIMENTS)
+    proc = subprocess.run([sys.executable, "-m", "psmat.experiments", "--help"], capture_output=True, text=True,
+                          timeout=120, check=False)
+    assert proc.returncode == 0, proc.stderr
+    assert proc.stdout.startswith("usage: python -m psmat.experiments ")
+    for name in EXPERIMENTS:
+        assert re.search(rf"^\* {name}: ", proc.stdout, re.M), name
+    assert not RST.search(proc.stdout)
 
 
 # ---------------------------------------------------------------- abbreviations in what psmat writes
@@ -234,7 +264,7 @@ def test_the_report_spells_out_the_variants_of_the_thesis_tables_too(report) -> 
 
 
 def test_posture_splits_are_spelled_out() -> None:
-    from psmat.posture.splits import SPLIT_NAMES, SPLITS
+    from psmat.posture.data import SPLIT_NAMES, SPLITS
 
     # thesis §4.3, Table 4.3: KSI, Keep Subjects In; LSO, Leave Subjects Out
     expected = {"ksi": "KSI (Keep Subjects In", "ksi-leaky": "KSI (Keep Subjects In", "lso": "LSO (Leave Subjects Out"}

@@ -90,7 +90,7 @@ def test_posture_train_writes_table_4_4_and_reports_it(trainable, capsys) -> Non
     for r in rows:
         assert float(r["MSE"]) > 0 and all(k in r for k in ("R2_Sensor0", "R2_Sum"))
         assert f"{r['model']} {r['subset']}: MSE" in out
-    # each session's inputs are cached (psmat.posture.dataset)
+    # each session's inputs are cached (psmat.posture.load_posture_study)
     assert len(list((trainable / "results" / "posture" / "inputs").glob("*.npz"))) == 2
 
 

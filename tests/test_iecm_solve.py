@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import sys
 import threading
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -161,12 +162,14 @@ def _runs_while_call_is_in_progress(call) -> bool:
 
 def test_compiled_solver_releases_the_gil(iecm_reference):
     # one long call into the C++ core (3000 fixed-point iterations) in a worker thread
-    from psmat import _core
-    from psmat.iecm.solve import make_options
-
     G = np.array(iecm_reference["16x16_feet"]["G"])
-    opts = make_options("fixed_point", beta=0.05, max_iter=3000, rtol=1e-300)
-    assert _runs_while_call_is_in_progress(lambda: _core.iecm.solve_frame(G, opts))
+
+    def long_solve():
+        with warnings.catch_warnings():  # max_iterations by design: rtol cannot be met
+            warnings.simplefilter("ignore", RuntimeWarning)
+            psmat.iecm.reference.fixed_point(G, beta=0.05, max_iter=3000, rtol=1e-300)
+
+    assert _runs_while_call_is_in_progress(long_solve)
     # the check can fail: a builtin that keeps the GIL (a C loop over a range) is caught
     assert not _runs_while_call_is_in_progress(lambda: sum(range(3_000_000)))
 
@@ -211,3 +214,31 @@ def test_warm_start_32x32_regression():
     assert info.converged
     big = g >= 1e-4
     np.testing.assert_allclose(sol[big], g[big], rtol=1e-6)
+
+
+def test_a_frame_a_batch_and_a_stream_report_in_one_bound_type(rng):
+    # the core reports each frame as a psmat._core.SolveReport with a psmat._core.Status, whether
+    # alone, in a batch or in a stream; SolveInfo's status strings are the names of that enum
+    from psmat import _core
+
+    g = rng.uniform(1e-4, 1e-2, (3, 4, 5))
+    G = psmat.iecm.forward(g)
+    opts = _core.iecm.SolveOptions()
+    _, rep = _core.iecm.solve_frame(G[0], opts)
+    job = _core.iecm.BatchJob(G, opts, True, 2)
+    job.start()
+    assert job.wait(-1.0)
+    stream = _core.iecm.StreamSolver(4, 5, opts, 1, 4)
+    stream.push(G[0])
+    _, _, rep_stream = stream.pop(-1.0)
+    stream.close()
+    reports = [rep, *job.reports(), rep_stream]
+    assert len(reports) == 5
+    for r in reports:
+        assert type(r) is _core.SolveReport and isinstance(r.status, _core.Status)
+        assert r.status == _core.Status.converged and r.converged and r.residual <= 1e-10
+        assert isinstance(r.iterations, int) and isinstance(r.residual, float) and isinstance(r.used_fallback, bool)
+    assert sorted(_core.Status.__members__) == sorted(
+        ["converged", "max_iterations", "stalled", "singular", "least_squares", "bounded"])
+    _, info = psmat.iecm.solve(G, return_info=True)
+    assert info.status.tolist() == ["converged"] * 3 and info.iterations.dtype.kind == "i"

@@ -71,9 +71,9 @@ def test_push_into_a_full_stream_times_out(rng):
     s.push(G[0])
     s.push(G[1])
     with pytest.raises(TimeoutError, match="full"):
-        s.push(G[2], timeout=0.05)
+        s.push(G[2], timeout_s=0.05)
     assert s.pop(None)[0] == 0  # popping frees a slot
-    assert s.push(G[2], timeout=5.0) == 2
+    assert s.push(G[2], timeout_s=5.0) == 2
     s.close()
 
 

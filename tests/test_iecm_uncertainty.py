@@ -34,7 +34,7 @@ def test_default_noise_model_is_table_2_4():
     g = np.full((3, 3), 1e-3)
     G = psmat.iecm.forward(g)
     np.testing.assert_allclose(
-        psmat.iecm.propagate_uncertainty(g), psmat.iecm.propagate_uncertainty(g, psmat.noise.sigma_G(G)), rtol=1e-12
+        psmat.iecm.propagate_uncertainty(g), psmat.iecm.propagate_uncertainty(g, psmat.noise.table_sigma_G(G)), rtol=1e-12
     )
 
 

@@ -1,4 +1,5 @@
-"""psmat.io.imu_log: the thesis' spine-IMU text logs (docs/spec.md §6: one line per sample, five decimals, spaces)."""
+"""psmat.io.load_imu_log / write_imu_log: the thesis' spine-IMU text logs (docs/spec.md §6: one line per
+sample, five decimals, spaces)."""
 
 from __future__ import annotations
 
@@ -7,8 +8,8 @@ import re
 import numpy as np
 import pytest
 
-from psmat.io.imu_log import ImuLog, load_imu_log, write_imu_log
-from psmat.io.session_layout import SessionFormatError
+from psmat.io import ImuLog, load_imu_log, write_imu_log
+from psmat.io import SessionFormatError
 
 FIVE_DECIMALS = re.compile(r"^-?\d+\.\d{5}$")
 

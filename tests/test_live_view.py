@@ -54,7 +54,7 @@ def test_live_view_on_the_twin_shows_the_mat() -> None:
         x, _ = view.line_x.get_data()
         assert len(x) == len(t) and x[-1] == 0.0
         # pressure is zero (up to noise) where the twin puts no load, present where it does
-        scene = twin.source.scene.pressure
+        scene = twin.source.scene.pressure_psi
         T = scene.shape[0]
         assert view.last_seq >= 0
         loaded = np.any(scene[[(view.last_seq + d) % T for d in range(-2, 3)]] > 0, axis=0)
@@ -88,7 +88,7 @@ class _FakeDevice:
         self._per, self._k = per_batch, 0
         self.stats = type("S", (), {"frames": 0, "invalid": 0, "dropped_wire": 0, "dropped_buffer": 0})()
 
-    def read(self, n: int | None = None, timeout: float | None = None) -> FrameBatch:
+    def read(self, n: int | None = None, timeout_s: float | None = None) -> FrameBatch:
         if self._k >= len(self._frames):
             raise DeviceDisconnected(self.port, "end of the fake stream")
         f = self._frames[self._k:self._k + self._per]
@@ -116,9 +116,9 @@ def test_decimate_and_no_iecm() -> None:
 
 
 def test_rates_are_counts_over_the_last_window() -> None:
-    from psmat.live.view import _Rate
+    from psmat.live.view import SlidingRate
 
-    r = _Rate(window_s=2.0)
+    r = SlidingRate(window_s=2.0)
     r.add(0.0, 0)
     assert np.isnan(r.value)  # one sample: no rate yet
     r.add(0.5, 50)

@@ -325,9 +325,9 @@ def test_a_killed_overwrite_keeps_the_old_file_and_repair_needs_overwrite(record
 @pytest.fixture(scope="module")
 def small_study(tmp_path_factory) -> Path:
     """One volunteer, three 4 s trials at 50 Hz (read-only: copy it before use)."""
-    from psmat.study import simulate_study
+    from psmat.synth import simulate_study
 
-    root = simulate_study(tmp_path_factory.mktemp("study") / "study", volunteers=1, seconds=4.0, seed=5,
+    root = simulate_study(tmp_path_factory.mktemp("study") / "study", volunteers=1, duration_s=4.0, seed=5,
                           rate_hz=50.0)
     shutil.rmtree(root / "truth")
     return root
@@ -353,7 +353,7 @@ def test_a_journal_only_session_is_a_status_row_and_the_run_goes_on(small_study,
 
 
 def test_a_posture_study_names_a_journal_only_session(tmp_path) -> None:
-    from psmat.posture.dataset import load_posture_study
+    from psmat.posture import load_posture_study
 
     (tmp_path / "sessions").mkdir()
     killed = tmp_path / "sessions" / "P01_d1.h5"

@@ -6,7 +6,9 @@ below 300 kB. Each notebook is also executed here with nbclient on a python3 ker
 installed package, in a temporary working directory, with figures going to a temporary
 PSMAT_FIGURES: it must raise nothing, print no warning, save its figures there and nowhere else,
 and produce output in the same cells, of the same kinds, as the stored copy (so the stored outputs
-are not stale).
+are not stale). The run here sets PSMAT_NOTEBOOK_SMOKE=1: a notebook whose pipeline takes long
+(balance_study) reads it where it sets its sizes and runs every cell on less data than its stored
+run (the numbers differ, the kinds of output do not; tests/test_study_run.py checks the numbers).
 """
 
 from __future__ import annotations
@@ -92,6 +94,12 @@ def test_notebook_runs(path, tmp_path):
     work.mkdir()
     env = dict(os.environ)
     env["PSMAT_FIGURES"] = str(figures)
+    env["PSMAT_NOTEBOOK_SMOKE"] = "1"  # the least data that runs every cell (module docstring)
+    # glibc's malloc keeps freed large blocks instead of unmapping each one: the posture notebook's
+    # torch tensors otherwise page-faulted ~3 million times, ~20 s of system time (other C libraries
+    # ignore these variables)
+    env.setdefault("MALLOC_MMAP_THRESHOLD_", str(1 << 30))
+    env.setdefault("MALLOC_TRIM_THRESHOLD_", str(1 << 30))
     env.setdefault("JUPYTER_PLATFORM_DIRS", "1")  # jupyter_core's own folders, without its deprecation notice
     # run in work/, outside the checkout: the kernel imports the installed package, like every
     # other test (not ../src, which holds no compiled extension in a fresh checkout)

@@ -1,4 +1,4 @@
-"""psmat.posture.align: a mat and spine IMUs recorded apart, aligned by their summed signals (thesis Fig. 4.11).
+"""psmat.posture.align_mat_imu: a mat and spine IMUs recorded apart, aligned by their summed signals (thesis Fig. 4.11).
 
 The synthetic session is physical: one trunk-flexion trajectory (the thesis protocol: straight,
 forward, back, bounces, slow rocking with a drifting period, bounces) drives both instruments.
@@ -14,8 +14,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from psmat.io.imu_log import load_imu_log, write_imu_log
-from psmat.posture.align import MatImuAlignment, align_mat_imu, summed_mat_at_rate
+from psmat.io import load_imu_log, write_imu_log
+from psmat.posture.data import MatImuAlignment, align_mat_imu, summed_mat_at_rate
 
 G = 9.81          # m/s²
 MASS_KG = 62.0    # thesis Table 4.2: mean weight
@@ -137,10 +137,10 @@ def test_the_figure_series_and_the_manual_override() -> None:
     t_mat, g, t_imu, angles, lag = seated_session(6.37, seed=8)
     a = align_mat_imu(t_mat, g, t_imu, angles[:, :, 2])
     # the series are the IMU samples inside the overlap, standardised; their correlation is the r found
-    assert a.t_s.shape == a.mat.shape == a.angles.shape and a.t_s.size > 1800
+    assert a.t_s.shape == a.mat.shape == a.imu.shape and a.t_s.size > 1800
     assert a.t_s[0] - a.lag_s >= t_mat[0] and a.t_s[-1] - a.lag_s <= t_mat[-1]
-    np.testing.assert_allclose([a.mat.mean(), a.mat.std(), a.angles.mean(), a.angles.std()], [0, 1, 0, 1], atol=1e-9)
-    assert np.corrcoef(a.mat, a.angles)[0, 1] == pytest.approx(a.r, abs=0.02)
+    np.testing.assert_allclose([a.mat.mean(), a.mat.std(), a.imu.mean(), a.imu.std()], [0, 1, 0, 1], atol=1e-9)
+    assert np.corrcoef(a.mat, a.imu)[0, 1] == pytest.approx(a.r, abs=0.02)
     at_truth = align_mat_imu(t_mat, g, t_imu, angles[:, :, 2], lag_s=lag)
     off = align_mat_imu(t_mat, g, t_imu, angles[:, :, 2], lag_s=lag + 2.0)
     assert at_truth.manual and at_truth.lag_s == lag
@@ -165,7 +165,7 @@ def test_summed_mat_at_rate_averages_each_interval() -> None:
 def test_the_figure(tmp_path) -> None:
     from matplotlib.figure import Figure
 
-    from psmat.posture.align_plots import plot_mat_imu_alignment
+    from psmat.posture.data import plot_mat_imu_alignment
 
     t_mat, g, t_imu, angles, _ = seated_session(6.37, beta=1.4, seed=9)
     a = align_mat_imu(t_mat, g, t_imu, angles[:, :, 2])
@@ -175,7 +175,7 @@ def test_the_figure(tmp_path) -> None:
     mat_line, angle_line = fig.axes[0].lines
     np.testing.assert_array_equal(mat_line.get_xdata(), a.t_s)
     np.testing.assert_array_equal(mat_line.get_ydata(), a.mat)
-    np.testing.assert_array_equal(angle_line.get_ydata(), -a.angles)  # a negative relation drawn inverted, and said so
+    np.testing.assert_array_equal(angle_line.get_ydata(), -a.imu)  # a negative relation drawn inverted, and said so
     assert "negative" in angle_line.get_label()
     with pytest.raises(TypeError, match="MatImuAlignment"):
         plot_mat_imu_alignment(a.lag_s)  # type: ignore[arg-type]
@@ -208,7 +208,7 @@ def _bad(what: str):
 
 @pytest.mark.parametrize("what, match", [
     ("g rows", "g_mat must have shape"), ("t_mat order", "t_mat must increase"), ("t_imu order", "t_imu must increase"),
-    ("angles 1-D", "angles must have shape"), ("few imu", "at least 8"), ("flat mat", "summed mat signal does not change"),
+    ("angles 1-D", "angles_rad must have shape"), ("few imu", "at least 8"), ("flat mat", "summed mat signal does not change"),
     ("flat angles", "summed angles do not change"), ("sign", "sign must be"), ("sign bool", "sign must be"),
     ("max_lag_s", "max_lag_s"), ("min_overlap", "min_overlap"), ("no overlap", "do not overlap"), ("lag nan", "lag_s"),
 ])

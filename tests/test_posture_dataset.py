@@ -1,11 +1,11 @@
-"""psmat.posture.dataset: a posture study folder → Recordings (IECM g averaged over each IMU sample)."""
+"""psmat.posture.load_posture_study: a posture study folder → Recordings (IECM g averaged over each IMU sample)."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
-from psmat.posture.dataset import mean_over_samples
+from psmat.posture.data import mean_over_samples
 
 
 def test_mean_over_samples_by_hand() -> None:
@@ -43,15 +43,15 @@ SECONDS = 20.0
 
 @pytest.fixture(scope="module")
 def study(tmp_path_factory):
-    from psmat.posture.simulate import simulate_posture_study
+    from psmat.synth import simulate_posture_study
 
     return simulate_posture_study(tmp_path_factory.mktemp("posture") / "study", subjects=2, days=1, seed=11,
-                                  seconds=SECONDS)
+                                  duration_s=SECONDS)
 
 
 @pytest.fixture(scope="module")
 def loaded(study):
-    from psmat.posture.dataset import load_posture_study
+    from psmat.posture import load_posture_study
 
     return load_posture_study(study, workers=2, progress=False)
 
@@ -84,7 +84,7 @@ def test_a_session_gives_the_imu_pitch_and_the_mat_load_on_one_time_base(study, 
 
 
 def test_a_study_is_cached_per_session_and_recomputes_only_what_changed(study, loaded) -> None:
-    from psmat.posture.dataset import load_posture_study
+    from psmat.posture import load_posture_study
 
     first = loaded
     assert first.problems == [] and [r.subject for r in first.recordings] == ["P01", "P02"]
@@ -101,7 +101,7 @@ def test_a_study_is_cached_per_session_and_recomputes_only_what_changed(study, l
 
 def test_a_mat_recorded_apart_is_aligned_to_its_imu_log(study, loaded, tmp_path) -> None:
     from psmat.io import SessionWriter, load_session, write_imu_log
-    from psmat.posture.dataset import load_posture_study
+    from psmat.posture import load_posture_study
 
     s = load_session(study / "sessions" / "P02_d1.h5")
     mat_only = tmp_path / "P02_d1.h5"

@@ -11,11 +11,11 @@ import numpy as np
 import pytest
 
 import posture_synth as ps
-from psmat.posture.calibration import heldout_windows, ridge_variants
-from psmat.posture.invariant import (calibration_frames, cop_cells, invariant_features, invariant_recording,
+from psmat.posture.evaluate import heldout_windows, ridge_variants
+from psmat.posture.data import (calibration_frames, cop_cells, invariant_features, invariant_recording,
                                      session_reference)
-from psmat.posture.recording import Recording
-from psmat.posture.splits import lso_split
+from psmat.posture.data import Recording
+from psmat.posture.data import lso_split
 
 W = 20
 CAL_S = 10.0  # 100 samples at posture_synth's 10 Hz
@@ -68,7 +68,7 @@ def test_invariant_features_ignore_weight_and_seat_and_measure_the_cop_from_the_
     phase = _placed(rec, 14, 2, 3).image[:100]
     cop, total = cop_cells(phase)
     np.testing.assert_allclose(total @ f[:100, :2], 0.0, atol=1e-9 * total.sum())
-    np.testing.assert_allclose(cop[:, 0] - f[:, 0][:100], session_reference(_placed(rec, 14, 2, 3), CAL_S).cop[0])
+    np.testing.assert_allclose(cop[:, 0] - f[:, 0][:100], session_reference(_placed(rec, 14, 2, 3), CAL_S).cop_cells[0])
     # the load ratio and the row and column shares (fractions of each frame's total)
     np.testing.assert_allclose(f[:100, 5].mean(), 1.0, rtol=1e-9)
     np.testing.assert_allclose(f[:, 6:20].sum(axis=1), 1.0, rtol=1e-6)
@@ -117,7 +117,7 @@ def test_an_offset_calibration_rescues_the_ridge_on_a_subject_with_an_offset():
     held = heldout_windows(recs, sp, CAL_S)
     inv = [invariant_recording(r, CAL_S) for r in recs]
     _, pred = ridge_variants(recs, inv, sp, held, CAL_S, calibrated_suffix=" calibrated")
-    from psmat.posture.windows import WindowTargets
+    from psmat.posture.data import WindowTargets
 
     y = WindowTargets(recs, W)(held.scored["test"])
     mse = {k: float(np.mean((v["test"] - y) ** 2)) for k, v in pred.items()}
@@ -134,16 +134,14 @@ def test_an_offset_calibration_rescues_the_ridge_on_a_subject_with_an_offset():
 def test_the_invariant_modules_do_not_import_torch():
     import subprocess
 
-    code = ("import sys, psmat.posture.invariant, psmat.posture.calibration; "
+    code = ("import sys, psmat.posture.data, psmat.posture.evaluate; "
             "sys.exit('torch' in sys.modules)")
     assert subprocess.run([sys.executable, "-c", code]).returncode == 0
 
 
 torch = pytest.importorskip("torch")
-from psmat.posture.finetune import FinetuneConfig, finetune  # noqa: E402
-from psmat.posture.heldout import heldout_study, model_names  # noqa: E402
-from psmat.posture.model import PostureCNN  # noqa: E402
-from psmat.posture.windows import Standardiser  # noqa: E402
+from psmat.posture.data import Standardiser  # noqa: E402
+from psmat.posture.learn import FinetuneConfig, PostureCNN, finetune, heldout_study, model_names  # noqa: E402
 
 
 def test_finetuning_trains_on_the_given_windows_only_and_leaves_the_model_alone():
@@ -193,9 +191,8 @@ def test_heldout_study_scores_every_model_on_the_same_windows_and_writes_the_tab
         assert (drawn[:, 1] + W).max() == 100
     # the calibrated CNN: its own predictions plus the subject's mean residual over the calibration
     # windows (computed here by hand from the model, the targets and the windows)
-    from psmat.posture.fit import predict
-    from psmat.posture.torchdata import WindowDataset
-    from psmat.posture.windows import WindowTargets
+    from psmat.posture.learn import WindowDataset, predict
+    from psmat.posture.data import WindowTargets
 
     cal = res.windows.calibration["test"]
     resid = WindowTargets(recs, W)(cal) - predict(res.cnn.model, WindowDataset(recs, cal, W, res.cnn.standardiser))

@@ -10,7 +10,7 @@ import sys
 import numpy as np
 import pytest
 
-from psmat.posture.metrics import mse_per_output, r2_per_output, table44_row
+from psmat.posture.evaluate import mse_per_output, r2_per_output, table44_row
 
 
 def test_r2_and_mse_per_output_by_hand():
@@ -40,7 +40,7 @@ def test_table44_row_names_and_values():
 @pytest.mark.parametrize(("R", "C", "flat"), [(16, 16, 64 * 6 * 8), (32, 32, 64 * 6 * 32)])
 def test_output_shape_and_flatten_size(R, C, flat):
     torch = pytest.importorskip("torch")
-    from psmat.posture.model import PostureCNN
+    from psmat.posture.learn import PostureCNN
 
     # pools (2,4), (2,4), (2,2): time 50 -> 25 -> 12 -> 6, cells R*C -> /4 -> /4 -> /2, 64 channels
     net = PostureCNN(50, R * C)
@@ -53,7 +53,7 @@ def test_output_shape_and_flatten_size(R, C, flat):
 
 def test_kaiming_initialisation():
     pytest.importorskip("torch")
-    from psmat.posture.model import PostureCNN
+    from psmat.posture.learn import PostureCNN
 
     net = PostureCNN(50, 256)
     dense = net.head[1]
@@ -65,17 +65,16 @@ def test_kaiming_initialisation():
 
 def test_input_too_small_for_the_pooling():
     pytest.importorskip("torch")
-    from psmat.posture.model import PostureCNN
+    from psmat.posture.learn import PostureCNN
 
     with pytest.raises(ValueError, match="too small"):
         PostureCNN(5, 256)
 
 
 def test_psmat_posture_does_not_import_torch_and_learning_names_the_extra():
-    code = ("import sys; import psmat, psmat.posture, psmat.posture.splits, psmat.posture.windows, "
-            "psmat.posture.metrics, psmat.posture.baseline, psmat.posture.augment; "
+    code = ("import sys; import psmat, psmat.posture, psmat.posture.data, psmat.posture.evaluate, psmat.synth; "
             "assert 'torch' not in sys.modules, 'torch imported'; "
             "sys.modules['torch'] = None\n"
-            "try:\n    import psmat.posture.train\nexcept ImportError as e:\n    print(e)\n")
+            "try:\n    import psmat.posture.learn\nexcept ImportError as e:\n    print(e)\n")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout.strip()
     assert out == "the posture learning needs PyTorch: pip install 'psmat[posture]'"

@@ -1,4 +1,4 @@
-"""psmat.posture.simulate (docs/spec.md §8): a simulated posture study in the docs/spec.md §6 layout.
+"""psmat.synth.simulate_posture_study (docs/spec.md §8): a simulated posture study in the docs/spec.md §6 layout.
 
 A tiny study (2 subjects, 1 day, 20 s) is written once: its sessions load with
 psmat.io.load_session, the mat at ~100 Hz and the IMUs at ~10 Hz on one host clock, the
@@ -18,14 +18,14 @@ import pytest
 
 from psmat import Calibration
 from psmat.io import load_session
-from psmat.posture.simulate import simulate_posture_study
-from psmat.twin.seated_imu import EULER_LSB_DEG
+from psmat.synth import simulate_posture_study
+from psmat.twin.seated import EULER_LSB_DEG
 
 SECONDS = 20.0
 
 
 def _write(root: Path, seed: int) -> Path:
-    return simulate_posture_study(root, subjects=2, days=1, seed=seed, seconds=SECONDS)
+    return simulate_posture_study(root, subjects=2, days=1, seed=seed, duration_s=SECONDS)
 
 
 @pytest.fixture(scope="module")
@@ -57,7 +57,7 @@ def test_sessions_hold_the_mat_and_the_imus_on_one_host_clock(study):
     for stem, pid in (("P01_d1", "P01"), ("P02_d1", "P02")):
         s = load_session(study / "sessions" / f"{stem}.h5")
         assert s.metadata == {"subject": pid, "trial": "posture", "day": 1, "simulated": True, "study": "posture",
-                              "operator": "psmat.posture.simulate"}
+                              "operator": "psmat.synth.simulate_posture_study"}
         assert s.counts.shape[1:] == (16, 16) and s.counts.dtype == np.uint16
         for key, value in (("device", "psm"), ("r_o", 2200), ("v_ref", 3.3), ("bits", 12), ("serial", f"SIM5-{pid}")):
             assert s.device[key] == value
@@ -130,7 +130,7 @@ def test_same_seed_same_study_and_another_seed_another(study, again, tmp_path):
     for name in ("subjects.csv", "calibration/SIM5-P01.json", "truth/study.json", "truth/sessions/P02_d1.npz",
                  "truth/sessions/P02_d1.json", "truth/subjects/P01.npz"):
         assert (study / name).read_bytes() == (again / name).read_bytes(), name
-    other = simulate_posture_study(tmp_path / "other", subjects=1, days=1, seed=6, seconds=SECONDS)
+    other = simulate_posture_study(tmp_path / "other", subjects=1, days=1, seed=6, duration_s=SECONDS)
     a, c = (load_session(root / "sessions" / "P01_d1.h5") for root in (study, other))
     n = min(a.counts.shape[0], c.counts.shape[0])
     assert not np.array_equal(a.counts[:n], c.counts[:n])
@@ -141,12 +141,12 @@ def test_same_seed_same_study_and_another_seed_another(study, again, tmp_path):
     (dict(subjects=0), ValueError, "subjects"),
     (dict(days=1.5), ValueError, "days"),
     (dict(seed=-1), ValueError, "seed"),
-    (dict(seconds=2.0), ValueError, "at least 5 s"),
+    (dict(duration_s=2.0), ValueError, "at least 5 s"),
     (dict(rate_hz=0.0), ValueError, "rate_hz"),
     (dict(shape=(8, 8)), ValueError, "at least (16, 16)"),
 ])
 def test_bad_arguments_are_one_line_errors(tmp_path, kwargs, exc, words):
-    args = dict(subjects=1, days=1, seed=0, seconds=10.0)
+    args = dict(subjects=1, days=1, seed=0, duration_s=10.0)
     args.update(kwargs)
     with pytest.raises(exc) as info:
         simulate_posture_study(tmp_path / "s", **args)
@@ -156,4 +156,4 @@ def test_bad_arguments_are_one_line_errors(tmp_path, kwargs, exc, words):
 
 def test_a_study_is_never_overwritten(study):
     with pytest.raises(FileExistsError, match="not an empty folder"):
-        simulate_posture_study(study, subjects=1, days=1, seed=0, seconds=10.0)
+        simulate_posture_study(study, subjects=1, days=1, seed=0, duration_s=10.0)

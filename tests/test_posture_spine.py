@@ -8,7 +8,7 @@ import pytest
 
 import psmat
 from psmat.posture import spine_points
-from psmat.posture.plots import plot_spine
+from psmat.posture import plot_spine
 
 L = 90.0  # mm between sensors (§4.2)
 

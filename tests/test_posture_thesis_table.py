@@ -1,4 +1,4 @@
-"""psmat.posture.thesis_table: Table 4.4 as transcribed equals the thesis' table, row by row.
+"""psmat.posture.evaluate.TABLE_4_4: Table 4.4 as transcribed equals the thesis' table, row by row.
 
 The thesis' rows are in ``tests/data/thesis_excerpts.txt`` (verbatim, block ``Table 4.4 (§4.4)``).
 """
@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import pytest
 
-from psmat.posture.thesis_table import OUTPUTS, TABLE_4_4
+from psmat.posture.evaluate import OUTPUTS, TABLE_4_4
 from thesis_excerpts import thesis_excerpt
 
 

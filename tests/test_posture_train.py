@@ -9,9 +9,8 @@ import numpy as np
 import pytest
 
 import posture_synth as ps
-from psmat.posture.baseline import ridge_pca_rows
-from psmat.posture.splits import ksi_leaky_split, ksi_split, lso_split, lso_subjects
-from psmat.posture.windows import WindowTargets
+from psmat.posture.data import WindowTargets, ksi_leaky_split, ksi_split, lso_split, lso_subjects
+from psmat.posture.evaluate import ridge_pca_rows
 
 W = 50
 
@@ -88,7 +87,7 @@ def test_ridge_pca_recovers_an_exactly_linear_relation():
 
 
 torch = pytest.importorskip("torch")
-from psmat.posture.train import train_posture  # noqa: E402
+from psmat.posture.learn import train_posture  # noqa: E402
 
 SMALL = dict(window=20, windows_per_epoch=256, augment=False, progress=False, baseline=False, threads=1)
 

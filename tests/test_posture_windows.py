@@ -9,10 +9,9 @@ import pytest
 pytest.importorskip("torch")
 
 import posture_synth as ps  # noqa: E402
-from psmat.posture.augment import augment_window  # noqa: E402
-from psmat.posture.splits import ksi_split  # noqa: E402
-from psmat.posture.torchdata import WindowDataset  # noqa: E402
-from psmat.posture.windows import Standardiser, WindowTargets, all_windows, frame_masks, window_image  # noqa: E402
+from psmat.posture.data import (Standardiser, WindowTargets, all_windows, augment_window, frame_masks,  # noqa: E402
+                                ksi_split, window_image)
+from psmat.posture.learn import WindowDataset  # noqa: E402
 
 W = 50
 

@@ -41,7 +41,7 @@ COP_RTOL = 16 * 16 * np.finfo(np.float64).eps  # the same CoP summed in another 
 def recording() -> tuple[np.ndarray, np.ndarray]:
     """Twin counts (128, 16, 16) of a standing person, with two open cells, one invalid and one short frame."""
     scene = quiet_standing(2.0, RATE, seed=1)
-    counts = MatPhysics((16, 16), dt=DT, seed=2).counts(scene.pressure).astype(np.uint16)
+    counts = MatPhysics((16, 16), dt=DT, seed=2).counts(scene.pressure_psi).astype(np.uint16)
     full_scale = Circuit().full_scale
     counts[:, 0, 0] = full_scale  # open: beyond what the ADC resolves (docs/spec.md §2)
     counts[::3, 15, 15] = full_scale
@@ -61,7 +61,7 @@ class _Frames:
         self.stats = SimpleNamespace(frames=0, invalid=0, dropped_wire=0, dropped_buffer=0)
         self._counts, self._valid, self._per, self._k = counts, valid, per_read, 0
 
-    def read(self, n: int | None = None, timeout: float | None = None) -> FrameBatch:
+    def read(self, n: int | None = None, timeout_s: float | None = None) -> FrameBatch:
         k = self._k
         f, v = self._counts[k:k + self._per], self._valid[k:k + self._per]
         self._k += len(f)

@@ -1,7 +1,7 @@
 """Decoding costs a bounded amount of work per input byte, whatever the input.
 
-The rules are in docs/protocol.md ("Decoding cost") and the module docstring of
-:mod:`psmat.protocol.decoder`. Work is counted, never timed: ``decoder.work`` holds the
+The rules are in docs/protocol.md ("Decoding cost") and the docstring of the decoders' module
+(psmat/protocol/_decoder.py). Work is counted, never timed: ``decoder.work`` holds the
 markers judged (``candidates``), the bytes run through the CRC-16 (``crc_bytes``) and the bytes
 read by the v1 checks (``check_bytes``). Every bound below is derived by hand from the framing
 (in the test's docstring or comments); the streams are built here from seeded generators, and
@@ -21,8 +21,8 @@ from hypothesis import strategies as st
 from psmat.protocol import (DaqLineDecoder, DaqMalformed, DaqSample, Frame, Gap, ImuV1Decoder, Reply, V1Decoder,
                             V2Decoder, encode_daq_line, encode_imu_v1, encode_reply, encode_v1, encode_v2,
                             v2_frame_size)
-from psmat.protocol.crc import crc16_shift
-from psmat.protocol.span_crc import SpanCrc
+from psmat.protocol import crc16_shift
+from psmat.protocol import SpanCrc
 
 N = 1 << 17                      # bytes in each adversarial stream (128 KiB)
 CHUNK = 4096                     # what a serial port might deliver per read

@@ -1,6 +1,6 @@
 """What the v1 framing's check (sum of the cells mod 4096, docs/protocol.md) cannot see, measured.
 
-The real decoder (:class:`psmat.protocol.decoder.V1Decoder`) judges frames corrupted with a
+The real decoder (:class:`psmat.protocol.V1Decoder`) judges frames corrupted with a
 fixed seed; what it accepts is compared with what the rule allows, worked out by hand: a
 changed frame passes when every cell and the check stay <= 4095 and the cells' sum mod 4096
 still equals the check. One flipped bit never passes (it changes the sum by ±2**b, b < 12,
@@ -17,7 +17,7 @@ import numpy as np
 
 from psmat.io import SessionWriter, info, load_session
 from psmat.protocol import encode_v1, encode_v1_many
-from psmat.protocol.decoder import V1Decoder
+from psmat.protocol import V1Decoder
 
 R, C = 16, 16
 

@@ -1,11 +1,12 @@
-"""psmat.sensor.stepping: the sensor model over missing frames (the chain's one policy)."""
+"""The sensor model over missing frames (the chain's one policy): psmat.sensor.frame_periods,
+steps_over_gaps, inverse_over_gaps, and MPICreep.inverse with one period per sample."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
-from psmat.sensor import MPICreep, inverse_over_gaps, inverse_stepped, steps_over_gaps
+from psmat.sensor import MPICreep, frame_periods, inverse_over_gaps, steps_over_gaps
 
 
 def test_steps_add_up_the_missing_frames_and_carry() -> None:
@@ -22,7 +23,7 @@ def test_per_sample_steps_equal_the_direct_model_run_with_those_steps() -> None:
     steps = np.r_[np.full(10, 0.01), np.full(5, 0.05), np.full(25, 0.02)]
     state = m.rest_state((3,))
     g = np.concatenate([m.direct(p[a:b], float(steps[a]), state) for a, b in ((0, 10), (10, 15), (15, 40))])
-    np.testing.assert_allclose(inverse_stepped(m, g, steps), p, rtol=1e-9, atol=1e-9)
+    np.testing.assert_allclose(m.inverse(g, steps), p, rtol=1e-9, atol=1e-9)
 
 
 def test_a_gap_is_stepped_as_one_long_step() -> None:
@@ -42,14 +43,32 @@ def test_a_gap_is_stepped_as_one_long_step() -> None:
 
 
 def test_steps_must_match_the_samples() -> None:
-    with pytest.raises(ValueError, match="one value per sample"):
-        inverse_stepped(MPICreep.thesis(), np.ones((4, 2)) * 1e-3, [0.01, 0.01])
+    with pytest.raises(ValueError, match="one per sample"):
+        MPICreep.thesis().inverse(np.ones((4, 2)) * 1e-3, [0.01, 0.01])
+
+
+def test_an_empty_stream_is_an_empty_answer_and_leaves_the_state() -> None:
+    m = MPICreep.thesis()
+    state = m.rest_state((2,))
+    assert m.inverse(np.empty((0, 2)), np.empty(0), state).shape == (0, 2)
+    np.testing.assert_array_equal(state.y, m.rest_state((2,)).y)
+    got = inverse_over_gaps(m, np.full((3, 2), np.nan), 0.01)  # no usable frame: every one NaN
+    assert got.shape == (3, 2) and np.all(np.isnan(got))
+
+
+@pytest.mark.parametrize("dt, match", [([0.01, 0.01], r"one frame period or one per frame \(3,\)"),
+                                       ([0.01, 0.0, 0.01], "frame 1 has 0.0"), (-0.01, "dt must be")])
+def test_frame_periods_are_one_per_frame_and_positive(dt, match) -> None:
+    np.testing.assert_array_equal(frame_periods(0.01, 3), [0.01, 0.01, 0.01])
+    np.testing.assert_array_equal(frame_periods([0.01, 0.03, 0.02], 3), [0.01, 0.03, 0.02])
+    with pytest.raises(ValueError, match=match):
+        frame_periods(dt, 3)
 
 
 def test_a_clock_with_jitter_is_one_call_bit_identical_to_a_call_per_sample() -> None:
     # A device clock stamps every frame a little differently (µs ticks, crystal error), so no
     # two consecutive steps are equal: the per-sample periods of MPICreep.direct/inverse give
-    # exactly what a call per sample gives (before, inverse_stepped made one call per run of
+    # exactly what a call per sample gives (one call for the whole stream, not one per run of
     # equal steps — one per frame on such a clock, the study's bottleneck).
     m = MPICreep.thesis()
     rng = np.random.default_rng(1)
@@ -60,7 +79,7 @@ def test_a_clock_with_jitter_is_one_call_bit_identical_to_a_call_per_sample() ->
     np.testing.assert_array_equal(m.direct(p, steps), by_sample)
     state = m.rest_state((4,))
     inv_by_sample = np.concatenate([m.inverse(by_sample[k:k + 1], float(steps[k]), state) for k in range(200)])
-    np.testing.assert_array_equal(inverse_stepped(m, by_sample, steps), inv_by_sample)
+    np.testing.assert_array_equal(m.inverse(by_sample, steps), inv_by_sample)
     np.testing.assert_allclose(inv_by_sample, p, rtol=1e-9)
 
 

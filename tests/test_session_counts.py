@@ -1,7 +1,7 @@
 """Invalid and lost frames are counted from the rows a recording stores, the same way everywhere.
 
 ``psmat record``'s summary, ``psmat info`` and the counters stored in the file
-(:class:`psmat.acquire.recording.SessionRecorder`) all use :class:`psmat.io.RowTally`; here
+(:class:`psmat.acquire.SessionRecorder`) all use :class:`psmat.io.RowTally`; here
 they are compared with counts made by hand from the frames that were sent.
 """
 

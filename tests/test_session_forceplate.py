@@ -1,4 +1,5 @@
-"""psmat.io.forceplate: generic CoP CSV files and the BDS data set (one real file)."""
+"""psmat.io's force-platform files (load_forceplate_csv, load_bds, ...): generic CoP CSV files and the BDS
+data set (one real file)."""
 
 from __future__ import annotations
 
@@ -121,7 +122,7 @@ def test_forceplate_csv_errors(tmp_path: Path) -> None:
     p.write_text("when,a,b\n1,2,3\n")
     with pytest.raises(ValueError, match="no time column"):
         load_forceplate_csv(p)
-    r = load_forceplate_csv(p, time="when", x="a", y="b")
+    r = load_forceplate_csv(p, t_column="when", x="a", y="b")
     assert r.t.tolist() == [1.0] and r.cop_ml_cm.tolist() == [2.0]
     p.write_text("t,x,y\n1,2,3\n4,5\n")
     with pytest.raises(ValueError, match="row 3"):

@@ -1,4 +1,5 @@
-"""psmat.io.session: round trips, layout, products, CSV export, summary, errors, threading."""
+"""psmat.io.session (SessionWriter, load_session, ...): round trips, layout, products, CSV export, summary,
+errors, threading."""
 
 from __future__ import annotations
 

@@ -18,9 +18,9 @@ import h5py
 import numpy as np
 import pytest
 
-import psmat.io.session_build as build
+import psmat._atomic
 from psmat.io import SessionFormatError, SessionWriter, journal_path, load_session, repair_session
-from psmat.io.session_truncated import recorded_size
+from psmat.io.session import recorded_size
 
 DEVICE = {"serial": "0000A1B2", "r_o": 2200.0, "v_ref": 3.3, "bits": 12, "fw": "0.1.0", "protocol": 2, "rate": 100}
 IMU_DEV = {"serial": "IMU00001", "fw": "0.1.0", "protocol": 2, "rate": 10}
@@ -360,7 +360,7 @@ def test_recorded_size_reads_each_superblock_version(tmp_path: Path, libver: str
 # ---------------------------------------------------------------------- close checks the file before the journal goes
 def _corrupting_fsync(monkeypatch: pytest.MonkeyPatch, dataset: str, chunk: int) -> None:
     """Flip a byte of one chunk of the file close() has just written, as a failing disk would, before its check."""
-    real = build.fsync_file
+    real = psmat._atomic.fsync_file
 
     def fsync_then_damage(path: Path) -> None:
         with h5py.File(path, "r") as f:
@@ -372,7 +372,7 @@ def _corrupting_fsync(monkeypatch: pytest.MonkeyPatch, dataset: str, chunk: int)
             fh.write(bytes([b ^ 0x01]))
         real(path)
 
-    monkeypatch.setattr(build, "fsync_file", fsync_then_damage)
+    monkeypatch.setattr(psmat._atomic, "fsync_file", fsync_then_damage)  # the writer fsyncs through it
 
 
 def test_close_keeps_the_journal_when_the_written_file_differs(tmp_path: Path,

@@ -23,7 +23,7 @@ import pytest
 
 from psmat.cli import main
 from psmat.io import SessionFormatError, SessionWriter, journal_path, load_session, save_product
-from psmat.io.session_journal import Journal
+from psmat.io.session import Journal
 
 DEVICE = {"serial": "0000A1B2", "r_o": 2200.0, "v_ref": 3.3, "bits": 12, "fw": "0.1.0", "protocol": 2, "rate": 128}
 META = {"subject": "S07", "trial": 2}

@@ -7,7 +7,7 @@ corrupt ``.npz``, links to files outside, edited outputs) must be recomputed wit
 the reference bytes again; a file outside ``results/`` is watched with an audit hook
 (:func:`sys.addaudithook`, the interpreter's own record of every ``open``) and must never be
 opened. The digest of an entry is recomputed here from its documented definition
-(:mod:`psmat.study.cache`), not with psmat's function, to forge entries that only the other
+(:mod:`psmat.study` (``_cache.py``)), not with psmat's function, to forge entries that only the other
 checks can refuse. The posture input cache is tampered with likewise. A real Dask cluster on
 127.0.0.1 with TLS (throwaway credentials from ``distributed.Security.temporary``) runs the study
 through its scheduler file and gives the same bytes; a worker sending a pickle is refused.
@@ -28,7 +28,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from psmat.study import run_study, simulate_study
+from psmat.study import run_study
+from psmat.synth import simulate_study
 
 PARAMS = {"variants": ["PROP", "SCHC"]}
 STEMS = ("V01_right-leg", "V01_left-leg", "V02_right-leg", "V02_left-leg")
@@ -72,7 +73,7 @@ sys.addaudithook(_OPENS)
 # ------------------------------------------------------------------ the study
 @pytest.fixture(scope="module")
 def study(tmp_path_factory) -> tuple[Path, bytes]:
-    root = simulate_study(tmp_path_factory.mktemp("trust") / "study", volunteers=2, seconds=4.0, seed=12,
+    root = simulate_study(tmp_path_factory.mktemp("trust") / "study", volunteers=2, duration_s=4.0, seed=12,
                           rate_hz=50.0)
     shutil.rmtree(root / "truth")
     for sid in ("V01", "V02"):
@@ -223,10 +224,10 @@ def test_edited_outputs_are_rewritten_and_an_index_leading_outside_is_not_follow
 
 # ------------------------------------------------------------------ the posture input cache
 def test_the_posture_input_cache_recomputes_what_it_cannot_prove(tmp_path) -> None:
-    from psmat.posture.dataset import load_posture_study
-    from psmat.posture.simulate import simulate_posture_study
+    from psmat.posture import load_posture_study
+    from psmat.synth import simulate_posture_study
 
-    root = simulate_posture_study(tmp_path / "posture", subjects=2, days=1, seed=11, seconds=8.0)
+    root = simulate_posture_study(tmp_path / "posture", subjects=2, days=1, seed=11, duration_s=8.0)
     first = load_posture_study(root, workers=1, progress=False)
     assert (first.problems, first.computed) == ([], 2)
     inputs = root / "results" / "posture" / "inputs"
@@ -276,11 +277,11 @@ class _MakeDir:
 def test_a_result_is_decoded_without_pickle_and_checked(tmp_path) -> None:
     import io
 
-    from psmat.study.plain import Expect, decode_result, encode_result
+    from psmat.study import Expect, decode_result, encode_result
 
     expect = Expect("V01_right-leg", "V01", "right-leg", ("PROP",))
     rows = [{"subject": "V01", "trial": "right-leg", "variant": v, "status": "ok"} for v in ("FP", "PROP")]
-    from psmat.study.trial import COLUMNS
+    from psmat.study import COLUMNS
 
     rows = [{c: r.get(c, 1.5) for c in COLUMNS} for r in rows]
     traces = {"t_s": np.arange(3.0), "FP": np.zeros((3, 2)), "PROP": np.ones((3, 2))}
@@ -347,8 +348,8 @@ def test_a_worker_sending_a_pickle_is_refused(tls_cluster, tmp_path) -> None:
     import cloudpickle
     import distributed
 
-    from psmat.study.cluster import Cluster, on_cluster
-    from psmat.study.run import SessionTask
+    from psmat.study import Cluster, on_cluster
+    from psmat.study import SessionTask
 
     cloudpickle.register_pickle_by_value(sys.modules[__name__])  # the workers need not import this file
     cluster, security, _ = tls_cluster

@@ -15,8 +15,8 @@ import pytest
 from scipy import signal
 
 from psmat.balance import eu
-from psmat.study.dynamic import dynamic_rows, fit_correction
-from psmat.study.trial import COLUMNS
+from psmat.study import dynamic_rows, fit_correction
+from psmat.study import COLUMNS
 
 FS, G, FC, NOISE_CM, SD_CM = 50.0, 0.7, 1.5, 2e-3, 0.5
 FP_OFFSET, MAT_OFFSET = np.array([3.0, -2.0]), np.array([16.0, 15.0])  # absolute traces, own origins

@@ -1,4 +1,4 @@
-"""The study's lock (``results/.lock``, :func:`psmat.study.cache.study_lock`) between real processes:
+"""The study's lock (``results/.lock``, :func:`psmat.study.study_lock`) between real processes:
 a second holder is refused while the first holds it, and a holder that is killed leaves
 nothing that blocks the next run."""
 
@@ -11,13 +11,13 @@ from pathlib import Path
 
 import pytest
 
-from psmat.study.cache import study_lock
+from psmat.study import study_lock
 
 #: a process that takes the lock, says so, and holds it until its standard input closes
 HOLDER = textwrap.dedent("""
     import sys
     from pathlib import Path
-    from psmat.study.cache import study_lock
+    from psmat.study import study_lock
     with study_lock(Path(sys.argv[1])):
         print("held", flush=True)
         sys.stdin.read()

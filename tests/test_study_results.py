@@ -12,9 +12,9 @@ import numpy as np
 import pytest
 
 from psmat.study import thesis_tables as thesis
-from psmat.study.results import write_results
-from psmat.study.summary import index_rows, pairwise_rows, summary_rows
-from psmat.study.trial import COLUMNS
+from psmat.study import write_results
+from psmat.study import index_rows, pairwise_rows, summary_rows
+from psmat.study import COLUMNS
 
 from thesis_excerpts import thesis_excerpt
 
@@ -189,7 +189,7 @@ def test_every_figure_is_a_png(written) -> None:
 
 
 def test_the_drawn_session_has_the_median_eu() -> None:
-    from psmat.study.figures import median_session
+    from psmat.study import median_session
 
     study = index_rows(_rows())
     # SCHC Eu, right-leg: V01 .01, V03 .02, V04 .02, V02 .03 -> lower middle V03 (V05 not ok)

@@ -20,11 +20,12 @@ import numpy as np
 import pytest
 
 from psmat import Calibration
-from psmat.balance.variants import VARIANTS
+from psmat.balance import VARIANTS
 from psmat.io import load_session
-from psmat.study import run_study, simulate_study
-from psmat.study.cache import study_lock
-from psmat.study.trial import COLUMNS, process_trial
+from psmat.study import run_study
+from psmat.synth import simulate_study
+from psmat.study import study_lock
+from psmat.study import COLUMNS, process_trial
 
 SUBJECTS = ("V01", "V02")
 TRIALS = ("right-leg", "left-leg")
@@ -33,7 +34,7 @@ TRIALS = ("right-leg", "left-leg")
 @pytest.fixture(scope="module")
 def study(tmp_path_factory):
     """The study and its first, uninterrupted run in one process (workers=1)."""
-    root = simulate_study(tmp_path_factory.mktemp("study") / "study", volunteers=2, seconds=6.0, seed=12,
+    root = simulate_study(tmp_path_factory.mktemp("study") / "study", volunteers=2, duration_s=6.0, seed=12,
                           rate_hz=50.0)
     shutil.rmtree(root / "truth")
     for sid in SUBJECTS:
@@ -60,7 +61,7 @@ def _rows(path: Path) -> list[dict[str, str]]:
 
 def _by_session(path: Path) -> dict[tuple[str, str], list[dict[str, str]]]:
     """Each session's own rows: SCHC-DYN is left out, it is fitted on the other volunteers
-    (psmat.study.dynamic), so it changes with theirs."""
+    (psmat.study.dynamic_rows), so it changes with theirs."""
     out: dict[tuple[str, str], list[dict[str, str]]] = {}
     for r in _rows(path):
         if r["variant"] == "SCHC-DYN":
@@ -76,7 +77,7 @@ def test_metrics_csv_has_a_row_per_subject_trial_variant_and_a_rerun_reuses_ever
     with open(root / "results" / "metrics.csv", newline="") as fh:
         assert next(csv.reader(fh)) == list(COLUMNS)
     rows = _rows(root / "results" / "metrics.csv")
-    # each session's rows, then the study-level SCHC-DYN (psmat.study.dynamic) after them
+    # each session's rows, then the study-level SCHC-DYN (psmat.study.dynamic_rows) after them
     assert [(r["subject"], r["trial"], r["variant"]) for r in rows] == [
         (s, t, v) for s in SUBJECTS for t in TRIALS for v in ("FP",) + VARIANTS + ("SCHC-DYN",)]
     assert {r["status"] for r in rows} == {"ok"}
@@ -87,7 +88,7 @@ def test_metrics_csv_has_a_row_per_subject_trial_variant_and_a_rerun_reuses_ever
     for mine, want in zip(_by_session(root / "results" / "metrics.csv")[("V02", "left-leg")], direct):
         for c in COLUMNS[3:-1]:
             assert (float(mine[c]) if mine[c] else np.nan) == pytest.approx(want[c], rel=0, abs=0, nan_ok=True), c
-    # summary, figures and report beside it (psmat.study.results)
+    # summary, figures and report beside it (psmat.study.write_results)
     assert {"summary", "pairwise", "report", "sigma_bars", "cop_traces_right-leg"} <= set(report.outputs)
     assert all(p.is_file() and p.is_relative_to(root / "results") for p in report.outputs.values())
     written = {p: p.stat().st_mtime_ns for p in report.outputs.values()}

@@ -1,4 +1,4 @@
-"""The honest simulation of a balance study (docs/spec.md §7, §6 layout): ``psmat.study.simulate``.
+"""The honest simulation of a balance study (docs/spec.md §7, §6 layout): ``psmat.synth.simulate_study``.
 
 A two-volunteer, 10 s study at 50 Hz (the platform at its own 100 Hz): the layout is complete
 for ``find_study``; the truth differs from what the processing assumes (sensor model, R_mux,
@@ -18,10 +18,10 @@ import pytest
 from psmat.balance import align
 from psmat.calibration import Calibration
 from psmat.io import load_forceplate_csv, load_session
-from psmat.process import _circuit_of, process_counts
+from psmat.process import process_counts, session_circuit
 from psmat.sensor import THESIS_TABLE_2_11
 from psmat.study import find_study
-from psmat.study.simulate import simulate_study
+from psmat.synth import simulate_study
 
 RATE = 50.0
 SEED = 3
@@ -30,12 +30,12 @@ TRIALS = ("right-leg", "left-leg", "rotation")
 
 @pytest.fixture(scope="module")
 def study(tmp_path_factory) -> Path:
-    return simulate_study(tmp_path_factory.mktemp("a") / "study", volunteers=2, seconds=10, seed=SEED, rate_hz=RATE)
+    return simulate_study(tmp_path_factory.mktemp("a") / "study", volunteers=2, duration_s=10, seed=SEED, rate_hz=RATE)
 
 
 @pytest.fixture(scope="module")
 def same_seed_one_volunteer(tmp_path_factory) -> Path:
-    return simulate_study(tmp_path_factory.mktemp("b") / "study", volunteers=1, seconds=10, seed=SEED, rate_hz=RATE,
+    return simulate_study(tmp_path_factory.mktemp("b") / "study", volunteers=1, duration_s=10, seed=SEED, rate_hz=RATE,
                           progress=True)
 
 
@@ -132,7 +132,7 @@ def test_the_platform_has_its_own_rate_start_and_origin(study) -> None:
 
 
 def test_the_same_seed_gives_the_same_data_another_seed_other_data(study, same_seed_one_volunteer, tmp_path) -> None:
-    other = simulate_study(tmp_path / "other", volunteers=1, seconds=10, seed=SEED + 1, rate_hz=RATE)
+    other = simulate_study(tmp_path / "other", volunteers=1, duration_s=10, seed=SEED + 1, rate_hz=RATE)
     b = same_seed_one_volunteer
     # V01 is the same whatever the number of volunteers: its files byte for byte (no clock in them)
     names: list[str] = []
@@ -172,7 +172,7 @@ def test_align_finds_the_lag_from_the_mats_cop(study) -> None:
         clock = _device_clock(s)
         # the mat's CoP through the processing chain, the circuit from the session's calibration
         out = process_counts(s.counts, np.diff(clock, prepend=2 * clock[0] - clock[1]), valid=s.valid,
-                             circuit=_circuit_of(s.calibration), threads=1, progress=False)
+                             circuit=session_circuit(s), threads=1, progress=False)
         found = align(fp.t, fp.cop_cm, clock[out.usable], out.cop_cm[out.usable])
         assert found.r > 0.9, stem
         errors.append(abs(found.lag_s - _truth(study, stem)[0]["lag_s"]))
@@ -204,9 +204,9 @@ def test_single_leg_trials_load_one_foot_rotation_two(study) -> None:
     ({"volunteers": 0}, ValueError, "volunteers"),
     ({"volunteers": 1.5}, ValueError, "volunteers"),
     ({"volunteers": True}, ValueError, "volunteers"),
-    ({"seconds": 0}, ValueError, "seconds"),
-    ({"seconds": float("nan")}, ValueError, "seconds"),
-    ({"seconds": 0.05}, ValueError, "at least 8"),
+    ({"duration_s": 0}, ValueError, "duration_s"),
+    ({"duration_s": float("nan")}, ValueError, "duration_s"),
+    ({"duration_s": 0.05}, ValueError, "at least 8"),
     ({"seed": -1}, ValueError, "seed"),
     ({"rate_hz": 0.0}, ValueError, "rate_hz"),
     ({"shape": (8, 8)}, ValueError, "shape"),
@@ -214,7 +214,7 @@ def test_single_leg_trials_load_one_foot_rotation_two(study) -> None:
     ({"bds_paths": ["/nonexistent/BDS00001.txt"]}, FileNotFoundError, "not found"),
 ])
 def test_bad_arguments_are_one_clear_error_and_write_nothing(tmp_path, kwargs, error, match) -> None:
-    args = {"volunteers": 1, "seconds": 2.0, "seed": 0, **kwargs}
+    args = {"volunteers": 1, "duration_s": 2.0, "seed": 0, **kwargs}
     root = tmp_path / "study"
     with pytest.raises(error, match=match) as info:
         simulate_study(root, **args)
@@ -227,6 +227,6 @@ def test_an_existing_study_is_not_overwritten(tmp_path) -> None:
     root.mkdir()
     (root / "subjects.csv").write_text("mine\n")
     with pytest.raises(FileExistsError, match="not an empty folder"):
-        simulate_study(root, volunteers=1, seconds=2.0, seed=0)
+        simulate_study(root, volunteers=1, duration_s=2.0, seed=0)
     assert (root / "subjects.csv").read_text() == "mine\n"
     assert sorted(p.name for p in root.iterdir()) == ["subjects.csv"]

@@ -15,7 +15,7 @@ import pytest
 
 from psmat import twin
 from psmat.balance import cop
-from psmat.bench.iecm import _scene as bench_scene
+from psmat.bench.iecm_setup import scene as bench_scene
 from psmat.sensor import MPICreep
 
 PSI_IN_PA = 6894.757  # by definition
@@ -31,7 +31,7 @@ def test_mat_pitch_keeps_the_thesis_32_cm_mat(shape, pitch):
 @pytest.mark.parametrize("n", [16, 32, 64])
 def test_the_load_read_back_through_the_sensor_model_is_the_weight(n):
     # equal cell gains: g - g_rest is the sensor model's conductance of the cell pressure
-    g, cop_true = twin.swaying_feet(30, (n, n), seed=2, weight_n=650.0, variability=0.0, return_cop=True)
+    g, cop_true = twin.swaying_feet(30, (n, n), seed=2, weight_n=650.0, variability=0.0, return_cop_cm=True)
     p_psi = MPICreep.thesis().inverse(g - G_REST, 0.01)
     pitch_m = 0.32 / n
     force = p_psi.sum(axis=(1, 2)) * PSI_IN_PA * pitch_m**2
@@ -41,7 +41,7 @@ def test_the_load_read_back_through_the_sensor_model_is_the_weight(n):
 
 
 def test_consecutive_frames_are_close_and_the_background_is_the_leakage():
-    g, cop_true = twin.swaying_feet(500, (16, 16), seed=1, return_cop=True)
+    g, cop_true = twin.swaying_feet(500, (16, 16), seed=1, return_cop_cm=True)
     assert g.shape == (500, 16, 16) and g.dtype == np.float64 and cop_true.shape == (500, 2)
     step = np.abs(np.diff(g, axis=0)) / g[:-1]
     assert step.max() < 0.05  # consecutive frames are close
@@ -67,18 +67,18 @@ def test_swaying_feet_is_seeded():
 
 def test_a_short_recording_still_sways():
     # 0.6 s holds no frequency of the 0.2-1 Hz sway band on its own: it is the start of a longer scene
-    _, c = twin.swaying_feet(60, seed=3, return_cop=True)
+    _, c = twin.swaying_feet(60, seed=3, return_cop_cm=True)
     assert np.ptp(c, axis=0).min() > 0
 
 
 def test_conductance_is_the_sensor_step_of_counts():
     scene = twin.quiet_standing(0.4, 50.0, seed=4)
-    g = twin.MatPhysics((16, 16), dt=0.02, seed=9).conductance(scene.pressure)
-    _, truth = twin.MatPhysics((16, 16), dt=0.02, seed=9).counts(scene.pressure, return_truth=True)
+    g = twin.MatPhysics((16, 16), dt=0.02, seed=9).conductance(scene.pressure_psi)
+    _, truth = twin.MatPhysics((16, 16), dt=0.02, seed=9).counts(scene.pressure_psi, return_truth=True)
     np.testing.assert_array_equal(g, truth.g)
     # the sensor state carries on between calls, as in counts
     mat = twin.MatPhysics((16, 16), dt=0.02, seed=9)
-    halves = np.concatenate([mat.conductance(scene.pressure[:10]), mat.conductance(scene.pressure[10:])])
+    halves = np.concatenate([mat.conductance(scene.pressure_psi[:10]), mat.conductance(scene.pressure_psi[10:])])
     np.testing.assert_array_equal(halves, g)
 
 
@@ -129,6 +129,6 @@ def test_a_scene_gives_its_pressure_in_kpa_too() -> None:
     from psmat.twin import quiet_standing
 
     s = quiet_standing(0.2, 50.0, seed=1)
-    np.testing.assert_allclose(s.pressure_kpa, s.pressure * 6.894757, rtol=1e-15)
+    np.testing.assert_allclose(s.pressure_kpa, s.pressure_psi * 6.894757, rtol=1e-15)
     # the cells carry the weight: Σ p·A = force, 1 kPa on 4 cm² is 0.4 N
     np.testing.assert_allclose(s.pressure_kpa.sum(axis=(1, 2)) * 0.4, s.cell_force_n(), rtol=1e-12)

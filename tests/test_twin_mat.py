@@ -19,7 +19,7 @@ def scene():
 
 def test_noise_free_chain_inverts_to_the_applied_pressure(scene):
     phys = MatPhysics(shape=(16, 16), dt=0.05, variability=0.0, noise_v=0.0)
-    counts, truth = phys.counts(scene.pressure, return_truth=True)
+    counts, truth = phys.counts(scene.pressure_psi, return_truth=True)
     G = phys.circuit.conductance(counts)
     # quantisation only: G within ~1 LSB of the true equivalent conductance where loaded
     loaded = truth.pressure_psi > 2.0
@@ -35,7 +35,7 @@ def test_noise_free_chain_inverts_to_the_applied_pressure(scene):
 def test_crosstalk_is_in_the_raw_image(scene):
     # without IECM the unloaded cells read conductance (ghosts, thesis §2.1.4)
     phys = MatPhysics(shape=(16, 16), dt=0.05, variability=0.0, noise_v=0.0)
-    counts, truth = phys.counts(scene.pressure[:1], return_truth=True)
+    counts, truth = phys.counts(scene.pressure_psi[:1], return_truth=True)
     G = phys.circuit.conductance(counts)[0]
     empty = truth.pressure_psi[0] == 0
     assert (G[empty] > 10 * phys.g_rest).mean() > 0.2
@@ -44,8 +44,8 @@ def test_crosstalk_is_in_the_raw_image(scene):
 def test_state_is_carried_between_chunks(scene):
     a = MatPhysics(shape=(16, 16), dt=0.05, noise_v=0.0, seed=1)
     b = MatPhysics(shape=(16, 16), dt=0.05, noise_v=0.0, seed=1)
-    whole = a.counts(scene.pressure)
-    parts = np.concatenate([b.counts(scene.pressure[:7]), b.counts(scene.pressure[7:])])
+    whole = a.counts(scene.pressure_psi)
+    parts = np.concatenate([b.counts(scene.pressure_psi[:7]), b.counts(scene.pressure_psi[7:])])
     assert np.array_equal(whole, parts)
 
 

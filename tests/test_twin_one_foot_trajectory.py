@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 
 from psmat import twin
+from psmat.balance import cop
 
 RATE = 50.0
 
@@ -21,7 +22,7 @@ def _circle(radius_ml: float, radius_ap: float, n: int = 100) -> tuple[np.ndarra
 
 def _loaded_columns(scene: twin.PressureScene) -> np.ndarray:
     """Columns that carry more than 1 % of the most loaded column's mean pressure."""
-    col = scene.pressure.mean(axis=0).sum(axis=0)
+    col = scene.pressure_psi.mean(axis=0).sum(axis=0)
     return np.flatnonzero(col > 0.01 * col.max())
 
 
@@ -48,7 +49,7 @@ def test_one_foot_follows_the_trajectory_exactly_within_reach() -> None:
     assert scene.meta["n_clipped"] == 0
     np.testing.assert_allclose(scene.cop_true_cm, target, atol=1e-9)
     # the cell image's CoP agrees to a fraction of a millimetre (quadrature of the field)
-    np.testing.assert_allclose(scene.cell_cop_cm(), target, atol=0.05)
+    np.testing.assert_allclose(cop(scene.pressure_psi, scene.pitch_cm), target, atol=0.05)
 
 
 def test_one_foot_cannot_reach_as_far_sideways_as_two() -> None:
@@ -69,7 +70,7 @@ def test_right_foot_is_the_mirror_image_of_the_left() -> None:
     right = twin.trajectory_sway(t, ml, ap, 650.0, RATE, stance="right", centre=False)
     left = twin.trajectory_sway(t, -ml, ap, 650.0, RATE, stance="left", centre=False)
     # the mat centre (15 cm) lies between columns 7 and 8: reversing the columns mirrors x
-    np.testing.assert_allclose(right.pressure[:, :, ::-1], left.pressure, rtol=1e-9, atol=1e-12)
+    np.testing.assert_allclose(right.pressure_psi[:, :, ::-1], left.pressure_psi, rtol=1e-9, atol=1e-12)
 
 
 def test_position_moves_the_foot_by_whole_cells() -> None:
@@ -77,7 +78,7 @@ def test_position_moves_the_foot_by_whole_cells() -> None:
     here = twin.trajectory_sway(t, ml, ap, 700.0, RATE, stance="right", centre=False)
     moved = twin.trajectory_sway(t, ml, ap, 700.0, RATE, stance="right", centre=False, position_cm=(13.0, 17.0))
     # 2 cm = one cell: one column to the left, one row up (cell (i, p) at (2p, 2i) cm)
-    np.testing.assert_allclose(moved.pressure[:, 1:, :-1], here.pressure[:, :-1, 1:], rtol=1e-9, atol=1e-12)
+    np.testing.assert_allclose(moved.pressure_psi[:, 1:, :-1], here.pressure_psi[:, :-1, 1:], rtol=1e-9, atol=1e-12)
     np.testing.assert_allclose(moved.cop_true_cm - here.cop_true_cm, np.tile([-2.0, 2.0], (t.size, 1)), atol=1e-9)
 
 

@@ -10,6 +10,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from psmat.balance import cop
 from psmat.twin import field as tp
 from psmat.twin import (
     PressureScene,
@@ -87,7 +88,7 @@ def test_foot_cell_image_carries_the_load():
     assert img.shape == (16, 16) and img.min() >= 0.0
     assert force_n(img) == pytest.approx(350.0, rel=1e-2)
     assert tp.cell_force_n(img, PITCH) == pytest.approx(force_n(img), rel=1e-12)
-    np.testing.assert_allclose(tp.cell_cop_cm(img, PITCH), cop_cells(img), atol=1e-12)
+    np.testing.assert_allclose(cop(img, PITCH), cop_cells(img), atol=1e-12)  # the twin's grid is balance.cop's
 
 
 def test_moving_foot_gives_a_continuously_moving_cell_cop():
@@ -133,9 +134,9 @@ def test_lobes_algebra_and_validation():
 # ------------------------------------------------------------------------------ scenes
 def _check_scene_basics(s: PressureScene, n: int, shape=(16, 16)):
     assert isinstance(s, PressureScene)
-    assert s.pressure.shape == (n,) + shape
+    assert s.pressure_psi.shape == (n,) + shape
     assert s.t.shape == (n,) and s.force_n.shape == (n,) and s.cop_true_cm.shape == (n, 2)
-    assert np.all(np.isfinite(s.pressure)) and s.pressure.min() >= 0.0
+    assert np.all(np.isfinite(s.pressure_psi)) and s.pressure_psi.min() >= 0.0
     assert np.all(np.diff(s.t) > 0)
 
 
@@ -151,16 +152,16 @@ def _check_scene_basics(s: PressureScene, n: int, shape=(16, 16)):
 )
 def test_scene_force_and_cop_from_the_cell_image(make, n, load):
     s = make()
-    shape = s.pressure.shape[1:]
+    shape = s.pressure_psi.shape[1:]
     _check_scene_basics(s, n, shape)
     pitch = s.meta["pitch_cm"]
     np.testing.assert_allclose(s.force_n, load, rtol=1e-12)
     # Σ p·A of the image = the load within 1 % (feet fully on the 32 cm mat).
-    np.testing.assert_allclose(force_n(s.pressure, pitch), load, rtol=1e-2)
+    np.testing.assert_allclose(force_n(s.pressure_psi, pitch), load, rtol=1e-2)
     # The docs/spec.md §7 CoP of the image tracks the field's CoP within a small fraction of the pitch.
-    err = cop_cells(s.pressure, pitch) - s.cop_true_cm
+    err = cop_cells(s.pressure_psi, pitch) - s.cop_true_cm
     assert np.abs(err).max() < 0.1 * pitch
-    np.testing.assert_allclose(s.cell_cop_cm(), cop_cells(s.pressure, pitch), atol=1e-12)
+    np.testing.assert_allclose(cop(s.pressure_psi, s.pitch_cm), cop_cells(s.pressure_psi, pitch), atol=1e-12)
     # cop_true is the CoP of the continuous field (checked on a few frames by integration).
     for k in (0, n // 2, n - 1):
         f, c = field_moments(s.field(k), h=0.1)
@@ -187,11 +188,11 @@ def test_quiet_standing_sways_by_a_few_mm_in_the_band():
 def test_single_leg_has_one_foot_and_larger_sway():
     qs = quiet_standing(60.0, 20.0, seed=2)
     sl = single_leg_sway(60.0, 20.0, seed=2, side="right")
-    loaded_cols = np.flatnonzero(sl.pressure.max(axis=(0, 1)) > 0.05)
+    loaded_cols = np.flatnonzero(sl.pressure_psi.max(axis=(0, 1)) > 0.05)
     assert np.ptp(loaded_cols) * PITCH <= 10.0  # one foot wide, not two
     assert np.all(sl.cop_true_cm.std(axis=0) > qs.cop_true_cm.std(axis=0))
     # All the weight on one foot: higher pressures than on two feet.
-    assert sl.pressure.max() > 1.5 * qs.pressure.max()
+    assert sl.pressure_psi.max() > 1.5 * qs.pressure_psi.max()
     # Clipping is rare and reported.
     assert sl.meta["n_clipped"] < 0.05 * sl.t.size
     assert sl.meta["clipped"].shape == sl.t.shape
@@ -199,7 +200,7 @@ def test_single_leg_has_one_foot_and_larger_sway():
 
 def test_sitting_has_ischial_peaks_behind_thighs_and_leans_slowly():
     s = sitting(40.0, 10.0, seed=5, lean_cm=(1.0, 1.5), lean_period_s=20.0)
-    mean_img = s.pressure.mean(axis=0)
+    mean_img = s.pressure_psi.mean(axis=0)
     i_peak, p_peak = np.unravel_index(np.argmax(mean_img), mean_img.shape)
     assert i_peak * PITCH < 15.0  # the peak is under the tuberosities, posterior half
     front = mean_img[9:].sum()
@@ -219,19 +220,19 @@ def test_sitting_has_ischial_peaks_behind_thighs_and_leans_slowly():
 # ------------------------------------------------------------------------------ symmetry
 def test_symmetric_scenes_give_symmetric_images():
     qs = quiet_standing(2.0, 10.0, sway_cm=(0.0, 0.0))
-    np.testing.assert_allclose(qs.pressure, qs.pressure[:, :, ::-1], rtol=1e-9, atol=1e-12)
+    np.testing.assert_allclose(qs.pressure_psi, qs.pressure_psi[:, :, ::-1], rtol=1e-9, atol=1e-12)
     np.testing.assert_allclose(qs.cop_true_cm[:, 0], 15.0, atol=1e-9)
     # Equal load on both feet.
-    assert force_n(qs.pressure[:, :, :8]) == pytest.approx(force_n(qs.pressure[:, :, 8:]), rel=1e-9)
+    assert force_n(qs.pressure_psi[:, :, :8]) == pytest.approx(force_n(qs.pressure_psi[:, :, 8:]), rel=1e-9)
     sit = sitting(2.0, 10.0, lean_cm=(0.0, 0.0), sway_cm=(0.0, 0.0))
-    np.testing.assert_allclose(sit.pressure, sit.pressure[:, :, ::-1], rtol=1e-9, atol=1e-12)
+    np.testing.assert_allclose(sit.pressure_psi, sit.pressure_psi[:, :, ::-1], rtol=1e-9, atol=1e-12)
     # A trajectory and its M-L mirror give mirror images.
     t = np.linspace(0.0, 4.0, 81)
     ml = 1.5 * np.sin(2 * np.pi * 0.5 * t)
     ap = 1.0 * np.cos(2 * np.pi * 0.25 * t)
     a = trajectory_sway(t, ml, ap, 650.0, 20.0, centre=False)
     b = trajectory_sway(t, -ml, ap, 650.0, 20.0, centre=False)
-    np.testing.assert_allclose(a.pressure[:, :, ::-1], b.pressure, rtol=1e-9, atol=1e-10)
+    np.testing.assert_allclose(a.pressure_psi[:, :, ::-1], b.pressure_psi, rtol=1e-9, atol=1e-10)
 
 
 # ------------------------------------------------------------------------------ trajectories
@@ -256,8 +257,8 @@ def test_trajectory_sway_reproduces_a_circle():
         assert f == pytest.approx(s.force_n[k], rel=1e-3)
         assert np.abs(c - want[k]).max() < 2e-3  # 0.02 mm
     # The image: force within 1 %, CoP within a fraction of the pitch; the circle is seen.
-    np.testing.assert_allclose(force_n(s.pressure), s.force_n, rtol=1e-2)
-    cc = cop_cells(s.pressure)
+    np.testing.assert_allclose(force_n(s.pressure_psi), s.force_n, rtol=1e-2)
+    cc = cop_cells(s.pressure_psi)
     assert np.abs(cc - want).max() < 0.1 * PITCH
     r = np.hypot(cc[:, 0] - 15.0, cc[:, 1] - 15.0)
     np.testing.assert_allclose(r, radius, atol=0.1)
@@ -277,8 +278,8 @@ def test_trajectory_sway_reproduces_a_real_bds_recording():
     for k in (0, 2999, 5999):
         _, c = field_moments(s.field(k), h=0.1)
         assert np.abs(c - want[k]).max() < 2e-3  # continuous field: << 1 mm
-    np.testing.assert_allclose(force_n(s.pressure), fz, rtol=1e-2)
-    cc = cop_cells(s.pressure)
+    np.testing.assert_allclose(force_n(s.pressure_psi), fz, rtol=1e-2)
+    cc = cop_cells(s.pressure_psi)
     assert np.abs(cc - want).max() < 0.05 * PITCH
     # Sway measures of the image agree with the platform's.
     np.testing.assert_allclose(cc.std(axis=0), want.std(axis=0), rtol=0.02)
@@ -303,7 +304,7 @@ def test_unreachable_targets_are_clipped_and_reported():
     np.testing.assert_allclose(dist, s.meta["clip_cm"], rtol=1e-6)
     f, c = field_moments(s.field(7), h=0.1)
     np.testing.assert_allclose(c, s.cop_true_cm[7], atol=2e-3)
-    np.testing.assert_allclose(force_n(s.pressure), 700.0, rtol=1e-2)
+    np.testing.assert_allclose(force_n(s.pressure_psi), 700.0, rtol=1e-2)
     w = s.meta["weights_n"]
     assert np.all(w >= 0.02 * 700.0 - 1e-9)
 
@@ -314,7 +315,7 @@ def test_same_seed_same_scene_and_different_seed_different_scene():
         a = make(5.0, 20.0, seed=7)
         b = make(5.0, 20.0, seed=7)
         c = make(5.0, 20.0, seed=8)
-        np.testing.assert_array_equal(a.pressure, b.pressure)
+        np.testing.assert_array_equal(a.pressure_psi, b.pressure_psi)
         np.testing.assert_array_equal(a.cop_true_cm, b.cop_true_cm)
         assert not np.array_equal(a.cop_true_cm, c.cop_true_cm)
 
@@ -366,12 +367,12 @@ def test_unit_conversion_is_psi():
     assert tp.PSI_PA == PSI_IN_PA
     # Quiet standing of 70 kg: peak cell pressure in the tens of psi (sensor range 0-32 psi).
     s = quiet_standing(1.0, 10.0)
-    assert 5.0 < s.pressure.max() < 32.0
+    assert 5.0 < s.pressure_psi.max() < 32.0
 
 
 def test_load_off_a_small_mat_is_reported():
     s = quiet_standing(1.0, 10.0, shape=(8, 8), pitch_cm=2.0)  # a 16 cm mat: the feet overhang
-    seen = force_n(s.pressure) / s.force_n
+    seen = force_n(s.pressure_psi) / s.force_n
     assert np.all(seen < 0.9)
     np.testing.assert_allclose(s.meta["force_on_mat_fraction"], seen, rtol=1e-9)
     np.testing.assert_allclose(s.force_n, 700.0)  # the person still weighs 700 N

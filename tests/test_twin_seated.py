@@ -1,4 +1,4 @@
-"""The seated twin (docs/spec.md §8 "Data", psmat.twin.seated*): one posture drives the cushion and the IMUs.
+"""The seated twin (docs/spec.md §8 "Data", psmat.twin.seated): one posture drives the cushion and the IMUs.
 
 Physics checked against hand calculations: the seat's force is the weight's share (and the
 bounce's acceleration), the moment balance holds, leaning forward loads the thighs and leaning
@@ -21,12 +21,10 @@ from psmat import protocol
 from psmat.posture import spine_points
 from psmat.twin import ImuSource, SerialTwin
 from psmat.twin.field import cell_force_n
-from psmat.twin.seat_scenes import seat_scene
-from psmat.twin.seated import SeatedSession, seated_session
-from psmat.twin.seated_imu import DRIFT_SD_DEG, DRIFT_TAU_S, EULER_LSB_DEG, ImuDevice, imu_readings
-from psmat.twin.seated_protocol import GRID_HZ, PostureState, posture_trajectory, protocol_phases
-from psmat.twin.seated_spine import HAT_SHARE, hat_offset_cm, seat_targets
-from psmat.twin.seated_subject import SeatedDay, draw_seated_subject
+from psmat.twin.seated import (DRIFT_SD_DEG, DRIFT_TAU_S, EULER_LSB_DEG, GRID_HZ, HAT_SHARE, ImuDevice, PostureState,
+                               SeatedDay, SeatedSession, draw_seated_subject, hat_offset_cm, imu_identity, imu_packets,
+                               imu_readings, posture_trajectory, protocol_phases, seat_scene, seat_targets,
+                               seated_session)
 from hang_guard import HANG_GUARD_S
 
 G = 9.80665
@@ -75,7 +73,7 @@ def test_seat_force_is_the_weights_seat_share_and_the_bounce(subject):
     t = np.linspace(0.0, sess.duration_s, 400)
     scene = sess.pressure(t)
     assert scene.meta["force_on_mat_fraction"].min() > 0.995
-    np.testing.assert_allclose(cell_force_n(scene.pressure, PITCH), scene.force_n, rtol=1e-2)
+    np.testing.assert_allclose(cell_force_n(scene.pressure_psi, PITCH), scene.force_n, rtol=1e-2)
     # and the force follows the weight's share on the cushion times (1 + bounce), frame by frame
     state = sess.trajectory.at(t)
     np.testing.assert_allclose(scene.force_n, w * scene.meta["seat_share"] * (1.0 + state.bounce), rtol=1e-12)
@@ -149,14 +147,14 @@ def test_leaning_forward_loads_the_thighs_and_back_the_sacrum(subject):
     assert rows[1, 2] == 0.0
     # the thighs' area (in front of the tuberosities by 6 cm and more) carries more of the image
     front = np.s_[:, 9:, :]
-    share_front = scene.pressure[front].sum(axis=(1, 2)) / scene.pressure.sum(axis=(1, 2))
+    share_front = scene.pressure_psi[front].sum(axis=(1, 2)) / scene.pressure_psi.sum(axis=(1, 2))
     assert share_front[1] > share_front[0] + 0.1
     # back: the sacral lobe (on the midline, behind the tuberosities) takes load, the CoP moves back
     assert rows[0, 2] < 0.02 and rows[2, 2] > 0.05
     assert cop_y[2] < cop_y[0] - 1.0
     sacrum = scene.meta["group_lobes"][6].cop_cm
     i, p = int(round(sacrum[1] / PITCH)), int(round(sacrum[0] / PITCH))
-    assert scene.pressure[2, i, p] > 2.0 * scene.pressure[0, i, p]
+    assert scene.pressure_psi[2, i, p] > 2.0 * scene.pressure_psi[0, i, p]
 
 
 def test_the_same_lean_differs_between_people_and_stays_within_one():
@@ -165,7 +163,7 @@ def test_the_same_lean_differs_between_people_and_stays_within_one():
     sa, sb = _session(a), _session(b)
     for sess in (sa, sb):
         assert 150.0 < sess.duration_s < 200.0
-    fa, fb = (s.pressure(np.array([1.0])).pressure[0] for s in (sa, sb))
+    fa, fb = (s.pressure(np.array([1.0])).pressure_psi[0] for s in (sa, sb))
     assert np.abs(fa - fb).sum() > 0.1 * fa.sum()  # same place on the cushion, another body
     pa, pb = (s.true_angles(np.array([1.0]))[0, :, 2] for s in (sa, sb))
     assert np.abs(pa - pb).max() > 2.0
@@ -297,7 +295,7 @@ def test_the_lean_follows_the_phases(subject):
 
 
 def test_a_short_session_is_the_plan_scaled():
-    s = seated_session(4, seconds=20.0)
+    s = seated_session(4, duration_s=20.0)
     full = seated_session(4)
     assert s.duration_s == pytest.approx(20.0, rel=1e-12)
     assert [p.name for p in s.trajectory.phases] == [p.name for p in full.trajectory.phases]
@@ -323,9 +321,9 @@ def test_volunteers_are_those_of_table_4_2():
 
 
 def test_same_seed_same_session_and_different_seed_different():
-    a, b, c = seated_session(7, seconds=30.0), seated_session(7, seconds=30.0), seated_session(8, seconds=30.0)
+    a, b, c = seated_session(7, duration_s=30.0), seated_session(7, duration_s=30.0), seated_session(8, duration_s=30.0)
     t = np.linspace(0.0, 30.0, 61)
-    np.testing.assert_array_equal(a.pressure(t).pressure, b.pressure(t).pressure)
+    np.testing.assert_array_equal(a.pressure(t).pressure_psi, b.pressure(t).pressure_psi)
     np.testing.assert_array_equal(a.true_angles(t), b.true_angles(t))
     assert not np.array_equal(a.true_angles(t), c.true_angles(t))
 
@@ -343,7 +341,7 @@ def _read(port: serial.Serial, n_bytes: int) -> bytes:
 @pytest.mark.parametrize("proto", ["v1", "v2"])
 def test_the_imu_twin_sends_psmat_protocol_bytes_of_the_seated_angles(proto):
     rate, seed, n = 50, 3, 30
-    served = ImuSource(float(rate), seed).angles  # an independent copy of what the twin serves
+    served = ImuSource(float(rate), seed).angles_deg  # an independent copy of what the twin serves
     # the seated twin's angles, float32 as on the wire: a posture protocol, not a fixed pattern
     sess = seated_session(seed)
     np.testing.assert_allclose(served[:, :, 2], sess.true_angles(np.arange(len(served)) / rate)[:, :, 2], atol=1.5)
@@ -366,3 +364,24 @@ def test_the_imu_twin_sends_psmat_protocol_bytes_of_the_seated_angles(proto):
         # stamped on the firmware timer's grid at the rate
         k = t_us * rate / 1e6
         np.testing.assert_allclose(k, np.round(k), atol=rate * 1e-6)
+
+
+@pytest.mark.parametrize("proto", ["v1", "v2"])
+def test_imu_packets_are_the_firmware_cores_bytes_for_given_readings_and_stamps(proto):
+    # what a simulated study records goes through the same firmware core as the serial twin: its
+    # bytes equal the Python encoders' (written apart from the C core), one packet per reading, the
+    # sequence numbers from 0 and the stamps wrapped to the MCU's 32-bit µs counter
+    rng = np.random.default_rng(5)
+    angles = rng.uniform(-90.0, 360.0, (7, 5, 3)).astype(np.float32)
+    stamps = (2**32 - 250_000) + np.arange(7, dtype=np.int64) * 100_000  # the counter wraps after the third
+    data = imu_packets(angles, stamps, "SIMIMU", proto)
+    if proto == "v1":
+        assert data == b"".join(protocol.encode_imu_v1(a) for a in angles)
+    else:
+        assert data == b"".join(protocol.encode_v2(a, k, int(t) % 2**32, kind="imu")
+                                for k, (a, t) in enumerate(zip(angles, stamps)))
+    assert imu_identity("SIMIMU")["serial"] == "SIMIMU" and imu_identity("SIMIMU")["device"] == "imu"
+    with pytest.raises(ValueError, match=r"^angles_deg must be \(T, 5, 3\) degrees and t_us \(T,\) µs, got"):
+        imu_packets(angles[:, :4], stamps, "SIMIMU")
+    with pytest.raises(ValueError, match="protocol must be 'v1' or 'v2'"):
+        imu_packets(angles, stamps, "SIMIMU", "v3")

@@ -19,7 +19,6 @@ import numpy as np
 import pytest
 import serial
 
-from psmat import protocol
 from psmat.acquire import DeviceDisconnected, open_device
 from psmat.io import load_session
 from psmat.twin import Faults, SerialTwin
@@ -54,7 +53,7 @@ def _read(dev, n: int):
     while sum(map(len, parts)) < n:
         if time.monotonic() > deadline:
             pytest.fail(f"fewer than {n} frames within the {HANG_GUARD_S:g} s hang guard")
-        parts.append(dev.read(n, timeout=0.5))
+        parts.append(dev.read(n, timeout_s=0.5))
     frames = np.concatenate([p.frames for p in parts])
     seq = np.concatenate([p.seq for p in parts])
     return frames, seq, np.concatenate([p.valid for p in parts])
@@ -92,11 +91,13 @@ def test_identify_start_stop_and_rate_over_tcp() -> None:
         with open_device(twin.port, "psm", "v2", (8, 12)) as dev:
             d = dev.description
             assert dev.identified and (d["rows"], d["cols"], d["serial"]) == (8, 12, "TCP00042")
-            assert dev.stop_stream().status == protocol.Status.OK and not twin.firmware.streaming
+            dev.stop()  # STOP, its reply awaited: the twin no longer streams
+            assert not dev.started and not twin.firmware.streaming
             sent, ticks = twin.stats.frames_sent, twin.stats.ticks
             returns(lambda: _wait_for(lambda: twin.stats.ticks >= ticks + 10), "the twin ticks while stopped")
             assert twin.stats.frames_sent == sent  # stopped: ticks, but no frame
-            assert dev.start_stream().status == protocol.Status.OK and twin.firmware.streaming
+            dev.start()  # START, its reply awaited (an error if the twin refused it)
+            assert dev.started and twin.firmware.streaming
             dev.set_rate(50)
             assert twin.rate_hz == 50 and dev.description["rate"] == 50
             frames, _, valid = _read(dev, 20)
@@ -178,7 +179,7 @@ def test_a_tcp_port_out_of_range_is_refused() -> None:
 def test_without_a_pty_every_twin_serves_on_tcp(monkeypatch, tmp_path) -> None:
     """As on Windows: no ``os.openpty``; the twin, ``record --simulate`` and the benchmark's
     thesis-style reader all get a ``socket://`` URL that works."""
-    from psmat.bench.acquire import _thesis_run
+    from psmat.bench.acquire import thesis_run
     from psmat.cli import main
 
     monkeypatch.delattr(os, "openpty")
@@ -192,7 +193,7 @@ def test_without_a_pty_every_twin_serves_on_tcp(monkeypatch, tmp_path) -> None:
     assert main(["record", "--simulate", "--seconds", "1", "-o", str(out)]) == 0
     s = load_session(out)
     assert s.n_frames > 0 and s.valid.all() and s.metadata["port"].startswith("socket://127.0.0.1:")
-    thesis = _thesis_run(1.0, 100, "")  # the thesis-style reader on the twin's URL
+    thesis = thesis_run(1.0, 100, "")  # the thesis-style reader on the twin's URL
     assert thesis["frames"] > 0 and thesis["invalid"] == 0
 
 
@@ -211,7 +212,7 @@ WITHOUT_POSIX = textwrap.dedent("""
     from psmat.acquire import open_device
     from psmat.twin import SerialTwin
     with SerialTwin("psm", 100, "v2", scene="quiet") as twin, open_device(twin.port) as dev:
-        batch = dev.read(10, timeout=30)
+        batch = dev.read(10, timeout_s=30)
     print(twin.transport, twin.port.split(":")[0], len(batch), bool(batch.valid.all()))
 """)
 

@@ -91,6 +91,7 @@ def refresh(path: Path, max_kb: float, timeout: int) -> tuple[bool, str]:
         return False, "first code cell is not `FULL = False` (the small size); not run"
     scratch = Path(tempfile.mkdtemp(prefix="psmat-notebooks-"))
     env = dict(os.environ, PSMAT_FIGURES=str(scratch / "figures"), PYTHONHASHSEED="0", JUPYTER_PLATFORM_DIRS="1")
+    env.pop("PSMAT_NOTEBOOK_SMOKE", None)  # the stored outputs are of the small size, never the tests' smoke size
     # the kernel on local sockets where there are some (no plain-TCP warning), their files in scratch
     ipc = {"KernelManager": {"transport": "ipc", "ip": str(scratch / "kernel")}}
     sockets = Config(ipc if os.name == "posix" else {})

@@ -1,5 +1,6 @@
 // Bindings of the C++ IECM core: psmat._core.iecm. Arguments are converted to Eigen first,
-// then the GIL is released for the numerical work.
+// then the GIL is released for the numerical work. A solved frame comes with a
+// psmat._core.SolveReport (register_solve_report.cpp), a batch with one per frame.
 #include <pybind11/eigen.h>
 #include <pybind11/numpy.h>
 #include <pybind11/pybind11.h>
@@ -39,55 +40,6 @@ py::array_t<double> frame_array(const Eigen::VectorXd& v, Shape s) {
   return out;
 }
 
-py::dict report_dict(const SolveReport& r) {
-  py::dict d;
-  d["iterations"] = r.iterations;
-  d["factorizations"] = r.factorizations;
-  d["krylov_iterations"] = r.krylov_iterations;
-  d["evaluations"] = r.evaluations;
-  d["residual"] = r.residual;
-  d["cost"] = r.cost;
-  d["status"] = to_string(r.status);
-  d["converged"] = r.converged();
-  d["used_fallback"] = r.used_fallback;
-  d["at_bound"] = r.at_bound;
-  return d;
-}
-
-// Per-frame diagnostics of a batch as a dict of NumPy arrays.
-py::dict reports_arrays(const std::vector<SolveReport>& reps) {
-  const py::ssize_t T = static_cast<py::ssize_t>(reps.size());
-  py::array_t<int> it(T), fa(T), kr(T), ev(T), ab(T);
-  py::array_t<double> res(T), cost(T);
-  py::array_t<int8_t> status(T);
-  py::array_t<bool> conv(T), fb(T);
-  for (py::ssize_t t = 0; t < T; ++t) {
-    const auto& r = reps[static_cast<size_t>(t)];
-    it.mutable_at(t) = r.iterations;
-    fa.mutable_at(t) = r.factorizations;
-    kr.mutable_at(t) = r.krylov_iterations;
-    ev.mutable_at(t) = r.evaluations;
-    ab.mutable_at(t) = r.at_bound;
-    res.mutable_at(t) = r.residual;
-    cost.mutable_at(t) = r.cost;
-    status.mutable_at(t) = static_cast<int8_t>(r.status);
-    conv.mutable_at(t) = r.converged();
-    fb.mutable_at(t) = r.used_fallback;
-  }
-  py::dict d;
-  d["iterations"] = it;
-  d["factorizations"] = fa;
-  d["krylov_iterations"] = kr;
-  d["evaluations"] = ev;
-  d["residual"] = res;
-  d["cost"] = cost;
-  d["status"] = status;
-  d["converged"] = conv;
-  d["used_fallback"] = fb;
-  d["at_bound"] = ab;
-  return d;
-}
-
 }  // namespace
 
 void register_iecm(py::module_& m) {
@@ -98,14 +50,6 @@ void register_iecm(py::module_& m) {
       .value("bounded_lsq", Method::BoundedLSQ)
       .value("fixed_point", Method::FixedPoint)
       .value("active_set", Method::ActiveSet);
-
-  py::enum_<Status>(m, "Status")
-      .value("converged", Status::Converged)
-      .value("max_iterations", Status::MaxIterations)
-      .value("stalled", Status::Stalled)
-      .value("singular", Status::Singular)
-      .value("least_squares", Status::LeastSquares)
-      .value("bounded", Status::Bounded);
 
   py::class_<SolveOptions>(m, "SolveOptions", "Options of the IECM inverse (see psmat.iecm.solve)")
       .def(py::init<>())
@@ -232,10 +176,10 @@ void register_iecm(py::module_& m) {
           Solver solver(s, opts);
           rep = solver.solve(Gv, g, g0.has_value());
         }
-        return py::make_tuple(frame_array(g, s), report_dict(rep));
+        return py::make_tuple(frame_array(g, s), rep);
       },
       py::arg("G"), py::arg("options"), py::arg("g0") = py::none(),
-      "Solve one (R, C) frame; returns (g, report dict).");
+      "Solve one (R, C) frame; returns (g, SolveReport).");
 
   py::class_<BatchJob>(m, "BatchJob", "A (T, R, C) batch solved on worker threads")
       .def(py::init([](const py::array_t<double, py::array::c_style | py::array::forcecast>& G,
@@ -264,7 +208,7 @@ void register_iecm(py::module_& m) {
       .def_property_readonly("completed", &BatchJob::completed)
       .def_property_readonly("frames", &BatchJob::frames)
       .def("g", [](const BatchJob& j) { return RowMatrixXd(j.g()); }, "(T, R*C) solutions")
-      .def("reports", [](const BatchJob& j) { return reports_arrays(j.reports()); });
+      .def("reports", &BatchJob::reports, "list of T SolveReport, in frame order");
 
   m.def("hardware_threads", &hardware_threads);
 
@@ -302,9 +246,10 @@ void register_iecm(py::module_& m) {
               ok = s.pop(r, timeout);
             }
             if (!ok) return py::none();
-            return py::make_tuple(r.seq, frame_array(r.g, s.shape()), report_dict(r.report));
+            return py::make_tuple(r.seq, frame_array(r.g, s.shape()), r.report);
           },
-          py::arg("timeout"))
+          py::arg("timeout"),
+          "Next frame in order as (seq, g, SolveReport); None if none within `timeout` s.")
       .def_property_readonly("pending", &StreamSolver::pending)
       .def("close", &StreamSolver::close);
 }

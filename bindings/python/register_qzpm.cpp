@@ -1,5 +1,6 @@
 // Bindings of the C++ QZPM core (thesis App. C): psmat._core.qzpm. Arguments are converted to
-// Eigen first, then the GIL is released for the numerical work. Validation with readable
+// Eigen first, then the GIL is released for the numerical work. Each problem comes with a
+// psmat._core.SolveReport (register_solve_report.cpp). Validation with readable
 // messages is done by the Python package (psmat.qzpm); here only shapes are checked.
 #include <pybind11/eigen.h>
 #include <pybind11/numpy.h>
@@ -8,8 +9,8 @@
 
 #include <optional>
 #include <stdexcept>
-#include <thread>
 
+#include "psmat/numerics/thread_pool.hpp"
 #include "psmat/qzpm/closed_form.hpp"
 #include "psmat/qzpm/forward.hpp"
 #include "psmat/qzpm/solve.hpp"
@@ -60,18 +61,6 @@ qzpm::SolveOptions options(int switches, int max_iter, double rtol, double ftol,
   o.max_log_step = max_log_step;
   o.r_switch0 = r_switch0;
   return o;
-}
-
-py::dict report_dict(const qzpm::SolveReport& r) {
-  py::dict d;
-  d["iterations"] = r.iterations;
-  d["factorizations"] = r.factorizations;
-  d["evaluations"] = r.evaluations;
-  d["residual"] = r.residual;
-  d["cost"] = r.cost;
-  d["status"] = iecm::to_string(r.status);
-  d["converged"] = r.status == qzpm::Status::Converged;
-  return d;
 }
 
 }  // namespace
@@ -159,12 +148,12 @@ void register_qzpm(py::module_& m) {
           sol = qzpm::solve(s, r, o, g0v, sw0v);
         }
         return py::make_tuple(to_array(sol.g, {s.rows, s.cols}), to_array(sol.g_row, {s.rows}),
-                              to_array(sol.g_col, {s.cols}), report_dict(sol.report));
+                              to_array(sol.g_col, {s.cols}), sol.report);
       },
       py::arg("pairs"), py::arg("rows"), py::arg("cols"), py::arg("switches"), py::arg("max_iter"),
       py::arg("rtol"), py::arg("ftol"), py::arg("max_log_step"), py::arg("r_switch0"),
       py::arg("g0") = py::none(), py::arg("sw0") = py::none(),
-      "Inverse (eq. C.8-C.9) of one set of readings: (g, g_row, g_col, report).");
+      "Inverse (eq. C.8-C.9) of one set of readings: (g, g_row, g_col, SolveReport).");
 
   m.def(
       "solve_batch",
@@ -184,39 +173,24 @@ void register_qzpm(py::module_& m) {
           G.row(t).tail(s.cols) = Eigen::Map<const Eigen::RowVectorXd>(cols.data() + t * s.cols, s.cols);
         }
         const qzpm::SolveOptions o = options(switches, max_iter, rtol, ftol, max_log_step, r_switch0);
-        if (threads <= 0) threads = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+        if (threads <= 0) threads = numerics::hardware_threads();
         std::vector<qzpm::Solution> sols;
         {
           py::gil_scoped_release release;
           sols = qzpm::solve_batch(s, G, o, threads);
         }
         py::array_t<double> g({T, s.rows, s.cols}), gr({T, s.rows}), gc({T, s.cols});
-        py::array_t<int> it(T), ev(T);
-        py::array_t<double> res(T), cost(T);
-        py::array_t<bool> conv(T);
-        py::list status;
+        py::list reports;
         for (py::ssize_t t = 0; t < T; ++t) {
           const auto& so = sols[static_cast<size_t>(t)];
           std::copy(so.g.data(), so.g.data() + s.cells(), g.mutable_data() + t * s.cells());
           std::copy(so.g_row.data(), so.g_row.data() + s.rows, gr.mutable_data() + t * s.rows);
           std::copy(so.g_col.data(), so.g_col.data() + s.cols, gc.mutable_data() + t * s.cols);
-          it.mutable_at(t) = so.report.iterations;
-          ev.mutable_at(t) = so.report.evaluations;
-          res.mutable_at(t) = so.report.residual;
-          cost.mutable_at(t) = so.report.cost;
-          conv.mutable_at(t) = so.report.status == qzpm::Status::Converged;
-          status.append(iecm::to_string(so.report.status));
+          reports.append(so.report);
         }
-        py::dict d;
-        d["iterations"] = it;
-        d["evaluations"] = ev;
-        d["residual"] = res;
-        d["cost"] = cost;
-        d["converged"] = conv;
-        d["status"] = status;
-        return py::make_tuple(g, gr, gc, d);
+        return py::make_tuple(g, gr, gc, reports);
       },
       py::arg("pairs"), py::arg("rows"), py::arg("cols"), py::arg("switches"), py::arg("max_iter"),
       py::arg("rtol"), py::arg("ftol"), py::arg("max_log_step"), py::arg("r_switch0"), py::arg("threads") = 0,
-      "Independent problems on several threads: (g (T,R,C), g_row (T,R), g_col (T,C), reports).");
+      "Independent problems on several threads: (g (T,R,C), g_row (T,R), g_col (T,C), list of T SolveReport).");
 }

@@ -1,7 +1,7 @@
 """Independent tasks on the cores of this machine, results in the order they finish.
 
-One home for the process pool of :func:`psmat.study.run.run_study` and
-:func:`psmat.posture.dataset.load_posture_study`: joblib's loky processes (not threads: most
+One home for the process pool of :func:`psmat.study.run_study` and
+:func:`psmat.posture.load_posture_study`: joblib's loky processes (not threads: most
 of a task is Python that the GIL would serialise), one task per process at a time; one
 worker, or one task, runs in this process. The workers end with this process, even when it is
 killed outright (:func:`psmat._orphans.exit_with_parent`).

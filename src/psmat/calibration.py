@@ -1,8 +1,8 @@
 """Calibration of a DAQ box as data: R_adc, R_mux and their diagnostics, with JSON I/O (docs/spec.md §2).
 
 A calibration is data, stored with the box's serial number (JSON, :meth:`Calibration.save` /
-:meth:`Calibration.load`) and applied with :meth:`psmat.circuit.Circuit.from_calibration` or
-:meth:`psmat.circuit.Circuit.calibrated`. The estimates come from recordings through
+:meth:`Calibration.load`) and applied with :meth:`psmat.circuit.Circuit.calibrated`. The
+estimates come from recordings through
 :mod:`psmat.calibration_estimate` (thesis §2.1.4 end). This module imports neither of
 them: the constants are checked by the validation the circuit uses too
 (:mod:`psmat._circuit_checks`).

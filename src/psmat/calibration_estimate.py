@@ -10,7 +10,7 @@ result is a :class:`psmat.calibration.Calibration` (plain data). Example::
 
     from psmat import Circuit, calibration_estimate
     cal = calibration_estimate.from_recordings("PSM-0042", open_counts, short_counts, Circuit())
-    circuit = Circuit.from_calibration(cal)
+    circuit = Circuit().calibrated(cal)
 """
 
 from __future__ import annotations

@@ -24,8 +24,8 @@ cell path from ``V_ref`` to X, ``R_o`` (with ``R_adc`` in parallel) from X to gr
     V_x = V_ref * R_b / (R_path + R_b),   R_b = R_o || R_adc
 
 so an open cell reads 0 V and a zero-resistance cell the highest voltage. This module is the
-one home of this algebra: the noise model, the calibration estimators and the DAQ divider
-all call :class:`Circuit`.
+one home of this algebra: the noise models (:mod:`psmat.noise`), the calibration estimators
+and the DAQ divider all call :class:`Circuit`.
 """
 
 from __future__ import annotations
@@ -114,18 +114,26 @@ class Circuit:
         kwargs.setdefault("r_adc", FIRST_PROTOTYPE_R_ADC)
         return cls(**kwargs)
 
-    @classmethod
-    def from_calibration(cls, cal: Calibration) -> Circuit:
-        """Circuit with all constants (``r_o``, ``v_ref``, ``bits``, ``r_adc``, ``r_mux``) from ``cal``."""
-        if not isinstance(cal, Calibration):
-            raise TypeError(f"expected a Calibration, got {type(cal).__name__}")
-        return cls(r_o=cal.r_o, r_mux=cal.r_mux, r_adc=cal.r_adc, v_ref=cal.v_ref, bits=cal.bits)
-
     def calibrated(self, cal: Calibration) -> Circuit:
-        """This circuit with ``r_adc`` and ``r_mux`` replaced by the calibration's.
+        """This circuit with ``r_adc`` and ``r_mux`` replaced by the calibration's: the one way a
+        calibration is applied (docs/spec.md §2). ``Circuit(r_o=cal.r_o, v_ref=cal.v_ref,
+        bits=cal.bits).calibrated(cal)`` is the circuit of a calibration alone.
+
+        Parameters
+        ----------
+        cal : Calibration
+            A box's calibration (:meth:`Calibration.load`).
+
+        Returns
+        -------
+        Circuit
+            ``r_o``, ``v_ref``, ``bits`` and ``sensor_side`` of this circuit, ``r_adc`` (Ω) and
+            ``r_mux`` (Ω, scalar or per pair) of ``cal``.
 
         Raises
         ------
+        TypeError
+            ``cal`` is not a :class:`Calibration`.
         ValueError
             If the calibration was made with different ``r_o``, ``v_ref`` or ``bits``: its
             estimates depend on them and would not apply to this circuit.
@@ -307,26 +315,6 @@ class Circuit:
         gp = self._path_conductance(g)
         r, gn = (self._r_b, gp) if self._high else (self._r_o, gp + 1.0 / self._r_adc)
         return self._v_ref * r / ((1.0 + r * gn) ** 2 * (1.0 + g * self._r_mux) ** 2)
-
-    def sigma_G(self, G: ArrayLike, sigma_v: float | ArrayLike = 1e-3) -> NDArray[np.float64]:
-        """First-order standard deviation of ``G`` implied by voltage noise (thesis Table 2.4).
-
-        Parameters
-        ----------
-        G : array_like
-            Equivalent conductances (S), finite and >= 0.
-        sigma_v : float or array_like
-            Standard deviation of the noise on ``V_x`` (V), >= 0; broadcasts with ``G``.
-
-        Returns
-        -------
-        ndarray of float64
-            ``|dG/dV_x| sigma_v`` (S).
-        """
-        sv = real_dtype("sigma_v", sigma_v).astype(np.float64, copy=False)
-        if not np.all(np.isfinite(sv)) or np.any(sv < 0):
-            raise ValueError("sigma_v must be finite and >= 0 (V)")
-        return sv / self.sensitivity(G)
 
     # ------------------------------------------------------------------ inverse
     def _invert(self, v: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:

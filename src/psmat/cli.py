@@ -16,6 +16,7 @@ import argparse
 import importlib
 import pkgutil
 import sys
+from collections.abc import Collection
 from typing import NoReturn
 
 from . import commands as _commands
@@ -91,21 +92,37 @@ def _for_people(parser: argparse.ArgumentParser) -> None:
         _for_people(sub)
 
 
-def build_parser() -> argparse.ArgumentParser:
+def build_parser(commands: Collection[str] | None = None) -> argparse.ArgumentParser:
+    """The ``psmat`` parser: every command, with the options of those named in ``commands``.
+
+    ``None`` (the default) adds every command's options (the whole help tree); :func:`parse`
+    names only the command on its command line, so that ``psmat --help`` and ``psmat info F``
+    do not run the other commands' ``add_arguments`` (which may import what their defaults
+    come from).
+    """
     parser = _Parser(prog="psmat", description=DESCRIPTION, epilog=EPILOG)
     parser.add_argument("--version", action=_Version)
     sub = parser.add_subparsers(dest="command", required=True, metavar="command", title="commands")
     for mod in _command_modules():
         p = sub.add_parser(mod.NAME, help=mod.HELP, description=getattr(mod, "DESCRIPTION", None) or mod.__doc__)
-        mod.add_arguments(p)
+        if commands is None or mod.NAME in commands:
+            mod.add_arguments(p)
         p.set_defaults(func=mod.run, parser=p)
     _for_people(parser)
     return parser
 
 
+def _command_word(argv: list[str]) -> str | None:
+    """The command named on a command line: its first word that is not an option (``psmat`` itself
+    has only ``--help`` and ``--version``, which take no value)."""
+    return next((a for a in argv if not a.startswith("-")), None)
+
+
 def parse(argv: list[str] | None = None) -> argparse.Namespace:
     """The command line as a namespace; raises :class:`UsageError` for a bad one."""
-    args, unknown = build_parser().parse_known_args(argv)
+    argv = sys.argv[1:] if argv is None else list(argv)
+    word = _command_word(argv)
+    args, unknown = build_parser(() if word is None else (word,)).parse_known_args(argv)
     if unknown:  # named by the subcommand's parser, so that the hint is its --help
         args.parser.error(f"unrecognized arguments: {' '.join(unknown)}")
     return args

@@ -8,6 +8,9 @@ Two models of the noise on an equivalent conductance ``G`` (S):
   (thesis §2.3.2: "For intermediate values, linear interpolation has been used").
 * ``"voltage"`` — Gaussian on the ADC node voltage ``V_x`` (σ_v ≈ 1 mV, Table 2.4) pushed
   through the circuit of :class:`psmat.circuit.Circuit` and inverted without quantisation.
+
+Each model has its standard deviation of ``G``: :func:`table_sigma_G` and
+:func:`voltage_sigma_G` (first order, ``σ_v / |dV_x/dG|``); :func:`add_noise` draws from either.
 """
 
 from __future__ import annotations
@@ -17,7 +20,7 @@ from typing import Literal
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ._checks import conductances
+from ._checks import conductances, real_dtype
 from .circuit import Circuit
 
 __all__ = [
@@ -26,7 +29,8 @@ __all__ = [
     "TABLE_2_4_SIGMA_G_S",
     "TABLE_2_4_RELATIVE",
     "relative_sigma",
-    "sigma_G",
+    "table_sigma_G",
+    "voltage_sigma_G",
     "add_noise",
 ]
 
@@ -69,13 +73,53 @@ def relative_sigma(G: ArrayLike) -> NDArray[np.float64]:
     return np.interp(log_r, _LOG_R, TABLE_2_4_RELATIVE)
 
 
-def sigma_G(G: ArrayLike) -> NDArray[np.float64]:
-    """Standard deviation of ``G`` (S) in the table model: ``relative_sigma(G) * G``.
+def table_sigma_G(G: ArrayLike) -> NDArray[np.float64]:
+    """Standard deviation of ``G`` (S) in the ``"table"`` model: ``relative_sigma(G) * G``.
 
-    Zero for an open cell (``G = 0``): the model is relative.
+    Parameters
+    ----------
+    G : array_like
+        Equivalent conductances (S), finite and >= 0, any shape.
+
+    Returns
+    -------
+    ndarray of float64
+        σ_G (S); zero for an open cell (``G = 0``): the model is relative.
     """
     g = conductances(G)
     return relative_sigma(g) * g
+
+
+def voltage_sigma_G(G: ArrayLike, sigma_v: float | ArrayLike = 1e-3, circuit: Circuit | None = None
+                    ) -> NDArray[np.float64]:
+    """First-order standard deviation of ``G`` (S) in the ``"voltage"`` model (thesis Table 2.4).
+
+    Parameters
+    ----------
+    G : array_like
+        Equivalent conductances (S), finite and >= 0.
+    sigma_v : float or array_like
+        Standard deviation of the noise on ``V_x`` (V), >= 0; broadcasts with ``G``.
+    circuit : Circuit, optional
+        The reading circuit (default :class:`~psmat.circuit.Circuit` ()).
+
+    Returns
+    -------
+    ndarray of float64
+        ``|dG/dV_x| sigma_v = sigma_v / circuit.sensitivity(G)`` (S); finite at ``G = 0``.
+    """
+    sv = real_dtype("sigma_v", sigma_v).astype(np.float64, copy=False)
+    if not np.all(np.isfinite(sv)) or np.any(sv < 0):
+        raise ValueError("sigma_v must be finite and >= 0 (V)")
+    return sv / _circuit(circuit).sensitivity(G)
+
+
+def _circuit(circuit: Circuit | None) -> Circuit:
+    if circuit is None:
+        return Circuit()
+    if not isinstance(circuit, Circuit):
+        raise TypeError(f"circuit must be a Circuit, got {type(circuit).__name__}")
+    return circuit
 
 
 def add_noise(
@@ -95,7 +139,7 @@ def add_noise(
     rng : numpy.random.Generator, int or None
         Random generator or seed.
     model : {"table", "voltage"}
-        ``"table"``: ``G + N(0, sigma_G(G))``. ``"voltage"``: ``V = circuit.voltage(G) +
+        ``"table"``: ``G + N(0, table_sigma_G(G))``. ``"voltage"``: ``V = circuit.voltage(G) +
         N(0, sigma_v)``, then the exact inverse of the circuit (no quantisation), continued
         past the open reading (:meth:`Circuit.conductance_from_voltage` with
         ``extrapolate_open=True``).
@@ -124,13 +168,11 @@ def add_noise(
     g = conductances(G)
     gen = np.random.default_rng(rng)
     if model == "table":
-        out = g + gen.standard_normal(g.shape) * sigma_G(g)
+        out = g + gen.standard_normal(g.shape) * table_sigma_G(g)
     elif model == "voltage":
         if not np.isfinite(sigma_v) or sigma_v < 0:
             raise ValueError(f"sigma_v must be finite and >= 0 (V), got {sigma_v!r}")
-        cir = Circuit() if circuit is None else circuit
-        if not isinstance(cir, Circuit):
-            raise TypeError(f"circuit must be a Circuit, got {type(cir).__name__}")
+        cir = _circuit(circuit)
         v = cir.voltage(g)
         v = v + gen.standard_normal(v.shape) * sigma_v
         out = cir.conductance_from_voltage(v, extrapolate_open=True)

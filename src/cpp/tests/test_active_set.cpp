@@ -5,7 +5,7 @@
 #include <cmath>
 #include <vector>
 
-#include "psmat/iecm/active_set.hpp"
+#include "psmat/iecm/free_block_solver.hpp"
 #include "psmat/iecm/cholesky.hpp"
 #include "psmat/iecm/jacobian.hpp"
 #include "psmat/iecm/solve.hpp"
@@ -51,14 +51,14 @@ struct RandomNetwork {
   VectorXd G;
 };
 
-// The dense reference of a free-block solve: (S_II + mu Id) y_I = b_I, y_I in the order of I.
-VectorXd dense_free_solve(const MatrixXd& S, const std::vector<Index>& I, double mu, const VectorXd& b) {
+// The dense reference of a free-block solve: S_II y_I = b_I, y_I in the order of I.
+VectorXd dense_free_solve(const MatrixXd& S, const std::vector<Index>& I, const VectorXd& b) {
   const Index m = Index(I.size());
   MatrixXd K(m, m);
   VectorXd bI(m);
   for (Index r = 0; r < m; ++r) {
     bI[r] = b[I[size_t(r)]];
-    for (Index q = 0; q < m; ++q) K(r, q) = S(I[size_t(r)], I[size_t(q)]) + (r == q ? mu : 0.0);
+    for (Index q = 0; q < m; ++q) K(r, q) = S(I[size_t(r)], I[size_t(q)]);
   }
   return K.llt().solve(bI);
 }
@@ -143,6 +143,29 @@ TEST_CASE("cholesky_in_place: L L^T = A across block edges and both sweeps; fals
   CHECK_FALSE(psmat::iecm::cholesky_in_place(B));
 }
 
+TEST_CASE("cholesky_rank1_update: the factor of A + w w^T, in a corner of a larger matrix") {
+  for (Index m : {1, 2, 17, 150}) {
+    CAPTURE(m);
+    const Eigen::MatrixXd X = Eigen::MatrixXd::NullaryExpr(
+        m, m, [m](Index i, Index j) { return std::cos(0.9 * double(i * m + j) + 0.2); });
+    const Eigen::MatrixXd A = X * X.transpose() / double(m) + Eigen::MatrixXd::Identity(m, m);
+    Eigen::VectorXd w = Eigen::VectorXd::NullaryExpr(m, [](Index i) { return std::sin(2.1 * double(i) + 1.0); });
+    w[0] = 0.0;  // a zero entry: nothing to rotate in that column
+    Eigen::MatrixXf big = Eigen::MatrixXf::Constant(m + 3, m + 3, 7.0f);
+    big.topLeftCorner(m, m) = Eigen::MatrixXd(A.llt().matrixL()).cast<float>();
+    big.topLeftCorner(m, m).triangularView<Eigen::StrictlyUpper>().setConstant(1e30f);  // not read
+    Eigen::VectorXf wf = w.cast<float>();
+    psmat::iecm::cholesky_rank1_update(big.topLeftCorner(m, m), wf);
+    const Eigen::MatrixXd L = big.topLeftCorner(m, m).triangularView<Eigen::Lower>().toDenseMatrix().cast<double>();
+    const Eigen::MatrixXd ref = A + w * w.transpose();  // the definition, in double
+    CHECK((L * L.transpose() - ref).norm() <= 1e-5 * ref.norm());
+    for (Index k = 0; k < m; ++k) CHECK(L(k, k) > 0.0);  // still a Cholesky factor
+    CHECK(big.rightCols(3).isConstant(7.0f));  // the rest of the matrix untouched
+    CHECK(big.bottomRows(3).isConstant(7.0f));
+    for (Index j = 1; j < m; ++j) CHECK(big.col(j).head(j).isConstant(1e30f));  // strict upper: untouched
+  }
+}
+
 TEST_CASE("FreeBlockSolver: PCG with the factor of another point and free set solves the free block") {
   const Shape s{6, 6};
   const VectorXd g_old = random_g(s, 2200, 1e-6, 1e-2);
@@ -154,21 +177,20 @@ TEST_CASE("FreeBlockSolver: PCG with the factor of another point and free set so
   const VectorXd G_old = F(s, g_old), G = F(s, g);
   const std::vector<Index> P = some_cells(s.cells(), 2, 0);  // factor's free set
   std::vector<Index> I = some_cells(s.cells(), 3, 0);         // current free set: some of P, others
-  const double mu = 1e-3;
   FreeBlockSolver fs;
-  REQUIRE(fs.factor(net_old, G_old, P, 0.5));
+  REQUIRE(fs.factor(net_old, G_old, P));
   CHECK(fs.changes(I) > 0);
   NewtonOperator op(s);
   const VectorXd b = random_normal(s.cells(), 2201);
   VectorXd y;
   VectorXd Sy;
-  const int k = fs.solve(op, net, G, I, mu, b, y, Sy, 1e-12, 200);
+  const int k = fs.solve(op, net, G, I, b, y, Sy, 1e-12, 200);
   CAPTURE(k);
   CHECK(k > 1);  // a stale preconditioner: more than one iteration, but it converges
-  // dense reference: (S_II + mu I) y_I = b_I
+  // dense reference: S_II y_I = b_I
   const MatrixXd S = dense_S(s, g);
   const Index m = Index(I.size());
-  const VectorXd yI = dense_free_solve(S, I, mu, b);
+  const VectorXd yI = dense_free_solve(S, I, b);
   std::vector<char> in_I(size_t(s.cells()), 0);
   for (Index r = 0; r < m; ++r) {
     in_I[size_t(I[size_t(r)])] = 1;
@@ -181,11 +203,11 @@ TEST_CASE("FreeBlockSolver: PCG with the factor of another point and free set so
   for (Index a = 0; a < s.cells(); ++a)
     CHECK(Sy[a] == doctest::Approx(Sy_ref[a]).epsilon(1e-9).scale(Sy_ref.norm()));
   // with a fresh factor at this very point PCG needs one or two iterations
-  REQUIRE(fs.factor(net, G, I, mu));
+  REQUIRE(fs.factor(net, G, I));
   CHECK(fs.changes(I) == 0);
   VectorXd y2;
   VectorXd Sy2;
-  const int k2 = fs.solve(op, net, G, I, mu, b, y2, Sy2, 1e-10, 200);
+  const int k2 = fs.solve(op, net, G, I, b, y2, Sy2, 1e-10, 200);
   CHECK(k2 >= 1);
   CHECK(k2 <= 3);
   CHECK((y2 - y).norm() <= 1e-8 * y.norm());
@@ -204,9 +226,9 @@ TEST_CASE("FreeBlockSolver::update: cells leave and join; PCG then solves the ne
     if (k != 0 && k != P.size() / 2 && k + 1 != P.size()) I.push_back(P[k]);
   for (Index c : {1, 9, 17, 33}) I.push_back(c);
   FreeBlockSolver fs;
-  REQUIRE(fs.factor(net, G, P, 0.0));
+  REQUIRE(fs.factor(net, G, P));
   CHECK(fs.changes(I) == 7);
-  REQUIRE(fs.update(net, G, I, 0.0));
+  REQUIRE(fs.update(net, G, I));
   CHECK(fs.changes(I) == 0);
   CHECK(fs.size() == Index(I.size()));
   // the updated factor is that of S_II (float round-off): PCG needs one or two steps and
@@ -214,16 +236,16 @@ TEST_CASE("FreeBlockSolver::update: cells leave and join; PCG then solves the ne
   NewtonOperator op(s);
   const VectorXd b = random_normal(s.cells(), 2301);
   VectorXd y, Sy;
-  const int k = fs.solve(op, net, G, I, 0.0, b, y, Sy, 1e-10, 50);
+  const int k = fs.solve(op, net, G, I, b, y, Sy, 1e-10, 50);
   CHECK(k >= 1);
   CHECK(k <= 3);
   const Index m = Index(I.size());
-  const VectorXd yI = dense_free_solve(S, I, 0.0, b);
+  const VectorXd yI = dense_free_solve(S, I, b);
   for (Index r = 0; r < m; ++r) CHECK(y[I[size_t(r)]] == doctest::Approx(yI[r]).epsilon(1e-8));
   // back to P (the cells that left join again, the odd ones leave)
-  REQUIRE(fs.update(net, G, P, 0.0));
+  REQUIRE(fs.update(net, G, P));
   CHECK(fs.changes(P) == 0);
-  const int k2 = fs.solve(op, net, G, P, 0.0, b, y, Sy, 1e-10, 50);
+  const int k2 = fs.solve(op, net, G, P, b, y, Sy, 1e-10, 50);
   CHECK(k2 >= 1);
   CHECK(k2 <= 3);
 }

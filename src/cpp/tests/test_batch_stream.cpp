@@ -1,13 +1,19 @@
 // Batches (BatchJob, streaming and independent modes) and live streams (StreamSolver):
 // multithreaded solving must give the frame-by-frame answers, in order, and the job controls
-// (cancel, close, back-pressure) must do what batch.hpp / stream.hpp promise.
+// (cancel, close, back-pressure) must do what batch.hpp / stream.hpp promise. Beneath both, the
+// core's ThreadPool (numerics/thread_pool.hpp).
+#include <atomic>
 #include <chrono>
+#include <future>
+#include <mutex>
 #include <stdexcept>
 #include <thread>
+#include <vector>
 
 #include "psmat/iecm/batch.hpp"
 #include "psmat/iecm/solve.hpp"
 #include "psmat/iecm/stream.hpp"
+#include "psmat/numerics/thread_pool.hpp"
 #include "support.hpp"
 
 using namespace psmat_test;
@@ -17,6 +23,7 @@ using psmat::iecm::SolveReport;
 using psmat::iecm::Solver;
 using psmat::iecm::StreamResult;
 using psmat::iecm::StreamSolver;
+using psmat::numerics::ThreadPool;
 
 namespace {
 
@@ -239,4 +246,48 @@ TEST_CASE("StreamSolver: close() drains queued frames; push after close throws")
   StreamResult r;
   CHECK_FALSE(stream.pop(r, -1.0));  // closed and drained: no wait
   CHECK(stream.pending() == 0);
+}
+
+TEST_CASE("ThreadPool: FIFO on one worker, worker indices, exceptions in futures, drained on destruction") {
+  {  // one worker runs the tasks in submission order
+    ThreadPool pool(1);
+    CHECK(pool.size() == 1);
+    std::vector<int> order;  // only the worker writes it
+    std::vector<std::future<void>> done;
+    for (int k = 0; k < 20; ++k) done.push_back(pool.submit([&order, k](int worker) {
+      CHECK(worker == 0);
+      order.push_back(k);
+    }));
+    for (auto& f : done) f.get();
+    REQUIRE(order.size() == 20);
+    for (int k = 0; k < 20; ++k) CHECK(order[size_t(k)] == k);
+  }
+  {  // several workers: indices in range, every task run once; a throwing task reaches its future
+    ThreadPool pool(3);
+    std::atomic<int> ran{0};
+    std::mutex mu;
+    std::vector<int> seen_workers;
+    std::vector<std::future<void>> done;
+    for (int k = 0; k < 50; ++k) done.push_back(pool.submit([&](int worker) {
+      std::lock_guard<std::mutex> lock(mu);
+      seen_workers.push_back(worker);
+      ++ran;
+    }));
+    auto bad = pool.submit([](int) { throw std::runtime_error("task failed"); });
+    for (auto& f : done) f.get();
+    CHECK(ran.load() == 50);
+    for (int w : seen_workers) CHECK((w >= 0 && w < 3));
+    CHECK_THROWS_WITH_AS(bad.get(), "task failed", std::runtime_error);
+  }
+  std::atomic<int> ran{0};
+  {  // the destructor runs what is still queued, then joins
+    ThreadPool pool(1);
+    std::promise<void> gate;
+    std::shared_future<void> open = gate.get_future().share();
+    pool.submit([open](int) { open.wait(); });  // holds the only worker
+    for (int k = 0; k < 10; ++k) pool.submit([&ran](int) { ++ran; });
+    CHECK(ran.load() == 0);
+    gate.set_value();
+  }
+  CHECK(ran.load() == 10);
 }

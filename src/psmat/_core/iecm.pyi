@@ -1,10 +1,11 @@
 """Type stub for psmat._core.iecm (bindings/python/register_iecm.cpp)."""
 
 import enum
-from typing import Any
 
 import numpy as np
 import numpy.typing as npt
+
+from . import SolveReport
 
 class Method(enum.Enum):
     newton = 0
@@ -13,14 +14,6 @@ class Method(enum.Enum):
     bounded_lsq = 3
     fixed_point = 4
     active_set = 5
-
-class Status(enum.Enum):
-    converged = 0
-    max_iterations = 1
-    stalled = 2
-    singular = 3
-    least_squares = 4
-    bounded = 5
 
 class SolveOptions:
     method: Method
@@ -43,7 +36,7 @@ def inverse_jacobian(g: npt.ArrayLike) -> npt.NDArray[np.float64]: ...
 def propagate_uncertainty(g: npt.ArrayLike, sigma_G: npt.ArrayLike) -> npt.NDArray[np.float64]: ...
 def solve_frame(
     G: npt.ArrayLike, options: SolveOptions, g0: npt.ArrayLike | None = None
-) -> tuple[npt.NDArray[np.float64], dict[str, Any]]: ...
+) -> tuple[npt.NDArray[np.float64], SolveReport]: ...
 def hardware_threads() -> int: ...
 
 class BatchJob:
@@ -63,14 +56,14 @@ class BatchJob:
     @property
     def frames(self) -> int: ...
     def g(self) -> npt.NDArray[np.float64]: ...
-    def reports(self) -> dict[str, npt.NDArray[Any]]: ...
+    def reports(self) -> list[SolveReport]: ...
 
 class StreamSolver:
     def __init__(
         self, rows: int, cols: int, options: SolveOptions, threads: int, max_pending: int
     ) -> None: ...
     def push(self, G: npt.ArrayLike, timeout: float = -1.0) -> int | None: ...
-    def pop(self, timeout: float) -> tuple[int, npt.NDArray[np.float64], dict[str, Any]] | None: ...
+    def pop(self, timeout: float) -> tuple[int, npt.NDArray[np.float64], SolveReport] | None: ...
     @property
     def pending(self) -> int: ...
     def close(self) -> None: ...

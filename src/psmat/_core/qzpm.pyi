@@ -1,9 +1,9 @@
 """Type stub for psmat._core.qzpm (bindings/python/register_qzpm.cpp)."""
 
-from typing import Any
-
 import numpy as np
 import numpy.typing as npt
+
+from . import SolveReport
 
 _F = npt.NDArray[np.float64]
 
@@ -22,7 +22,7 @@ def solve(
     r_switch0: float,
     g0: npt.ArrayLike | None = None,
     sw0: npt.ArrayLike | None = None,
-) -> tuple[_F, _F, _F, dict[str, Any]]: ...
+) -> tuple[_F, _F, _F, SolveReport]: ...
 def solve_batch(
     pairs: npt.ArrayLike,
     rows: npt.ArrayLike,
@@ -34,4 +34,4 @@ def solve_batch(
     max_log_step: float,
     r_switch0: float,
     threads: int = 0,
-) -> tuple[_F, _F, _F, dict[str, Any]]: ...
+) -> tuple[_F, _F, _F, list[SolveReport]]: ...

@@ -1,7 +1,7 @@
 """Acquisition from the three devices through one API (docs/spec.md §5): PSM mat, material DAQ, spine IMUs.
 
 >>> with open_device("/dev/ttyACM0", kind="psm", protocol="v2") as dev:   # doctest: +SKIP
-...     batch = dev.read(165, timeout=2.0)      # FrameBatch: frames (N, 16, 16) uint16, ...
+...     batch = dev.read(165, timeout_s=2.0)      # FrameBatch: frames (N, 16, 16) uint16, ...
 ...     print(dev.description, dev.stats)
 
 * :func:`open_device` / :class:`Device` - lifecycle ``open`` (identify) / ``start`` / ``stop``
@@ -9,18 +9,28 @@
   an optional :class:`psmat.io.SessionWriter` hook (:meth:`Device.record_to`);
 * :class:`FrameBatch` - frames with ``host_time_s``, ``valid``, ``seq``, ``device_time_us``;
 * :class:`DeviceStats` - counters; errors :class:`DeviceDisconnected`,
-  :class:`CommandTimeout`, :class:`CommandRejected` (all :class:`AcquireError`).
+  :class:`CommandTimeout`, :class:`CommandRejected` (all :class:`AcquireError`);
+* :func:`find_devices` / :func:`is_psmat_port` - the psmat boxes among the serial ports;
+  :data:`IDENTIFY_FIELDS` - what a box's IDENTIFY reply names, per kind;
+* :func:`open_port` / :func:`read_chunk` / :func:`close_port` - one port (a device path or a
+  pyserial URL) as the reader thread uses it.
+
+The code lives in private modules (``_device``, ``_stream``, ``_ring_buffer``, ...); the names
+above are the package's API.
 """
 
-from .clock import HostClock
-from .device import Device, DeviceStats, open_device
-from .discover import FoundPort, find_devices
-from .errors import AcquireError, CommandRejected, CommandTimeout, DeviceDisconnected
-from .recording import SessionRecorder
-from .ring_buffer import FrameBatch, FrameRing
-from .stream import StreamDecoder
+from ._clock import HostClock
+from ._device import Device, DeviceStats, open_device
+from ._discover import FoundPort, find_devices, is_psmat_port
+from ._errors import AcquireError, CommandRejected, CommandTimeout, DeviceDisconnected
+from ._identify import IDENTIFY_FIELDS
+from ._port import close_port, open_port, read_chunk
+from ._recording import SessionRecorder
+from ._ring_buffer import FrameBatch, FrameRing
+from ._stream import StreamDecoder
 
 __all__ = [
     "open_device", "find_devices", "FoundPort", "Device", "DeviceStats", "FrameBatch", "FrameRing", "StreamDecoder", "HostClock",
     "SessionRecorder", "AcquireError", "DeviceDisconnected", "CommandTimeout", "CommandRejected",
+    "is_psmat_port", "IDENTIFY_FIELDS", "open_port", "read_chunk", "close_port",
 ]

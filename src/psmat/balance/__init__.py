@@ -1,18 +1,34 @@
 """Balance (thesis chapter 3, docs/spec.md §7): centre of pressure and the thesis' metrics.
 
-:func:`cop` is the centre of pressure of pressure images; :func:`eu` the thesis' distance
-between two CoP traces (eq. 3.1); :func:`sway` the posturography metrics of a trace;
-:func:`align` the time alignment of the mat with a force platform; :func:`scale_factor`
-the SCHC factor of eq. 3.3; :func:`equilibrate` a per-cell gain map learned from a standing
-trial (beyond the thesis: the SCHC-EQ variant).
+* :func:`cop` — the centre of pressure of pressure images (cell (i, p) at
+  :func:`cell_centres_cm`);
+* :func:`eu` — the thesis' distance between two CoP traces (eq. 3.1);
+* :func:`sway` — the posturography metrics of a trace (:class:`Sway`);
+* :func:`align` — the time alignment of the mat with a force platform (:class:`Alignment`),
+  built on :func:`search_lag`, psmat's one cross-correlation search;
+* :func:`scale_factor` — the SCHC factor of eq. 3.3;
+* :func:`equilibrate` — a per-cell gain map learned from a standing trial (beyond the thesis:
+  the SCHC-EQ variant);
+* :func:`subgrids` — the emulated coarser mat (thesis §3.2.1, the 8×8 variants);
+* :func:`variant_traces` — the thesis' processing variants (Tables 3.2, 3.4) as recipes on
+  the products of the one chain (:mod:`psmat.process`), and their names (:func:`describe`).
+
+Each lives in a private module of this package (``_cop.py``, ``_sway.py``, ...); the names
+below are the package's API.
 """
 
-from .align import Alignment, align
-from .cop import cell_centres_cm, cop
-from .equilibrate import Equilibration, equilibrate
-from .metrics import eu
-from .scale import mean_force_n, scale_factor
-from .sway import Sway, sway
+from ._align import Alignment, align, pearson_at_lag, resample_standardised, search_lag
+from ._cop import cell_centres_cm, cop
+from ._emulate import Subgrid, subgrid_cops, subgrids
+from ._equilibrate import Equilibration, equilibrate
+from ._eu import eu
+from ._scale import mean_force_n, scale_factor
+from ._sway import Sway, mean_frequency, prediction_ellipse_area, sway
+from ._variants import (BASE_VARIANTS, EXTRA_VARIANTS, KNOWN_VARIANTS, VARIANTS, VariantName, VariantTrace, describe,
+                        legend_label, variant_traces)
 
-__all__ = ["cop", "cell_centres_cm", "eu", "sway", "Sway", "align", "Alignment", "scale_factor", "mean_force_n",
-           "equilibrate", "Equilibration"]
+__all__ = ["cop", "cell_centres_cm", "eu", "sway", "Sway", "prediction_ellipse_area", "mean_frequency", "align",
+           "Alignment", "search_lag", "pearson_at_lag", "resample_standardised", "scale_factor", "mean_force_n",
+           "equilibrate", "Equilibration", "Subgrid", "subgrids", "subgrid_cops", "BASE_VARIANTS", "VARIANTS",
+           "EXTRA_VARIANTS", "KNOWN_VARIANTS", "VariantName", "describe", "legend_label", "VariantTrace",
+           "variant_traces"]

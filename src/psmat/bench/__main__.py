@@ -2,8 +2,9 @@
 (docs/spec.md §10), each beside a baseline run in the same process.
 
 ``--help`` lists the benchmarks; ``BENCHMARK --help`` gives one's options, with their defaults
-and units. Each benchmark is the module ``psmat.bench.<name>``, with ``build_parser(prog)``
-(its options) and ``main(argv, prog)``; this module imports it only when it is asked for.
+and units. Each benchmark is the module ``psmat.bench.<name>`` (or the one :data:`MODULES`
+names), with ``build_parser(prog)`` (its options) and ``main(argv, prog)``; this module imports
+it only when it is asked for.
 """
 
 from __future__ import annotations
@@ -28,7 +29,10 @@ BENCHMARKS = {
                "link beside a thesis-style reader",
     "study": "a thesis-size simulated balance study end to end, beside a plain multiprocessing pool over the "
              "sessions",
+    "import": "the time of import psmat and of psmat --help in fresh processes, beside import numpy",
 }
+#: the module of a benchmark whose name is not a module name (``import`` is a Python keyword)
+MODULES = {"import": "import_cost"}
 DESCRIPTION = ("psmat's benchmarks (docs/spec.md §10), each beside a baseline run in the same process:\n\n"
                + "\n".join(f"* {name}: {line}" for name, line in BENCHMARKS.items())
                + "\n\nBENCHMARK --help gives a benchmark's options.")
@@ -45,7 +49,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 def _module(name: str) -> ModuleType:
     if name not in BENCHMARKS:
         raise ValueError(f"unknown benchmark {name!r}; choose from {', '.join(BENCHMARKS)}")
-    return importlib.import_module(f"{__package__}.{name}")
+    return importlib.import_module(f"{__package__}.{MODULES.get(name, name)}")
 
 
 def benchmark_parser(name: str, prog: str = PROG) -> argparse.ArgumentParser:

@@ -7,11 +7,11 @@
 2. The same with a corrupted link (bit flips and dropped bytes), psmat against a
    thesis-style reader run in the same process on the same kind of stream. The thesis gives
    the device side (Code 2.1–2.2: ``INIT INIT``, the cells, their sum mod 4096; "if the
-   signature is not right, the PC stores -1"); the reader does what that framing allows:
-   before every frame it waits for ``INIT INIT``, then reads the frame's fixed size and
-   checks the sum, a bad one stored as a missing row. When a byte is lost, that read runs
-   into the next frame's marker, so the next frame leaves no row at all; psmat's decoders
-   resync byte by byte after a failed check and find it.
+   signature is not right, the PC stores -1"); the reader (:mod:`psmat.bench.baselines.thesis_reader`)
+   does what that framing allows: before every frame it waits for ``INIT INIT``, then reads the
+   frame's fixed size and checks the sum, a bad one stored as a missing row. When a byte is
+   lost, that read runs into the next frame's marker, so the next frame leaves no row at all;
+   psmat's decoders resync byte by byte after a failed check and find it.
 3. The v2 decoder's cost per MiB on valid 16x16 frames, random bytes, and fake headers
    claiming 8 KiB every 18 bytes (docs/protocol.md, "Decoding cost").
 """
@@ -28,7 +28,9 @@ import time
 
 import numpy as np
 
-__all__ = ["main", "thesis_read", "decode_cost"]
+from .baselines.thesis_reader import thesis_read_port
+
+__all__ = ["main", "build_parser", "thesis_run", "decode_cost"]
 
 
 def _psmat_run(seconds: float, rate: int, protocol: str, faults: str) -> dict:
@@ -45,7 +47,7 @@ def _psmat_run(seconds: float, rate: int, protocol: str, faults: str) -> dict:
         dev.start()
         t0 = time.monotonic()
         while time.monotonic() - t0 < seconds:
-            dev.read(timeout=0.2)
+            dev.read(timeout_s=0.2)
         wall = time.monotonic() - t0
         dev.stop()
         dev.stop_recording()
@@ -59,55 +61,29 @@ def _psmat_run(seconds: float, rate: int, protocol: str, faults: str) -> dict:
                 sent=sent, wall=wall, cpu=cpu, buffer_drops=st.dropped_buffer, transport=transport)
 
 
-def _read_exact(s, n: int, stop: threading.Event) -> bytes | None:
-    """n bytes from the port, or None when ``stop`` is set first."""
-    buf = b""
-    while len(buf) < n:
-        if stop.is_set():
-            return None
-        buf += s.read(n - len(buf))
-    return buf
+def thesis_run(seconds: float, rate: int, faults: str) -> dict:
+    """The thesis-style reader (:mod:`psmat.bench.baselines.thesis_reader`) on the twin's v1 frames.
 
+    Parameters
+    ----------
+    seconds : float
+        How long to read (s).
+    rate : int
+        The twin's frame rate (frames/s).
+    faults : str
+        The link's faults (:meth:`psmat.twin.Faults.parse`; ``""`` for none).
 
-def _sync(s, stop: threading.Event) -> bool:
-    """Consume bytes up to and including the next INIT INIT (0xFF 0xFF); False if stopped."""
-    prev = b""
-    while not stop.is_set():
-        b = s.read(1)
-        if prev == b == b"\xff":
-            return True
-        prev = b or prev
-    return False
-
-
-def thesis_read(s, shape: tuple[int, int], stop: threading.Event, out: dict) -> None:
-    """The thesis' PC side (module docstring) on an open port ``s`` (``read(n)`` with a timeout),
-    until ``stop``: INIT INIT, a fixed-size frame, its sum mod 4096; a bad sum is a missing row
-    (the thesis stores -1). Keeps ``out["frames"]`` (valid rows) and ``out["invalid"]`` current."""
-    size = 2 * shape[0] * shape[1] + 2
-    out.update(frames=0, invalid=0)
-    while _sync(s, stop) and (frame := _read_exact(s, size, stop)) is not None:
-        cells = np.frombuffer(frame[:-2], "<u2")
-        check = int.from_bytes(frame[-2:], "little")
-        good = int(cells.sum()) % 4096 == check and cells.max() < 4096
-        out["frames" if good else "invalid"] += 1
-
-
-def _thesis_reader(port: str, shape: tuple[int, int], stop: threading.Event, out: dict) -> None:
-    import serial
-
-    with serial.serial_for_url(port, timeout=0.2) as s:  # a pty's path or the twin's socket:// URL
-        s.reset_input_buffer()
-        thesis_read(s, shape, stop, out)
-
-
-def _thesis_run(seconds: float, rate: int, faults: str) -> dict:
+    Returns
+    -------
+    dict
+        ``frames`` (valid rows), ``invalid`` (rows with a bad sum) and ``sent`` (frames the twin sent).
+    """
     from ..twin import Faults, SerialTwin
 
     out: dict = {}
     stop = threading.Event()
     with SerialTwin("psm", rate, "v1", scene="quiet", faults=Faults.parse(faults)) as twin:
-        th = threading.Thread(target=_thesis_reader, args=(twin.port, (16, 16), stop, out))
+        th = threading.Thread(target=thesis_read_port, args=(twin.port, (16, 16), stop, out))
         th.start()
         time.sleep(seconds)
         stop.set()
@@ -178,7 +154,7 @@ def main(argv: list[str] | None = None, prog: str = "python -m psmat.bench acqui
     r = _psmat_run(args.fault_seconds, args.rate, "v1", args.faults)
     print(f"  psmat.acquire, v1      : {r['frames']} valid, {r['invalid']} invalid rows, "
           f"of {r['sent']} sent (v1 cannot count losses)", flush=True)
-    b = _thesis_run(args.fault_seconds, args.rate, args.faults)
+    b = thesis_run(args.fault_seconds, args.rate, args.faults)
     print(f"  thesis-style v1 reader : {b.get('frames', 0)} valid, {b.get('invalid', 0)} invalid rows, "
           f"of {b.get('sent', 0)} sent (INIT INIT, then a fixed-size read)", flush=True)
     cost = ", ".join(f"{k} {s:.3f} s ({c:.2f})" for k, (s, c) in decode_cost().items())

@@ -10,7 +10,7 @@ Frames are a swaying-feet recording from the digital twin (:func:`psmat.twin.swa
 quiet standing, CoP sway SD 2.5 mm M-L / 3.5 mm A-P, through the thesis' sensor model with
 15 % cell-to-cell gains, unloaded cells at the leakage 1e-7 S; 100 Hz; 32 cm mat, so
 2 / 1 / 0.5 cm pitch for 16 / 32 / 64 cells). ``G`` is computed from the true ``g`` by the independent NumPy forward
-model (:func:`psmat.bench.baseline_numpy.forward_numpy`), noise-free.
+model (:func:`psmat.bench.baselines.forward_numpy`), noise-free.
 
 * **streaming** — ``solve(G, warm_start=True, threads=K)``: every frame starts from the
   previous frame's solution; the frames are split in K contiguous chunks. The chunk starts
@@ -35,7 +35,7 @@ and over all cells. Entries above 32×32 run in a child process killed after
 ``--budget`` seconds, so nothing hangs.
 
 Baselines, same process, same frames: the thesis' Python approach re-implemented in
-NumPy/SciPy (:mod:`psmat.bench.baseline_numpy`) — ``scipy.optimize.least_squares`` with a
+NumPy/SciPy (:mod:`psmat.bench.baselines.iecm_numpy`) — ``scipy.optimize.least_squares`` with a
 numerical ('2-point') Jacobian, bounds ``g >= 0`` (thesis' Python) and on ``log g``
 (thesis' C/GSL); fixed point ``g <- g + 0.05 (G - F(g))`` for 2000 iterations (batched
 over frames), and the iterations it needs to reach 1e-6 (stopped by an oracle that knows
@@ -55,16 +55,14 @@ import warnings
 
 import numpy as np
 
-from .. import twin
 from .._atomic import OutputRefused, check_outputs, open_atomic
-from .baseline_numpy import forward_numpy
-from .iecm_report import format_table, jsonable, machine_info
+from .iecm_baselines import measure_fixed_point_numpy, measure_fixed_point_to_target, measure_least_squares
+from .iecm_report import format_table, jsonable
+from .iecm_setup import ACCURACY_TARGET, ERROR_THRESHOLD_S, HEAVY_CELLS, NOISY_LABEL, errors, row, scene, settings
+from .machine import machine_info
 
-__all__ = ["run", "format_table", "machine_info", "main", "TARGETS", "NOISY_TARGETS"]
-
-ERROR_THRESHOLD_S = 1e-4   # cells with g >= this (S) carry the accuracy target
-ACCURACY_TARGET = 1e-6     # relative error reached by "Newton accuracy"
-HEAVY_CELLS = 32 * 32      # above this, psmat entries run isolated in a child process
+__all__ = ["run", "main", "build_parser", "measure_psmat", "complementarity_residual", "apply_target",
+           "noisy_entries", "TARGETS", "NOISY_TARGETS"]
 
 # docs/spec.md §10 on a 2-core machine. Noise-free G: (size, mode) -> (frames/s, "core" | "total"),
 # at a relative error <= ACCURACY_TARGET on cells g >= ERROR_THRESHOLD_S.
@@ -81,29 +79,6 @@ NOISY_MAX_ITER = 50
 
 # ----------------------------------------------------------------------------- helpers
 
-def _scene(size: int, frames: int, seed: int, noise_v: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
-    """True g and G (independent NumPy forward), both (T, size, size), in S.
-
-    With ``noise_v`` > 0 the G is what the mat would measure: the measurement chain of
-    docs/spec.md §2 (psmat.Circuit, improved prototype) with that voltage noise (V) and 12-bit
-    quantisation, inverted back to G.
-    """
-    g = twin.swaying_feet(frames, (size, size), seed=seed)
-    G = forward_numpy(g)
-    if noise_v > 0:
-        from ..circuit import Circuit
-
-        c = Circuit()
-        G = c.conductance(c.counts(G, noise_v=noise_v, rng=seed + 1))
-    return g, G
-
-
-def _errors(g_hat: np.ndarray, g: np.ndarray) -> tuple[float, float]:
-    rel = np.abs(g_hat - g) / g
-    mask = g >= ERROR_THRESHOLD_S
-    return float(rel[mask].max()) if mask.any() else float("nan"), float(rel.max())
-
-
 def _timed(call, min_time: float, max_time: float):
     """Run ``call`` until min_time seconds are spent (at least once); (last result, calls, seconds)."""
     total, calls = 0.0, 0
@@ -117,35 +92,26 @@ def _timed(call, min_time: float, max_time: float):
             return out, calls, total
 
 
-def _row(**kw) -> dict:
-    base = dict(size=None, mode="", solver="", threads=1, frames=0, calls=0, seconds=float("nan"),
-                fps=float("nan"), fps_per_core=float("nan"), err_loaded=float("nan"),
-                err_all=float("nan"), iterations=float("nan"), factorizations=float("nan"),
-                max_iterations=float("nan"), max_residual=float("nan"), noise_v=0.0,
-                note="", target="", target_met=None)
-    base.update(kw)
-    return base
-
-
-def _target(row: dict) -> None:
-    """The row's docs/spec.md §10 target, if it has one, and whether it was met."""
-    newton = row["solver"].startswith("psmat newton")
+def apply_target(r: dict) -> None:
+    """Set the row's docs/spec.md §10 target (``r["target"]``), if it has one, and whether it was met
+    (``r["target_met"]``)."""
+    newton = r["solver"].startswith("psmat newton")
     if not newton:
         return
-    if row["noise_v"] > 0:
-        t = NOISY_TARGETS.get(row["size"]) if row["mode"] == "streaming" else None
+    if r["noise_v"] > 0:
+        t = NOISY_TARGETS.get(r["size"]) if r["mode"] == "streaming" else None
         accuracy = f"residual <= {NOISY_RESIDUAL:g}, <= {NOISY_MAX_ITER} it"
-        ok_acc = row["max_residual"] <= NOISY_RESIDUAL and row["max_iterations"] <= NOISY_MAX_ITER
+        ok_acc = r["max_residual"] <= NOISY_RESIDUAL and r["max_iterations"] <= NOISY_MAX_ITER
     else:
-        t = TARGETS.get((row["size"], row["mode"]))
+        t = TARGETS.get((r["size"], r["mode"]))
         accuracy = f"err <= {ACCURACY_TARGET:g}"
-        ok_acc = row["err_loaded"] <= ACCURACY_TARGET
+        ok_acc = r["err_loaded"] <= ACCURACY_TARGET
     if t is None:
         return
     fps_req, per = t
-    fps = row["fps_per_core"] if per == "core" else row["fps"]
-    row["target"] = f">= {fps_req:g} fps{'/core' if per == 'core' else ''}, {accuracy}"
-    row["target_met"] = bool(np.isfinite(fps) and fps >= fps_req and ok_acc)  # NaN compares False
+    fps = r["fps_per_core"] if per == "core" else r["fps"]
+    r["target"] = f">= {fps_req:g} fps{'/core' if per == 'core' else ''}, {accuracy}"
+    r["target_met"] = bool(np.isfinite(fps) and fps >= fps_req and ok_acc)  # NaN compares False
 
 
 # ----------------------------------------------------------------------------- psmat entries
@@ -173,7 +139,7 @@ def measure_psmat(size: int, mode: str, threads: int, frames: int, seed: int, mi
     label = label or f"psmat {method}"
     T = int(frames)
     notes = []
-    g_all, G_all = _scene(size, T + 1, seed, noise_v)  # frame 0 of g_all only primes the first chunk
+    g_all, G_all = scene(size, T + 1, seed, noise_v)  # frame 0 of g_all only primes the first chunk
     if noise_v > 0:
         notes.append(f"measured G: {noise_v * 1e3:g} mV noise + 12-bit ADC; the error is the estimation "
                      "error against the true g (noise-limited), not the solver's")
@@ -218,7 +184,7 @@ def measure_psmat(size: int, mode: str, threads: int, frames: int, seed: int, mi
             def call():
                 return iecm.solve(G, warm_start=False, **kwargs)
         (g_hat, info), calls, secs = _timed(call, min_time, max_time)
-    e_loaded, e_all = _errors(g_hat, g)
+    e_loaded, e_all = errors(g_hat, g)
     max_residual = float(np.max(info.residual))
     if noise_v > 0:  # measured here, the same way for every solver (the fixed point reports |F-G|/G)
         max_residual = complementarity_residual(g_hat, G)
@@ -227,7 +193,7 @@ def measure_psmat(size: int, mode: str, threads: int, frames: int, seed: int, mi
         status = sorted(set(np.atleast_1d(np.asarray(info.status))[~conv].tolist()))
         notes.append(f"{int((~conv).sum())}/{T} frames not converged ({', '.join(map(str, status))})")
     fps = T * calls / secs
-    return _row(size=size, mode=mode, solver=label, threads=nt, frames=T, calls=calls,
+    return row(size=size, mode=mode, solver=label, threads=nt, frames=T, calls=calls,
                 seconds=secs, fps=fps, fps_per_core=fps / nt, err_loaded=e_loaded, err_all=e_all,
                 iterations=float(np.mean(info.iterations)), max_iterations=float(np.max(info.iterations)),
                 max_residual=max_residual,
@@ -284,15 +250,15 @@ def _isolated(fn_name: str, kwargs: dict, timeout: float, fallback_row: dict) ->
         recv.close()
     if kind == "ok":
         return payload
-    row = dict(fallback_row)
+    out = dict(fallback_row)
     if kind == "timeout":
-        row["note"] = (f"stopped after the {timeout:.0f} s budget (incl. start-up and priming) "
-                       f"before {row['frames']} frame(s) were solved: fps < {row['frames'] / timeout:.3g}")
-        row["fps"] = float("nan")
-        row["seconds"] = time.perf_counter() - t0
+        out["note"] = (f"stopped after the {timeout:.0f} s budget (incl. start-up and priming) "
+                       f"before {out['frames']} frame(s) were solved: fps < {out['frames'] / timeout:.3g}")
+        out["fps"] = float("nan")
+        out["seconds"] = time.perf_counter() - t0
     else:
-        row["note"] = "failed: " + str(payload).strip().splitlines()[-1]
-    return row
+        out["note"] = "failed: " + str(payload).strip().splitlines()[-1]
+    return out
 
 
 def _measure_psmat(kw: dict, fallback_row: dict, heavy: bool, budget: float) -> dict:
@@ -306,24 +272,6 @@ def _measure_psmat(kw: dict, fallback_row: dict, heavy: bool, budget: float) -> 
         return {**fallback_row, "note": f"failed: {exc!r}"}
 
 
-def _settings(size: int, quick: bool, smoke: bool) -> dict:
-    """Default frames and budgets per array size."""
-    if size <= 16:
-        s = dict(frames=2000, fp_frames=20, lsq_frames=2, fp_target_s=60.0)
-    elif size <= 32:
-        s = dict(frames=200, fp_frames=2, lsq_frames=0, fp_target_s=30.0)
-    else:
-        s = dict(frames=20, fp_frames=1, lsq_frames=0, fp_target_s=30.0)
-    s["lsq_params"] = ("bounds", "log")
-    if quick:
-        s.update(frames=max(4, s["frames"] // 4), fp_frames=max(1, s["fp_frames"] // 4),
-                 lsq_frames=min(1, s["lsq_frames"]), fp_target_s=10.0 if size <= 32 else 0.0,
-                 lsq_params=("log",))
-    if smoke:
-        s.update(fp_frames=1, lsq_frames=0, fp_target_s=0.0)
-    return s
-
-
 def run(sizes=(16, 32, 64), frames: int | None = None, threads=None, *, quick: bool = False,
         smoke: bool = False, min_time: float | None = None, budget: float | None = None,
         seed: int = 0, baselines: bool = True, log=print) -> dict:
@@ -332,9 +280,6 @@ def run(sizes=(16, 32, 64), frames: int | None = None, threads=None, *, quick: b
     ``threads``: an int or a list of ints; default all usable cores, plus 1 thread for
     arrays up to 32×32 (per-core figures measured, not only divided).
     """
-    # the baselines reuse this module's frames and rows, so they are imported here, not above
-    from .iecm_baselines import measure_fixed_point_numpy, measure_fixed_point_to_target, measure_least_squares
-
     info = machine_info()
     ncpu = info["usable_cpus"]
     if min_time is None:
@@ -345,14 +290,14 @@ def run(sizes=(16, 32, 64), frames: int | None = None, threads=None, *, quick: b
     notes: list[str] = []
 
     def emit(r: dict) -> None:
-        _target(r)
+        apply_target(r)
         rows.append(r)
         fps = "n/a" if not np.isfinite(r["fps"]) else f"{r['fps']:.4g} fps"
         log(f"  {r['size']}x{r['size']} {r['mode']:<9} {r['solver']:<44} x{r['threads']}: {fps}"
             f"{'  (' + r['note'] + ')' if r['note'] else ''}", flush=True)
 
     for size in sizes:
-        st = _settings(size, quick, smoke)
+        st = settings(size, quick, smoke)
         T = int(frames) if frames is not None else st["frames"]
         heavy = size * size > HEAVY_CELLS
         if threads is None:
@@ -365,7 +310,7 @@ def run(sizes=(16, 32, 64), frames: int | None = None, threads=None, *, quick: b
         try:
             import psmat.iecm as iecm
 
-            g_chk, G_chk = _scene(size, 3, seed)
+            g_chk, G_chk = scene(size, 3, seed)
             d = float(np.max(np.abs(iecm.forward(g_chk) / G_chk - 1.0)))
             notes.append(f"{size}x{size}: max |F_psmat/F_numpy - 1| = {d:.1e} on 3 frames")
         except Exception as exc:  # keep benchmarking the baselines
@@ -376,16 +321,16 @@ def run(sizes=(16, 32, 64), frames: int | None = None, threads=None, *, quick: b
                 Tm = T if (mode == "streaming" or not heavy) else max(1, min(T, nt))
                 kw = dict(size=size, mode=mode, threads=nt, frames=Tm, seed=seed, min_time=min_time,
                           max_time=budget, warmup=not heavy, prime="truth" if heavy else "solve")
-                fb = _row(size=size, mode=mode, solver="psmat newton", threads=min(nt, Tm), frames=Tm)
+                fb = row(size=size, mode=mode, solver="psmat newton", threads=min(nt, Tm), frames=Tm)
                 emit(_measure_psmat(kw, fb, heavy, budget))
         # A real mat's data: noisy G (quiet cells end at the bound g = 0): psmat's default path
         # (Newton handing frames with bound cells to the active-set method), streaming and cold;
         # in the same run the Fischer-Burmeister bounded Newton it replaced (the earlier default) and the
         # thesis' quick fixed point (25 iterations, beta 0.05), with their measured residuals.
-        for noisy in _noisy_entries(size, T, heavy, ncpu):
+        for noisy in noisy_entries(size, T, heavy, ncpu):
             kw = dict(size=size, threads=ncpu, seed=seed, min_time=min_time, max_time=budget,
                       warmup=not heavy, noise_v=1e-3, **noisy)
-            fb = _row(size=size, mode=noisy["mode"], solver=noisy["label"], threads=min(ncpu, noisy["frames"]),
+            fb = row(size=size, mode=noisy["mode"], solver=noisy["label"], threads=min(ncpu, noisy["frames"]),
                       frames=noisy["frames"], noise_v=1e-3)
             emit(_measure_psmat(kw, fb, heavy, budget))
         # psmat's C++ fixed point, the thesis' iteration (same 2000 iterations as the NumPy baseline).
@@ -396,7 +341,7 @@ def run(sizes=(16, 32, 64), frames: int | None = None, threads=None, *, quick: b
                       max_time=budget, warmup=not heavy, method="fixed_point",
                       solve_options=dict(beta=0.05, max_iter=fp_it, rtol=1e-14),
                       label=f"psmat fixed_point β=0.05, {fp_it} it")
-            fb = _row(size=size, mode="cold", solver=kw["label"], threads=min(ncpu, Tf), frames=Tf)
+            fb = row(size=size, mode="cold", solver=kw["label"], threads=min(ncpu, Tf), frames=Tf)
             emit(_measure_psmat(kw, fb, heavy, budget))
 
         if not baselines:
@@ -432,10 +377,7 @@ def run(sizes=(16, 32, 64), frames: int | None = None, threads=None, *, quick: b
             "rows": rows, "notes": notes}
 
 
-NOISY_LABEL = "psmat newton, noisy G (1 mV, 12 bit)"
-
-
-def _noisy_entries(size: int, frames: int, heavy: bool, ncpu: int) -> list[dict]:
+def noisy_entries(size: int, frames: int, heavy: bool, ncpu: int) -> list[dict]:
     """The noisy-G entries of one array size (keyword arguments of :func:`measure_psmat`)."""
     few = max(ncpu, frames // 5) if heavy else frames  # the slow reference: fewer frames above 32x32
     return [

@@ -1,6 +1,6 @@
 """The thesis-style baselines of ``python -m psmat.bench iecm``, timed in the same process as psmat:
 the NumPy fixed point (eq. 2.10) for a fixed number of iterations and to the accuracy target,
-and scipy ``least_squares`` with a numerical Jacobian (:mod:`psmat.bench.baseline_numpy`)."""
+and scipy ``least_squares`` with a numerical Jacobian (:mod:`psmat.bench.baselines.iecm_numpy`)."""
 
 from __future__ import annotations
 
@@ -8,8 +8,8 @@ import time
 
 import numpy as np
 
-from .baseline_numpy import jacobian_numpy, solve_fixed_point_numpy, solve_least_squares_scipy
-from .iecm import ACCURACY_TARGET, ERROR_THRESHOLD_S, _errors, _row, _scene
+from .baselines.iecm_numpy import jacobian_numpy, solve_fixed_point_numpy, solve_least_squares_scipy
+from .iecm_setup import ACCURACY_TARGET, ERROR_THRESHOLD_S, errors, row, scene
 
 __all__ = ["measure_fixed_point_numpy", "measure_fixed_point_to_target", "measure_least_squares"]
 
@@ -17,13 +17,13 @@ __all__ = ["measure_fixed_point_numpy", "measure_fixed_point_to_target", "measur
 def measure_fixed_point_numpy(size: int, frames: int, seed: int, max_iter: int = 2000,
                               beta: float = 0.05) -> dict:
     """NumPy fixed point (eq. 2.10), cold from g0 = G, a fixed number of iterations, batched over frames."""
-    g, G = _scene(size, frames + 1, seed)
+    g, G = scene(size, frames + 1, seed)
     g, G = g[1:], G[1:]
     t0 = time.perf_counter()
     g_hat, info = solve_fixed_point_numpy(G, beta=beta, rtol=0.0, max_iter=max_iter)
     secs = time.perf_counter() - t0
-    e_loaded, e_all = _errors(g_hat, g)
-    return _row(size=size, mode="cold", solver=f"numpy fixed point β={beta:g}, {max_iter} it",
+    e_loaded, e_all = errors(g_hat, g)
+    return row(size=size, mode="cold", solver=f"numpy fixed point β={beta:g}, {max_iter} it",
                 threads=1, frames=frames, calls=1, seconds=secs, fps=frames / secs,
                 fps_per_core=frames / secs, err_loaded=e_loaded, err_all=e_all,
                 iterations=float(np.mean(info["iterations"])),
@@ -33,13 +33,13 @@ def measure_fixed_point_numpy(size: int, frames: int, seed: int, max_iter: int =
 def measure_fixed_point_to_target(size: int, seed: int, time_limit: float, beta: float = 0.05,
                                   max_iter: int = 10_000_000) -> dict:
     """Iterations the NumPy fixed point needs to reach the 1e-6 target on frame 1 (oracle stop)."""
-    g, G = _scene(size, 2, seed)
+    g, G = scene(size, 2, seed)
     g, G = g[1], G[1]
     g_hat, info = solve_fixed_point_numpy(G, beta=beta, rtol=0.0, max_iter=max_iter, g_true=g,
                                           target_error=ACCURACY_TARGET,
                                           error_threshold=ERROR_THRESHOLD_S, time_limit=time_limit)
     secs = info["wall_time"]
-    e_loaded, e_all = _errors(g_hat, g)
+    e_loaded, e_all = errors(g_hat, g)
     it = int(info["iterations"])
     lo, hi = _jacobian_spread(g)
     if info["converged"]:
@@ -57,7 +57,7 @@ def measure_fixed_point_to_target(size: int, seed: int, time_limit: float, beta:
             note += " > 2: the iteration is unstable at this size"
         elif np.isfinite(lo):
             note += f" and the slowest mode contracts by 1 - β·λmin = {1 - beta * lo:.6f} per iteration"
-    return _row(size=size, mode="cold", solver=f"numpy fixed point β={beta:g}, to {ACCURACY_TARGET:g}",
+    return row(size=size, mode="cold", solver=f"numpy fixed point β={beta:g}, to {ACCURACY_TARGET:g}",
                 threads=1, frames=1, calls=1, seconds=secs, fps=1.0 / secs, fps_per_core=1.0 / secs,
                 err_loaded=e_loaded, err_all=e_all, iterations=float(it), note=note)
 
@@ -95,7 +95,7 @@ def _extrapolate_iterations(history: np.ndarray, target: float) -> float | None:
 
 def measure_least_squares(size: int, frames: int, seed: int, param: str = "bounds") -> dict:
     """scipy.optimize.least_squares, numerical Jacobian, cold from g0 = G, frame by frame."""
-    g, G = _scene(size, frames + 1, seed)
+    g, G = scene(size, frames + 1, seed)
     g, G = g[1:], G[1:]
     out = np.empty_like(g)
     nfev, njev = [], []
@@ -105,13 +105,11 @@ def measure_least_squares(size: int, frames: int, seed: int, param: str = "bound
         nfev.append(res.nfev)
         njev.append(res.njev if res.njev is not None else np.nan)
     secs = time.perf_counter() - t0
-    e_loaded, e_all = _errors(out, g)
+    e_loaded, e_all = errors(out, g)
     what = "g in (0, inf), trf" if param == "bounds" else "log g, trf"
-    return _row(size=size, mode="cold", solver=f"scipy least_squares 2-point, {what}", threads=1,
+    return row(size=size, mode="cold", solver=f"scipy least_squares 2-point, {what}", threads=1,
                 frames=frames, calls=1, seconds=secs, fps=frames / secs, fps_per_core=frames / secs,
                 err_loaded=e_loaded, err_all=e_all, iterations=float(np.mean(njev)),
                 note=f"{np.mean(nfev):.0f} residual evaluations + {np.mean(njev):.0f} numerical "
                      f"Jacobians ({size * size} forward solves each) per frame; iterations = Jacobians")
 
-
-# ----------------------------------------------------------------------------- driver

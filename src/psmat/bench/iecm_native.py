@@ -22,7 +22,8 @@ import sys
 import tempfile
 from pathlib import Path
 
-from .iecm_report import machine_info
+from .iecm_setup import HEAVY_CELLS, NOISY_LABEL, settings
+from .machine import machine_info
 
 __all__ = ["BUILDS", "rows_for", "run_child", "compare", "format_comparison"]
 
@@ -58,8 +59,6 @@ def rows_for(size: int, frames: int, threads: int, seed: int, min_time: float, b
     min_time, budget : float
         Seconds of timed work per row, and its cap (s).
     """
-    from .iecm import HEAVY_CELLS, NOISY_LABEL
-
     heavy = size * size > HEAVY_CELLS
     base = dict(size=size, mode="streaming", threads=threads, frames=frames, seed=seed, min_time=min_time,
                 max_time=budget, warmup=not heavy, prime="truth" if heavy else "solve")
@@ -67,17 +66,25 @@ def rows_for(size: int, frames: int, threads: int, seed: int, min_time: float, b
             dict(base, label=NOISY_LABEL, noise_v=1e-3, prime="solve")]
 
 
-def run_child(python: str, kwargs: dict, timeout: float) -> dict:
+# Runs in the child: where psmat's compiled core is imported from, as JSON on the last line.
+_PROBE = """
+import json, psmat._core
+print(json.dumps({"core": psmat._core.__file__}))
+"""
+
+
+def run_child(python: str, kwargs: dict | None, timeout: float) -> dict:
     """One row measured by the psmat installed for ``python`` (a child process).
 
-    Returns ``{"row": ..., "psmat": ..., "core": ..., "version": ...}``; raises
-    ``RuntimeError`` with the child's last error line when it fails or runs past ``timeout`` s.
+    Returns ``{"row": ..., "psmat": ..., "core": ..., "version": ...}``; with ``kwargs`` None
+    only ``{"core": ...}``, nothing measured. Raises ``RuntimeError`` with the child's last
+    error line when it fails or runs past ``timeout`` s.
     """
     env = {k: v for k, v in os.environ.items() if k not in ("PYTHONPATH", "PYTHONHOME")}
+    args = [python, "-c", _PROBE] if kwargs is None else [python, "-c", _CHILD, json.dumps(kwargs)]
     with tempfile.TemporaryDirectory(prefix="psmat-bench-") as cwd:  # nothing importable from here
         try:
-            out = subprocess.run([python, "-c", _CHILD, json.dumps(kwargs)], cwd=cwd, env=env,
-                                 capture_output=True, text=True, timeout=timeout)
+            out = subprocess.run(args, cwd=cwd, env=env, capture_output=True, text=True, timeout=timeout)
         except subprocess.TimeoutExpired:
             raise RuntimeError(f"{python}: no result within {timeout:.0f} s") from None
     if out.returncode != 0:
@@ -108,15 +115,17 @@ def compare(pythons: dict[str, str], sizes, frames: int | None, threads: int | N
         each row holds ``size``, ``solver``, ``threads``, ``frames`` and per build the list
         ``runs`` of measured rows.
     """
-    from .iecm import _settings
-
+    # refused before anything is measured: one build under two labels is no comparison
+    cores = [run_child(python, None, timeout=120.0)["core"] for python in pythons.values()]
+    if len(set(cores)) < len(cores):
+        raise RuntimeError(f"the builds import the same psmat._core ({cores[0]}): give two environments")
     info = machine_info()
     threads = threads or info["usable_cpus"]
     min_time, budget = (0.3, 60.0) if quick else (1.0, 150.0)
     builds: dict[str, dict] = {}
     rows = []
     for size in sizes:
-        T = int(frames) if frames is not None else _settings(size, quick, False)["frames"]
+        T = int(frames) if frames is not None else settings(size, quick, False)["frames"]
         for kw in rows_for(size, T, threads, seed, min_time, budget):
             entry = dict(size=size, solver=kw["label"], threads=threads, frames=T,
                          runs={label: [] for label in pythons})
@@ -131,9 +140,6 @@ def compare(pythons: dict[str, str], sizes, frames: int | None, threads: int | N
                     log(f"  {size}x{size} {kw['label']:<38} {label:<8} run {k + 1}/{repeats}: "
                         f"{res['row']['fps']:.4g} fps", file=sys.stderr, flush=True)
             rows.append(entry)
-    cores = [b["core"] for b in builds.values()]
-    if len(set(cores)) < len(cores):
-        raise RuntimeError(f"the builds import the same psmat._core ({cores[0]}): give two environments")
     return {"machine": info, "builds": builds, "rows": rows, "repeats": repeats, "seed": seed}
 
 

@@ -1,7 +1,8 @@
 """Sensor-model benchmark (docs/spec.md §10): ``python -m psmat.bench sensor [--quick] [--seed K]``.
 
 1. Throughput of the C++ direct and inverse MPI + creep model on 256 cells, beside a NumPy
-   implementation vectorised over cells (a Python loop over samples) run in the same process.
+   implementation vectorised over cells (a Python loop over samples) run in the same process
+   (:mod:`psmat.bench.baselines.sensor_numpy`).
 2. Identification on the full descending + ascending hysteresis protocols (docs/spec.md §4, 10
    repetitions each, 2 Hz) of a simulated cell (thesis model + 0.5 % noise): variable
    projection, simulated annealing (C++, one chain per core) + NLopt over the reduced
@@ -21,51 +22,10 @@ import time
 
 import numpy as np
 
-from .iecm import machine_info
+from .baselines.sensor_numpy import direct_numpy, inverse_numpy
+from .machine import machine_info
 
 __all__ = ["main", "run", "identification_data"]
-
-
-def _numpy_setup(model, dt: float, cells: int):
-    """Parameters and rest state of the NumPy baseline: (params, r, b, w, e^{-l dt}, y, y_c, p_prev)."""
-    prm = model.params
-    l, w = np.asarray(prm["l"]), np.asarray(prm["w"])
-    zeros = np.zeros
-    return (prm, model.thresholds, model.weights, w, np.exp(-l * dt), zeros((len(model.thresholds), cells)),
-            zeros((len(l), cells)), zeros(cells))
-
-
-def _numpy_direct(model, p: np.ndarray, dt: float) -> np.ndarray:
-    """Independent NumPy direct model (eq. 2.15-2.24), vectorised over cells, loop over samples."""
-    prm, r, b, w, decay, y, yc, p_prev = _numpy_setup(model, dt, p.shape[1])
-    out = np.empty_like(p)
-    for t in range(p.shape[0]):
-        x = p[t]
-        y = np.maximum(x - r[:, None], np.minimum(x, y))
-        yc = decay[:, None] * yc + (1 - decay[:, None]) * p_prev
-        out[t] = prm["a1"] * x + prm["a2"] * x**2 + prm["a3"] * x**3 + b @ y + w @ yc
-        p_prev = x
-    return out
-
-
-def _numpy_inverse(model, g: np.ndarray, dt: float, iters: int = 60) -> np.ndarray:
-    """NumPy inverse: per sample, bisection of the algebraic loop for all cells at once."""
-    prm, r, b, w, decay, y, yc, p_prev = _numpy_setup(model, dt, g.shape[1])
-    out = np.empty_like(g)
-    for t in range(g.shape[0]):
-        yc = decay[:, None] * yc + (1 - decay[:, None]) * p_prev
-        target = g[t] - w @ yc
-        lo, hi = np.zeros(g.shape[1]), np.full(g.shape[1], 64.0)
-        for _ in range(iters):
-            mid = 0.5 * (lo + hi)
-            h = prm["a1"] * mid + prm["a2"] * mid**2 + prm["a3"] * mid**3 + b @ np.maximum(mid - r[:, None], np.minimum(mid, y))
-            below = h < target
-            lo = np.where(below, mid, lo)
-            hi = np.where(below, hi, mid)
-        x = 0.5 * (lo + hi)
-        y = np.maximum(x - r[:, None], np.minimum(x, y))
-        out[t] = p_prev = x
-    return out
 
 
 def _throughput(quick: bool, log) -> list[dict]:
@@ -85,8 +45,8 @@ def _throughput(quick: bool, log) -> list[dict]:
     g, t_d = timed(m.direct, p, 0.5)
     p_back, t_i = timed(m.inverse, g, 0.5)
     n = min(T, 200 if quick else 1000)
-    g_np, t_dn = timed(_numpy_direct, m, p[:n], 0.5)
-    p_np, t_in = timed(_numpy_inverse, m, g[:n], 0.5)
+    g_np, t_dn = timed(direct_numpy, m, p[:n], 0.5)
+    p_np, t_in = timed(inverse_numpy, m, g[:n], 0.5)
     rows.append(dict(kernel="direct", impl="psmat C++ (1 thread)", cell_samples_per_s=p.size / t_d,
                      check=f"|g - g_numpy| max {np.max(np.abs(g[:n] - g_np)):.1e} S"))
     rows.append(dict(kernel="direct", impl="NumPy, vectorised over cells", cell_samples_per_s=p[:n].size / t_dn, check=""))
@@ -116,8 +76,7 @@ def _identification(quick: bool, seed: int, log) -> tuple[list[dict], dict]:
     from scipy.optimize import dual_annealing
 
     from .. import _core
-    from ..sensor import MPICreep, fit
-    from ..sensor.fit import _Reduced, _space
+    from ..sensor import MPICreep, ReducedProblem, annealing_space, fit
 
     reps = 2 if quick else 10
     true = MPICreep.thesis()
@@ -129,23 +88,23 @@ def _identification(quick: bool, seed: int, log) -> tuple[list[dict], dict]:
     evals_full = 6000 if quick else 30000
 
     res = fit(ps, gs, 0.5, method="varpro")
-    rows.append(dict(method="varpro (grid + NLopt BOBYQA)", sse_n=res.sse_n, seconds=res.wall_time, evaluations=res.evaluations))
+    rows.append(dict(method="varpro (grid + NLopt BOBYQA)", sse_n=res.sse_n, seconds=res.wall_time_s, evaluations=res.evaluations))
     res = fit(ps, gs, 0.5, method="anneal", seed=seed, max_evals=evals)
     chains = res.details["chains"]
     rows.append(dict(method=f"anneal C++ reduced ({chains} chains x {evals}) + BOBYQA", sse_n=res.sse_n,
-                     seconds=res.wall_time, evaluations=res.evaluations))
+                     seconds=res.wall_time_s, evaluations=res.evaluations))
     res = fit(ps, gs, 0.5, method="anneal_full", seed=seed, max_evals=evals_full)
     rows.append(dict(method=f"anneal C++ all 9 ({chains} chains x {evals_full}) + BOBYQA", sse_n=res.sse_n,
-                     seconds=res.wall_time, evaluations=res.evaluations))
+                     seconds=res.wall_time_s, evaluations=res.evaluations))
 
     # scipy's dual_annealing on the same two objectives and boxes, same budgets
-    red = _Reduced(ps, gs, [0.5, 0.5], 6, 32.0, 2)
+    red = ReducedProblem(ps, gs, [0.5, 0.5], 6, 32.0, 2)
     t0 = time.perf_counter()
     da = dual_annealing(lambda z: np.log(red(z)[0]), list(zip(red.lower, red.upper)), maxfun=chains * evals, seed=seed)
     rows.append(dict(method=f"scipy dual_annealing reduced (maxfun {chains * evals})", sse_n=float(np.exp(da.fun)),
                      seconds=time.perf_counter() - t0, evaluations=red.evals))
 
-    x0, lo, hi, scale, log10 = _space(ps, [0.5, 0.5], 2)
+    x0, lo, hi, scale, log10 = annealing_space(ps, [0.5, 0.5], 2)
     count = 0
 
     def objective(x):

@@ -5,11 +5,11 @@
 
 What is measured
 ----------------
-A simulated balance study (:func:`psmat.study.simulate.simulate_study`: three trials per
+A simulated balance study (:func:`psmat.synth.simulate_study`: three trials per
 volunteer through mats the processing does not know; docs/spec.md §7) of the thesis' size by default —
 42 volunteers × 3 trials × 60 s at 100 Hz = 756 000 frames, 16×16 — is processed end to end:
 
-* **psmat** — :func:`psmat.study.run.run_study` with ``workers`` processes: every variant of
+* **psmat** — :func:`psmat.study.run_study` with ``workers`` processes: every variant of
   docs/spec.md §7 (each session through the one chain, IECM on noisy frames, the inverse sensor
   model, eq. 3.3, the 8×8 emulation, alignment, metrics), the per-session result files,
   ``metrics.csv``, the summary, figures and report. The results folder is emptied first, so
@@ -36,7 +36,7 @@ import time
 from pathlib import Path
 from typing import Any
 
-from .iecm import machine_info
+from .machine import machine_info
 
 __all__ = ["main", "run"]
 
@@ -45,7 +45,7 @@ TARGET_S = 600.0  # docs/spec.md §10: a thesis-size study in <= 10 min on 2 cor
 
 def _pool_task(item: tuple[str, str | None, str, str, float | None]) -> int:
     """One session by the baseline: the per-session function, nothing written; its row count."""
-    from ..study.trial import process_trial
+    from ..study import process_trial
 
     session, plate, subject, trial, weight = item
     return len(process_trial(session, plate, subject, trial, weight))
@@ -60,9 +60,9 @@ def _frames(layout: Any) -> int:
 def run(volunteers: int = 42, seconds: float = 60.0, rate_hz: float = 100.0, workers: int = 2, seed: int = 0,
         study_dir: str | None = None, baseline: bool = True) -> dict[str, Any]:
     """Simulate (or reuse) a study and time its processing; the figures as a dict."""
-    from ..study.layout import find_study
-    from ..study.run import run_study
-    from ..study.simulate import simulate_study
+    from ..study import find_study
+    from ..study import run_study
+    from ..synth import simulate_study
 
     tmp = None
     if study_dir is None:
@@ -78,7 +78,7 @@ def run(volunteers: int = 42, seconds: float = 60.0, rate_hz: float = 100.0, wor
         if not reuse:
             if root.exists():
                 raise SystemExit(f"{root} exists and does not hold a {volunteers}-volunteer study; give another --dir")
-            simulate_study(root, volunteers=volunteers, seconds=seconds, seed=seed, rate_hz=rate_hz, progress=True)
+            simulate_study(root, volunteers=volunteers, duration_s=seconds, seed=seed, rate_hz=rate_hz, progress=True)
         out["simulate_s"] = None if reuse else time.perf_counter() - t0
         layout = find_study(root)
         out["sessions"] = len(layout.items)

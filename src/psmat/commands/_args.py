@@ -12,8 +12,6 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-from .. import _checks
-
 __all__ = ["shape", "seconds", "session_seconds", "rate_hz", "positive_int", "tcp_port", "nonnegative",
            "conductance", "input_file", "figure_file", "twin_shape_problem", "TWIN_MAX_LINES",
            "IMU_MAX_RATE_HZ"]
@@ -58,12 +56,16 @@ def seconds(text: str) -> float:
 def rate_hz(text: str) -> float:
     """A frame rate in Hz: a whole number of frames per second, 1 ... 1000 (the PSM firmware's
     SET_RATE range, :data:`psmat._checks.MAX_RATE_HZ`)."""
+    from .. import _checks  # here: numpy, which it needs, is not loaded for psmat --help
+
     return _checked(_checks.rate_hz, "a rate", _number(text, "a rate in Hz"), whole=True)
 
 
 def session_seconds(text: str) -> float:
     """The length of a simulated session in s: finite, > 0 and at most an hour
     (:data:`psmat._checks.MAX_SESSION_S`)."""
+    from .. import _checks
+
     return _checked(_checks.duration_s, "a duration", _number(text, "a duration in seconds"))
 
 

@@ -94,5 +94,6 @@ def run(args: argparse.Namespace) -> int:
     r_mux = cal.r_mux if isinstance(cal.r_mux, float) else f"per pair, median {float(__import__('numpy').median(cal.r_mux)):.1f}"
     print(f"R_adc = {cal.r_adc / 1e6:.3g} MOhm, R_mux = {r_mux if isinstance(r_mux, str) else f'{r_mux:.1f}'} Ohm "
           f"(box {cal.serial or 'without serial'})")
-    print(f"written {out}; load it with psmat.Circuit.from_calibration(psmat.Calibration.load(path))")
+    print(f"written {out}; apply it with psmat.Circuit().calibrated(psmat.Calibration.load(path)), or pass it to "
+          "psmat.process.process_session(..., calibration=path)")
     return 0

@@ -10,7 +10,6 @@ from __future__ import annotations
 import argparse
 import sys
 
-from .. import _checks
 from . import _args
 
 NAME = "demo"
@@ -42,9 +41,10 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 def _check(args: argparse.Namespace) -> str | None:
     """Why the outputs may not be written (one line), or None; nothing is touched."""
+    from .. import _checks
     from .._atomic import OutputRefused, check_outputs
     from ..io import journal_path
-    from ..io.session_unfinished import unfinished_line
+    from ..io.session import unfinished_line
 
     if args.rate > _checks.MAX_RATE_HZ:
         return (f"--rate is at most {_checks.MAX_RATE_HZ} frames/s (the PSM firmware's fastest, docs/spec.md §5), "

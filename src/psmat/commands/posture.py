@@ -3,18 +3,19 @@
 ``psmat posture simulate DIR --subjects 12 --days 3 --seed K`` writes a simulated posture study:
 the seated twin (:mod:`psmat.twin.seated`) following the thesis' protocol once a day per subject,
 one posture trajectory driving both the cushion's mat and the spine IMUs, recorded together into
-one session per day (:mod:`psmat.posture.simulate`), the truth apart in ``DIR/truth/``.
+one session per day (:func:`psmat.synth.simulate_posture_study`), the truth apart in ``DIR/truth/``.
 
 ``psmat posture train DIR --split ksi|ksi-leaky|lso`` builds the inputs of every session
-(:mod:`psmat.posture.dataset`: IECM, the mat averaged to the IMU rate; cached in
-``DIR/results/posture/inputs/``) and trains the thesis' CNN (§4.3, :mod:`psmat.posture.train`) on
-that split, writing ``DIR/results/posture/table44_<split>.csv`` (thesis Table 4.4's shape, the
-ridge-on-PCA baseline beside it), figures as Figs. 4.13-4.16 and checkpoints (a killed training
+(:func:`psmat.posture.load_posture_study`: IECM, the mat averaged to the IMU rate; cached in
+``DIR/results/posture/inputs/``) and trains the thesis' CNN (§4.3,
+:func:`psmat.posture.learn.train_posture`) on that split, writing
+``DIR/results/posture/table44_<split>.csv`` (thesis Table 4.4's shape, the ridge-on-PCA baseline
+beside it), figures as Figs. 4.13-4.16 and checkpoints (a killed training
 resumes). It needs PyTorch: ``pip install 'psmat[posture]'``.
 
 ``psmat posture heldout DIR`` evaluates the held-out-subject models (beyond the thesis) on the LSO
-test subjects (:mod:`psmat.posture.heldout`): the thesis' CNN, the CNN on subject-invariant
-inputs, both fine-tuned on each test subject's first 30 s, and the ridge-on-PCA baselines (raw,
+test subjects (:func:`psmat.posture.learn.heldout_study`): the thesis' CNN, the CNN on
+subject-invariant inputs, both fine-tuned on each test subject's first 30 s, and the ridge-on-PCA baselines (raw,
 invariant, calibrated), all on the same windows after each session's calibration phase; it writes
 ``DIR/results/posture/heldout.csv`` and ``figures/heldout_r2.png`` and reuses the LSO training of
 ``psmat posture train --split lso`` when its data and settings match.
@@ -123,7 +124,7 @@ def run(args: argparse.Namespace) -> int:
 
 def _study(args: argparse.Namespace, verb: str) -> tuple[Any, Path] | None:
     """The study's recordings and the output folder, or None after a one-line error."""
-    from ..posture.dataset import load_posture_study
+    from ..posture import load_posture_study
 
     root = Path(args.dir)
     if not (root / "sessions").is_dir():
@@ -142,7 +143,7 @@ def _study(args: argparse.Namespace, verb: str) -> tuple[Any, Path] | None:
 
 def _no_recording(root: Path, problems: list[str]) -> str:
     """Why a study gave no recording, as one line."""
-    from ..posture.dataset import NO_IMU
+    from ..posture import NO_IMU
 
     line = f"{root}: no session can be used ({len(problems)} left out"
     line += f"; the first, {problems[0]})" if problems else ")"
@@ -160,7 +161,7 @@ def _print_rows(rows: list[dict[str, Any]]) -> None:
 
 def _train(args: argparse.Namespace) -> int:
     try:
-        from ..posture.train import train_posture
+        from ..posture.learn import train_posture
     except ImportError as exc:
         print(f"psmat posture train: {_line(exc)}", file=sys.stderr)
         return 1
@@ -175,7 +176,7 @@ def _train(args: argparse.Namespace) -> int:
     except (OSError, ValueError) as exc:
         print(f"psmat posture train: {_line(exc)}", file=sys.stderr)
         return 1
-    from ..posture.splits import SPLIT_NAMES
+    from ..posture import SPLIT_NAMES
 
     print(f"{len(study.recordings)} sessions, split {args.split} = {SPLIT_NAMES[args.split]}: "
           f"best epoch {result.best_epoch}; "
@@ -186,8 +187,7 @@ def _train(args: argparse.Namespace) -> int:
 
 def _heldout(args: argparse.Namespace) -> int:
     try:
-        from ..posture.finetune import FinetuneConfig
-        from ..posture.heldout import heldout_study
+        from ..posture.learn import FinetuneConfig, heldout_study
     except ImportError as exc:
         print(f"psmat posture heldout: {_line(exc)}", file=sys.stderr)
         return 1
@@ -211,11 +211,11 @@ def _heldout(args: argparse.Namespace) -> int:
 
 
 def _simulate(args: argparse.Namespace) -> int:
-    from ..posture.simulate import simulate_posture_study
+    from ..synth import simulate_posture_study
 
     try:
         root = simulate_posture_study(args.dir, subjects=args.subjects, days=args.days, seed=args.seed,
-                                      rate_hz=args.rate, seconds=args.seconds, progress=not args.quiet)
+                                      rate_hz=args.rate, duration_s=args.seconds, progress=not args.quiet)
     except (OSError, ValueError) as exc:
         print(f"psmat posture simulate: {_line(exc)}", file=sys.stderr)
         return 1

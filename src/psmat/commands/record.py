@@ -73,7 +73,7 @@ def _check(args: argparse.Namespace) -> str | None:
 
     from .._atomic import OutputRefused, check_outputs
     from ..io import journal_path
-    from ..io.session_unfinished import unfinished_line
+    from ..io.session import unfinished_line
 
     if bool(args.port) == bool(args.simulate):
         return "give a PORT or --simulate"
@@ -219,7 +219,7 @@ def _loop(sources: list[_Source], args: argparse.Namespace) -> int:
                     break
                 for s in live:
                     try:  # the first device paces the loop; the others give what they buffered meanwhile
-                        n = len(s.dev.read(timeout=0.25) if s is live[0] else s.dev.read())
+                        n = len(s.dev.read(timeout_s=0.25) if s is live[0] else s.dev.read())
                     except DeviceDisconnected as exc:
                         s.ended = str(exc)
                         status = 1

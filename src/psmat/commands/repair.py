@@ -46,7 +46,7 @@ def run(args: argparse.Namespace) -> int:
     import h5py
 
     from ..io import SessionFormatError, journal_path, load_session, repair_session
-    from ..io.session_unfinished import replacement_journal
+    from ..io.session import replacement_journal
 
     path = Path(args.session)
 

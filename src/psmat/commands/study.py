@@ -4,7 +4,7 @@
 figures, report), resuming where an earlier run stopped; ``--scheduler tcp://HOST:8786`` (or
 ``--scheduler-file``, with ``--tls-*`` for TLS) runs the sessions on a Dask distributed cluster
 (``pip install 'psmat[cluster]'``; the folder must be on a filesystem the workers share; the
-cluster must be trusted, its workers run arbitrary code by design: :mod:`psmat.study.cluster`).
+cluster must be trusted, its workers run arbitrary code by design: :mod:`psmat.study` (``_cluster.py``)).
 ``psmat study simulate DIR`` writes a simulated study (docs/spec.md §7): BDS force-platform
 trajectories through mats the processing does not know.
 """
@@ -21,8 +21,8 @@ HELP = "run a balance study folder (metrics, summary, figures, report) or simula
 
 
 def _variant_key() -> str:
-    """The variants spelled out, for --variants' help (from :mod:`psmat.balance.variants`)."""
-    from ..balance.variants import BASE_VARIANTS, EXTRA_VARIANTS, describe
+    """The variants spelled out, for --variants' help (from :func:`psmat.balance.describe`)."""
+    from ..balance import BASE_VARIANTS, EXTRA_VARIANTS, describe
 
     keys = [f"{v}: {describe(v).key}" for v in (*BASE_VARIANTS, *EXTRA_VARIANTS)]  # type: ignore[union-attr]
     return ("Variants: " + "; ".join(keys) + "; X-8x8: X on an emulated 8x8 mat; IECM: the Inverse of "
@@ -82,12 +82,12 @@ def _run(args: argparse.Namespace) -> int:
         return 1
     params = None
     if args.variants is not None:
-        from ..balance.variants import VARIANTS
+        from ..balance import VARIANTS
 
         names = [n.strip() for n in args.variants.split(",") if n.strip()]
         params = {"variants": [v for n in names for v in (VARIANTS if n == "default" else (n,))]}
     try:
-        from ..study.cluster import security
+        from ..study import security
 
         tls = security(args.tls_ca_file, args.tls_cert, args.tls_key, args.require_encryption)
         report = run_study(args.dir, workers=args.workers, scheduler=args.scheduler, params=params,
@@ -100,10 +100,10 @@ def _run(args: argparse.Namespace) -> int:
 
 
 def _simulate(args: argparse.Namespace) -> int:
-    from ..study.simulate import simulate_study
+    from ..synth import simulate_study
 
     try:
-        root = simulate_study(args.dir, volunteers=args.volunteers, seconds=args.seconds, seed=args.seed,
+        root = simulate_study(args.dir, volunteers=args.volunteers, duration_s=args.seconds, seed=args.seed,
                               rate_hz=args.rate, bds_paths=args.bds, progress=True)
     except (OSError, ValueError) as exc:
         print(f"psmat study simulate: {_line(exc)}", file=sys.stderr)

@@ -94,7 +94,7 @@ def _check_files(args: argparse.Namespace) -> str | None:
 
     from .._atomic import OutputRefused, check_outputs
     from ..io import journal_path
-    from ..io.session_unfinished import unfinished_line
+    from ..io.session import unfinished_line
 
     port = args.port
     if port is not None and (os.path.isfile(port) or journal_path(port).is_file()):

@@ -17,12 +17,13 @@ and returns a result object with the arrays, a ``.table()`` text (Markdown) and 
   IECM adapted to the QZPM readout vs the closed-form QZPM (:mod:`.qzpm_acceptance`;
   needs :mod:`psmat.qzpm`).
 
-Beyond the thesis, on simulated balance trials (run as ``python -m``; they print their tables):
+Beyond the thesis, on simulated balance trials, two measurements run as commands
+(``python -m psmat.experiments --help`` lists them; each prints its table):
 
-* ``python -m psmat.experiments.equilibration`` — SCHC-EQ (a per-cell equilibration,
-  :mod:`psmat.balance.equilibrate`) against SCHC.
-* ``python -m psmat.experiments.dynamic_correction`` — SCHC-DYN (a linear correction fitted
-  on other volunteers, :mod:`psmat.study.dynamic`) against SCHC, and the models compared.
+* ``python -m psmat.experiments equilibration`` — SCHC-EQ (a per-cell equilibration,
+  :func:`psmat.balance.equilibrate`) against SCHC.
+* ``python -m psmat.experiments dynamic_correction`` — SCHC-DYN (a linear correction fitted
+  on other volunteers, :mod:`psmat.study` (``_dynamic.py``)) against SCHC, and the models compared.
 
 Figures: :func:`save_figure` writes PNGs to ``$PSMAT_FIGURES`` or ``./psmat_figures``.
 The notebooks in ``notebooks/`` run each study; ``docs/thesis_results.md`` compares the

@@ -1,15 +1,15 @@
-"""Measured in simulation, beyond the thesis: the dynamic correction of :mod:`psmat.study.dynamic`
+"""Measured in simulation, beyond the thesis: the dynamic correction of :mod:`psmat.study` (``_dynamic.py``)
 on volunteers it was not fitted on, against the base variant it corrects.
 
-The study is the honest simulation of docs/spec.md §7 (:func:`psmat.study.simulate.simulate_study`:
+The study is the honest simulation of docs/spec.md §7 (:func:`psmat.synth.simulate_study`:
 each volunteer's mat, box and clock unknown to the processing, BDS sway in the thesis' three
 trials, the platform at 100 Hz on its own clock), each session processed as ``psmat study
-run`` does (:func:`psmat.study.trial.process_trial` with ``traces=True``: the one chain, PROP
+run`` does (:func:`psmat.study.process_trial` with ``traces=True``: the one chain, PROP
 and SCHC, aligned with the platform), then corrected by
-:func:`psmat.study.dynamic.dynamic_rows` under each model, scope and fold scheme of
+:func:`psmat.study.dynamic_rows` under each model, scope and fold scheme of
 :data:`SCHEMES`.
 
-Run ``python -m psmat.experiments.dynamic_correction [--volunteers 8] [--seconds 30] [--seed 0]
+Run ``python -m psmat.experiments dynamic_correction [--volunteers 8] [--seconds 30] [--seed 0]
 [--rate 100]``.
 """
 
@@ -24,9 +24,9 @@ from typing import Any
 import numpy as np
 
 from ..balance import eu, sway
-from ..study.dynamic import dynamic_rows
-from ..study.layout import find_study
-from ..study.trial import process_trial
+from ..study import dynamic_rows
+from ..study import find_study
+from ..study import process_trial
 from ._common import format_table
 
 __all__ = ["TRIALS", "SCHEMES", "simulated_traces", "DynamicResult", "dynamic_correction", "main"]
@@ -39,12 +39,12 @@ Key = tuple[str, str]
 def simulated_traces(volunteers: int, seconds: float, seed: int, rate_hz: float = 100.0
                      ) -> tuple[list[dict[str, Any]], dict[Key, dict]]:
     """Metrics rows and aligned traces (PROP and SCHC) of a simulated study, as the study runner makes them."""
-    from ..study.simulate import simulate_study
+    from ..synth import simulate_study
 
     rows: list[dict[str, Any]] = []
     traces: dict[Key, dict] = {}
     with tempfile.TemporaryDirectory(prefix="psmat-dyn-") as tmp:
-        layout = find_study(simulate_study(tmp, volunteers=volunteers, seconds=seconds, seed=seed, rate_hz=rate_hz))
+        layout = find_study(simulate_study(tmp, volunteers=volunteers, duration_s=seconds, seed=seed, rate_hz=rate_hz))
         for item in layout.items:
             who = layout.subjects.get(item.subject or "")
             r, tr = process_trial(item.session, item.forceplate, str(item.subject), str(item.trial),
@@ -140,22 +140,23 @@ def dynamic_correction(volunteers: int = 8, seconds: float = 30.0, seed: int = 0
     return result
 
 
-def main(argv: Sequence[str] | None = None) -> None:
-    """Print the tables (``--volunteers``, ``--seconds``, ``--seed``, ``--rate``)."""
+def build_parser(prog: str = "python -m psmat.experiments dynamic_correction") -> argparse.ArgumentParser:
+    """The experiment's options (its help: this module's docstring, every default and unit)."""
     from .._help import HelpFormatter, plain
 
-    ap = argparse.ArgumentParser(prog="python -m psmat.experiments.dynamic_correction", description=plain(__doc__),
-                                 formatter_class=HelpFormatter)
+    ap = argparse.ArgumentParser(prog=prog, description=plain(__doc__), formatter_class=HelpFormatter)
     ap.add_argument("--volunteers", type=int, default=8, help="volunteers of the simulated study, 3 trials each")
     ap.add_argument("--seconds", type=float, default=30.0, help="length of each trial (s)")
     ap.add_argument("--seed", type=int, default=0, help="seed of the simulated study")
     ap.add_argument("--rate", type=float, default=100.0, help="the mat's frame rate (Hz)")
-    a = ap.parse_args(argv)
+    return ap
+
+
+def main(argv: Sequence[str] | None = None, prog: str = "python -m psmat.experiments dynamic_correction") -> int:
+    """Print the tables (``--volunteers``, ``--seconds``, ``--seed``, ``--rate``); exit status 0."""
+    a = build_parser(prog).parse_args(argv)
     r = dynamic_correction(a.volunteers, a.seconds, a.seed, a.rate)
     print(f"Dynamic correction on held-out volunteers (simulation: {r.volunteers} volunteers x 3 trials x "
           f"{r.seconds:g} s, seed {r.seed}); ratios mat/FP and Eu (eq. 3.1) as means over sessions, before -> after")
     print(r.table())
-
-
-if __name__ == "__main__":
-    main()
+    return 0

@@ -1,12 +1,12 @@
 """Measured in simulation, beyond the thesis: SCHC-EQ (the per-cell equilibration of
-:mod:`psmat.balance.equilibrate`) against SCHC on trials whose mat the processing does not know.
+:func:`psmat.balance.equilibrate`) against SCHC on trials whose mat the processing does not know.
 
 Each case is built as ``tests/test_study_trial.py`` builds one: a BDS force-platform trajectory
 drives :func:`psmat.twin.trajectory_sway` (two feet, the recorded Fz) through a
 :class:`psmat.twin.MatPhysics` twice as conductive as the nominal sensor model, with 15 %
 log-normal cell gains (drawn from the case's seed), 1 mV noise and 12 bits, on its own clock;
 the platform file is the recording at 100 Hz on the platform's clock. The session is processed
-by :func:`psmat.study.trial.process_trial` (the one chain, alignment with the platform, Eu and
+by :func:`psmat.study.process_trial` (the one chain, alignment with the platform, Eu and
 σ); the method never sees the gains. The BDS trials and seeds differ from those the method's
 choices (the marginal-likelihood ridge, 0.5 s blocks, the conductance-side gain) were made on
 (BDS 10, 15, 20, 22; seeds 98, 99).
@@ -18,7 +18,7 @@ with both means removed ("dyn", what Eu sees). The learned map is scored against
 (read here only) as the load-weighted RMS of ``log a_learned − log a_true`` over the loaded
 cells, both centred (before: the map of ones).
 
-Run ``python -m psmat.experiments.equilibration [--trials 1 4 8 13 17 24] [--seeds 1 2]
+Run ``python -m psmat.experiments equilibration [--trials 1 4 8 13 17 24] [--seeds 1 2]
 [--seconds 25]``.
 """
 
@@ -32,10 +32,9 @@ from pathlib import Path
 
 import numpy as np
 
-from ..balance import cop, equilibrate
-from ..balance.variants import variant_traces
-from ..sensor import THESIS_TABLE_2_11, MPICreep
-from ..sensor.stepping import inverse_over_gaps
+from ..balance import cop, equilibrate, variant_traces
+from ..sensor import THESIS_TABLE_2_11, MPICreep, inverse_over_gaps
+from ..units import STANDARD_GRAVITY_M_S2, n_from_kg
 from ._common import format_table
 
 __all__ = ["TRIALS", "SEEDS", "EquilibrationCase", "EquilibrationResult", "equilibration_case",
@@ -43,7 +42,6 @@ __all__ = ["TRIALS", "SEEDS", "EquilibrationCase", "EquilibrationResult", "equil
 
 TRIALS = (1, 4, 8, 13, 17, 24)  # BDS: both subjects, eyes open/closed, firm/foam
 SEEDS = (1, 2)
-_G0 = 9.80665  # m/s²
 
 
 def _mat_model(k: float) -> MPICreep:
@@ -127,17 +125,17 @@ def equilibration_case(trial: int, seed: int, seconds: float = 25.0, rate_hz: fl
     from .. import twin
     from ..io import SessionWriter, bds_trial
     from ..process import Processor
-    from ..study.trial import process_trial
+    from ..study import process_trial
 
     rec = bds_trial(trial)
     keep = rec.t <= rec.t[0] + seconds
     t, ml, ap, fz = rec.t[keep], rec.cop_ml_cm[keep], rec.cop_ap_cm[keep], rec.fz_n[keep]
     scene = twin.trajectory_sway(t, ml, ap, fz, rate_hz)
-    pressure = np.minimum(scene.pressure, 32.0)
+    pressure = np.minimum(scene.pressure_psi, 32.0)
     dt = 1.0 / rate_hz
     mats = {v: twin.MatPhysics((16, 16), dt=dt, sensor=_mat_model(2.0), variability=v, seed=seed) for v in (0.15, 0.0)}
     counts = {v: m.counts(pressure) for v, m in mats.items()}
-    weight_kg = float(np.mean(fz)) / _G0
+    weight_kg = float(np.mean(fz)) / STANDARD_GRAVITY_M_S2
     with tempfile.TemporaryDirectory(prefix="psmat-eq-", dir=folder) as tmp:
         session, plate = Path(tmp) / "S01_trial.h5", Path(tmp) / "S01_trial.csv"
         with SessionWriter(session, (16, 16), {"rows": 16, "cols": 16}, metadata={"subject": "S01", "trial": "t"}) as w:
@@ -153,7 +151,7 @@ def equilibration_case(trial: int, seed: int, seconds: float = 25.0, rate_hz: fl
         with Processor((16, 16), threads=1) as proc:
             out = proc.push(c, np.full(len(c), dt), progress=False)
         products[v] = (out.G, out.g)
-    weight_n = weight_kg * _G0
+    weight_n = n_from_kg(weight_kg)
     ref = variant_traces(*products[0.0], dt, weight_n=weight_n, names=("SCHC",))["SCHC"].cop_cm[0]
     G, g = products[0.15]
     schc = variant_traces(G, g, dt, weight_n=weight_n, names=("SCHC",))["SCHC"].cop_cm[0]
@@ -185,24 +183,25 @@ def equilibration_study(trials: Sequence[int] = TRIALS, seeds: Sequence[int] = S
     return result
 
 
-def main(argv: Sequence[str] | None = None) -> None:
-    """Print the table (``--trials``, ``--seeds``, ``--seconds``)."""
+def build_parser(prog: str = "python -m psmat.experiments equilibration") -> argparse.ArgumentParser:
+    """The experiment's options (its help: this module's docstring, every default and unit)."""
     from .._help import HelpFormatter, plain
 
-    ap = argparse.ArgumentParser(prog="python -m psmat.experiments.equilibration", description=plain(__doc__),
-                                 formatter_class=HelpFormatter)
+    ap = argparse.ArgumentParser(prog=prog, description=plain(__doc__), formatter_class=HelpFormatter)
     ap.add_argument("--trials", type=int, nargs="+", default=list(TRIALS),
                     help="trial numbers of the BDS data set (force-platform recordings of human sway shipped "
                          "with psmat)")
     ap.add_argument("--seeds", type=int, nargs="+", default=list(SEEDS), help="seeds of the cell gains and noise")
     ap.add_argument("--seconds", type=float, default=25.0, help="length of each trial (s)")
-    a = ap.parse_args(argv)
+    return ap
+
+
+def main(argv: Sequence[str] | None = None, prog: str = "python -m psmat.experiments equilibration") -> int:
+    """Print the table (``--trials``, ``--seeds``, ``--seconds``); exit status 0."""
+    a = build_parser(prog).parse_args(argv)
     r = equilibration_study(a.trials, a.seeds, a.seconds, progress=True)
     print(f"\nSCHC-EQ against SCHC (simulation: BDS trials {a.trials} x seeds {a.seeds}, {a.seconds:g} s at 50 Hz, "
           "a mat 2x as conductive as the nominal model with 15 % cell gains); Eu (eq. 3.1) and σ against FP "
           "from process_trial, before → after")
     print(r.table())
-
-
-if __name__ == "__main__":
-    main()
+    return 0

@@ -4,7 +4,7 @@ The thesis plugged one test resistor into a cell (all other lines open, so ``G =
 about 300 samples and reported the SD of the node voltage (σ_v ≈ 1 mV) and of the
 conductance deduced from the voltage divider (σ_g). Here the same chain is
 :class:`psmat.Circuit` (docs/spec.md §2): σ_g to first order is ``σ_v / |dV_x/dG|``
-(:meth:`psmat.Circuit.sigma_G`), and a simulation reads ``n_frames`` noisy, 12-bit
+(:func:`psmat.noise.voltage_sigma_G`), and a simulation reads ``n_frames`` noisy, 12-bit
 quantised frames and takes the SD of the inverted conductance, as the thesis did.
 
 Default circuit: the first prototype's DAQ box (``R_adc = 123 kΩ``, ``R_mux = 145 Ω``,
@@ -20,7 +20,7 @@ from typing import Sequence
 import numpy as np
 
 from ..circuit import OK, Circuit
-from ..noise import TABLE_2_4_R_OHM, TABLE_2_4_SIGMA_G_S, TABLE_2_4_SIGMA_V_MV
+from ..noise import TABLE_2_4_R_OHM, TABLE_2_4_SIGMA_G_S, TABLE_2_4_SIGMA_V_MV, voltage_sigma_G
 from ._common import as_rng, fmt, format_table, plt
 
 __all__ = ["Table24Result", "table_2_4", "THESIS_TABLE_2_4"]
@@ -137,7 +137,7 @@ def table_2_4(
         raise ValueError(f"n_frames must be an integer >= 2, got {n_frames!r}")
     cir = Circuit.first_prototype() if circuit is None else circuit
     G = 1.0 / R
-    s_lin = cir.sigma_G(G, sv)
+    s_lin = voltage_sigma_G(G, sv, cir)
     rng = as_rng(seed)
     counts = cir.counts(np.broadcast_to(G, (int(n_frames), R.size)), noise_v=np.broadcast_to(sv, (int(n_frames), R.size)), rng=rng)
     g, flags = cir.conductance(counts, return_flags=True)

@@ -21,7 +21,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .. import iecm
-from ..noise import sigma_G as table_sigma_G
+from ..noise import table_sigma_G
 from ..twin import random_array
 from ._common import UncertaintyComparison, fmt, format_table, plt, timed
 

@@ -27,7 +27,7 @@ import numpy as np
 
 from .. import iecm
 from ..circuit import OK, Circuit
-from ..noise import sigma_G as table_sigma_G
+from ..noise import table_sigma_G, voltage_sigma_G
 from ._common import as_rng, fmt, format_table, plt, timed
 
 __all__ = ["BoardResult", "resistor_board_6x6", "board_resistors"]
@@ -178,7 +178,7 @@ def resistor_board_6x6(
             g_med = iecm.solve(G_med)
         if noise_model == "circuit":
             sv_eff = np.hypot(sigma_v, cir.lsb / np.sqrt(12.0))
-            sG = cir.sigma_G(G_med, sv_eff)
+            sG = voltage_sigma_G(G_med, sv_eff, cir)
         elif noise_model == "table":
             sG = table_sigma_G(G_med)
         else:

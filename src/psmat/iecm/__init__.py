@@ -2,12 +2,18 @@
 
 Arrays in, arrays out: conductances in S, frames (R, C) or stacks (T, R, C), cells
 flattened row-major (a = i*C + p) in Jacobians.
+
+:func:`solve` with its recommended methods ``"newton"`` and ``"active_set"`` removes crosstalk;
+:mod:`psmat.iecm.reference` holds the reference methods (the thesis' fixed point and least
+squares, the Fischer-Burmeister bounded Newton), which ``solve`` also runs by name.
 """
 
-from .forward import forward, hadamard_product, jacobian
-from .solve import METHODS, SolveInfo, solve
-from .stream import Stream
-from .uncertainty import inverse_jacobian, monte_carlo_uncertainty, propagate_uncertainty
+from . import reference
+from ._forward import forward, hadamard_product, jacobian
+from ._info import SolveInfo
+from ._solve import METHODS, RECOMMENDED, solve
+from ._stream import Stream
+from ._uncertainty import inverse_jacobian, monte_carlo_uncertainty, propagate_uncertainty
 
 __all__ = [
     "forward",
@@ -16,6 +22,8 @@ __all__ = [
     "solve",
     "SolveInfo",
     "METHODS",
+    "RECOMMENDED",
+    "reference",
     "Stream",
     "propagate_uncertainty",
     "monte_carlo_uncertainty",

@@ -3,12 +3,17 @@
 * :mod:`psmat.io.session` — a recording as one HDF5 file (raw frames, timing, validity,
   device, calibration, metadata, processed products; several devices as streams on one
   host clock), crash-safe while it is written.
-* :mod:`psmat.io.imu_log` — the spine IMUs' text logs (the thesis' format).
-* :mod:`psmat.io.forceplate` — force-platform centre-of-pressure files (generic CSV and
-  the BDS public data set).
+* the spine IMUs' text logs (the thesis' format): :func:`load_imu_log`, :func:`write_imu_log`
+  (private module ``_imu_log``).
+* force-platform centre-of-pressure files (generic CSV and the BDS public data set):
+  :func:`load_forceplate_csv`, :func:`load_bds`, :func:`bds_trial`, ... (private module
+  ``_forceplate``).
+
+The names below are this package's public API; :mod:`psmat.io.session` has a few more (the
+journal, an unfinished recording's notes).
 """
 
-from .forceplate import (
+from ._forceplate import (
     ForcePlateRecording,
     bds_dir,
     bds_files,
@@ -17,14 +22,15 @@ from .forceplate import (
     load_bds,
     load_forceplate_csv,
 )
-from .imu_log import ImuLog, load_imu_log, write_imu_log
-from .session_counts import RowCounts, RowTally, row_counts
+from ._imu_log import ImuLog, load_imu_log, write_imu_log
 from .session import (
     COUNTER_NAMES,
     FORMAT_NAME,
     FORMAT_VERSION,
     STREAMS_FORMAT_VERSION,
     Product,
+    RowCounts,
+    RowTally,
     Session,
     SessionFormatError,
     SessionWriter,
@@ -34,6 +40,7 @@ from .session import (
     journal_path,
     load_session,
     repair_session,
+    row_counts,
     save_product,
     save_products,
     stream_csv_path,

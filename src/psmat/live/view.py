@@ -33,12 +33,12 @@ from typing import Any, Protocol
 import numpy as np
 from numpy.typing import NDArray
 
-from ..acquire.errors import DeviceDisconnected
+from ..acquire import DeviceDisconnected
 from ..circuit import Circuit
 from ..process import Processor
 from ..sensor import MPICreep
 
-__all__ = ["LiveView", "ViewResult", "run_view", "FrameSource"]
+__all__ = ["LiveView", "ViewResult", "run_view", "FrameSource", "SlidingRate"]
 
 
 #: matplotlib backends that draw no window.
@@ -48,14 +48,19 @@ NON_INTERACTIVE = frozenset({"agg", "pdf", "ps", "svg", "pgf", "cairo", "templat
 class FrameSource(Protocol):
     """What :class:`LiveView` needs from a device (:class:`psmat.acquire.Device` has it)."""
 
-    def read(self, n: int | None = None, timeout: float | None = None) -> Any: ...
+    def read(self, n: int | None = None, timeout_s: float | None = None) -> Any: ...
 
     @property
     def stats(self) -> Any: ...
 
 
-class _Rate:
-    """Events per second over a sliding window (s) of cumulative counts."""
+class SlidingRate:
+    """Events per second over a sliding window of cumulative counts.
+
+    ``add(t, total)`` records the running total at time ``t`` (s); :attr:`value` is the rate
+    (1/s) between the oldest sample kept and the newest, the oldest kept being the last one at
+    least ``window_s`` seconds before the newest (NaN with fewer than two samples).
+    """
 
     def __init__(self, window_s: float = 2.0) -> None:
         self.window_s = float(window_s)
@@ -188,7 +193,7 @@ class LiveView:
         self.draws = 0
         self.updates = 0
         self.message = ""         # shown in the status line (e.g. disconnected)
-        self._rx_rate, self._proc_rate, self._draw_rate = _Rate(), _Rate(), _Rate()
+        self._rx_rate, self._proc_rate, self._draw_rate = SlidingRate(), SlidingRate(), SlidingRate()
         self._last_frame_wall = time.monotonic()
         self._last_update: float | None = None
         self._limits_dirty = True
@@ -238,7 +243,7 @@ class LiveView:
         """
         self.updates += 1
         now = time.monotonic()
-        batch = self.device.read(None, timeout=timeout)
+        batch = self.device.read(None, timeout_s=timeout)
         n = len(batch)
         first_index = self.received
         self.received += n

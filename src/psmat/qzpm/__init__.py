@@ -13,8 +13,8 @@ are eq. C.1-C.3 (ideal operational amplifier).
 All conductances in S, resistances in Ohm, voltages in V.
 """
 
-from .opamp import from_output_voltage, output_voltage
-from .readout import (
+from ._opamp import from_output_voltage, output_voltage
+from ._readout import (
     SWITCH_MODES,
     QzpmSolution,
     Readings,

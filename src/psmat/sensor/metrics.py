@@ -45,6 +45,8 @@ from .protocols import Segment, as_segments
 __all__ = [
     "StepMetric",
     "HysteresisLoop",
+    "Run",
+    "as_run",
     "pulse_means",
     "variability_by_level",
     "variability",
@@ -126,7 +128,10 @@ class HysteresisLoop:
 
 # --------------------------------------------------------------------------- run handling
 @dataclass
-class _Run:
+class Run:
+    """A pneumatic run normalised for the metrics: samples ``t`` (s), pressure ``p`` (psi),
+    conductance ``g`` (T, cells) in S, sampling period ``dt`` (s) and its plateaus."""
+
     name: str
     t: NDArray[np.float64]
     p: NDArray[np.float64]
@@ -135,9 +140,10 @@ class _Run:
     segments: list[Segment]
 
 
-def _as_run(run: Any) -> _Run:
-    """Normalise a run-like object to (t, p, g (T, cells), dt, segments)."""
-    if isinstance(run, _Run):
+def as_run(run: Any) -> Run:
+    """Normalise a run-like object (a :class:`~psmat.sensor.pneumatic.PneumaticRun`, anything with
+    ``t``, ``p``, ``g``, ``segments``, or a ``(t, p, g, segments)`` tuple) to a :class:`Run`."""
+    if isinstance(run, Run):
         return run
     if isinstance(run, tuple):
         if len(run) != 4:
@@ -167,7 +173,7 @@ def _as_run(run: Any) -> _Run:
     for s in segments:
         if s.stop > t.shape[0]:
             raise ValueError(f"segment [{s.start}, {s.stop}) beyond the run's {t.shape[0]} samples")
-    return _Run(name, t, p, g, dt, segments)
+    return Run(name, t, p, g, dt, segments)
 
 
 def _n_window(window_s: float, dt: float) -> int:
@@ -243,7 +249,7 @@ def pulse_means(run: Any, window_s: float = 30.0, min_level_psi: float = 0.0
     ValueError
         When there is no load pulse, or a pulse is shorter than ``window_s``.
     """
-    r = _as_run(run)
+    r = as_run(run)
     n = _n_window(window_s, r.dt)
     pulses = _loaded(r.segments, min_level_psi)
     if not pulses:
@@ -333,7 +339,7 @@ def drift_by_step(run: Any, window_s: float = 30.0, discard_fraction: float = 0.
     ValueError
         When a step's kept part is shorter than one window, or there is no loaded step.
     """
-    r = _as_run(run)
+    r = as_run(run)
     n = _n_window(window_s, r.dt)
     steps = _loaded_steps(r, discard_fraction, min_level_psi)
     out = []
@@ -384,7 +390,7 @@ def creep_by_step(run: Any, discard_fraction: float = 0.5, min_level_psi: float 
     list of StepMetric
         Creep per step (1/s).
     """
-    r = _as_run(run)
+    r = as_run(run)
     steps = _loaded_steps(r, discard_fraction, min_level_psi)
     out = []
     for pos, s in steps:
@@ -408,7 +414,7 @@ def creep(run: Any, discard_fraction: float = 0.5, min_level_psi: float = 0.0) -
 
 
 # --------------------------------------------------------------------------- hysteresis
-def _step_values(r: _Run, settle_fraction: float) -> NDArray[np.float64]:
+def _step_values(r: Run, settle_fraction: float) -> NDArray[np.float64]:
     """Cell-averaged conductance of each plateau over its last ``settle_fraction`` (S)."""
     gm = _nanmean(r.g, axis=1)  # cycles averaged over cells first (eq. 2.4)
     vals = np.empty(len(r.segments))
@@ -457,7 +463,7 @@ def hysteresis_loops(run: Any, settle_fraction: float = 0.5, zero_psi: float = 1
     ValueError
         When the run has no loop.
     """
-    r = _as_run(run)
+    r = as_run(run)
     if not (0.0 < settle_fraction <= 1.0):
         raise ValueError(f"settle_fraction must be in (0, 1], got {settle_fraction!r}")
     vals = _step_values(r, settle_fraction)

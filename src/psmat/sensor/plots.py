@@ -10,8 +10,8 @@ from typing import Any
 
 import numpy as np
 
-from .metrics import CREEP_RADAR_TIME_S, RADAR_AXES, _as_run, _nanmean, hysteresis_loops, table_summary
-from .mpi_creep import MPICreep
+from .metrics import CREEP_RADAR_TIME_S, RADAR_AXES, as_run, hysteresis_loops, table_summary
+from ._mpi_creep import MPICreep
 
 __all__ = ["plot_fit", "plot_pressure_recovery", "radar_chart", "plot_hysteresis_loops"]
 
@@ -155,11 +155,14 @@ def plot_hysteresis_loops(run: Any, path: str | os.PathLike[str], settle_fractio
     pathlib.Path
         ``path``.
     """
-    r = _as_run(run)
+    r = as_run(run)
     loops = hysteresis_loops(r, settle_fraction)
     fig = _new_figure((7.0, 5.0))
     ax = fig.add_subplot()
-    ax.plot(r.p, _nanmean(r.g, axis=1) * 1e3, color="0.8", lw=0.5, zorder=0)
+    known = ~np.isnan(r.g)
+    with np.errstate(invalid="ignore", divide="ignore"):  # a sample with no cell known: NaN, a gap in the line
+        g_mean = np.where(known, r.g, 0.0).sum(axis=1) / known.sum(axis=1)
+    ax.plot(r.p, g_mean * 1e3, color="0.8", lw=0.5, zorder=0)
     for h in loops:
         line, = ax.plot(h.p_psi, h.g_up * 1e3, marker=".", label=f"{h.kind} {h.level:g} psi: {h.value:.3f}")
         ax.plot(h.p_psi, h.g_down * 1e3, marker=".", ls="--", color=line.get_color())

@@ -43,8 +43,8 @@ from numpy.typing import NDArray
 
 from .._checks import conductances, fraction, positive, positive_int
 from ..circuit import OPEN, Circuit
-from ..protocol.daq import parse_daq_fields
-from .mpi_creep import MPICreep
+from ..protocol import parse_daq_fields
+from ._mpi_creep import MPICreep
 from .protocols import Protocol, Segment, segments_from_pressure
 
 __all__ = [

@@ -9,11 +9,9 @@ pressure becomes conductance only through the sensor model (:class:`MatPhysics`)
 * :mod:`psmat.twin.steering` — the group forces that put the field's CoP on a target.
 * :mod:`psmat.twin.scenes` — seeded scenes (quiet standing, single-leg sway, a recorded
   force-platform trajectory, sitting) returning :class:`PressureScene`.
-* :mod:`psmat.twin.seated` — the seated twin (docs/spec.md §8): a person of thesis Table 4.2
-  (:mod:`~psmat.twin.seated_subject`) following the posture protocol
-  (:mod:`~psmat.twin.seated_protocol`), one trajectory driving the cushion's pressure
-  (:mod:`~psmat.twin.seated_spine`, :mod:`~psmat.twin.seated_seat`) and the five spine IMUs
-  (:mod:`~psmat.twin.seated_imu`).
+* :mod:`psmat.twin.seated` — the seated twin (docs/spec.md §8), a subpackage: a person of thesis
+  Table 4.2 following the posture protocol, one trajectory driving the cushion's pressure and the
+  five spine IMUs, whose bytes come from the IMU firmware core (:func:`~psmat.twin.seated.imu_packets`).
 * :mod:`psmat.twin.mat` — :class:`MatPhysics`: pressure → sensor model with cell-to-cell
   variability → crosstalk F(g) → measurement chain → ADC counts.
 * :mod:`psmat.twin.conductance` — :func:`swaying_feet`: cell conductances of a person in quiet
@@ -28,12 +26,11 @@ pressure becomes conductance only through the sensor model (:class:`MatPhysics`)
 from .anatomy import foot, two_feet
 from .arrays import random_array
 from .conductance import swaying_feet
-from .field import MAT_SIZE_CM, PSI_PA, Lobes, cell_centres_cm, cell_cop_cm, cell_force_n, cell_pressure_psi, mat_pitch_cm
+from .field import MAT_SIZE_CM, PSI_PA, Lobes, cell_force_n, cell_pressure_psi, mat_pitch_cm
 from .mat import MatPhysics, MatTruth
 from .scenes import PressureScene, quiet_standing, single_leg_sway, trajectory_sway
-from .seat_scenes import sitting
-from .seated import SeatedSession, seated_session
-from .seated_subject import SeatedDay, SeatedSubject, draw_seated_day, draw_seated_subject
+from .seated import (SeatedDay, SeatedSession, SeatedSubject, draw_seated_day, draw_seated_subject, seated_session,
+                     sitting)
 from .serial_twin import Faults, SerialTwin, TwinStats
 from .sources import SCENES, CalibrationFixture, DaqSource, ImuSource, PsmSource, make_scene
 
@@ -53,8 +50,6 @@ __all__ = [
     "MAT_SIZE_CM",
     "Lobes",
     "PressureScene",
-    "cell_centres_cm",
-    "cell_cop_cm",
     "cell_force_n",
     "cell_pressure_psi",
     "mat_pitch_cm",

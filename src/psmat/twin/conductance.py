@@ -39,7 +39,7 @@ def swaying_feet(
     sway_cm: tuple[float, float] = (0.25, 0.35),
     variability: float = 0.15,
     g_rest: float = 1e-7,
-    return_cop: bool = False,
+    return_cop_cm: bool = False,
 ) -> NDArray[np.float64] | tuple[NDArray[np.float64], NDArray[np.float64]]:
     """A recording of cell conductances of two feet in quiet standing.
 
@@ -64,15 +64,16 @@ def swaying_feet(
         SD of the log of the cell gains (0.15: about 15 % cell to cell).
     g_rest : float
         Conductance of an unloaded cell in S (1e-7 S = 10 MΩ).
-    return_cop : bool
-        Also return the CoP of the continuous pressure field, (T, 2) cm.
+    return_cop_cm : bool
+        Also return ``cop_cm``, the CoP of the continuous pressure field, (T, 2) cm (a flag:
+        the suffix names the unit of what it asks for).
 
     Returns
     -------
     g : ndarray, shape (T, R, C)
         Cell conductances in S, from rest (no load history) at the first frame.
     cop_cm : ndarray, shape (T, 2)
-        Only with ``return_cop``: the true CoP (x = M-L, y = A-P) in cm, mat coordinates.
+        Only with ``return_cop_cm``: the true CoP (x = M-L, y = A-P) in cm, mat coordinates.
     """
     n = positive_int("frames", frames)
     shape_ = shape2(shape)
@@ -81,5 +82,5 @@ def swaying_feet(
     rendered = max(n, math.ceil(MIN_SCENE_S * rate))
     scene = quiet_standing(rendered / rate, rate, shape_, pitch, weight_n, seed, sway_cm=sway_cm)
     mat = MatPhysics(shape_, dt=1.0 / rate, variability=variability, g_rest=g_rest, seed=seed)
-    g = mat.conductance(scene.pressure[:n])
-    return (g, scene.cop_true_cm[:n]) if return_cop else g
+    g = mat.conductance(scene.pressure_psi[:n])
+    return (g, scene.cop_true_cm[:n]) if return_cop_cm else g

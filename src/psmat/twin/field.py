@@ -7,7 +7,8 @@ Units and conventions
 * Mat of ``R × C`` cells at ``pitch_cm``; the origin is the centre of cell ``(0, 0)``; cell
   ``(i, p)`` has its centre at ``x = p·pitch`` (medial–lateral, along the columns) and
   ``y = i·pitch`` (anterior–posterior, along the rows) — the convention of
-  :func:`psmat.balance.cop`. A person stands facing ``+y`` (toes towards larger ``y``), so
+  :func:`psmat.balance.cop` (:func:`psmat.balance.cell_centres_cm`), which gives the CoP of a
+  cell image. A person stands facing ``+y`` (toes towards larger ``y``), so
   their right is ``+x``. The mat's centre is ``((C − 1)/2·pitch, (R − 1)/2·pitch)``.
 * The thesis' mat is 32 cm square: :func:`mat_pitch_cm` gives the pitch that keeps it for
   any cell count (2 / 1 / 0.5 cm for 16 / 32 / 64 cells).
@@ -39,8 +40,6 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from .._checks import finite, positive, positive_int, shape2
-from ..balance import cell_centres_cm as _centre_vectors  # one home for the cell convention (docs/spec.md §7)
-from ..balance import cop as _cop  # one home for the CoP (docs/spec.md §7)
 from ..units import PSI_PA  # one psi in Pa; one home for the constant
 
 __all__ = [
@@ -49,10 +48,8 @@ __all__ = [
     "Lobes",
     "mat_pitch_cm",
     "mat_centre_cm",
-    "cell_centres_cm",
     "cell_pressure_psi",
     "cell_force_n",
-    "cell_cop_cm",
 ]
 
 MAT_SIZE_CM = 32.0
@@ -202,13 +199,6 @@ class Lobes:
         return cell_pressure_psi(self, shape, pitch_cm, supersample)
 
 
-def cell_centres_cm(shape: tuple[int, int] = (16, 16), pitch_cm: float = 2.0) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """Cell-centre coordinates ``X, Y`` (each ``(R, C)``, cm): ``X[i,p] = p·pitch``, ``Y[i,p] = i·pitch``."""
-    r, c = shape2(shape)
-    x, y = _centre_vectors((r, c), positive("pitch_cm", pitch_cm))
-    return np.meshgrid(x, y)
-
-
 def _subgrid(n: int, pitch: float, s: int) -> NDArray[np.float64]:
     """Sample coordinates (n·s,) along one axis: s midpoints inside each of n cells."""
     off = ((np.arange(s) + 0.5) / s - 0.5) * pitch
@@ -264,24 +254,6 @@ def cell_force_n(pressure_psi: ArrayLike, pitch_cm: float = 2.0) -> NDArray[np.f
         raise ValueError(f"pressure_psi must be (..., R, C), got shape {p.shape}")
     area_m2 = (positive("pitch_cm", pitch_cm) * 1e-2) ** 2
     return p.sum(axis=(-2, -1)) * PSI_PA * area_m2
-
-
-def cell_cop_cm(pressure_psi: ArrayLike, pitch_cm: float = 2.0) -> NDArray[np.float64]:
-    """Centre of pressure of cell images (docs/spec.md §7): ``x = Σ p·x_cell / Σ p``.
-
-    Parameters
-    ----------
-    pressure_psi : array_like, shape (..., R, C)
-        Cell pressures (any unit; only ratios matter).
-    pitch_cm : float
-        Cell pitch in cm; cell ``(i, p)`` is at ``(p·pitch, i·pitch)``.
-
-    Returns
-    -------
-    ndarray, shape (..., 2)
-        (x, y) in cm; NaN for an empty frame.
-    """
-    return _cop(pressure_psi, positive("pitch_cm", pitch_cm))
 
 
 def mat_pitch_cm(shape: tuple[int, int]) -> float:

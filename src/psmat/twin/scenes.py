@@ -8,10 +8,10 @@ the load between their groups so that the field's CoP follows a target
 * :func:`quiet_standing` — two feet, band-limited sway of a few mm.
 * :func:`single_leg_sway` — one foot, larger sway.
 * :func:`trajectory_sway` — the CoP follows a recorded force-platform trajectory (e.g.
-  the BDS data set; :func:`psmat.io.forceplate.load_bds`), total force following ``Fz``,
+  the BDS data set; :func:`psmat.io.load_bds`), total force following ``Fz``,
   on two feet or on one (:func:`stance_groups`).
-* seated scenes — :func:`psmat.twin.seat_scenes.sitting` and
-  :func:`~psmat.twin.seat_scenes.seat_scene` (the cushion, docs/spec.md §8), built on :func:`scene_args`
+* seated scenes — :func:`psmat.twin.seated.sitting` and
+  :func:`~psmat.twin.seated.seat_scene` (the cushion, docs/spec.md §8), built on :func:`scene_args`
   and :class:`PressureScene` here.
 
 All return a :class:`PressureScene`, whose ``cop_true_cm`` is the CoP of the continuous field
@@ -32,8 +32,8 @@ from numpy.typing import ArrayLike, NDArray
 
 from .._checks import fraction, nonneg_int, pair, positive, positive_int, shape2, vector
 from .anatomy import check_foot_size, check_side, single_foot_groups, two_feet_groups
-from ..units import PSI_KPA
-from .field import Lobes, cell_cop_cm, cell_force_n, mat_centre_cm
+from ..units import kpa_from_psi
+from .field import Lobes, cell_force_n, mat_centre_cm
 from .steering import steer
 from .sway import check_band, sway_noise, time_base
 
@@ -50,7 +50,7 @@ class PressureScene:
 
     Attributes
     ----------
-    pressure : ndarray, shape (T, R, C)
+    pressure_psi : ndarray, shape (T, R, C)
         Cell pressures in psi (>= 0), each the field averaged over the cell's area.
     t : ndarray, shape (T,)
         Frame times in s.
@@ -68,7 +68,7 @@ class PressureScene:
         scene's own parameters.
     """
 
-    pressure: NDArray[np.float64]
+    pressure_psi: NDArray[np.float64]
     t: NDArray[np.float64]
     cop_true_cm: NDArray[np.float64]
     force_n: NDArray[np.float64]
@@ -81,8 +81,8 @@ class PressureScene:
 
     @property
     def pressure_kpa(self) -> NDArray[np.float64]:
-        """Cell pressures in kPa (docs/spec.md §1: SI at the API; :attr:`pressure` is in psi, the sensor model's unit)."""
-        return self.pressure * PSI_KPA
+        """Cell pressures in kPa (docs/spec.md §1: SI at the API; :attr:`pressure_psi` is in psi, the sensor model's unit)."""
+        return kpa_from_psi(self.pressure_psi)
 
     def field(self, k: int) -> Lobes:
         """The continuous pressure field of frame ``k`` (for checks and re-rendering)."""
@@ -94,13 +94,9 @@ class PressureScene:
         assert out is not None
         return out
 
-    def cell_cop_cm(self) -> NDArray[np.float64]:
-        """CoP of each cell image (docs/spec.md §7), (T, 2) in cm."""
-        return cell_cop_cm(self.pressure, self.pitch_cm)
-
     def cell_force_n(self) -> NDArray[np.float64]:
         """Force seen by the mat, ``Σ p · cell area``, (T,) in N."""
-        return cell_force_n(self.pressure, self.pitch_cm)
+        return cell_force_n(self.pressure_psi, self.pitch_cm)
 
 
 def _render(
@@ -118,7 +114,7 @@ def _render(
 ) -> PressureScene:
     """:func:`~psmat.twin.steering.steer` the groups onto the targets and wrap the frames as a scene."""
     s = steer(scene, groups, nominal, target_cm, force_n, shape, pitch, supersample, min_fraction, extra)
-    return PressureScene(pressure=s.pressure, t=t, cop_true_cm=s.cop_true_cm, force_n=force_n.copy(), meta=s.meta)
+    return PressureScene(pressure_psi=s.pressure_psi, t=t, cop_true_cm=s.cop_true_cm, force_n=force_n.copy(), meta=s.meta)
 
 
 def _mat_args(shape: Any, pitch_cm: Any, min_fraction: Any, supersample: Any) -> tuple[tuple[int, int], float, float, int]:

@@ -221,10 +221,11 @@ class SerialTwin:
             self._thread.start()
         return self
 
-    def stop(self, timeout: float = 2.0) -> None:
+    def stop(self, timeout_s: float = 2.0) -> None:
+        """Stop serving: end the serving thread (waiting up to ``timeout_s`` s for it) and close the link."""
         self._stop.set()
         if self._thread is not None:
-            self._thread.join(timeout)
+            self._thread.join(timeout_s)
         self._release()
 
     def __enter__(self) -> "SerialTwin":

@@ -8,7 +8,7 @@
   The scene loops when it ends; the sensor state carries on.
 * :class:`ImuSource` — the five spine IMUs' Euler angles (degrees) of the seated twin following
   the protocol (the same person and session as the ``"sitting"`` scene of the same seed), with
-  the device's drift, noise and 1/16° steps (:mod:`psmat.twin.seated_imu`).
+  the device's drift, noise and 1/16° steps (:mod:`psmat.twin.seated`).
 * :class:`DaqSource` — the material DAQ's ten sensors on the pneumatic platform (counts).
 
 Sources are computed in blocks (one ``forward`` batch per block), so a tick costs a copy.
@@ -25,8 +25,7 @@ from numpy.typing import NDArray
 from .. import _checks
 from . import scenes as _scenes
 from .mat import MatPhysics
-from .seated import seated_session
-from .seated_imu import draw_imu_device, imu_readings
+from .seated import draw_imu_device, imu_readings, seated_session
 from .sway import time_base
 
 __all__ = ["PsmSource", "ImuSource", "DaqSource", "CalibrationFixture", "SCENES", "make_scene", "check_scene",
@@ -65,7 +64,7 @@ def make_scene(name: str, duration_s: float, rate_hz: float, shape: tuple[int, i
     """
     rate_hz, duration_s = check_scene(duration_s, rate_hz, shape)
     if name == "sway":
-        from ..io.forceplate import bds_trial as _bds
+        from ..io import bds_trial as _bds
 
         rec = _bds(bds_trial)  # a missing trial is a one-line FileNotFoundError, never a substitute scene
         keep = rec.t <= rec.t[0] + duration_s
@@ -90,7 +89,7 @@ class PsmSource:
     block: int = 64
 
     def __post_init__(self) -> None:
-        if self.scene.pressure.shape[1:] != self.physics.shape:
+        if self.scene.pressure_psi.shape[1:] != self.physics.shape:
             raise ValueError("the scene and the mat physics have different shapes")
         self._k = 0  # frame index into the scene (wraps)
         self._buf = np.empty((0, *self.physics.shape), np.uint16)
@@ -104,10 +103,10 @@ class PsmSource:
         return cls(sc, MatPhysics(shape=shape, dt=1.0 / rate_hz, seed=seed, **physics))
 
     def _refill(self) -> None:
-        T = self.scene.pressure.shape[0]
+        T = self.scene.pressure_psi.shape[0]
         idx = (self._k + np.arange(self.block)) % T
         self._k = int((self._k + self.block) % T)
-        self._buf = self.physics.counts(self.scene.pressure[idx])
+        self._buf = self.physics.counts(self.scene.pressure_psi[idx])
         self._pos = 0
 
     def next(self) -> NDArray[np.uint16]:
@@ -125,28 +124,28 @@ class ImuSource:
     """Euler angles (5, 3) degrees per tick — heading, roll, pitch of each spine IMU, sensor 1 the
     cervical one — of the seated twin following the posture protocol (about 175 s, then again).
 
-    ``angles`` (T, 5, 3), when given, are served instead (in turn, looping).
+    ``angles_deg`` (T, 5, 3), when given, are served instead (in turn, looping).
     """
 
     rate_hz: float = 10.0
     seed: int = 0
-    angles: NDArray[np.float32] | None = None
+    angles_deg: NDArray[np.float32] | None = None
 
     def __post_init__(self) -> None:
-        if self.angles is None:
+        if self.angles_deg is None:
             session = seated_session(self.seed)
             t = np.arange(int(session.duration_s * self.rate_hz)) / self.rate_hz
             rng = np.random.default_rng([self.seed, 1])
             device = draw_imu_device(rng, "TWINIMU1")
-            self.angles, _ = imu_readings(session.true_angles(t), self.rate_hz, device, rng)
-        self.angles = np.asarray(self.angles, dtype=np.float32)
-        if self.angles.ndim != 3 or self.angles.shape[1:] != (5, 3) or self.angles.shape[0] < 1:
-            raise ValueError(f"angles must be (T, 5, 3) degrees, got shape {self.angles.shape}")
+            self.angles_deg, _ = imu_readings(session.true_angles(t), self.rate_hz, device, rng)
+        self.angles_deg = np.asarray(self.angles_deg, dtype=np.float32)
+        if self.angles_deg.ndim != 3 or self.angles_deg.shape[1:] != (5, 3) or self.angles_deg.shape[0] < 1:
+            raise ValueError(f"angles_deg must be (T, 5, 3) degrees, got shape {self.angles_deg.shape}")
         self._k = 0
 
     def next(self) -> NDArray[np.float32]:
-        """The angles of the next tick."""
-        a = self.angles[self._k % self.angles.shape[0]]
+        """The angles (5, 3) in degrees of the next tick."""
+        a = self.angles_deg[self._k % self.angles_deg.shape[0]]
         self._k += 1
         return a
 

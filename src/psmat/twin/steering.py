@@ -107,7 +107,7 @@ class Steered:
 
     Attributes
     ----------
-    pressure : ndarray, shape (T, R, C)
+    pressure_psi : ndarray, shape (T, R, C)
         Cell pressures in psi (>= 0).
     cop_true_cm : ndarray, shape (T, 2)
         CoP of the continuous field, (x, y) in cm.
@@ -118,7 +118,7 @@ class Steered:
         ``mat_centre_cm`` and the caller's ``extra``.
     """
 
-    pressure: NDArray[np.float64]
+    pressure_psi: NDArray[np.float64]
     cop_true_cm: NDArray[np.float64]
     meta: dict[str, Any]
 
@@ -170,5 +170,5 @@ def steer(
         "mat_centre_cm": mat_centre_cm(shape, pitch),
     }
     meta.update(extra)
-    return Steered(pressure=pressure, cop_true_cm=cop_true, meta=meta)
+    return Steered(pressure_psi=pressure, cop_true_cm=cop_true, meta=meta)
 

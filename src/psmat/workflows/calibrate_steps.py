@@ -29,7 +29,7 @@ __all__ = ["run_calibration"]
 
 def _record(dev: Any, seconds: float) -> np.ndarray:
     dev.read()  # drop what was measured before the set-up changed
-    batch = dev.read(n=max(2, int(seconds * float((dev.description or {}).get("rate", 100)))), timeout=seconds + 2)
+    batch = dev.read(n=max(2, int(seconds * float((dev.description or {}).get("rate", 100)))), timeout_s=seconds + 2)
     frames = batch.frames[batch.valid]
     if len(frames) == 0:
         raise RuntimeError("no valid frames arrived during this step; is the box streaming?")

@@ -2,7 +2,7 @@
 
 With no mat given, the twin (:class:`psmat.twin.SerialTwin`: the PSM firmware core on a
 pseudo-terminal) streams a person swaying whose centre of pressure follows a recorded
-force-platform trajectory (BDS data set, :mod:`psmat.io.forceplate`). The demo reads it
+force-platform trajectory (BDS data set, :func:`psmat.io.bds_trial`). The demo reads it
 with :mod:`psmat.acquire` exactly as it would read a mat, records a session file
 (:mod:`psmat.io`), runs the processing chain (:mod:`psmat.process`: counts → G → IECM →
 inverse sensor model → CoP), stores the products in the session, and compares the mat's
@@ -105,7 +105,7 @@ def record_sway(*, seconds: float = 8.0, rate_hz: int = 100, session: str | Path
                 with tqdm(total=round(seconds, 1), unit="s", desc="recording", leave=False,
                           disable=None if progress is None else not progress) as bar:
                     while (el := time.monotonic() - t0) < seconds:
-                        dev.read(timeout=0.2)  # keep the live buffer drained; the writer has every frame
+                        dev.read(timeout_s=0.2)  # keep the live buffer drained; the writer has every frame
                         bar.update(round(min(el, seconds) - bar.n, 1))
                 dev.stop()
                 dev.stop_recording()
@@ -128,7 +128,7 @@ def record_sway(*, seconds: float = 8.0, rate_hz: int = 100, session: str | Path
                            "session": str(session), "iecm_warnings": not_converged}
     truth = known = None
     if source is not None and s.seq is not None:
-        T = source.scene.pressure.shape[0]
+        T = source.scene.pressure_psi.shape[0]
         truth = source.scene.cop_true_cm[np.asarray(s.seq) % T]
         known = _cop_with_known_gains(proc, sensor, g_rest, source.physics.gain)
         ok = proc.usable & np.all(np.isfinite(proc.cop_cm), axis=1) & np.all(np.isfinite(known), axis=1)
@@ -161,7 +161,7 @@ def _cop_with_known_gains(proc, sensor, g_rest: float, gain: np.ndarray) -> np.n
     from ..units import PSI_KPA
 
     u = np.maximum(proc.g - g_rest, 0.0) / gain  # NaN frames stay NaN: the model skips them
-    p = sensor.inverse(u, proc.params["dt_s"]) * PSI_KPA
+    p = sensor.inverse(u, proc.clock.periods_s) * PSI_KPA  # each frame stepped with its own period (s)
     with np.errstate(invalid="ignore"):
         return cop(np.nan_to_num(p), proc.params["pitch_cm"])
 

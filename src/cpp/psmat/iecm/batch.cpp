@@ -7,8 +7,6 @@
 
 namespace psmat::iecm {
 
-int hardware_threads() { return std::max(1u, std::thread::hardware_concurrency()); }
-
 BatchJob::BatchJob(Shape shape, RowMatrixXd G, const SolveOptions& options, bool streaming,
                    int n_threads, RowMatrixXd initial)
     : shape_(shape),
@@ -22,8 +20,7 @@ BatchJob::BatchJob(Shape shape, RowMatrixXd G, const SolveOptions& options, bool
 
 BatchJob::~BatchJob() {
   cancel();
-  for (auto& t : threads_)
-    if (t.joinable()) t.join();
+  pool_.reset();  // the tasks see the flag after their current frame; joined before the data goes
 }
 
 void BatchJob::solve_frame(Solver& solver, Index t, bool chunk_start) {
@@ -44,29 +41,29 @@ void BatchJob::solve_frame(Solver& solver, Index t, bool chunk_start) {
 void BatchJob::start() {
   const Index T = G_.rows();
   const int nt = static_cast<int>(std::min<Index>(n_threads_, std::max<Index>(T, 1)));
-  running_.store(nt);
+  pool_ = std::make_unique<numerics::ThreadPool>(nt);
   for (int k = 0; k < nt; ++k) {
-    threads_.emplace_back([this, k, nt, T] {
-      Solver solver(shape_, opts_);  // one workspace per thread
+    done_.push_back(pool_->submit([this, k, nt, T](int) {
+      Solver solver(shape_, opts_);  // one workspace per task (= per thread)
       if (streaming_) {
         const Index begin = T * k / nt, end = T * (k + 1) / nt;  // contiguous chunk
         for (Index t = begin; t < end && !cancel_.load(); ++t) solve_frame(solver, t, t == begin);
       } else {
         for (Index t; !cancel_.load() && (t = next_.fetch_add(1)) < T;) solve_frame(solver, t, true);
       }
-      running_.fetch_sub(1);
-    });
+    }).share());
   }
 }
 
 bool BatchJob::wait(double seconds) {
   const auto deadline = std::chrono::steady_clock::now() + std::chrono::duration<double>(seconds);
-  while (running_.load() > 0) {
-    if (seconds >= 0 && std::chrono::steady_clock::now() >= deadline) return false;
-    std::this_thread::sleep_for(std::chrono::milliseconds(2));
+  for (const auto& f : done_) {
+    if (seconds < 0)
+      f.wait();
+    else if (f.wait_until(deadline) != std::future_status::ready)
+      return false;
   }
-  for (auto& t : threads_)
-    if (t.joinable()) t.join();
+  for (const auto& f : done_) f.get();  // rethrows what a task threw
   return true;
 }
 

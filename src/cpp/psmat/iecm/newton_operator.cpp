@@ -1,7 +1,5 @@
 #include "psmat/iecm/newton_operator.hpp"
 
-#include <cmath>
-
 #include "psmat/iecm/cholesky.hpp"
 
 namespace psmat::iecm {
@@ -38,28 +36,10 @@ void NewtonOperator::precondition(const Eigen::VectorXd& r, Eigen::VectorXd& z) 
 
 int NewtonOperator::pcg(const NodalInverse& net, const Eigen::VectorXd& G,
                         const Eigen::VectorXd& b, Eigen::VectorXd& y, double tol, int max_iter) {
-  const Index n = shape_.cells();
-  y.setZero(n);
-  r_ = b;
-  const double bnorm = b.norm();
-  if (bnorm == 0.0) return 0;
-  precondition(r_, z_);
-  p_ = z_;
-  double rz = r_.dot(z_);
-  for (int k = 1; k <= max_iter; ++k) {
-    apply(net, G, p_, q_);
-    const double pq = p_.dot(q_);
-    if (!(pq > 0.0) || !std::isfinite(pq)) return -1;  // breakdown
-    const double alpha = rz / pq;
-    y.noalias() += alpha * p_;
-    r_.noalias() -= alpha * q_;
-    if (r_.norm() <= tol * bnorm) return k;
-    precondition(r_, z_);
-    const double rz_new = r_.dot(z_);
-    p_ = z_ + (rz_new / rz) * p_;
-    rz = rz_new;
-  }
-  return -1;
+  return numerics::pcg(
+      b, y, tol, max_iter, pcg_,
+      [&](const Eigen::VectorXd& p, Eigen::VectorXd& q) { apply(net, G, p, q); },
+      [&](const Eigen::VectorXd& r, Eigen::VectorXd& z) { precondition(r, z); });
 }
 
 }  // namespace psmat::iecm

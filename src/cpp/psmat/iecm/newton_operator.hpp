@@ -7,13 +7,14 @@
 // factor(): a float32 Cholesky of S at the current point. It is only a preconditioner, so
 //           single precision costs no accuracy (the operator and residuals stay double) and
 //           halves the time and memory of the O((RC)^3) factorisation and its solves.
-// pcg():    preconditioned conjugate gradients for S y = b. With a fresh factor PCG takes 1-3
-//           iterations; with the factor of a nearby frame (streaming) a handful — so the
-//           expensive factorisation is reused across many frames and rebuilt only when PCG
-//           slows down.
+// pcg():    preconditioned conjugate gradients (numerics/pcg.hpp) for S y = b. With a fresh
+//           factor PCG takes 1-3 iterations; with the factor of a nearby frame (streaming) a
+//           handful — so the expensive factorisation is reused across many frames and rebuilt
+//           only when PCG slows down.
 #pragma once
 #include "psmat/iecm/jacobian.hpp"
 #include "psmat/iecm/laplacian.hpp"
+#include "psmat/numerics/pcg.hpp"
 
 namespace psmat::iecm {
 
@@ -42,7 +43,8 @@ class NewtonOperator {
   Eigen::MatrixXf Sf_;  // lower triangle: S, then its Cholesky factor (in place)
   bool has_factor_ = false;
   HadamardWork work_;
-  Eigen::VectorXd v_, r_, z_, p_, q_;
+  Eigen::VectorXd v_;
+  numerics::PcgWork pcg_;
   Eigen::VectorXf tmp_;
 };
 

@@ -7,18 +7,6 @@
 
 namespace psmat::iecm {
 
-const char* to_string(Status s) {
-  switch (s) {
-    case Status::Converged: return "converged";
-    case Status::MaxIterations: return "max_iterations";
-    case Status::Stalled: return "stalled";
-    case Status::Singular: return "singular";
-    case Status::LeastSquares: return "least_squares";
-    case Status::Bounded: return "bounded";
-  }
-  return "unknown";
-}
-
 const char* to_string(Method m) {
   switch (m) {
     case Method::Newton: return "newton";

@@ -4,7 +4,7 @@
 // preconditioner. Between calls it keeps the preconditioner, so consecutive frames of a
 // stream reuse one factorisation for as long as PCG converges quickly with it.
 #pragma once
-#include "psmat/iecm/active_set.hpp"
+#include "psmat/iecm/free_block_solver.hpp"
 #include "psmat/iecm/laplacian.hpp"
 #include "psmat/iecm/newton_operator.hpp"
 #include "psmat/iecm/solve_options.hpp"
@@ -37,9 +37,8 @@ class Solver {
   Eigen::VectorXd Gm;     // F(g) at the last evaluated point
   Eigen::VectorXd ra;     // F(g) - G_exp at the last evaluated point
   NewtonOperator op;      // Newton: matrix-free S and its reusable preconditioner
-  Eigen::MatrixXd S;      // dense double S (bounded Newton, least squares), sized on first use
-  Eigen::LLT<Eigen::MatrixXd> llt;
-  FreeBlockSolver free_block;  // active-set Newton: factor of the free block of S, kept
+  Eigen::MatrixXd S;      // dense double S (bounded Newton), sized on first use
+  FreeBlockSolver free_block;  // active-set method: factor of the free block of S, kept
 
  private:
   Shape shape_;
@@ -47,7 +46,8 @@ class Solver {
 };
 
 // Method implementations, all on the Solver's workspace; g is the starting point in and the
-// result out.
+// result out. Recommended: solve_newton (noisy frames handed to solve_active_set) and
+// solve_active_set; the others are the reference methods (psmat.iecm.reference).
 SolveReport solve_newton(Solver& s, const ConstVecRef& G_exp, VecRef g);
 SolveReport solve_bounded_newton(Solver& s, const ConstVecRef& G_exp, VecRef g);
 SolveReport solve_active_set(Solver& s, const ConstVecRef& G_exp, VecRef g);

@@ -14,9 +14,9 @@
 // Inner iteration (PDAS on the QP, S fixed): with the free set I, y_A = lo_A and
 //   S_II y_I = -c_I - S_IA y_A
 // solved by PCG with the matrix-free product of S and a float32 factor of S_II as
-// preconditioner (FreeBlockSolver, active_set.hpp); then I = {y - lo > lambda} (lambda_I = 0;
-// at most a tenth of |I| freed per step, kFreeCap below), until I repeats. When I changes the
-// factor is rebuilt, or updated cell by cell when few cells changed within one QP
+// preconditioner (FreeBlockSolver, free_block_solver.hpp); then I = {y - lo > lambda}
+// (lambda_I = 0; at most a tenth of |I| freed per step, kFreeCap below), until I repeats. When
+// I changes the factor is rebuilt, or updated cell by cell when few cells changed within one QP
 // (kUpdateShare below); it is kept while the point moves by little (the last outer
 // iterations: PCG on a factor of the previous point, kRefactorAbove). The first free set of a
 // frame is the PDAS rule at the starting point; each QP starts from the previous QP's set.
@@ -41,36 +41,23 @@
 // cells), PCG then needs more steps than a refactorisation costs. The inexact-Newton forcing
 // 0.1 |phi| against 0.3, 1, 0.03, 0.01, 0.001 |phi| and 0.1 or 1 |phi|^0.5: within +-3 %.
 //
-// Globalisation: Armijo backtracking (halving) on the Fischer-Burmeister merit 0.5|phi|^2 (the
-// residual both solvers report); the full step is taken on nearly every bench frame. When no step
-// length is accepted the frame is finished by solve_bounded_newton from the current iterate,
-// whose Fischer-Burmeister step always is a descent direction (the solution is the same, unique
-// one).
+// Globalisation: Armijo backtracking (halving) on the Fischer-Burmeister merit 0.5|phi|^2
+// (complementarity.hpp; its max |phi| is the residual both solvers report); the full step is
+// taken on nearly every bench frame. When no step length is accepted the frame is finished by
+// solve_bounded_newton from the current iterate, whose Fischer-Burmeister step always is a
+// descent direction (the solution is the same, unique one).
 #include <algorithm>
 #include <cmath>
 #include <limits>
 #include <vector>
 
-#include "psmat/iecm/active_set.hpp"
+#include "psmat/iecm/complementarity.hpp"
+#include "psmat/iecm/free_block_solver.hpp"
 #include "psmat/iecm/solve.hpp"
 
 namespace psmat::iecm {
 
 namespace {
-// Fischer-Burmeister phi = sqrt(a^2 + b^2) - a - b for the current evaluation state of s;
-// returns 0.5*|phi|^2 and the largest |phi| in worst.
-double fb_merit(const Solver& s, const ConstVecRef& g, const ConstVecRef& G_exp, double fl,
-                double& worst) {
-  double m = 0;
-  worst = 0;
-  for (Index c = 0; c < g.size(); ++c) {
-    const double a = (g[c] - fl) / G_exp[c], b = s.ra[c] / G_exp[c];
-    const double phi = std::sqrt(a * a + b * b) - a - b;
-    m += 0.5 * phi * phi;
-    worst = std::max(worst, std::abs(phi));
-  }
-  return m;
-}
 // Inner PDAS iterations per QP before the step is taken as it stands (bench frames need up to
 // 7 at 16x16 and 64x64).
 constexpr int kInnerMax = 20;
@@ -126,7 +113,7 @@ SolveReport solve_active_set(Solver& s, const ConstVecRef& G_exp, VecRef g) {
   for (Index c = 0; c < n; ++c) is_free[static_cast<size_t>(c)] = g[c] - fl > s.ra[c];
   Eigen::VectorXd y(n), lo(n), qc(n), yA(n), yA_prev(n), SyA(n), Sy(n), b(n), dg(n), gt(n),
       g_prev(n);
-  double merit = fb_merit(s, g, G_exp, fl, resid);
+  double merit = fb_merit(g, s.ra, G_exp, fl, resid);
   bool handed_over = false;
   for (;; ++rep.iterations) {
     if (resid <= o.rtol) {
@@ -174,8 +161,8 @@ SolveReport solve_active_set(Solver& s, const ConstVecRef& G_exp, VecRef g) {
                          static_cast<double>(changes) <=
                              kUpdateShare * static_cast<double>(free_cells.size());
         const bool far = inner == 0 && resid > kRefactorAbove;  // the factor is of a far point
-        if ((changes > 0 || far) && !(!far && few && fs.update(s.net, s.Gm, free_cells, 0.0))) {
-          if (!fs.factor(s.net, s.Gm, free_cells, 0.0)) {
+        if ((changes > 0 || far) && !(!far && few && fs.update(s.net, s.Gm, free_cells))) {
+          if (!fs.factor(s.net, s.Gm, free_cells)) {
             rep.status = Status::Singular;  // ends the QP, then the frame (below)
             break;
           }
@@ -183,16 +170,16 @@ SolveReport solve_active_set(Solver& s, const ConstVecRef& G_exp, VecRef g) {
           fresh = true;
           factor_here = true;
         }
-        int k = fs.solve(s.op, s.net, s.Gm, free_cells, 0.0, b, dg, Sy, tol, kmax);
+        int k = fs.solve(s.op, s.net, s.Gm, free_cells, b, dg, Sy, tol, kmax);
         rep.krylov_iterations += k > 0 ? k : kmax;
         if (k < 0 && !fresh) {  // a stale factor: rebuild it here and solve again
-          if (!fs.factor(s.net, s.Gm, free_cells, 0.0)) {
+          if (!fs.factor(s.net, s.Gm, free_cells)) {
             rep.status = Status::Singular;  // ends the QP, then the frame (below)
             break;
           }
           ++rep.factorizations;
           factor_here = true;
-          k = fs.solve(s.op, s.net, s.Gm, free_cells, 0.0, b, dg, Sy, tol, 4 * kmax);
+          k = fs.solve(s.op, s.net, s.Gm, free_cells, b, dg, Sy, tol, 4 * kmax);
           rep.krylov_iterations += k > 0 ? k : 4 * kmax;
         }
         for (Index c : free_cells) y[c] = dg[c];
@@ -239,7 +226,7 @@ SolveReport solve_active_set(Solver& s, const ConstVecRef& G_exp, VecRef g) {
       gt = (g_prev + t * dg).cwiseMax(fl);
       ++rep.evaluations;
       double m = std::numeric_limits<double>::infinity(), worst = 0;
-      if (s.evaluate(gt, G_exp, cost, resid)) m = fb_merit(s, gt, G_exp, fl, worst);
+      if (s.evaluate(gt, G_exp, cost, resid)) m = fb_merit(gt, s.ra, G_exp, fl, worst);
       if (m <= merit - 1e-4 * t * merit) {
         g = gt;
         merit = m;

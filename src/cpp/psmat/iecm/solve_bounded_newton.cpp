@@ -5,7 +5,8 @@
 // every principal submatrix of J has a positive determinant (J is a P-matrix), so the problem
 // has a unique solution.
 //
-// Semismooth Newton on the Fischer-Burmeister reformulation (De Luca, Facchinei & Kanzow 1996):
+// Semismooth Newton on the Fischer-Burmeister reformulation (De Luca, Facchinei & Kanzow 1996;
+// complementarity.hpp):
 //   a = (g - g_floor)/G_exp,  b = (F(g) - G_exp)/G_exp,  phi = sqrt(a^2 + b^2) - a - b = 0,
 // whose merit 0.5*|phi|^2 is continuously differentiable, so the Newton direction is a
 // descent direction (slope -|phi|^2) and a plain Armijo line search globalises it. With
@@ -17,33 +18,11 @@
 #include <limits>
 #include <vector>
 
+#include "psmat/iecm/complementarity.hpp"
 #include "psmat/iecm/jacobian.hpp"
 #include "psmat/iecm/solve.hpp"
 
 namespace psmat::iecm {
-
-namespace {
-struct FB {
-  double phi, alpha, beta;
-};
-FB fischer_burmeister(double a, double b) {
-  const double r = std::hypot(a, b);
-  if (r == 0.0) return {0.0, 1.0 / std::sqrt(2.0) - 1.0, 1.0 / std::sqrt(2.0) - 1.0};
-  return {r - a - b, a / r - 1.0, b / r - 1.0};
-}
-// 0.5*|phi|^2 and max |phi| at g for the current evaluation state of s.
-double fb_merit(const Solver& s, const ConstVecRef& g, const ConstVecRef& G_exp, double fl,
-                double& worst) {
-  double m = 0;
-  worst = 0;
-  for (Index c = 0; c < g.size(); ++c) {
-    const double phi = fischer_burmeister((g[c] - fl) / G_exp[c], s.ra[c] / G_exp[c]).phi;
-    m += 0.5 * phi * phi;
-    worst = std::max(worst, std::abs(phi));
-  }
-  return m;
-}
-}  // namespace
 
 SolveReport solve_bounded_newton(Solver& s, const ConstVecRef& G_exp, VecRef g) {
   const SolveOptions& o = s.options();
@@ -63,10 +42,10 @@ SolveReport solve_bounded_newton(Solver& s, const ConstVecRef& G_exp, VecRef g) 
   Eigen::VectorXd gt(n), dg(n), g_prev(n), y, rhs;
   Eigen::MatrixXd K;
   Eigen::LLT<Eigen::MatrixXd> llt;
-  std::vector<FB> fb(static_cast<size_t>(n));
+  std::vector<FischerBurmeister> fb(static_cast<size_t>(n));
   auto S_at = [&](Index a, Index c) { return a >= c ? s.S(a, c) : s.S(c, a); };  // lower-stored
 
-  double merit = fb_merit(s, g, G_exp, fl, resid);
+  double merit = fb_merit(g, s.ra, G_exp, fl, resid);
   // non-monotone line search (Grippo, Lampariello & Lucidi 1986): compare with the largest
   // merit of the last few iterations, so that full Newton steps that clamp a few cells at
   // the bound are not cut down to a linear rate
@@ -100,7 +79,7 @@ SolveReport solve_bounded_newton(Solver& s, const ConstVecRef& G_exp, VecRef g) 
     rhs.resize(nf);
     for (Index r = 0; r < nf; ++r) {
       const Index c = F[static_cast<size_t>(r)];
-      const FB& f = fb[static_cast<size_t>(c)];
+      const FischerBurmeister& f = fb[static_cast<size_t>(c)];
       double fixed = 0;  // coupling to the cells held fixed: (S D_G^-1 dg_fixed)_c
       if (nf < n)
         for (Index d = 0; d < n; ++d)
@@ -131,7 +110,7 @@ SolveReport solve_bounded_newton(Solver& s, const ConstVecRef& G_exp, VecRef g) 
       ++rep.evaluations;
       if (!s.evaluate(gt, G_exp, cost, resid)) continue;
       double worst = 0;
-      const double m = fb_merit(s, gt, G_exp, fl, worst);
+      const double m = fb_merit(gt, s.ra, G_exp, fl, worst);
       if (m <= ref - 4e-4 * t * merit) {  // Armijo against ref, slope -2*merit
         g = gt;
         merit = m;
@@ -143,7 +122,7 @@ SolveReport solve_bounded_newton(Solver& s, const ConstVecRef& G_exp, VecRef g) 
     if (!accepted) {
       ++rep.evaluations;
       s.evaluate(g, G_exp, cost, resid);
-      fb_merit(s, g, G_exp, fl, resid);
+      fb_merit(g, s.ra, G_exp, fl, resid);
       rep.status = Status::Stalled;
       break;
     }

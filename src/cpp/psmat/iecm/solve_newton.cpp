@@ -9,8 +9,13 @@
 // The preconditioner is rebuilt at the current point only when PCG needs more than
 // krylov_max_iter iterations or the step fails the line search; otherwise it is kept across
 // iterations and across the frames of a stream.
-// Globalisation: the per-cell multiplicative trust region and a backtracking line search on the cost 0.5*sum(((F(g)-G_exp)/G_exp)^2), for which the Newton step is a descent
-// direction with slope -2*cost.
+// Globalisation: the per-cell multiplicative trust region and a backtracking line search on the
+// cost 0.5*sum(((F(g)-G_exp)/G_exp)^2), for which the Newton step is a descent direction with
+// slope -2*cost.
+// Fallback (options.fallback): a frame Newton cannot finish (noisy G_exp that no g > 0
+// reproduces: the cost stalls) is restarted from its starting point by the active-set method
+// (solve_active_set.cpp), whose complementarity solution is the answer there; a start with
+// cells at g_floor (the previous frame of a stream was such a frame) goes to it directly.
 #include <algorithm>
 #include <cmath>
 #include <limits>
@@ -40,7 +45,7 @@ SolveReport solve_newton(Solver& s, const ConstVecRef& G_exp, VecRef g) {
   SolveReport rep;
   Eigen::VectorXd dx(n), gt(n), b(n), y(n);
   g = g.cwiseMax(o.g_floor);
-  const Eigen::VectorXd g_start = g;  // the bounded fallback restarts from here
+  const Eigen::VectorXd g_start = g;  // the active-set fallback restarts from here
   // A warm start from a bounded solution (cells at the floor) stays on the bounded problem:
   // log g cannot move off the floor in a useful number of steps.
   if (o.fallback && (g.array() <= o.g_floor * (1.0 + 1e-9)).any()) {

@@ -1,7 +1,9 @@
 #include "psmat/iecm/stream.hpp"
 
+#include <algorithm>
 #include <chrono>
 #include <stdexcept>
+#include <utility>
 
 #include "psmat/iecm/solve.hpp"
 
@@ -10,13 +12,14 @@ namespace psmat::iecm {
 StreamSolver::StreamSolver(Shape shape, const SolveOptions& options, int n_threads,
                            std::size_t max_pending)
     : shape_(shape), opts_(options), max_pending_(std::max<std::size_t>(1, max_pending)) {
-  for (int k = 0; k < std::max(1, n_threads); ++k) threads_.emplace_back([this] { worker(); });
+  const int n = std::max(1, n_threads);
+  for (int k = 0; k < n; ++k) solvers_.push_back(std::make_unique<Solver>(shape_, opts_));
+  pool_ = std::make_unique<numerics::ThreadPool>(n);
 }
 
 StreamSolver::~StreamSolver() {
   close();
-  for (auto& t : threads_)
-    if (t.joinable()) t.join();
+  pool_.reset();  // solves the queued frames, then joins: before the queue and solvers go
 }
 
 std::uint64_t StreamSolver::push(const ConstVecRef& G, double timeout_s) {
@@ -30,41 +33,43 @@ std::uint64_t StreamSolver::push(const ConstVecRef& G, double timeout_s) {
   if (closed_) throw std::runtime_error("StreamSolver: push() after close()");
   const std::uint64_t seq = next_in_++;
   queue_.emplace_back(seq, Eigen::VectorXd(G));
-  cv_in_.notify_one();
+  lock.unlock();
+  pool_->submit([this](int worker) { solve_next(worker); });  // no future: pop() collects the frame
   return seq;
 }
 
-void StreamSolver::worker() {
-  Solver solver(shape_, opts_);
+void StreamSolver::solve_next(int worker) {
+  Solver& solver = *solvers_[static_cast<size_t>(worker)];
   Eigen::VectorXd G, g(shape_.cells());
-  for (;;) {
-    std::uint64_t seq;
-    bool warm;
-    {
-      std::unique_lock<std::mutex> lock(mu_);
-      cv_in_.wait(lock, [&] { return closed_ || !queue_.empty(); });
-      if (queue_.empty()) return;  // closed and drained
-      seq = queue_.front().first;
-      G = std::move(queue_.front().second);
-      queue_.pop_front();
-      warm = have_latest_;
-      if (warm) g = latest_g_;
-    }
-    StreamResult res;
-    res.seq = seq;
+  StreamResult res;
+  bool warm;
+  {
+    // the pool runs tasks in submission order and each takes the oldest frame: frames start
+    // in push order
+    std::lock_guard<std::mutex> lock(mu_);
+    res.seq = queue_.front().first;
+    G = std::move(queue_.front().second);
+    queue_.pop_front();
+    warm = have_latest_;
+    if (warm) g = latest_g_;
+  }
+  try {
     res.report = solver.solve(G, g, warm);
     res.g = g;
-    {
-      std::lock_guard<std::mutex> lock(mu_);
-      if (res.report.converged() && (!have_latest_ || seq > latest_seq_)) {
-        latest_g_ = g;
-        latest_seq_ = seq;
-        have_latest_ = true;
-      }
-      done_.emplace(seq, std::move(res));
-    }
-    cv_out_.notify_all();
+  } catch (...) {
+    res.error = std::current_exception();
   }
+  {
+    std::lock_guard<std::mutex> lock(mu_);
+    if (!res.error && res.report.converged() && (!have_latest_ || res.seq > latest_seq_)) {
+      latest_g_ = g;
+      latest_seq_ = res.seq;
+      have_latest_ = true;
+    }
+    const std::uint64_t seq = res.seq;
+    done_.emplace(seq, std::move(res));
+  }
+  cv_out_.notify_all();
 }
 
 bool StreamSolver::pop(StreamResult& out, double timeout_s) {
@@ -81,6 +86,7 @@ bool StreamSolver::pop(StreamResult& out, double timeout_s) {
   done_.erase(it);
   ++next_out_;
   cv_space_.notify_one();
+  if (out.error) std::rethrow_exception(out.error);
   return true;
 }
 
@@ -94,7 +100,6 @@ void StreamSolver::close() {
     std::lock_guard<std::mutex> lock(mu_);
     closed_ = true;
   }
-  cv_in_.notify_all();
   cv_out_.notify_all();
   cv_space_.notify_all();
 }

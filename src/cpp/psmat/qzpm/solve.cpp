@@ -1,16 +1,17 @@
 #include "psmat/qzpm/solve.hpp"
 
 #include <algorithm>
-#include <atomic>
 #include <cmath>
+#include <future>
 #include <limits>
-#include <thread>
 #include <utility>
 #include <vector>
 
 #include <Eigen/Cholesky>
 #include <Eigen/QR>
 
+#include "psmat/numerics/levenberg_marquardt.hpp"
+#include "psmat/numerics/thread_pool.hpp"
 #include "psmat/qzpm/closed_form.hpp"
 
 namespace psmat::qzpm {
@@ -45,8 +46,9 @@ void copy_counts(SolveReport& to, const SolveReport& from) {
   to.factorizations = from.factorizations;
 }
 
-// Levenberg-Marquardt on x = log(theta) for one switch mode. theta = (cells, switches) with
-// switches of length 1 (shared) or R + C (separate).
+// The least-squares problem of one switch mode for the core's Levenberg-Marquardt
+// (numerics/levenberg_marquardt.hpp): the point theta = (cells, switches) with switches of length
+// 1 (shared) or R + C (separate), steps in log theta.
 class Lsq {
  public:
   // fixed_sw (R + C, optional): cells-only problem with these switches (theta = cells).
@@ -83,7 +85,7 @@ class Lsq {
 
   // Weighted Jacobian d r / d log theta at the last evaluated point.
   void jacobian_log(const Eigen::VectorXd& theta, Eigen::MatrixXd& Jw) {
-    jacobian(net_, Jfull_);
+    qzpm::jacobian(net_, Jfull_);  // the analytic Jacobian (forward.hpp), not the member below
     const Index m = G_.size(), nc = s_.cells();
     Jw.resize(m, np_);
     const Eigen::ArrayXd& w = w_;
@@ -99,91 +101,35 @@ class Lsq {
 
   const Eigen::VectorXd& residual() const { return r_; }
 
+  // ---- the problem for numerics::levenberg_marquardt ----
+  const Eigen::VectorXd& jacobian(const Eigen::VectorXd& theta, Eigen::MatrixXd& Jw) {
+    jacobian_log(theta, Jw);
+    return r_;
+  }
+  bool fix(const Eigen::VectorXd&, const Eigen::VectorXd&,
+           Eigen::Array<bool, Eigen::Dynamic, 1>&) const {
+    return false;  // log parameters: no bound to hold
+  }
+  // the trust region |d log theta| <= max_log_step; cells kept above g_floor
+  void step(const Eigen::VectorXd& theta, Eigen::VectorXd& d, Eigen::VectorXd& tt) const {
+    const double mx = d.cwiseAbs().maxCoeff();
+    if (mx > o_.max_log_step) d *= o_.max_log_step / mx;
+    tt = (theta.array() * d.array().exp()).matrix();
+    tt.head(s_.cells()) = tt.head(s_.cells()).cwiseMax(o_.g_floor);
+  }
+
+  // LM from theta (updated in place); iterations, evaluations and factorisations are added to
+  // rep, its status, cost and residual set.
   void run(Eigen::VectorXd& theta, SolveReport& rep) {
-    double cost = 0, resid = 0;
-    if (!evaluate(theta, cost, resid)) {
-      rep.status = Status::Singular;
-      return;
-    }
-    ++rep.evaluations;
-    const Index n = np_;
-    Eigen::MatrixXd Jw, A(n, n), S(n, n);
-    Eigen::VectorXd grad(n), d(n), tt(n), Jd;
-    Eigen::LLT<Eigen::MatrixXd> llt(n);
-    double lambda = 1e-4;
-    bool need_jacobian = true, at_theta = true;
-    rep.status = Status::MaxIterations;
-    int it = 0;
-    for (; it < o_.max_iter; ++it) {
-      if (resid <= o_.rtol) {
-        rep.status = Status::Converged;
-        break;
-      }
-      if (need_jacobian) {
-        jacobian_log(theta, Jw);
-        A.setZero();
-        A.selfadjointView<Eigen::Lower>().rankUpdate(Jw.transpose());
-        A.triangularView<Eigen::StrictlyUpper>() = A.transpose();
-        grad.noalias() = Jw.transpose() * r_;
-        need_jacobian = false;
-        if (grad.cwiseAbs().maxCoeff() <= 1e-14 * std::sqrt(2.0 * cost)) {
-          rep.status = Status::LeastSquares;
-          break;
-        }
-      }
-      // Marquardt damping (normal equations, as iecm/solve_lsq.cpp)
-      S = A;
-      S.diagonal().array() += lambda * A.diagonal().array().max(1e-300);
-      llt.compute(S);
-      ++rep.factorizations;
-      if (llt.info() != Eigen::Success) {
-        lambda *= 10.0;
-        if (lambda > 1e16) {
-          rep.status = Status::Stalled;
-          break;
-        }
-        continue;
-      }
-      d = llt.solve(-grad);
-      const double mx = d.cwiseAbs().maxCoeff();
-      if (mx > o_.max_log_step) d *= o_.max_log_step / mx;
-      tt = (theta.array() * d.array().exp()).matrix();
-      tt.head(s_.cells()) = tt.head(s_.cells()).cwiseMax(o_.g_floor);
-      Jd.noalias() = Jw * d;
-      const double predicted = -(grad.dot(d) + 0.5 * Jd.squaredNorm());
-      double ct = 0, rt = 0;
-      ++rep.evaluations;
-      const bool ok = evaluate(tt, ct, rt);
-      at_theta = false;
-      if (ok && predicted > 0 && (cost - ct) > 1e-4 * predicted) {
-        const double rel = (cost - ct) / cost;
-        theta = tt;
-        cost = ct;
-        resid = rt;
-        at_theta = true;
-        need_jacobian = true;
-        lambda = std::max(lambda / 5.0, 1e-14);
-        if (rel < o_.ftol && resid > o_.rtol) {
-          rep.status = Status::LeastSquares;
-          ++it;
-          break;
-        }
-      } else {
-        lambda *= 4.0;
-        if (lambda > 1e16) {
-          rep.status = Status::LeastSquares;
-          break;
-        }
-      }
-    }
-    rep.iterations += it;
-    if (!at_theta) {
-      ++rep.evaluations;
-      evaluate(theta, cost, resid);
-    }
-    if (resid <= o_.rtol) rep.status = Status::Converged;
-    rep.cost = cost;
-    rep.residual = resid;
+    numerics::LmSettings st;
+    st.max_iter = o_.max_iter;
+    st.rtol = o_.rtol;
+    st.ftol = o_.ftol;
+    st.lambda0 = 1e-4;
+    st.lambda_down = 5.0;
+    st.lambda_min = 1e-14;
+    st.grad_tol = 1e-14;
+    numerics::levenberg_marquardt(*this, theta, st, rep, work_);
   }
 
  private:
@@ -198,6 +144,7 @@ class Lsq {
   Eigen::ArrayXd w_;         // 1 / G (weights of the relative residuals)
   Eigen::VectorXd g_, sw_;   // expanded parameters of the last evaluation (reused buffers)
   RowMatrixXd Jfull_;
+  numerics::LmWork work_;
 };
 
 
@@ -490,18 +437,16 @@ std::vector<Solution> solve_batch(Shape s, const RowMatrixXd& G, const SolveOpti
                                   int n_threads) {
   const Index T = G.rows();
   std::vector<Solution> out(static_cast<size_t>(T));
-  std::atomic<Index> next{0};
-  auto work = [&] {
-    for (Index t; (t = next.fetch_add(1)) < T;) {
+  const int nt = static_cast<int>(std::min<Index>(std::max(1, n_threads), std::max<Index>(T, 1)));
+  numerics::ThreadPool pool(nt);
+  std::vector<std::future<void>> done;
+  done.reserve(static_cast<size_t>(T));
+  for (Index t = 0; t < T; ++t)
+    done.push_back(pool.submit([&, t](int) {
       const Eigen::VectorXd row = G.row(t).transpose();
       out[static_cast<size_t>(t)] = solve(s, Readings::from_flat(s, row), o);
-    }
-  };
-  const int nt = static_cast<int>(std::min<Index>(std::max(1, n_threads), std::max<Index>(T, 1)));
-  std::vector<std::thread> threads;
-  for (int k = 1; k < nt; ++k) threads.emplace_back(work);
-  work();
-  for (auto& th : threads) th.join();
+    }));
+  for (auto& f : done) f.get();  // in order; rethrows what a problem threw
   return out;
 }
 

@@ -2,8 +2,8 @@
 // conductances from the R*C + R + C readings,
 //     minimise 0.5 * sum_a ((F(theta)_a - G_a) / G_a)^2,   g >= 0, g_k > 0,
 // by Levenberg-Marquardt in log-parameters (positivity by construction), with the analytic
-// Jacobian of forward.hpp, in the style of IECM's least squares (iecm/solve_lsq.cpp; the same
-// Status / SolveReport). Switches are one shared conductance g_s (R*C + 1 unknowns) or R + C
+// Jacobian of forward.hpp: the core's LM (numerics/levenberg_marquardt.hpp), also that of IECM's
+// least squares (iecm/solve_lsq.cpp), with the same Status / SolveReport (psmat/solve_report.hpp). Switches are one shared conductance g_s (R*C + 1 unknowns) or R + C
 // separate ones (R*C + R + C unknowns: as many as readings). Cold start from the closed form
 // (closed_form.hpp) with an assumed switch resistance. The separate-switch solve uses variable
 // projection (cells eliminated for given switches by LM; LM with geodesic acceleration on the
@@ -13,13 +13,13 @@
 #pragma once
 #include <vector>
 
-#include "psmat/iecm/solve_options.hpp"
 #include "psmat/qzpm/forward.hpp"
+#include "psmat/solve_report.hpp"
 
 namespace psmat::qzpm {
 
-using iecm::SolveReport;
-using iecm::Status;
+using psmat::SolveReport;
+using psmat::Status;
 
 enum class Switches { Shared = 0, Separate = 1 };
 
@@ -49,7 +49,8 @@ Solution solve(Shape s, const Readings& G, const SolveOptions& o,
                const Eigen::VectorXd& g0 = Eigen::VectorXd(),
                const Eigen::VectorXd& sw0 = Eigen::VectorXd());
 
-// Independent problems (rows of G: T x (R*C+R+C), flat readings) on n_threads threads.
+// Independent problems (rows of G: T x (R*C+R+C), flat readings) on a pool of n_threads
+// threads (numerics/thread_pool.hpp).
 std::vector<Solution> solve_batch(Shape s, const RowMatrixXd& G, const SolveOptions& o,
                                   int n_threads);
 

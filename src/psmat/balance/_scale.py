@@ -1,0 +1,149 @@
+"""The scaling factor of the SCHC variant (thesis eq. 3.3, docs/spec.md §7).
+
+The large mat is more conductive than the pneumatic-platform samples its sensor model was
+fitted on (the thesis found it ~1.3–4× more), so the pressures the nominal inverse model
+gives do not add up to the body weight. SCHC scales the conductances by one factor ``f``
+per trial, chosen so that the mean force over the trial equals the weight:
+
+    mean over t of  Σ_ij M(f · g_ij)(t) · A  =  W                      (eq. 3.3)
+
+with ``M`` the inverse sensor model run over the whole trial (its hysteresis and creep
+state carried from frame to frame), ``A`` the cell area and ``W`` the body weight. The
+thesis brute-forces ``f`` on [0.25, 0.75]; the left side grows with ``f`` (the inverse
+model is order preserving), so ``f`` is found as a root: by the secant method on
+``log(mean force / W)`` against ``log f``, nearly a straight line (the inverse model is close to
+a power law), in 6-7 runs of the sensor model over the trial; Brent's method on the bracket
+(10-12 runs) where the secant leaves the bracket or meets a zero force.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import ArrayLike
+from scipy import optimize
+
+from .. import _checks
+from ..sensor import MPICreep, frame_periods, steps_over_gaps
+from ..units import PSI_PA
+
+__all__ = ["scale_factor", "mean_force_n"]
+
+
+def trial_cells(g: ArrayLike) -> np.ndarray:
+    """A trial's cell conductances (T, R, C) in S, checked, as (T, R·C); NaN marks a missing frame."""
+    a = _checks.real_array(g, "g", unit="S", allow_nan=True)
+    if a.ndim != 3:
+        raise ValueError(f"g must be a trial of frames (T, R, C) in S, got shape {a.shape}")
+    if np.any(a < 0):
+        raise ValueError("g has negative conductances; pass cell conductances (S) after IECM")
+    return a.reshape(a.shape[0], -1)
+
+
+def mean_force_n(g: ArrayLike, dt: float | ArrayLike, f: float = 1.0, sensor: MPICreep | None = None,
+                 cell_area_cm2: float = 4.0) -> float:
+    """Left side of eq. 3.3 (N): the trial's mean of ``Σ M(f·g)·A`` over its complete frames."""
+    cells = trial_cells(g)
+    usable, steps = usable_steps(cells, frame_periods(dt, cells.shape[0]))
+    return _mean_force(cells[usable], steps, f, sensor or MPICreep.thesis(),
+                       _checks.positive("cell_area_cm2", cell_area_cm2))
+
+
+def usable_steps(cells: np.ndarray, periods: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Complete frames (T,) of ``cells`` (T, n) and their sensor-model steps (s) over the missing
+    ones (:func:`psmat.sensor.steps_over_gaps`, the policy of :mod:`psmat.process`)."""
+    usable = np.all(np.isfinite(cells), axis=1)
+    return usable, steps_over_gaps(periods, usable)[0]
+
+
+def _mean_force(cells: np.ndarray, steps: np.ndarray, f: float, sensor: MPICreep, area_cm2: float) -> float:
+    """Mean force (N) of the complete frames ``cells`` (U, n) stepped by ``steps`` (U,): one run over the trial."""
+    p_psi = sensor.inverse(f * cells, steps)
+    return float(np.mean(p_psi.sum(axis=1)) * PSI_PA * area_cm2 * 1e-4)
+
+
+def scale_factor(g: ArrayLike, dt: float | ArrayLike, weight_n: float, sensor: MPICreep | None = None,
+                 cell_area_cm2: float = 4.0, *, bracket: tuple[float, float] = (1e-3, 1e3),
+                 rtol: float = 1e-10) -> float:
+    """Solve eq. 3.3 for ``f``.
+
+    Parameters
+    ----------
+    g : array, (T, R, C)
+        Cell conductances of one trial (S), after IECM (and the unloaded leakage removed);
+        frames with NaN are missing: left out of the mean, the sensor model stepped over them
+        (the policy of :mod:`psmat.process`).
+    dt : float or (T,) array
+        Frame period (s), or each frame's time since the previous one: the creep depends on it.
+    weight_n : float
+        Body weight W (N).
+    sensor : MPICreep, optional
+        The nominal sensor model (the pneumatic fit); default the thesis' (Table 2.11).
+    cell_area_cm2 : float
+        Cell area A (cm²); 4 cm² on the thesis mat.
+    bracket : (low, high)
+        Where ``f`` is searched.
+    rtol : float
+        Relative tolerance on ``f`` (dimensionless).
+
+    Returns
+    -------
+    float
+        ``f`` with the trial's mean force equal to ``weight_n``.
+
+    Raises
+    ------
+    ValueError
+        When no ``f`` in ``bracket`` reaches the weight (e.g. too few loaded cells: the
+        inverse model saturates at ``p_max``), with the force reached at the bracket's ends.
+    """
+    cells = trial_cells(g)
+    periods = frame_periods(dt, cells.shape[0])
+    w = _checks.positive("weight_n", weight_n)
+    area = _checks.positive("cell_area_cm2", cell_area_cm2)
+    lo, hi = _checks.pair("bracket", bracket, labels="low, high")
+    rtol = _checks.positive("rtol", rtol)
+    if not 0 < lo < hi:
+        raise ValueError(f"bracket must satisfy 0 < low < high, got {bracket!r}")
+    sensor = sensor or MPICreep.thesis()
+    if not np.any(np.all(np.isfinite(cells), axis=1)):
+        raise ValueError("g has no complete frame: nothing to scale")
+    loaded = np.nanmax(cells, axis=0) > 0  # cells that never conduct add M(0) = 0 at any f
+    cells = cells[:, loaded]
+    if cells.shape[1] == 0:
+        raise ValueError("g is zero everywhere: no f can carry the weight")
+
+    usable, steps = usable_steps(cells, periods)  # once: every evaluation of the root reuses them
+    cells = cells[usable]
+
+    def excess(f: float) -> float:
+        return _mean_force(cells, steps, f, sensor, area) - w
+
+    def log_ratio(u: float) -> float:
+        with np.errstate(divide="ignore"):
+            return float(np.log((excess(float(np.exp(u))) + w) / w))
+
+    start = [float(np.log(np.clip(f, lo, hi))) for f in (1.0, 0.5)]
+    u = _secant(log_ratio, start[0], start[1], (np.log(lo), np.log(hi)), rtol) if start[0] != start[1] else None
+    if u is not None:
+        return float(np.exp(u))
+    e_lo, e_hi = excess(lo), excess(hi)
+    if e_lo > 0 or e_hi < 0:
+        raise ValueError(f"the weight {w:g} N cannot be reached with f in [{lo:g}, {hi:g}]: the mean force is "
+                         f"{e_lo + w:.4g} N at f = {lo:g} and {e_hi + w:.4g} N at f = {hi:g}")
+    return float(optimize.brentq(excess, lo, hi, xtol=rtol * lo, rtol=max(rtol, 4 * np.finfo(float).eps)))
+
+
+def _secant(h, u0: float, u1: float, bounds: tuple[float, float], tol: float, max_iter: int = 30) -> float | None:
+    """A root of ``h`` by the secant method from ``u0``, ``u1``, to ``|Δu| <= tol``; None when an
+    iterate leaves ``bounds``, ``h`` is not finite there (a zero force) or it does not converge."""
+    h0, h1 = h(u0), h(u1)
+    for _ in range(max_iter):
+        if not (np.isfinite(h0) and np.isfinite(h1)) or h1 == h0:
+            return None
+        u2 = u1 - h1 * (u1 - u0) / (h1 - h0)
+        if not bounds[0] <= u2 <= bounds[1]:
+            return None
+        if abs(u2 - u1) <= tol:
+            return u2
+        u0, h0, u1, h1 = u1, h1, u2, h(u2)
+    return None

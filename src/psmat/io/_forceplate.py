@@ -1,0 +1,363 @@
+"""Force-platform centre-of-pressure recordings (docs/spec.md §6, §7).
+
+* :func:`load_forceplate_csv` — a generic CSV/TSV with columns time, x, y [, Fz]. Following
+  docs/spec.md §7 (the mat's convention), ``x`` is medial–lateral and ``y`` anterior–posterior;
+  pass ``swap_axes=True`` for files that use the opposite convention.
+* :func:`load_bds` — a trial of the BDS public data set (Santos & Duarte 2016, PeerJ
+  4:e2648, CC BY 4.0): tab-separated, header
+  ``Time[s] Fx[N] Fy[N] Fz[N] Mx[Nm] My[Nm] Mz[Nm] COPx[cm] COPy[cm]``, 100 Hz. In that data
+  set **COPx is anterior–posterior and COPy medial–lateral**.
+* :func:`bds_dir`, :func:`bds_files`, :func:`bds_trial`, :func:`bds_trials_table` — the 24 BDS
+  trials shipped with psmat (``psmat/data/bds``, xz-compressed text, with their attribution), or
+  the folder named by the environment variable ``PSMAT_BDS_DIR`` (for example a larger copy of the
+  data set). Nothing else is searched.
+
+All loaders return a :class:`ForcePlateRecording` with CoP in cm, time in s, Fz in N.
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import lzma
+import os
+import re
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+__all__ = [
+    "ForcePlateRecording",
+    "bds_dir",
+    "bds_files",
+    "bds_trial",
+    "bds_trials_table",
+    "load_bds",
+    "load_forceplate_csv",
+]
+
+_UNIT_TO_CM = {"cm": 1.0, "mm": 0.1, "m": 100.0}
+
+
+@dataclass(eq=False)
+class ForcePlateRecording:
+    """A force-platform recording.
+
+    Attributes
+    ----------
+    t : ndarray (T,)
+        Time (s).
+    cop_ml_cm, cop_ap_cm : ndarray (T,)
+        Centre of pressure, medial–lateral and anterior–posterior (cm).
+    fz_n : ndarray (T,) or None
+        Vertical force (N), if the file has it.
+    meta : dict
+        Source file, trial information, other channels (``meta["channels"]``: name → array).
+    """
+
+    t: NDArray[np.float64]
+    cop_ml_cm: NDArray[np.float64]
+    cop_ap_cm: NDArray[np.float64]
+    fz_n: NDArray[np.float64] | None = None
+    meta: dict[str, Any] = field(default_factory=dict)
+
+    @property
+    def n(self) -> int:
+        return int(self.t.shape[0])
+
+    @property
+    def rate_hz(self) -> float:
+        """Sampling rate from the time column, ``(T - 1) / (t_last - t_first)``."""
+        d = float(self.t[-1] - self.t[0]) if self.n >= 2 else 0.0
+        return (self.n - 1) / d if d > 0 else float("nan")
+
+    @property
+    def cop_cm(self) -> NDArray[np.float64]:
+        """``(T, 2)`` CoP as (ML, AP) in cm — the layout of :func:`psmat.balance.cop`."""
+        return np.column_stack([self.cop_ml_cm, self.cop_ap_cm])
+
+    def __repr__(self) -> str:
+        src = self.meta.get("source", "")
+        return f"ForcePlateRecording(n={self.n}, rate_hz={self.rate_hz:.3g}, fz={'yes' if self.fz_n is not None else 'no'}, source={src!r})"
+
+
+# ---------------------------------------------------------------------- generic CSV
+def _norm(name: str) -> str:
+    """``"COPx[cm]"`` → ``"copx"``; ``"Time (s)"`` → ``"time"``; ``"cop_x"`` → ``"copx"``."""
+    n = re.sub(r"[\[(].*?[\])]", "", name.strip().lower())
+    return re.sub(r"[^a-z0-9]", "", n)
+
+
+def _unit_of(name: str) -> str | None:
+    m = re.search(r"[\[(]\s*([a-zA-Z]+)\s*[\])]", name)
+    return m.group(1).lower() if m else None
+
+
+_TIME = ("time", "t", "times", "timestamp", "timesec")
+_X = ("x", "copx", "copml", "ml", "xcop", "coml")
+_Y = ("y", "copy", "copap", "ap", "ycop", "coap")
+_FZ = ("fz", "forcez", "force", "vgrf", "fzn")
+
+
+def _read_table(path: Path, delimiter: str | None) -> tuple[list[str] | None, NDArray[np.float64]]:
+    text = path.read_text(encoding="utf-8-sig")
+    lines = [ln for ln in text.splitlines() if ln.strip() and not ln.lstrip().startswith("#")]
+    if not lines:
+        raise ValueError(f"{path}: empty file")
+    if delimiter is None:
+        first = lines[0]
+        delimiter = "\t" if "\t" in first else ";" if ";" in first and "," not in first else "," if "," in first else None
+    rows = list(csv.reader(io.StringIO("\n".join(lines)), delimiter=delimiter)) if delimiter else [ln.split() for ln in lines]
+    rows = [[c.strip() for c in r if c.strip() != ""] for r in rows]
+    header: list[str] | None = None
+    try:
+        [float(c) for c in rows[0]]
+    except ValueError:
+        header, rows = rows[0], rows[1:]
+    if not rows:
+        raise ValueError(f"{path}: no data rows")
+    width = len(rows[0])
+    for k, r in enumerate(rows):
+        if len(r) != width:
+            raise ValueError(f"{path}: row {k + 1 + (header is not None)} has {len(r)} fields, expected {width}")
+    try:
+        data = np.array(rows, dtype=np.float64)
+    except ValueError as e:
+        raise ValueError(f"{path}: non-numeric value in the data ({e})") from None
+    return header, data
+
+
+def _find(header: list[str], names: Sequence[str], given: str | int | None, what: str, path: Path, required: bool = True,
+          arg: str | None = None) -> int | None:
+    """Index of the column ``given`` (a name or an index), else of the first of ``names`` found.
+
+    ``what`` names the column in messages, ``arg`` the keyword that selects it (default ``what``).
+    """
+    if isinstance(given, int):
+        return given
+    norm = [_norm(h) for h in header]
+    if given is not None:
+        g = _norm(given)
+        if g in norm:
+            return norm.index(g)
+        raise ValueError(f"{path}: column {given!r} not found (columns: {header})")
+    for n in names:
+        if n in norm:
+            return norm.index(n)
+    if required:
+        raise ValueError(f"{path}: no {what} column recognised (columns: {header}); "
+                         f"name it with the {arg or what}= argument")
+    return None
+
+
+def load_forceplate_csv(
+    path: str | os.PathLike[str],
+    *,
+    t_column: str | int | None = None,
+    x: str | int | None = None,
+    y: str | int | None = None,
+    fz: str | int | None = None,
+    unit: str | None = None,
+    swap_axes: bool = False,
+    delimiter: str | None = None,
+) -> ForcePlateRecording:
+    """Load a force-platform CoP file: columns time (s), x, y [, Fz (N)].
+
+    The delimiter (comma, tab, semicolon or whitespace) is detected from the first line.
+    With a header, columns are found by name (``time``/``t``, ``x``/``cop_x``/``COPx``,
+    ``y``/…, ``Fz``; case, spaces, underscores and bracketed units ignored) or given
+    explicitly (``t_column``, ``x``, ``y``, ``fz``: a column name, or its 0-based index);
+    without a header they are taken in the order time, x, y[, Fz]. ``unit``: CoP length
+    unit ``"cm"``, ``"mm"`` or ``"m"``; default: the unit in the x column header (e.g.
+    ``x[mm]``), else cm. ``x`` is medial–lateral and ``y`` anterior–posterior unless
+    ``swap_axes``.
+    """
+    path = Path(path)
+    if not path.is_file():
+        raise FileNotFoundError(f"force-platform file not found: {path}")
+    header, data = _read_table(path, delimiter)
+    if header is None:
+        if data.shape[1] < 3:
+            raise ValueError(f"{path}: need at least 3 columns (time, x, y), got {data.shape[1]}")
+        it, ix, iy = (t_column if isinstance(t_column, int) else 0, x if isinstance(x, int) else 1, y if isinstance(y, int) else 2)
+        ifz = fz if isinstance(fz, int) else (3 if data.shape[1] >= 4 and fz is None else None)
+        names = [f"col{k}" for k in range(data.shape[1])]
+    else:
+        if len(header) != data.shape[1]:
+            raise ValueError(f"{path}: header has {len(header)} names but rows have {data.shape[1]} fields")
+        it = _find(header, _TIME, t_column, "time", path, arg="t_column")
+        ix = _find(header, _X, x, "x", path)
+        iy = _find(header, _Y, y, "y", path)
+        ifz = _find(header, _FZ, fz, "Fz", path, required=False)
+        names = header
+    u = unit or (_unit_of(names[ix]) if header else None) or "cm"
+    if u not in _UNIT_TO_CM:
+        raise ValueError(f"unit must be one of {sorted(_UNIT_TO_CM)}, got {u!r}")
+    s = _UNIT_TO_CM[u]
+    cx, cy = data[:, ix] * s, data[:, iy] * s
+    ml, ap = (cy, cx) if swap_axes else (cx, cy)
+    used = {it, ix, iy} | ({ifz} if ifz is not None else set())
+    return ForcePlateRecording(
+        t=data[:, it].copy(),
+        cop_ml_cm=ml.copy(),
+        cop_ap_cm=ap.copy(),
+        fz_n=data[:, ifz].copy() if ifz is not None else None,
+        meta={
+            "source": str(path),
+            "format": "csv",
+            "columns": list(names),
+            "unit": u,
+            "swap_axes": swap_axes,
+            "channels": {names[k]: data[:, k].copy() for k in range(data.shape[1]) if k not in used},
+        },
+    )
+
+
+# ---------------------------------------------------------------------- BDS data set
+_BDS_HEADER = ["Time[s]", "Fx[N]", "Fy[N]", "Fz[N]", "Mx[Nm]", "My[Nm]", "Mz[Nm]", "COPx[cm]", "COPy[cm]"]
+_BDS_CITATION = (
+    "Santos DA, Duarte M. (2016) A public data set of human balance evaluations. PeerJ 4:e2648, "
+    "https://doi.org/10.7717/peerj.2648 (CC BY 4.0)"
+)
+
+
+#: The trials shipped with the package (CC BY 4.0; see README.md there).
+_PACKAGE_BDS = Path(__file__).resolve().parent.parent / "data" / "bds"
+_BDS_GLOBS = ("BDS[0-9][0-9][0-9][0-9][0-9].txt", "BDS[0-9][0-9][0-9][0-9][0-9].txt.xz")
+
+
+def bds_dir() -> Path:
+    """The folder of the BDS trials: ``$PSMAT_BDS_DIR`` when set, else the copy shipped with psmat.
+
+    Raises
+    ------
+    FileNotFoundError
+        ``PSMAT_BDS_DIR`` names no folder, or the package's copy is missing (a broken install).
+    """
+    env = os.environ.get("PSMAT_BDS_DIR")
+    if env:
+        p = Path(env).expanduser()
+        if not p.is_dir():
+            raise FileNotFoundError(f"PSMAT_BDS_DIR={env!r} is not a directory")
+        return p
+    if not _PACKAGE_BDS.is_dir():
+        raise FileNotFoundError(f"the BDS trials shipped with psmat are missing ({_PACKAGE_BDS}): reinstall psmat, "
+                                "or set PSMAT_BDS_DIR to a folder of BDS?????.txt files")
+    return _PACKAGE_BDS
+
+
+def _trial_name(path: Path) -> str:
+    """``BDS00001`` for ``BDS00001.txt`` and ``BDS00001.txt.xz``."""
+    return Path(path.name.removesuffix(".xz")).stem
+
+
+def bds_files() -> list[Path]:
+    """The BDS trial files available (``BDS?????.txt`` or ``.txt.xz``; one per trial, sorted by trial)."""
+    d = bds_dir()
+    found: dict[str, Path] = {}
+    for pattern in reversed(_BDS_GLOBS):  # a plain .txt wins over its .xz
+        for f in d.glob(pattern):
+            found[_trial_name(f)] = f
+    return [found[k] for k in sorted(found)]
+
+
+def bds_trials_table() -> list[dict[str, Any]]:
+    """Rows of ``trials.tsv`` (subject, vision, surface, age, …, published sway measures) as dicts.
+
+    Numeric fields become floats (Subject an int). Empty list if the file is absent.
+    """
+    p = bds_dir() / "trials.tsv"
+    if not p.is_file():
+        return []
+    out = []
+    with open(p, newline="", encoding="utf-8") as fh:
+        for row in csv.DictReader(fh, delimiter="\t"):
+            d: dict[str, Any] = {}
+            for k, v in row.items():
+                if k is None:
+                    continue
+                v = (v or "").strip()
+                if k == "Subject":
+                    d[k] = int(v) if v else None
+                else:
+                    try:
+                        d[k] = float(v)
+                    except ValueError:
+                        d[k] = v
+            out.append(d)
+    return out
+
+
+def load_bds(path: str | os.PathLike[str], *, with_trial_info: bool = True) -> ForcePlateRecording:
+    """Load one BDS trial file (``BDS000NN.txt``). COPx is AP and COPy ML in this data set.
+
+    ``meta``: ``source``, ``trial`` (e.g. ``"BDS00001"``), ``citation``, ``channels``
+    (Fx, Fy, Mx, My, Mz arrays) and, when ``trials.tsv`` is beside the file and
+    ``with_trial_info``, ``trial_info`` (that trial's row).
+    """
+    path = Path(path)
+    if not path.is_file():
+        raise FileNotFoundError(f"BDS file not found: {path}")
+    opener = lzma.open if path.suffix == ".xz" else open
+    try:
+        with opener(path, "rt", newline="", encoding="utf-8") as fh:
+            rows = [r for r in csv.reader(fh, delimiter="\t") if r and any(c.strip() for c in r)]
+    except lzma.LZMAError as e:
+        raise ValueError(f"{path}: not a valid xz file ({e})") from None
+    if not rows:
+        raise ValueError(f"{path}: empty file")
+    header = [c.strip() for c in rows[0]]
+    if [_norm(h) for h in header] != [_norm(h) for h in _BDS_HEADER]:
+        raise ValueError(f"{path}: not a BDS file (header {header}, expected {_BDS_HEADER})")
+    try:
+        data = np.array([[float(c) for c in r] for r in rows[1:]], dtype=np.float64)
+    except ValueError as e:
+        raise ValueError(f"{path}: non-numeric value ({e})") from None
+    if data.ndim != 2 or data.shape[1] != len(_BDS_HEADER):
+        raise ValueError(f"{path}: rows must have {len(_BDS_HEADER)} fields")
+    col = {h: data[:, k] for k, h in enumerate(_BDS_HEADER)}
+    meta: dict[str, Any] = {
+        "source": str(path),
+        "format": "bds",
+        "trial": _trial_name(path),
+        "citation": _BDS_CITATION,
+        "axes": "COPx[cm] = anterior-posterior, COPy[cm] = medial-lateral",
+        "channels": {h: col[h].copy() for h in ("Fx[N]", "Fy[N]", "Mx[Nm]", "My[Nm]", "Mz[Nm]")},
+    }
+    if with_trial_info:
+        tsv = path.parent / "trials.tsv"
+        if tsv.is_file():
+            with open(tsv, newline="", encoding="utf-8") as fh:
+                for row in csv.DictReader(fh, delimiter="\t"):
+                    if row.get("Trial", "").strip() == _trial_name(path):
+                        meta["trial_info"] = {k: v.strip() for k, v in row.items() if k is not None}
+                        break
+    return ForcePlateRecording(
+        t=col["Time[s]"].copy(),
+        cop_ml_cm=col["COPy[cm]"].copy(),
+        cop_ap_cm=col["COPx[cm]"].copy(),
+        fz_n=col["Fz[N]"].copy(),
+        meta=meta,
+    )
+
+
+def bds_trial(n: int | str) -> ForcePlateRecording:
+    """Load BDS trial ``n`` (e.g. ``1`` → ``BDS00001``, or the name ``"BDS00001"``).
+
+    Raises
+    ------
+    FileNotFoundError
+        One line naming the trial, the folder searched and the trials it has.
+    """
+    name = n if isinstance(n, str) else f"BDS{int(n):05d}"
+    name = _trial_name(Path(name))
+    files = {_trial_name(f): f for f in bds_files()}
+    if name not in files:
+        avail = sorted(files)
+        raise FileNotFoundError(f"BDS trial {n!r} ({name}) not found in {bds_dir()} (available: "
+                                f"{', '.join(avail[:5])}{' …' if len(avail) > 5 else ''}{'none' if not avail else ''})")
+    return load_bds(files[name])

@@ -1,0 +1,103 @@
+"""When a recorded session's frames were taken: one time and one period per frame (docs/spec.md §6).
+
+The sensor model creeps with time (eq. 2.23), so the chain steps it with each frame's own
+period; a frame lost on the wire then advances it by its real interval. The clock is the
+device's when the box stamps its frames (v2, ``device_time_us``), else the host's:
+
+* **device clock**: the frames' own stamps. A frame whose stamp was lost (-1: it failed its
+  check on the wire) is placed on the frame grid, interpolated between its neighbours (or the
+  grid extended, at either end); a frame lost altogether is a longer period before the next.
+* **host clock**: the host stamps a frame when the read that brought it returns, so the frames
+  of one read share a stamp and their differences are not frame periods. The frames are taken
+  as evenly spaced on the line through the first and the last stamped frame (the recording's
+  mean period); a host clock cannot see a lost frame (neither can v1 or csv framing).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any, Literal
+
+import numpy as np
+from numpy.typing import NDArray
+
+__all__ = ["SessionClock", "session_clock"]
+
+
+@dataclass(frozen=True)
+class SessionClock:
+    """The times of a session's frames on one clock.
+
+    Attributes
+    ----------
+    t_s : ndarray (T,)
+        Each frame's time (s), on the clock named by ``source``.
+    periods_s : ndarray (T,)
+        Each frame's time since the frame before it (s), all > 0; the first frame's is the
+        median step. The sensor model's creep steps with them.
+    source : {"device", "host"}
+        ``device_time_us`` (v2) or ``host_time_s``.
+    filled : int
+        Frames without a stamp of their own, placed on the frame grid.
+    """
+
+    t_s: NDArray[np.float64]
+    periods_s: NDArray[np.float64]
+    source: Literal["device", "host"]
+    filled: int
+
+    @property
+    def step_s(self) -> float:
+        """Median frame period (s); ``1/step_s`` is the frame rate (Hz)."""
+        return float(np.median(self.periods_s))
+
+
+def session_clock(session: Any) -> SessionClock:
+    """Each frame's time and period of a loaded session (module docstring).
+
+    Parameters
+    ----------
+    session : psmat.io.Session
+        A loaded session (``device_time_us`` in µs, -1 unknown, or None; ``host_time_s`` in s,
+        NaN unknown).
+
+    Returns
+    -------
+    SessionClock
+
+    Raises
+    ------
+    ValueError
+        Fewer than two frames carry a time stamp, or the times do not advance from one frame
+        to the next.
+    """
+    T = int(np.shape(session.counts)[0])
+    dev = session.device_time_us
+    if dev is not None and np.any(np.asarray(dev) >= 0):
+        dev = np.asarray(dev)
+        t = np.where(dev >= 0, dev * 1e-6, np.nan)
+        source: Literal["device", "host"] = "device"
+    else:
+        t = np.asarray(session.host_time_s, np.float64).copy()
+        source = "host"
+    known = np.flatnonzero(np.isfinite(t))
+    if known.size < 2:
+        raise ValueError(f"fewer than two of the session's {T} frames carry a time stamp: no frame period")
+    k = np.arange(T)
+    if source == "host":
+        step = float((t[known[-1]] - t[known[0]]) / (known[-1] - known[0]))
+        t = t[known[0]] + (k - known[0]) * step
+    else:
+        step = float(np.median(np.diff(t[known]) / np.diff(known)))
+        t = np.interp(k, known, t[known])
+        t[: known[0]] = t[known[0]] - (known[0] - k[: known[0]]) * step  # lost at the start or the end:
+        t[known[-1] + 1:] = t[known[-1]] + (k[known[-1] + 1:] - known[-1]) * step  # extend the grid
+    if not step > 0:
+        raise ValueError(f"the session's frame times do not advance ({source} clock, median step {step:g} s "
+                         "between frames)")
+    periods = np.diff(t, prepend=t[0] - step)
+    if np.any(periods <= 0):
+        j = int(np.flatnonzero(periods <= 0)[0])
+        raise ValueError(f"the session's {source} clock does not advance at frame {j} ({float(t[j - 1])!r} s, then "
+                         f"{float(t[j])!r} s)")
+    return SessionClock(t, periods, source, int(T - known.size))

@@ -1,0 +1,294 @@
+"""A dynamic correction of the mat's smaller sway, fitted on some volunteers and applied to others
+(beyond the thesis).
+
+The thesis (§3.3, Tables 3.5/3.6, Fig. 3.2) and the studies it reviews (§3.1) find that a mat's
+CoP spreads less than the force platform's; for one commercial mat (a Nitta C-scan against an
+AMTI platform, thesis reference [166], reviewed in §3.1) a transfer function found numerically in
+the frequency domain brought the mat's trajectories close to the platform's, and it was nearly
+the same for every subject, so one filter served all. Here that idea is a per-axis linear map
+from a base variant's CoP (default SCHC) to the platform's, on the aligned, mean-removed traces
+resampled to one rate, with three candidate models of fixed size:
+
+``gain``  one least-squares gain per axis;
+``fir``   a non-causal FIR, taps at lags −L..L (L = ``fir_half_s`` · rate), ridge-regularised
+          least squares, solved from the normal equations ``(WᵀW + λ²I) h = Wᵀy``: ``WᵀW`` and
+          ``Wᵀy`` add up over sessions, so each session's are formed once and every
+          leave-one-out fold sums them (the stacked least squares of every fold cost time
+          quadratic in the volunteers: 44 s of a 42-volunteer study);
+``tf``    a first-order transfer function ``(b0 + b1 z⁻¹) / (1 + a1 z⁻¹)`` fitted by output
+          error (``scipy.optimize.least_squares``), kept stable (|a1| ≤ 0.99): three
+          parameters need no other regularisation.
+
+Volunteers are split in folds (default leave-one-volunteer-out); each fold's traces are
+corrected by a model fitted on the other folds' volunteers only, so no volunteer's own platform
+trace ever enters its own correction. One model is fitted per trial type by default
+(``by_trial=False`` pools the trial types).
+
+The defaults — FIR of ±0.1 s, ridge 1e-3, one model per trial type, leave one volunteer out —
+are the best or level-best of the schemes compared on held-out volunteers of the study's own
+simulation by ``python -m psmat.experiments dynamic_correction`` (which prints the comparison):
+the FIR lowers Eu where a gain does not, and a model per trial type brings σ closer to the
+platform's than a pooled one (single-leg and rotation trials need different gains). The
+correction is linear and the same for every volunteer: it cannot undo a volunteer's own scale
+error.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+from numpy.lib.stride_tricks import sliding_window_view
+from numpy.typing import NDArray
+from scipy import linalg, optimize, signal
+
+from ..balance import eu, sway
+from ._trial import COLUMNS
+
+__all__ = ["MODELS", "Correction", "fit_correction", "dynamic_rows"]
+
+MODELS = ("gain", "fir", "tf")
+Key = tuple[str, str]  # (subject, trial)
+
+
+@dataclass(frozen=True)
+class Correction:
+    """A fitted per-axis correction: ``coef[k]`` are axis k's parameters (M-L, A-P).
+
+    ``gain``: ``(a,)``; ``fir``: the taps ``h`` (2L + 1), ``y[n] = Σ_j h[j]·x[n − L + j]``;
+    ``tf``: ``(b0, b1, a1)``. ``rate_hz`` is the rate the model was fitted at.
+    """
+
+    model: str
+    coef: tuple[NDArray[np.float64], NDArray[np.float64]]
+    rate_hz: float
+
+    def apply(self, x: NDArray[np.float64]) -> NDArray[np.float64]:
+        """The correction of a mean-removed (n, 2) trace sampled at ``rate_hz``, cm."""
+        return np.column_stack([_apply(self.model, c, x[:, k]) for k, c in enumerate(self.coef)])
+
+
+def _windows(x: NDArray[np.float64], half: int) -> NDArray[np.float64]:
+    """(n, 2·half + 1): row n holds x[n − half], ..., x[n + half] (the ends edge-padded)."""
+    return sliding_window_view(np.pad(x, half, mode="edge"), 2 * half + 1)
+
+
+def _tf_out(p: NDArray[np.float64], x: NDArray[np.float64]) -> NDArray[np.float64]:
+    b, a = p[:2], np.array([1.0, p[2]])
+    return signal.lfilter(b, a, x, zi=signal.lfilter_zi(b, a) * x[0])[0]
+
+
+def _apply(model: str, c: NDArray[np.float64], x: NDArray[np.float64]) -> NDArray[np.float64]:
+    if model == "gain":
+        return c[0] * x
+    if model == "fir":
+        return _windows(x, (c.size - 1) // 2) @ c
+    return _tf_out(c, x)
+
+
+def _fit_axis(model: str, xs: Sequence[NDArray[np.float64]], ys: Sequence[NDArray[np.float64]], half: int,
+              ridge: float) -> NDArray[np.float64]:
+    x, y = np.concatenate(xs), np.concatenate(ys)
+    gain = np.array([float(x @ y / (x @ x))]) if x @ x > 0 else np.zeros(1)
+    if model == "gain":
+        return gain
+    if model == "fir":
+        gram, rhs = (sum(parts) for parts in zip(*(_fir_stats(xi, yi, half) for xi, yi in zip(xs, ys))))
+        return _fir_taps(gram, rhs, ridge)
+
+    def residual(p: NDArray[np.float64]) -> NDArray[np.float64]:
+        return np.concatenate([_tf_out(p, xi) - yi for xi, yi in zip(xs, ys)])
+
+    fit = optimize.least_squares(residual, np.array([gain[0], 0.0, 0.0]),
+                                 bounds=([-np.inf, -np.inf, -0.99], [np.inf, np.inf, 0.99]))
+    return fit.x
+
+
+def _fir_half(fir_half_s: float, rate_hz: float) -> int:
+    """The FIR's half-length in samples (at least 1) for ``fir_half_s`` seconds at ``rate_hz``."""
+    return max(1, int(round(fir_half_s * rate_hz)))
+
+
+def _fir_stats(x: NDArray[np.float64], y: NDArray[np.float64], half: int) -> tuple[NDArray[np.float64],
+                                                                                 NDArray[np.float64]]:
+    """``(WᵀW, Wᵀy)`` of one series, W its lag windows (:func:`_windows`): the FIR's sufficient statistics."""
+    W = np.ascontiguousarray(_windows(x, half))
+    return W.T @ W, W.T @ y
+
+
+def _fir_taps(gram: NDArray[np.float64], rhs: NDArray[np.float64], ridge: float) -> NDArray[np.float64]:
+    """Ridge least-squares taps from summed statistics; λ² = ``ridge`` · the mean column energy."""
+    lam2 = ridge * np.trace(gram) / gram.shape[0]
+    return linalg.solve(gram + lam2 * np.eye(gram.shape[0]), rhs, assume_a="pos")
+
+
+def fit_correction(xs: Sequence[NDArray[np.float64]], ys: Sequence[NDArray[np.float64]], rate_hz: float, *,
+                   model: str = "fir", fir_half_s: float = 0.1, ridge: float = 1e-3) -> Correction:
+    """Fit the map from mat traces ``xs`` to platform traces ``ys``, both (n_i, 2) cm, mean-removed,
+    sampled at ``rate_hz`` (Hz); ``fir_half_s`` the FIR's half-length (s), ``ridge`` its
+    regularisation relative to the mean tap energy."""
+    if model not in MODELS:
+        raise ValueError(f"unknown model {model!r}; choose one of {MODELS}")
+    half = _fir_half(fir_half_s, rate_hz)
+    ml, ap = (_fit_axis(model, [x[:, k] for x in xs], [y[:, k] for y in ys], half, ridge) for k in range(2))
+    return Correction(model, (ml, ap), float(rate_hz))
+
+
+@dataclass
+class _Series:
+    """One usable session: its trace as stored (gaps in the mat filled) and resampled to the fitting rate."""
+
+    t: NDArray[np.float64]  # (N,) the trace's times, s
+    fp: NDArray[np.float64]  # (N, 2) platform CoP, cm
+    mat: NDArray[np.float64]  # (N, 2) base variant's CoP, cm
+    grid: NDArray[np.float64] = field(init=False)  # uniform times at the fitting rate, s
+    x: NDArray[np.float64] = field(init=False)  # mat on the grid, mean-removed, cm
+    y: NDArray[np.float64] = field(init=False)  # platform on the grid, mean-removed, cm
+
+    def resample(self, rate_hz: float) -> None:
+        """Fill ``grid``, ``x`` and ``y`` at ``rate_hz`` (linear interpolation)."""
+        self.grid = self.t[0] + np.arange(int(np.floor((self.t[-1] - self.t[0]) * rate_hz)) + 1) / rate_hz
+        self.x, self.y = (_at(self.grid, self.t, c) for c in (self.mat, self.fp))
+        self.x -= self.x.mean(axis=0)
+        self.y -= self.y.mean(axis=0)
+
+
+def _at(t_new: NDArray[np.float64], t: NDArray[np.float64], c: NDArray[np.float64]) -> NDArray[np.float64]:
+    """A (n, 2) trace linearly interpolated at ``t_new`` from its finite samples."""
+    ok = np.all(np.isfinite(c), axis=1)
+    return np.column_stack([np.interp(t_new, t[ok], c[ok, k]) for k in range(2)])
+
+
+def _series(trace: Mapping[str, Any] | None, base: str) -> _Series | str:
+    """The usable series of one session's trace, or why it is not usable."""
+    if trace is None or "t_s" not in trace or "FP" not in trace or base not in trace:
+        return f"no aligned {base} and platform traces"
+    t = np.asarray(trace["t_s"], np.float64)
+    fp, mat = (np.asarray(trace[k], np.float64) for k in ("FP", base))
+    if t.ndim != 1 or fp.shape != (t.size, 2) or mat.shape != (t.size, 2):
+        return f"malformed trace: t_s {t.shape}, FP {fp.shape}, {base} {mat.shape}"
+    if not (np.all(np.isfinite(t)) and np.all(np.isfinite(fp)) and np.all(np.diff(t) > 0)):
+        return "the platform trace or its times are not finite and increasing"
+    if np.all(np.isfinite(mat), axis=1).sum() < 16:
+        return f"fewer than 16 finite {base} samples"
+    return _Series(t, fp, _at(t, t, mat))
+
+
+def _row(base_row: Mapping[str, Any], variant: str, status: str, **values: Any) -> dict[str, Any]:
+    row = {c: np.nan for c in COLUMNS}
+    row.update({c: base_row[c] for c in ("subject", "trial", "lag_s", "r_align", "factor", "frames",
+                                         "frames_missing", "frames_unconverged") if c in base_row})
+    row.update(variant=variant, status=status, **values)
+    return row
+
+
+def _fold_of(subjects: Sequence[str], folds: int | None) -> dict[str, int]:
+    """Volunteers (sorted) dealt round-robin into ``folds`` folds; None: one fold each."""
+    order = sorted(subjects)
+    k = len(order) if folds is None else int(folds)
+    return {s: i % k for i, s in enumerate(order)}
+
+
+def dynamic_rows(rows: Sequence[Mapping[str, Any]], traces: Mapping[Key, Mapping[str, Any]], *, base: str = "SCHC",
+                 folds: int | None = None, model: str = "fir", by_trial: bool = True, rate_hz: float | None = None,
+                 fir_half_s: float = 0.1, ridge: float = 1e-3
+                 ) -> tuple[list[dict[str, Any]], dict[Key, dict[str, NDArray[np.float64]]]]:
+    """Rows and traces of the variant ``<base>-DYN``: each session's base trace corrected by a
+    model fitted on the other folds' volunteers.
+
+    Parameters
+    ----------
+    rows : sequence of dict
+        A study's metrics rows (:data:`psmat.study.COLUMNS`); a session is used when its
+        ``FP`` and ``base`` rows have status ``"ok"`` and ``traces`` holds it.
+    traces : mapping
+        ``{(subject, trial): {"t_s": (N,) s, "FP": (N, 2) cm, base: (N, 2) cm, ...}}``, the
+        aligned window on a common time base, absolute (the study contract).
+    base : str
+        The variant corrected.
+    folds : int or None
+        Number of folds of volunteers (>= 2; the ids sorted and dealt in turn); None: leave one
+        volunteer out.
+    model : {"gain", "fir", "tf"}
+        See the module docstring; ``fir_half_s`` (s) and ``ridge`` size and regularise it.
+    by_trial : bool
+        One model per trial type (default), or one pooled over the trial types.
+    rate_hz : float, optional
+        Fitting rate (Hz); default the median of the sessions' rates.
+
+    Returns
+    -------
+    new_rows : list of dict
+        One row per session that has a ``base`` row, variant ``<base>-DYN``: the sway metrics of
+        the corrected trace and its Eu against FP (both mean-removed, on the trace's window);
+        ``lag_s``, ``r_align``, ``factor``, ``frames``, ``frames_missing`` and
+        ``frames_unconverged`` as the base's row;
+        ``status`` ``"ok"`` or why the session was not corrected.
+    new_traces : dict
+        ``{(subject, trial): {"t_s", "FP", "<base>-DYN"}}`` for the corrected sessions; the
+        corrected trace is absolute (the base trace's mean added back).
+    """
+    if model not in MODELS:
+        raise ValueError(f"unknown model {model!r}; choose one of {MODELS}")
+    if folds is not None and (isinstance(folds, bool) or not isinstance(folds, (int, np.integer)) or folds < 2):
+        raise ValueError(f"folds must be an integer >= 2 or None (leave one volunteer out), got {folds!r}")
+    if rate_hz is not None and not (np.isfinite(rate_hz) and rate_hz > 0):
+        raise ValueError(f"rate_hz must be a positive number of Hz or None, got {rate_hz!r}")
+    name = f"{base}-DYN"
+    by_key: dict[Key, dict[str, Mapping[str, Any]]] = {}
+    for r in rows:
+        by_key.setdefault((str(r["subject"]), str(r["trial"])), {})[str(r["variant"])] = r
+    out: dict[Key, dict[str, Any]] = {}
+    usable: dict[Key, _Series] = {}
+    for key, vs in by_key.items():
+        if base not in vs:
+            continue
+        why = (f"{base}: {vs[base]['status']}" if vs[base]["status"] != "ok" else "no FP row" if "FP" not in vs
+               else f"FP: {vs['FP']['status']}" if vs["FP"]["status"] != "ok" else None)
+        if why is not None:
+            out[key] = _row(vs[base], name, f"not corrected: {why}")
+            continue
+        s = _series(traces.get(key), base)
+        if isinstance(s, str):
+            out[key] = _row(vs[base], name, f"not corrected: {s}")
+        else:
+            usable[key] = s
+    if usable:
+        fs = float(rate_hz) if rate_hz is not None else float(np.median([1.0 / np.median(np.diff(s.t))
+                                                                          for s in usable.values()]))
+        for s in usable.values():
+            s.resample(fs)
+    fold = _fold_of({k[0] for k in usable}, folds)
+    fits: dict[tuple[int, str | None], Correction | None] = {}  # one fit per held-out fold (and trial type)
+    half = _fir_half(fir_half_s, fs) if usable else 1
+    stats = ({k: [_fir_stats(v.x[:, a], v.y[:, a], half) for a in range(2)] for k, v in usable.items()}
+             if model == "fir" else {})  # formed once, summed by every fold
+    new_traces: dict[Key, dict[str, NDArray[np.float64]]] = {}
+    for key, s in usable.items():
+        subject, trial = key
+        scope = (fold[subject], trial if by_trial else None)
+        if scope not in fits:
+            train = [k for k in usable if fold[k[0]] != scope[0] and scope[1] in (None, k[1])]
+            if not train:
+                fits[scope] = None
+            elif model == "fir":
+                fits[scope] = Correction("fir", tuple(_fir_taps(sum(stats[k][a][0] for k in train),
+                                                                sum(stats[k][a][1] for k in train), ridge)
+                                                      for a in range(2)), fs)
+            else:
+                fits[scope] = fit_correction([usable[k].x for k in train], [usable[k].y for k in train], fs,
+                                             model=model, fir_half_s=fir_half_s, ridge=ridge)
+        corr, r = fits[scope], by_key[key][base]
+        if corr is None:
+            where = f" with a {trial!r} trial" if by_trial else ""
+            out[key] = _row(r, name, f"not corrected: no other volunteer{where} to fit on (fewer than 2 volunteers)")
+            continue
+        c = _at(s.t, s.grid, corr.apply(s.x)) + s.mat.mean(axis=0)
+        a, b = c - c.mean(axis=0), s.fp - s.fp.mean(axis=0)
+        metrics = {**sway(c, 1.0 / float(np.median(np.diff(s.t)))).as_dict(), "eu_cm": eu(a, b),
+                   "eu_ml_cm": eu(a[:, 0], b[:, 0]), "eu_ap_cm": eu(a[:, 1], b[:, 1])}
+        out[key] = _row(r, name, "ok", **metrics)
+        new_traces[key] = {"t_s": s.t, "FP": s.fp, name: c}
+    return [out[k] for k in by_key if k in out], new_traces

@@ -1,0 +1,244 @@
+"""A study on disk (docs/spec.md §6): find its sessions, pair each with its force-platform file and
+its subject, and say what is missing — without stopping at the first problem.
+
+```
+DIR/subjects.csv          subject, weight_kg, height_cm, age, sex, ...
+DIR/sessions/*.h5         mat sessions; metadata holds subject and trial (a recording that was
+                          not closed, *.h5.journal alone, is listed with a status saying that
+                          ``psmat repair`` finishes it)
+DIR/forceplate/*.csv      force-platform CoP, same stem as the session it belongs to
+DIR/calibration/*.json    optional, per box serial number
+DIR/results/              written by ``psmat study run``
+DIR/truth/                simulated studies only; never read here
+```
+"""
+
+from __future__ import annotations
+
+import csv
+import os
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from ..units import n_from_kg
+
+__all__ = ["Subject", "StudyItem", "StudyLayout", "read_subjects", "scan_subjects", "SubjectsFile", "find_study"]
+
+
+@dataclass(frozen=True)
+class Subject:
+    """One row of ``subjects.csv``: the id, the body weight and whatever else it holds."""
+
+    subject: str
+    weight_kg: float
+    extra: dict[str, str] = field(default_factory=dict)
+
+    @property
+    def weight_n(self) -> float:
+        """Body weight in N (standard gravity)."""
+        return n_from_kg(self.weight_kg)
+
+
+@dataclass
+class StudyItem:
+    """One session of a study and what belongs to it; ``problems`` lists what is missing."""
+
+    stem: str
+    session: Path
+    forceplate: Path | None
+    subject: str | None
+    trial: str | None
+    problems: list[str] = field(default_factory=list)
+    simulated: bool = False  # the session's metadata says a simulator wrote it
+    #: the recording was not closed (only its journal is there): why, and the psmat repair command
+    #: that finishes it (:func:`psmat.io.session.unfinished_reason`); such a session is not processed
+    not_closed: str | None = None
+
+    @property
+    def ok(self) -> bool:
+        return not self.problems
+
+
+@dataclass
+class StudyLayout:
+    """The parts of a study folder (see the module docstring)."""
+
+    root: Path
+    subjects: dict[str, Subject]
+    items: list[StudyItem]
+    calibrations: dict[str, Path]
+    problems: list[str] = field(default_factory=list)
+    #: subjects whose row of subjects.csv was refused, and why (:func:`scan_subjects`)
+    refused_subjects: dict[str, str] = field(default_factory=dict)
+
+    @property
+    def results(self) -> Path:
+        return self.root / "results"
+
+    @property
+    def simulated(self) -> bool:
+        """Every session says a simulator wrote it (its metadata, not ``truth/``)."""
+        return bool(self.items) and all(i.simulated for i in self.items)
+
+
+def read_subjects(path: str | os.PathLike[str]) -> dict[str, Subject]:
+    """``subjects.csv`` → {subject id: Subject}; the first bad row (a missing or bad weight, an id
+    twice) or an unreadable file is one clear ValueError. :func:`find_study` instead keeps the good
+    rows (:func:`scan_subjects`)."""
+    found = scan_subjects(path)
+    if found.problems:
+        raise ValueError(found.problems[0])
+    return found.subjects
+
+
+@dataclass
+class SubjectsFile:
+    """What :func:`scan_subjects` read: the good rows, and each bad row's problem (one line)."""
+
+    subjects: dict[str, Subject]
+    #: the problem of each subject id whose row was refused (that subject has no body weight)
+    refused: dict[str, str]
+    #: every problem, in file order (a file that cannot be read at all is one)
+    problems: list[str]
+
+
+def scan_subjects(path: str | os.PathLike[str]) -> SubjectsFile:
+    """``subjects.csv`` row by row: a bad row is refused alone, with its line number and why.
+
+    The file is UTF-8 text, with or without a byte-order mark (as spreadsheets save CSV); it
+    needs the columns ``subject`` and ``weight_kg`` (kg, in (0, 500)). A row whose id appears
+    twice is refused with the other: which weight is right is not known.
+    """
+    path = Path(path)
+    subjects: dict[str, Subject] = {}
+    refused: dict[str, str] = {}
+    problems: list[str] = []
+    first_line: dict[str, int] = {}
+
+    def refuse(sid: str, line: int, why: str) -> None:
+        msg = f"{path}:{line}: {why}"
+        problems.append(msg)
+        if sid:
+            refused.setdefault(sid, msg)
+            subjects.pop(sid, None)
+
+    try:
+        with open(path, newline="", encoding="utf-8-sig") as fh:
+            reader = csv.DictReader(fh, restkey="\0extra")
+            names = [(n or "").strip() for n in (reader.fieldnames or [])]
+            for need in ("subject", "weight_kg"):
+                if need not in names:
+                    return SubjectsFile({}, {}, [f"{path}: needs a column {need!r}, has {names}"])
+            for row in reader:
+                k = reader.line_num
+                extra = row.pop("\0extra", None)
+                row = {(a or "").strip(): (b or "").strip() for a, b in row.items()}
+                sid = row.pop("subject")
+                if not sid:
+                    refuse("", k, "empty subject id: the row is left out")
+                    continue
+                if sid in first_line:
+                    refuse(sid, k, f"subject {sid!r} appears twice (lines {first_line[sid]} and {k}): "
+                                   "neither row is used")
+                    continue
+                first_line[sid] = k
+                if extra:
+                    refuse(sid, k, f"{len(names) + len(extra)} fields for {len(names)} columns: the row is left out")
+                    continue
+                text = row.pop("weight_kg")
+                try:
+                    w = float(text)
+                except ValueError:
+                    refuse(sid, k, f"weight_kg of {sid!r} is not a number ({text!r}): the row is left out")
+                    continue
+                if not 0 < w < 500:
+                    refuse(sid, k, f"weight_kg of {sid!r} is {w:g}; expected kg in (0, 500): the row is left out")
+                    continue
+                if sid not in refused:
+                    subjects[sid] = Subject(sid, w, row)
+    except UnicodeDecodeError as exc:
+        return SubjectsFile({}, {}, [f"{path} is not UTF-8 text (byte 0x{exc.object[exc.start]:02x} at offset "
+                                     f"{exc.start}); save it as CSV in UTF-8"])
+    except csv.Error as exc:
+        return SubjectsFile({}, {}, [f"{path} is not a readable CSV file ({exc})"])
+    return SubjectsFile(subjects, refused, problems)
+
+
+def _session_meta(path: Path) -> tuple[str | None, str | None, str | None, bool, str | None]:
+    """(subject, trial, problem, simulated, not closed) from a session's metadata (the loader checks the
+    whole file, or reads the journal of a recording that was not closed)."""
+    from ..io import SessionFormatError, load_session
+    from ..io.session import not_closed_line, unfinished_reason
+
+    try:
+        s = load_session(path)
+    except (SessionFormatError, OSError) as exc:
+        not_closed = not_closed_line(path) if not path.exists() else None
+        return None, None, f"unreadable session: {exc}", False, not_closed
+    meta = s.metadata
+    subject = meta.get("subject")
+    trial = meta.get("trial")
+    return ((None if subject is None else str(subject)), (None if trial is None else str(trial)), None,
+            meta.get("simulated") is True, unfinished_reason(path, s))
+
+
+def find_study(root: str | os.PathLike[str]) -> StudyLayout:
+    """Discover a study folder; problems are collected per session, never raised per session.
+
+    Raises
+    ------
+    FileNotFoundError
+        ``root`` or ``root/sessions`` does not exist.
+    """
+    from ..io.session import journal_only
+
+    root = Path(root)
+    if not root.is_dir():
+        raise FileNotFoundError(f"study folder not found: {root}")
+    sessions = root / "sessions"
+    if not sessions.is_dir():
+        raise FileNotFoundError(f"{root} has no sessions/ folder (docs/spec.md §6 study layout)")
+    problems: list[str] = []
+    subjects: dict[str, Subject] = {}
+    refused: dict[str, str] = {}
+    sub_csv = root / "subjects.csv"
+    if sub_csv.is_file():
+        found = scan_subjects(sub_csv)  # a bad row costs its own subject only
+        subjects, refused = found.subjects, found.refused
+        problems += found.problems
+    else:
+        problems.append(f"{sub_csv} not found: no body weights")
+    plates = {p.stem: p for p in sorted((root / "forceplate").glob("*")) if p.suffix.lower() in (".csv", ".tsv", ".txt")}
+    cal = {p.stem: p for p in sorted((root / "calibration").glob("*.json"))}
+    items = []
+    for s in sorted({*sessions.glob("*.h5"), *journal_only(sessions)}):  # journal-only: never skipped silently
+        subject, trial, problem, simulated, not_closed = _session_meta(s)
+        item = StudyItem(s.stem, s, plates.get(s.stem), subject, trial, simulated=simulated, not_closed=not_closed)
+        if not_closed:
+            item.problems.append(not_closed)
+        if problem:
+            item.problems.append(problem)
+        else:
+            if subject is None:
+                item.problems.append("session metadata has no subject")
+            elif subject in refused:
+                item.problems.append(refused[subject])
+            elif subject not in subjects:
+                item.problems.append(f"subject {subject!r} is not in subjects.csv")
+            if trial is None:
+                item.problems.append("session metadata has no trial")
+        if item.forceplate is None:
+            item.problems.append(f"no force-platform file forceplate/{s.stem}.csv")
+        items.append(item)
+    if not items:
+        problems.append(f"{sessions} holds no *.h5 session")
+    told = {refused[i.subject] for i in items if i.subject in refused}  # said by their sessions, not twice
+    problems = [p for p in problems if p not in told]
+    return StudyLayout(root, subjects, items, cal, problems, refused)
+
+
+def describe(layout: StudyLayout) -> dict[str, Any]:
+    """Counts for a progress line: sessions, ready, with problems."""
+    ready = sum(1 for i in layout.items if i.ok)
+    return {"sessions": len(layout.items), "ready": ready, "with_problems": len(layout.items) - ready}

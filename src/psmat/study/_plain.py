@@ -1,0 +1,189 @@
+"""A session's result as plain data, checked: rows as JSON values, traces as float64 arrays.
+
+Used wherever a result crosses a line of trust: read back from ``results/sessions``
+(:mod:`psmat.study` (``_cache.py``)) and received from a Dask worker (:mod:`psmat.study` (``_cluster.py``)). Nothing
+here unpickles: JSON (NaN and infinities refused), NumPy ``.npz`` read with
+``allow_pickle=False``. Every check raises :class:`ValueError` with one line saying what failed.
+
+* :func:`check_rows`: a session's rows are one per variant, ``FP`` first then the variants asked
+  for, in that order, of the session's subject and trial, text where :data:`COLUMNS` holds text
+  and numbers (or null) elsewhere;
+* :func:`check_traces`: ``t_s`` of shape (N,), each other trace (N, 2), float64,
+  named after FP or a variant asked for;
+* :func:`encode_result` / :func:`decode_result`: (stem, rows, traces) as one ``.npz`` byte
+  string (the rows as UTF-8 JSON in the array ``__result__``).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import io
+import json
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from ._trial import COLUMNS, Rows, Traces
+
+__all__ = ["Expect", "TEXT_COLUMNS", "parse_json", "plain_rows", "check_rows", "check_traces", "digest",
+           "encode_result", "decode_result", "first_line"]
+
+#: the columns that hold text; every other column holds a number or nothing (null / NaN)
+TEXT_COLUMNS = frozenset({"subject", "trial", "variant", "status"})
+_RESULT = "__result__"
+
+
+@dataclass(frozen=True)
+class Expect:
+    """What a session's result must be: its stem, subject, trial and the variants asked for."""
+
+    stem: str
+    subject: str
+    trial: str
+    variants: tuple[str, ...]
+
+
+def _no_constant(name: str) -> Any:
+    raise ValueError(f"JSON holds {name}, which is not JSON")
+
+
+def parse_json(text: str | bytes) -> Any:
+    """JSON text → value; NaN, Infinity and -Infinity refused (ValueError, also for deep nesting)."""
+    try:
+        return json.loads(text, parse_constant=_no_constant)
+    except RecursionError:
+        raise ValueError("JSON nested too deeply") from None
+
+
+def _plain(value: Any) -> Any:
+    """A row value as JSON: NaN → null, NumPy scalars → Python numbers."""
+    if isinstance(value, (bool, np.bool_)):
+        return bool(value)
+    if isinstance(value, (int, np.integer)):
+        return int(value)
+    if isinstance(value, (float, np.floating)):
+        return None if math.isnan(value) else float(value)
+    return value
+
+
+def plain_rows(rows: Rows) -> list[dict[str, Any]]:
+    """Rows as JSON values, columns in :data:`COLUMNS` order (NaN → null)."""
+    return [{c: _plain(r[c]) for c in COLUMNS} for r in rows]
+
+
+def check_rows(value: Any, expect: Expect) -> Rows:
+    """Rows read as JSON (:func:`plain_rows`' form) → rows (null → NaN), or ValueError.
+
+    Raises
+    ------
+    ValueError
+        Not a non-empty list of objects with exactly the columns of :data:`COLUMNS`; a text
+        column not text or a number column not a number (booleans and non-finite numbers
+        refused); another subject or trial; variants other than ``FP`` then ``expect.variants``.
+    """
+    if not isinstance(value, list) or not value:
+        raise ValueError("no rows (a session has one row per variant)")
+    out: Rows = []
+    for k, r in enumerate(value):
+        if not isinstance(r, dict) or set(r) != set(COLUMNS):
+            raise ValueError(f"row {k} does not have exactly the columns of metrics.csv")
+        row: dict[str, Any] = {}
+        for c in COLUMNS:
+            v = r[c]
+            if c in TEXT_COLUMNS:
+                if not isinstance(v, str):
+                    raise ValueError(f"row {k}: {c} is not text")
+                row[c] = v
+            elif v is None:
+                row[c] = math.nan
+            elif isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
+                raise ValueError(f"row {k}: {c} is not a finite number or null")
+            else:
+                row[c] = v
+        out.append(row)
+    if any((r["subject"], r["trial"]) != (expect.subject, expect.trial) for r in out):
+        raise ValueError(f"rows of another session (expected subject {expect.subject!r}, trial {expect.trial!r})")
+    variants = [r["variant"] for r in out]
+    if variants != ["FP", *expect.variants]:
+        raise ValueError(f"rows for variants {variants}, expected {['FP', *expect.variants]}")
+    return out
+
+
+def check_traces(traces: Mapping[str, Any], expect: Expect) -> Traces:
+    """Traces → ``{name: float64 array}`` or ValueError (see the module docstring)."""
+    allowed = {"t_s", "FP", *expect.variants}
+    unknown = sorted(set(traces) - allowed)
+    if unknown:
+        raise ValueError(f"traces named {unknown}, not FP or a variant asked for")
+    out: Traces = {}
+    n = None
+    for name, arr in traces.items():
+        a = np.asarray(arr)
+        if a.dtype != np.float64:
+            raise ValueError(f"trace {name}: dtype {a.dtype}, expected float64")
+        shape = (a.shape[0],) if name == "t_s" else (a.shape[0], 2)
+        if a.ndim == 0 or a.shape != shape or (n is not None and a.shape[0] != n):
+            raise ValueError(f"trace {name}: shape {a.shape}, expected (N,) for t_s and (N, 2) for a CoP trace")
+        n = a.shape[0]
+        out[name] = a
+    if out and "t_s" not in out:
+        raise ValueError("traces without t_s")
+    return out
+
+
+def digest(*parts: str | bytes) -> str:
+    """SHA-256 (hex) of ``parts``, each length-prefixed so that no two sequences collide."""
+    h = hashlib.sha256()
+    for p in parts:
+        b = p.encode() if isinstance(p, str) else bytes(p)
+        h.update(len(b).to_bytes(8, "big"))
+        h.update(b)
+    return h.hexdigest()
+
+
+def encode_result(stem: str, rows: Rows, traces: Mapping[str, Any]) -> bytes:
+    """(stem, rows, traces) → ``.npz`` bytes: no pickle inside, so any side reads it as data."""
+    head = json.dumps({"stem": stem, "rows": plain_rows(rows)}, allow_nan=False).encode()
+    buf = io.BytesIO()
+    np.savez(buf, **{_RESULT: np.frombuffer(head, np.uint8)},
+             **{k: np.asarray(v, np.float64) for k, v in traces.items()})
+    return buf.getvalue()
+
+
+def decode_result(data: bytes, expect: Expect) -> tuple[str, Rows, Traces]:
+    """:func:`encode_result`'s bytes → (stem, rows, traces), checked against ``expect``.
+
+    Raises
+    ------
+    ValueError
+        Not such bytes (not an ``.npz``, an array that needs pickle, bad JSON), another stem,
+        or rows or traces that fail :func:`check_rows` / :func:`check_traces`.
+    """
+    if not isinstance(data, (bytes, bytearray, memoryview)):
+        raise ValueError(f"a result must be bytes, got {type(data).__name__}")
+    try:
+        with np.load(io.BytesIO(bytes(data)), allow_pickle=False) as z:
+            arrays = {k: z[k] for k in z.files}
+    except Exception as exc:  # noqa: BLE001 - zipfile, format and pickle errors alike: not a result
+        raise ValueError(f"not a result file ({type(exc).__name__}: {exc})") from None
+    head = arrays.pop(_RESULT, None)
+    if head is None or head.dtype != np.uint8 or head.ndim != 1:
+        raise ValueError(f"no {_RESULT} in the result")
+    try:
+        doc = parse_json(head.tobytes().decode("utf-8"))
+    except ValueError as exc:
+        raise ValueError(f"result rows: {exc}") from None
+    if not isinstance(doc, dict) or set(doc) != {"stem", "rows"}:
+        raise ValueError("the result's JSON is not {stem, rows}")
+    if doc["stem"] != expect.stem:
+        raise ValueError(f"a result for {doc['stem']!r}, expected {expect.stem!r}")
+    return expect.stem, check_rows(doc["rows"], expect), check_traces(arrays, expect)
+
+
+def first_line(text: str, limit: int = 300) -> str:
+    """``text`` as one line of at most ``limit`` characters."""
+    line = " ".join(str(text).split())
+    return line if len(line) <= limit else line[: limit - 1] + "…"

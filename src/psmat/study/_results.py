@@ -1,0 +1,155 @@
+"""``DIR/results/`` of a balance study (docs/spec.md §6, §12): ``summary.csv``, ``pairwise.csv``,
+``figures/*.png`` and ``report.md`` from the rows of ``metrics.csv`` and the sessions' traces.
+``metrics.csv`` itself is the runner's (:mod:`psmat.study` (``_run.py``)).
+
+:func:`write_outputs` skips the work when ``results/.outputs.json`` says the outputs on disk
+were made from the same inputs and every output it names is still inside ``results/`` with
+the bytes it had when written (SHA-256 per file); otherwise it writes them again.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+from collections.abc import Iterable, Mapping, Sequence
+from pathlib import Path
+from typing import Any
+
+from .._atomic import write_text_atomic
+from . import _figures as fig
+from ._cache import file_sha256
+from ._report import render_report
+from ._summary import PAIRWISE_COLUMNS, SUMMARY_COLUMNS, index_rows, pairwise_rows, summary_rows, table_text
+
+__all__ = ["write_results", "write_outputs"]
+
+_INDEX = "psmat-study-outputs/2"  # the format of results/.outputs.json
+
+
+def _write_text(path: Path, text: str) -> Path:
+    """Write ``text`` whole or not at all (:func:`psmat._atomic.write_text_atomic`)."""
+    write_text_atomic(path, text)
+    return path
+
+
+def _slug(name: str) -> str:
+    """A file-name-safe form of a trial name."""
+    return "".join(c if c.isalnum() or c in "-_" else "_" for c in name)
+
+
+def write_results(results_dir: str | os.PathLike[str], rows: Iterable[Mapping[str, Any]],
+                  traces: Mapping[tuple[str, str], Mapping[str, Any]] | None = None, problems: Sequence[str] = (),
+                  label: str | None = None) -> dict[str, Path]:
+    """Write the summary, the pairwise comparisons, the figures and the report of a study.
+
+    Parameters
+    ----------
+    results_dir : path-like
+        ``DIR/results`` (created if needed).
+    rows : iterable of mapping
+        The rows of ``metrics.csv`` (:data:`psmat.study.COLUMNS`; values as numbers or as
+        CSV text). Rows whose ``status`` is not ``"ok"`` are counted, not used.
+    traces : mapping, optional
+        ``(subject, trial) -> {"t_s": (N,) s, "FP": (N, 2) cm, "<variant>": (N, 2) cm}`` (M-L,
+        A-P) for the CoP figures; a trial without traces gets no trace figure.
+    problems : sequence of str
+        What the study folder lacked (listed in the report).
+    label : str, optional
+        What the numbers are (e.g. ``"simulation"``), shown in the titles and the report.
+
+    Returns
+    -------
+    dict
+        ``{"summary": path, "pairwise": path, "report": path, "<figure name>": path, ...}``;
+        figure names ``sigma_bars``, ``eu_bars``, ``bland_altman_ml``, ``bland_altman_ap`` and
+        ``cop_traces_<trial>``.
+
+    Raises
+    ------
+    ValueError
+        A row without subject, trial, variant or status, or two rows for one subject × trial × variant.
+    """
+    out_dir = Path(results_dir)
+    figures_dir = out_dir / "figures"
+    figures_dir.mkdir(parents=True, exist_ok=True)
+    study = index_rows(rows)
+    summary, pairwise = summary_rows(study), pairwise_rows(study)
+    written: dict[str, Path] = {
+        "summary": _write_text(out_dir / "summary.csv", table_text(summary, SUMMARY_COLUMNS)),
+        "pairwise": _write_text(out_dir / "pairwise.csv", table_text(pairwise, PAIRWISE_COLUMNS)),
+    }
+    figures: dict[str, Path] = {}
+    if study.trials:
+        figures["sigma_bars"] = fig.sigma_bars(summary, figures_dir / "sigma_bars.png", label)
+        figures["eu_bars"] = fig.eu_bars(summary, figures_dir / "eu_bars.png", label)
+        for trial in study.trials:
+            name = f"cop_traces_{_slug(trial)}"
+            path = fig.cop_traces(study, traces or {}, trial, figures_dir / f"{name}.png", label)
+            if path is not None:
+                figures[name] = path
+        for metric, name in (("sd_ml_cm", "bland_altman_ml"), ("sd_ap_cm", "bland_altman_ap")):
+            figures[name] = fig.bland_altman_plot(study, summary, metric, figures_dir / f"{name}.png", label)
+    relative = {name: path.relative_to(out_dir).as_posix() for name, path in figures.items()}
+    report = render_report(study, summary, pairwise, relative, problems, label)
+    written["report"] = _write_text(out_dir / "report.md", report)
+    return {**written, **figures}
+
+
+def _reusable(results: Path, index: Path, digest: str) -> tuple[dict[str, Path] | None, str | None]:
+    """(the outputs ``index`` names, None) when they are proven those of ``digest``; else
+    (None, why not) — why is None when there is nothing to report (no index, other inputs)."""
+    try:
+        doc = json.loads(index.read_text(encoding="utf-8"))
+        if not isinstance(doc, dict) or doc.get("schema") != _INDEX or doc.get("digest") != digest:
+            return None, None  # made from other inputs, or by another psmat
+        top = results.resolve()
+        done: dict[str, Path] = {}
+        for name, entry in doc["outputs"].items():
+            path = results / entry["path"]
+            if not path.resolve().is_relative_to(top):
+                return None, f"it names {entry['path']!r}, outside {results}"
+            if not path.is_file():
+                return None, f"{entry['path']} is missing"
+            if file_sha256(path) != entry["sha256"]:
+                return None, f"{entry['path']} changed after it was written"
+            done[str(name)] = path
+        return done, None
+    except FileNotFoundError:
+        return None, None
+    except (OSError, ValueError, KeyError, TypeError, AttributeError) as exc:
+        return None, f"unreadable ({type(exc).__name__}: {exc})"
+
+
+def write_outputs(results: Path, rows: Iterable[Mapping[str, Any]], traces: Mapping[tuple[str, str], Any],
+                  problems: list[str], inputs_digest: str, label: str | None = None) -> dict[str, Path]:
+    """:func:`write_results`, skipped when ``results/.outputs.json`` proves that the outputs on
+    disk are those of ``inputs_digest`` (see the module docstring).
+
+    Parameters
+    ----------
+    results : Path
+        ``DIR/results``.
+    rows, traces, label
+        As for :func:`write_results`.
+    problems : list of str
+        As for :func:`write_results`; a line is appended when outputs on disk were found
+        changed or the index unreadable (they are written again, the line in the report).
+    inputs_digest : str
+        A digest of everything the outputs are made from (the caller's: metrics.csv, the
+        problems, the traces files, the label, the psmat version).
+    """
+    index = results / ".outputs.json"
+    done, why = _reusable(results, index, inputs_digest)
+    if done is not None:
+        return done
+    if why is not None:
+        problems.append(f"{index.name} not used ({' '.join(why.split())}); summary, figures and report rewritten")
+        inputs_digest = hashlib.sha256((inputs_digest + "\n" + problems[-1]).encode()).hexdigest()
+    outputs = write_results(results, rows, traces, problems, label=label)
+    top = results.resolve()
+    entries = {name: {"path": Path(p).resolve().relative_to(top).as_posix(), "sha256": file_sha256(Path(p))}
+               for name, p in outputs.items()}
+    write_text_atomic(index, json.dumps({"schema": _INDEX, "digest": inputs_digest, "outputs": entries}, indent=1)
+                      + "\n")
+    return outputs

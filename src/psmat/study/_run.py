@@ -1,0 +1,402 @@
+"""``psmat study run``: every session of a study folder through :func:`process_trial`, as
+independent tasks, into ``DIR/results/`` (docs/spec.md §6 layout, §9 ``metrics.csv``, §12).
+
+**Where the cores go.** Each session is one task on one core: a session's IECM warm start
+(each frame's solve starts from the previous frame's) and its sensor model's state are
+sequential in time, so the parallelism is across sessions, and the processing chain runs with
+``threads=1``. The tasks run in processes (joblib's loky pool, one per core by default), not
+threads, because much of a session is Python (alignment, sway metrics, the scale factor's root
+search) that the GIL would serialise. A task's result depends only on its inputs, so the
+tables are bit-identical whatever the number of workers, or on a Dask cluster.
+
+**Resumable.** Each session's result is written atomically under ``results/sessions/`` as it
+finishes, keyed by the content of its inputs and the parameters (:mod:`psmat.study` (``_cache.py``));
+a killed run resumes with the sessions it had not finished, and a changed weight, file,
+calibration or parameter reruns only the sessions it touches. A session whose processing
+failed (status ``error: …``) is not stored: it is tried again next run; nor is a recording that
+was not closed (its journal alone, :mod:`psmat.io.session`), which is not processed:
+its rows' status says which ``psmat repair`` command finishes it. ``metrics.csv`` is
+written after the sessions, then :func:`psmat.study.write_results` (summary, figures,
+report) — skipped when ``metrics.csv``, the problems and the traces are those it last wrote
+from (``results/.outputs.json``). One run per study at a time (``results/.lock``).
+
+**Across volunteers.** After the sessions, ``SCHC-DYN`` (:mod:`psmat.study` (``_dynamic.py``), beyond the
+thesis) corrects each session's SCHC trace by a model fitted on the other volunteers, so it is
+computed for the study as a whole, never cached per session. A study whose sessions all say in
+their metadata that a simulator wrote them is labelled "simulation" in its figures and report.
+
+**Stored results are proven, not trusted** (:mod:`psmat.study` (``_cache.py``)): an entry under
+``results/sessions`` whose digest, rows, traces file or paths do not check out is recomputed,
+and the run says so among its problems.
+
+**On a cluster** (``scheduler="tcp://host:8786"`` or ``scheduler_file``, TLS through
+``security``; the extra ``psmat[cluster]``): the same tasks go to a Dask distributed scheduler
+and come back as they complete, as plain bytes that this process parses without pickle,
+checks and writes (:mod:`psmat.study` (``_cluster.py``)). A Dask cluster must be trusted: its workers run
+arbitrary code by design. Tasks carry file paths, not file contents, so the study folder must
+be on a filesystem the workers share (the same path on every worker), and the workers need
+psmat installed.
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import math
+import os
+from collections.abc import Iterator, Mapping, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from ..balance import KNOWN_VARIANTS
+from ._cache import SessionStore, Stored, TraceFiles, canonical_json, file_sha256, normalise_rows, result_key, \
+    study_lock, write_text_atomic
+from ._layout import StudyItem, StudyLayout, find_study
+from ._task import SessionTask, run_task, status_rows
+from ._trial import COLUMNS, DEFAULT_PARAMS, Rows, Traces
+
+__all__ = ["RunReport", "run_study", "write_metrics", "TRIALS"]
+
+#: the thesis' trials in the order of its tables (docs/spec.md §9); other trial names sort after them
+TRIALS = ("right-leg", "left-leg", "rotation")
+
+
+@dataclass
+class RunReport:
+    """What a run did: sessions computed now, reused from ``results/sessions``, failed; the
+    problems found (inputs, failed sessions, stale results); where the results are."""
+
+    root: Path
+    sessions: int
+    computed: int
+    reused: int
+    failed: int
+    problems: list[str]
+    metrics: Path
+    outputs: dict[str, Path] = field(default_factory=dict)
+
+    @property
+    def results(self) -> Path:
+        return self.root / "results"
+
+    def __str__(self) -> str:
+        files = [self.metrics, *self.outputs.values()]
+        top = [p.name for p in files if p.parent == self.metrics.parent]
+        below = sorted({p.parent.name for p in files if p.parent != self.metrics.parent})
+        lines = [f"{self.sessions} sessions: {self.computed} computed, {self.reused} reused, {self.failed} failed",
+                 f"results in {self.results}: {', '.join(top + [f'{d}/' for d in below])}"]
+        return "\n".join(lines + [f"problem: {p}" for p in self.problems])
+
+
+def run_study(root: str | os.PathLike[str], *, workers: int | None = None, scheduler: str | None = None,
+              params: dict[str, Any] | None = None, progress: bool = True,
+              scheduler_file: str | os.PathLike[str] | None = None, security: Any = None) -> RunReport:
+    """Process every session of the study folder ``root`` into ``root/results/``.
+
+    Parameters
+    ----------
+    root : path
+        A study folder (docs/spec.md §6).
+    workers : int, optional
+        Processes (default: every core); 1 runs the sessions in this process.
+    scheduler : str, optional
+        Address of a Dask distributed scheduler (``tcp://host:8786``, ``tls://host:8786``) to
+        run the sessions on instead; needs ``psmat[cluster]``, the study folder on a shared
+        filesystem and a cluster you trust (:mod:`psmat.study` (``_cluster.py``)).
+    params : dict, optional
+        Overrides of :data:`psmat.study.DEFAULT_PARAMS` (they are part of every key).
+    progress : bool
+        A progress bar over sessions on stderr.
+    scheduler_file : path, optional
+        The scheduler's file (``dask scheduler --scheduler-file``) instead of ``scheduler``.
+    security : distributed.Security, optional
+        TLS credentials for the cluster (:func:`psmat.study.security`).
+
+    Returns
+    -------
+    RunReport
+
+    Raises
+    ------
+    FileNotFoundError
+        ``root`` is not a study folder.
+    ValueError
+        Unknown parameters or variants, a bad ``workers``, both ``workers`` and a cluster, both
+        ``scheduler`` and ``scheduler_file``, or ``security`` without a cluster.
+    ImportError
+        A cluster without Dask distributed installed.
+    RuntimeError
+        Another run is writing the same study, or a ``tls://`` scheduler without credentials.
+    OSError
+        The cluster cannot be reached or refused the connection (e.g. TLS credentials of
+        another CA), or the scheduler file does not exist.
+    """
+    from psmat._progress import tqdm
+
+    from .. import __version__
+
+    p = _checked_params(params)
+    if (scheduler is not None or scheduler_file is not None) and workers is not None:
+        raise ValueError("give workers or a scheduler, not both (the cluster's workers run the sessions)")
+    if scheduler is not None and scheduler_file is not None:
+        raise ValueError("give a scheduler address or a scheduler file, not both")
+    if security is not None and scheduler is None and scheduler_file is None:
+        raise ValueError("TLS settings are for a cluster: give a scheduler address or a scheduler file too")
+    cluster = None
+    if scheduler is not None or scheduler_file is not None:
+        from ._cluster import Cluster
+
+        cluster = Cluster(scheduler, None if scheduler_file is None else os.fspath(scheduler_file), security)
+    if workers is not None and (isinstance(workers, bool) or not isinstance(workers, int) or workers < 1):
+        raise ValueError(f"workers must be an integer >= 1, got {workers!r}")
+    layout = find_study(root)
+    with study_lock(layout.results):
+        store = SessionStore(layout.results / "sessions")
+        problems = list(layout.problems)
+        if n := store.remove_temporaries():
+            problems.append(f"removed {n} incomplete temporary file(s) an interrupted run left in {store.folder}")
+        tasks = {t.stem: t for t in (_task(item, layout, p, __version__) for item in layout.items)}
+        stale = sorted(set(store.stems()) - set(tasks))
+        if stale:
+            problems.append(f"{store.folder} holds results of {len(stale)} session(s) no longer in the study, "
+                            f"ignored (not deleted): {', '.join(stale)}")
+        done: dict[str, Stored] = {}
+        unclosed = _unclosed(layout.items, tasks)  # recordings not closed: a status row each, never processed
+        for stem, t in tasks.items():
+            if stem in unclosed:
+                continue
+            found = store.load(stem, t.key, t.expect)
+            if found.stored is not None:
+                done[stem] = found.stored
+            elif found.problem is not None:  # on disk but not proven: recomputed, and said so
+                problems.append(f"{stem}: {found.problem}")
+        reused = len(done)
+        failed: set[str] = set(unclosed)
+        done.update(unclosed)
+        todo = [t for stem, t in tasks.items() if stem not in done]
+        with tqdm(total=len(tasks), initial=reused, unit="session", desc="sessions", disable=not progress) as bar:
+            for stem, rows, traces in _execute(todo, workers, cluster):
+                t = tasks[stem]
+                rows = _with_notes(rows, t.notes)
+                if all(r["status"].startswith("error:") for r in rows):
+                    failed.add(stem)
+                    done[stem] = Stored(normalise_rows(rows), None)
+                else:
+                    done[stem] = store.save(stem, t.key, t.inputs, rows, traces)
+                bar.update(1)
+        order = sorted(tasks, key=lambda s: _order(tasks[s]))
+        keep = _first_of_each(order, tasks, problems)
+        rows = [r for stem in keep for r in done[stem].rows]
+        problems += _session_problems(layout.items, order, done, failed)
+        traces: Mapping[tuple[str, str], Traces] = TraceFiles(
+            {(tasks[s].subject, tasks[s].trial): t for s in keep if (t := done[s].traces)})
+        if "SCHC" in p["variants"]:  # beyond the thesis: SCHC-DYN across volunteers
+            rows, traces = _with_dynamic(rows, traces)
+        metrics = layout.results / "metrics.csv"
+        write_metrics(metrics, rows)
+        outputs = _write_outputs(layout.results, rows, traces, problems, __version__,
+                                 "simulation" if layout.simulated else None)
+    return RunReport(layout.root, len(tasks), len(tasks) - reused - len(failed), reused, len(failed), problems,
+                     metrics, outputs)
+
+
+def write_metrics(path: Path, rows: Sequence[dict[str, Any]]) -> None:
+    """``metrics.csv`` (docs/spec.md §9): the columns of :data:`COLUMNS`, floats as ``repr`` (exact, so a
+    rerun is byte-identical), NaN as an empty field; written atomically."""
+    buf = io.StringIO()
+    w = csv.writer(buf, lineterminator="\n")
+    w.writerow(COLUMNS)
+    for r in rows:
+        w.writerow([_cell(r[c]) for c in COLUMNS])
+    write_text_atomic(path, buf.getvalue())
+
+
+def _with_dynamic(rows: Rows, traces: Mapping[tuple[str, str], Traces]
+                  ) -> tuple[Rows, Mapping[tuple[str, str], Traces]]:
+    """The study's rows and traces with ``SCHC-DYN`` (:func:`psmat.study.dynamic_rows`:
+    fitted on the other volunteers, so it is computed after every session, never cached per
+    session); each session's new row follows its own rows."""
+    from ._dynamic import dynamic_rows
+
+    dyn_rows, dyn_traces = dynamic_rows(rows, traces)
+    by_key = {(r["subject"], r["trial"]): r for r in dyn_rows}
+    out: Rows = []
+    for i, r in enumerate(rows):
+        out.append(r)
+        key = (r["subject"], r["trial"])
+        last = i + 1 == len(rows) or (rows[i + 1]["subject"], rows[i + 1]["trial"]) != key
+        if last and key in by_key:
+            out.append(by_key.pop(key))
+    out += list(by_key.values())
+    return out, _MergedTraces(traces, dyn_traces)
+
+
+class _MergedTraces(Mapping[tuple[str, str], Traces]):
+    """The sessions' traces (read on access) with the study-level variants' added."""
+
+    def __init__(self, base: Mapping[tuple[str, str], Traces], extra: Mapping[tuple[str, str], Traces]) -> None:
+        self._base, self._extra = base, extra
+
+    def __getitem__(self, key: tuple[str, str]) -> Traces:
+        return {**self._base[key], **self._extra.get(key, {})}
+
+    def __iter__(self) -> Iterator[tuple[str, str]]:
+        return iter(self._base)
+
+    def __len__(self) -> int:
+        return len(self._base)
+
+    def path(self, key: tuple[str, str]) -> Path:
+        return self._base.path(key)  # type: ignore[attr-defined]
+
+
+def _write_outputs(results: Path, rows: Rows, traces: Mapping[tuple[str, str], Traces], problems: list[str],
+                   version: str, label: str | None = None) -> dict[str, Path]:
+    """:func:`~psmat.study._results.write_outputs` (summary, figures, report), skipped when its
+    inputs (metrics.csv, the problems, the traces files, the label) are those of the outputs on
+    disk and those outputs are unchanged."""
+    import hashlib
+
+    from ._results import write_outputs  # matplotlib: imported when a study is run, not with psmat
+
+    digest = hashlib.sha256(canonical_json({
+        "psmat": version, "metrics": file_sha256(results / "metrics.csv"), "problems": problems, "label": label,
+        "traces": sorted([*k, traces.path(k).name] for k in traces)}).encode()).hexdigest()
+    return write_outputs(results, rows, traces, problems, digest, label)
+
+
+def _cell(v: Any) -> str:
+    if isinstance(v, float):
+        return "" if math.isnan(v) else repr(v)
+    return str(v)
+
+
+def _checked_params(params: dict[str, Any] | None) -> dict[str, Any]:
+    """The whole parameter dict (defaults filled in) as plain JSON values; ValueError if unknown."""
+    import json
+
+    given = dict(params or {})
+    unknown = sorted(set(given) - set(DEFAULT_PARAMS))
+    if unknown:
+        raise ValueError(f"unknown parameter(s) {', '.join(unknown)}; known: {', '.join(DEFAULT_PARAMS)}")
+    p = {**DEFAULT_PARAMS, **given}
+    bad = [v for v in p["variants"] if v not in KNOWN_VARIANTS]
+    if bad or not p["variants"]:
+        raise ValueError(f"unknown variant(s) {bad or '(none given)'}; known: {', '.join(KNOWN_VARIANTS)}")
+    try:
+        return json.loads(canonical_json(p))
+    except ValueError as exc:
+        raise ValueError(f"params: {exc}") from None
+
+
+def _from_stem(stem: str) -> tuple[str, str]:
+    """(subject, trial) from a file name ``<subject>_<trial>`` (docs/spec.md §6), for sessions whose metadata lacks them."""
+    subject, _, trial = stem.partition("_")
+    return subject, trial
+
+
+def _serial(session: Path) -> str | None:
+    """The box serial in a session's device description (None if unreadable or absent)."""
+    from ..io import SessionFormatError, load_session
+
+    try:
+        serial = load_session(session).device.get("serial")
+    except (SessionFormatError, OSError):
+        return None
+    return None if serial in (None, "") else str(serial)
+
+
+def _sha(path: Path | None) -> str | None:
+    try:
+        return file_sha256(path)
+    except OSError:
+        return None
+
+
+def _task(item: StudyItem, layout: StudyLayout, params: dict[str, Any], version: str) -> SessionTask:
+    """The task of one session and the inputs its key is made of (see :mod:`psmat.study` (``_cache.py``))."""
+    from ..io import journal_path
+
+    named = _from_stem(item.stem)
+    subject, trial = item.subject or named[0], item.trial or named[1]
+    notes = tuple(f"session metadata has no {what}: {what} {value!r} taken from the file name"
+                  for what, have, value in (("subject", item.subject, subject), ("trial", item.trial, trial))
+                  if have is None)
+    who = layout.subjects.get(item.subject) if item.subject is not None else None
+    weight = None if who is None else who.weight_kg
+    serial = _serial(item.session)
+    cal = layout.calibrations.get(serial) if serial is not None else None
+    jpath = journal_path(item.session)
+    inputs = {"psmat": version, "params": params, "stem": item.stem, "subject": subject, "trial": trial,
+              "weight_kg": weight, "session_sha256": _sha(item.session),
+              "journal_sha256": _sha(jpath) if jpath.is_file() else None,
+              "forceplate_sha256": _sha(item.forceplate), "calibration": None if cal is None else cal.name,
+              "calibration_sha256": _sha(cal)}
+    return SessionTask(item.stem, str(item.session), None if item.forceplate is None else str(item.forceplate),
+                       subject, trial, weight, None if cal is None else str(cal), params, result_key(inputs), inputs,
+                       notes)
+
+
+def _with_notes(rows: Rows, notes: tuple[str, ...]) -> Rows:
+    """The problems :func:`process_trial` cannot see, added to the status of rows that were computed."""
+    if not notes:
+        return rows
+    extra = "; ".join(notes)
+    return [{**r, "status": r["status"] if r["status"].startswith("error:")
+             else extra if r["status"] == "ok" else f"{r['status']}; {extra}"} for r in rows]
+
+
+def _order(t: SessionTask) -> tuple[Any, ...]:
+    """metrics.csv order: subject, then trial (the thesis' trials first, in its order), then file."""
+    rank = TRIALS.index(t.trial) if t.trial in TRIALS else len(TRIALS)
+    return t.subject, rank, t.trial, t.stem
+
+
+def _first_of_each(order: Sequence[str], tasks: dict[str, SessionTask], problems: list[str]) -> list[str]:
+    """The first session of each subject × trial (docs/spec.md §9: one row per subject × trial × variant);
+    any other is named in ``problems`` and left out of the tables (its result stays stored)."""
+    first: dict[tuple[str, str], str] = {}
+    for stem in order:
+        who = (tasks[stem].subject, tasks[stem].trial)
+        if who in first:
+            problems.append(f"{stem}: {who[0]} {who[1]} again (first {first[who]}); left out of metrics.csv")
+        first.setdefault(who, stem)
+    return list(first.values())
+
+
+def _session_problems(items: Sequence[StudyItem], order: Sequence[str], done: dict[str, Stored],
+                      failed: set[str]) -> list[str]:
+    """One line per problem of a session (what find_study saw, else a failed session's error)."""
+    by_stem = {i.stem: i for i in items}
+    out = []
+    for stem in order:
+        problems = list(by_stem[stem].problems)
+        if stem in failed and not problems:
+            problems.append(done[stem].rows[0]["status"])
+        out += [f"{stem}: {p}" for p in problems]
+    return out
+
+
+def _unclosed(items: Sequence[StudyItem], tasks: Mapping[str, SessionTask]) -> dict[str, Stored]:
+    """The rows of each session whose recording was not closed (:attr:`StudyItem.not_closed`): no
+    numbers, the status says which ``psmat repair`` command finishes it; not stored, so the next
+    run processes the repaired file."""
+    return {i.stem: Stored(normalise_rows(status_rows(tasks[i.stem], i.not_closed)), None)
+            for i in items if i.not_closed}
+
+
+def _execute(todo: list[SessionTask], workers: int | None, cluster: Any
+             ) -> Iterator[tuple[str, Rows, Traces]]:
+    """(stem, rows, traces) of each task, in the order they finish (``cluster``: a
+    :class:`psmat.study.Cluster`, or None for this machine)."""
+    if not todo:
+        return
+    if cluster is not None:
+        from ._cluster import on_cluster
+
+        yield from on_cluster(todo, cluster)
+        return
+    from .._parallel import map_unordered  # workers that end with this process, even after kill -9
+
+    yield from map_unordered(run_task, todo, workers)

@@ -1,0 +1,168 @@
+"""A recorded session through the one path (:func:`psmat.process.process_session`,
+:func:`~psmat.process.process_loaded`): each frame stepped with its own period, the circuit in
+the documented order.
+
+The sessions are made here from a known load: cell pressures (psi) → the thesis' sensor model
+(Table 2.11) at the true frame times → cell conductances → crosstalk (:func:`psmat.iecm.forward`)
+→ 12-bit counts of the default circuit, frames stamped by the device clock every 10 ms. The
+expected pressures are worked out by hand: the counts read back through the circuit, IECM on the
+surviving frames (``iecm.solve`` on one thread, the numbers of the chain on one worker), and the
+inverse sensor model stepped with the true time between surviving frames.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from psmat import Calibration, Circuit, iecm
+from psmat.io import SessionWriter, load_session
+from psmat.process import process_loaded, process_session, session_circuit, session_clock
+from psmat.sensor import MPICreep
+
+SHAPE = (6, 6)
+T = 60
+DT_US = 10_000  # the device clock's frame period, µs (100 frames/s)
+DT = DT_US * 1e-6
+DROPPED = [20, 21, 22, 41]  # lost on the wire: frames the host never received
+PSI_KPA = 6.894757  # 1 psi in kPa, by definition
+
+
+def _load_psi() -> np.ndarray:
+    """(T, R, C) psi: a 2×2 patch that rises, is held from frame 15 to 45 (over every gap), then
+    falls; every other cell a light, steady load (no cell reads open)."""
+    level = np.interp(np.arange(T), [0, 15, 45, T - 1], [2.0, 12.0, 12.0, 6.0])
+    p = np.full((T,) + SHAPE, 0.5)
+    p[:, 2:4, 2:4] = level[:, None, None]
+    return p
+
+
+@pytest.fixture(scope="module")
+def counts() -> np.ndarray:
+    g = MPICreep.thesis().direct(_load_psi(), DT)  # the true cell conductances, S
+    return Circuit().counts(iecm.forward(g))
+
+
+def _write(path: Path, counts: np.ndarray, keep: np.ndarray, *, placeholders: bool = False,
+           calibration: object = None) -> Path:
+    """A v2 session of the frames ``keep`` (their own seq and device time); with ``placeholders``
+    the others are stored as frames that failed their check on the wire (seq and time -1)."""
+    k = np.arange(T)
+    rows = k if placeholders else k[keep]
+    ok = keep[rows]
+    c = np.where(ok[:, None, None], counts[rows], 0).astype(np.uint16)
+    host = 1.7e9 + rows * DT + 0.004  # the host's stamps: not what the chain steps with
+    with SessionWriter(path, SHAPE, {"rows": SHAPE[0], "cols": SHAPE[1], "serial": "BOX1"},
+                       calibration=calibration) as w:
+        w.append(c, host, ok, seq=np.where(ok, rows, -1), device_time_us=np.where(ok, rows * DT_US, -1))
+    return path
+
+
+def _by_hand(counts: np.ndarray, frames: np.ndarray) -> np.ndarray:
+    """Pressure (kPa) of ``frames``: the circuit's inverse, IECM, and the inverse sensor model
+    stepped with the true time since the previous surviving frame (the first: one period)."""
+    G, flags = Circuit().conductance(counts[frames], return_flags=True)
+    assert np.all(flags == Circuit.OK)
+    g = iecm.solve(G, "newton", threads=1)
+    steps = np.diff(frames * DT, prepend=frames[0] * DT - DT)
+    return MPICreep.thesis().inverse(g, steps) * PSI_KPA
+
+
+@pytest.mark.parametrize("placeholders", [False, True], ids=["frames absent", "frames stored as invalid"])
+def test_a_lost_frame_advances_the_sensor_model_by_its_real_interval(counts, tmp_path, placeholders) -> None:
+    keep = np.ones(T, bool)
+    keep[DROPPED] = False
+    survivors = np.flatnonzero(keep)
+    path = _write(tmp_path / "lost.h5", counts, keep, placeholders=placeholders)
+    out = process_session(path, threads=1, save=False, progress=False)
+    expected = _by_hand(counts, survivors)
+    got = out.pressure_kpa[out.usable]
+    np.testing.assert_allclose(got, expected, rtol=1e-12, atol=0)
+    if placeholders:
+        assert out.usable.tolist() == keep.tolist() and np.all(np.isnan(out.pressure_kpa[DROPPED]))
+    # the steps were the device clock's: 40 ms and 20 ms after the gaps, 10 ms elsewhere
+    assert out.clock is not None and out.clock.source == "device"
+    np.testing.assert_allclose(out.clock.t_s[out.usable], survivors * DT, rtol=0, atol=1e-12)
+
+
+def test_the_same_session_without_drops_gives_the_same_pressures_where_the_load_is_held(counts, tmp_path) -> None:
+    """Around each gap the load is held (frames 15-45) and the frames read the same counts, so the
+    sensor model stepped once over the gap is the model stepped frame by frame through it, to
+    second order in the creep during the gap: the lossy session's pressures are the whole
+    session's at the surviving frames. Stepping every frame with one period instead (the median,
+    a lost frame advancing nothing) misses the creep of the gap itself, a first-order error
+    (creep is slow, eq. 2.23: l = 8e-4 and 5e-6 1/s, so it is small, but far above the first)."""
+    keep = np.ones(T, bool)
+    keep[DROPPED] = False
+    survivors = np.flatnonzero(keep)
+    whole = process_session(_write(tmp_path / "whole.h5", counts, np.ones(T, bool)), threads=1, save=False,
+                            progress=False)
+    lossy = process_session(_write(tmp_path / "lossy.h5", counts, keep), threads=1, save=False, progress=False)
+    after = [int(np.searchsorted(survivors, 23)), int(np.searchsorted(survivors, 42))]  # first frames after gaps
+    ref = whole.pressure_kpa[survivors]
+    held = lossy.pressure_kpa[lossy.usable]
+    dev = np.max(np.abs(held - ref) / ref)
+    G = Circuit().conductance(counts[survivors])
+    one_period = MPICreep.thesis().inverse(iecm.solve(G, "newton", threads=1), DT) * PSI_KPA
+    miss = np.max(np.abs(one_period[after] - ref[after]) / ref[after])
+    assert miss > 1e-7, miss  # about 2e-6 of the pressure here
+    assert dev < 1e-4 * miss, (dev, miss)  # about 2e-12
+
+
+def test_the_stored_calibration_wins_over_a_circuit_argument(counts, tmp_path) -> None:
+    """docs/spec.md §2: a calibration is applied when data are loaded. The session's stored
+    calibration comes first, a ``circuit`` argument only for a session without one, and a
+    calibration file passed by the caller replaces R_adc and R_mux (same box only)."""
+    stored = Circuit(r_mux=200.0)
+    other = Circuit(r_mux=50.0)
+    keep = np.ones(T, bool)
+    with_cal = load_session(_write(tmp_path / "stored.h5", counts, keep, calibration=stored.as_dict()))
+    without = load_session(_write(tmp_path / "bare.h5", counts, keep))
+    assert session_circuit(with_cal, circuit=other) == stored
+    assert session_circuit(without, circuit=other) == other
+    assert session_circuit(without) == Circuit()
+    # the products say which, and are those of that circuit's conductances
+    out = process_loaded(with_cal, circuit=other, method=None)
+    assert out.params["circuit_from"] == "the session's stored calibration"
+    np.testing.assert_array_equal(out.G, stored.conductance(counts))
+    assert process_loaded(without, circuit=other, method=None).params["circuit_from"] == "the circuit passed by the caller"
+    # a calibration file of the same box replaces R_adc and R_mux of the stored circuit
+    cal = tmp_path / "BOX1.json"
+    Calibration("BOX1", r_adc=5e6, r_mux=120.0).save(cal)
+    assert session_circuit(with_cal, circuit=other, calibration=cal) == Circuit(r_mux=120.0, r_adc=5e6)
+    wrong = tmp_path / "BOX2.json"
+    Calibration("BOX2", r_adc=5e6, r_mux=120.0).save(wrong)
+    with pytest.raises(ValueError, match="BOX2.json is box 'BOX2'; the session was recorded with box 'BOX1'"):
+        session_circuit(with_cal, calibration=wrong)
+    # a stored calibration file's content (psmat calibrate) is a circuit too
+    calibrated = load_session(_write(tmp_path / "cal.h5", counts, keep,
+                                     calibration=Calibration("BOX1", r_adc=5e6, r_mux=120.0).to_dict()))
+    assert session_circuit(calibrated, circuit=other) == Circuit(r_mux=120.0, r_adc=5e6)
+
+
+def test_the_host_clock_spreads_the_frames_of_one_read_evenly(counts, tmp_path) -> None:
+    """No device clock (v1, csv): the host stamps the frames of one read alike, so the frames are
+    placed evenly between the first and the last stamp."""
+    path = tmp_path / "v1.h5"
+    host = 100.0 + 0.04 * (np.arange(T) // 4 + 1)  # four frames per read, one read every 40 ms
+    with SessionWriter(path, SHAPE, {"rows": SHAPE[0], "cols": SHAPE[1]}) as w:
+        w.append(counts, host, np.ones(T, bool))
+    clock = session_clock(load_session(path))
+    step = (host[-1] - host[0]) / (T - 1)
+    assert clock.source == "host" and clock.filled == 0
+    np.testing.assert_allclose(clock.t_s, host[0] + np.arange(T) * step, rtol=0, atol=1e-9)
+    np.testing.assert_allclose(clock.periods_s, step, rtol=1e-9)
+
+
+@pytest.mark.parametrize("host, match", [
+    (np.full(T, 5.0), "frame times do not advance"),
+    (np.r_[np.nan * np.ones(T - 1), 5.0], "fewer than two of the session's 60 frames carry a time stamp"),
+])
+def test_a_clock_that_gives_no_period_is_one_clear_error(counts, tmp_path, host, match) -> None:
+    path = tmp_path / "bad.h5"
+    with SessionWriter(path, SHAPE, {"rows": SHAPE[0], "cols": SHAPE[1]}) as w:
+        w.append(counts, host, np.ones(T, bool))
+    with pytest.raises(ValueError, match=match):
+        process_session(path, save=False)

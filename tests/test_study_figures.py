@@ -1,0 +1,116 @@
+"""The figures of a balance study keep every text readable: inside the figure, each panel's
+tick labels, axis labels and title clear of every other panel's, the figure title above the
+panels and the key below them. Measured by matplotlib itself on the figures as saved."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from psmat.study import COLUMNS, write_results
+
+NAN = math.nan
+SUBJECTS = ("V01", "V02", "V03", "V04")
+
+
+def _row(subject: str, trial: str, variant: str, **values: float) -> dict:
+    row = {c: NAN for c in COLUMNS}
+    row.update(subject=subject, trial=trial, variant=variant, status="ok", **values)
+    return row
+
+
+def _rows() -> list[dict]:
+    """Two trials; SCHC-8x8 differs from FP by 1e-7 cm (its Bland–Altman panels need an offset
+    text, "1e-7", above them); PROP-C-8x8 (a long name) only in "rotation" (an empty panel)."""
+    rows = []
+    for trial, scale in (("right-leg", 1.0), ("rotation", 30.0)):
+        for i, s in enumerate(SUBJECTS):
+            fp_ml, fp_ap = scale * (1.0 + 0.3 * i), scale * (2.0 + 0.2 * i)
+            values = {"FP": (fp_ml, fp_ap), "PROP": (0.7 * fp_ml, 1.1 * fp_ap),
+                      "SCHC-8x8": (fp_ml + 1e-7 * i, fp_ap - 1e-7 * i)}
+            if trial == "rotation":
+                values["PROP-C-8x8"] = (0.4 * fp_ml + 0.01 * i * i, 0.5 * fp_ap)
+            for variant, (ml, ap) in values.items():
+                eu = 0.0 if variant == "FP" else 0.01 * (i + 1) * scale
+                rows.append(_row(s, trial, variant, sd_ml_cm=ml, sd_ap_cm=ap, eu_cm=eu, eu_ml_cm=0.6 * eu,
+                                 eu_ap_cm=0.8 * eu))
+    return rows
+
+
+def _traces() -> dict:
+    t = 5.0 + 0.01 * np.arange(1000)
+    fp = np.c_[10.0 + np.sin(t), 20.0 + 0.7 * np.cos(0.6 * t)]
+    return {(s, trial): {"t_s": t, "FP": fp, "PROP": 0.7 * fp + 1.0, "SCHC-8x8": fp + 1e-3 * np.sin(9.0 * t)[:, None]}
+            for trial in ("right-leg", "rotation") for s in SUBJECTS}
+
+
+@pytest.fixture(scope="module")
+def saved(tmp_path_factory):
+    """{file name: the matplotlib Figure as written} of one study's results."""
+    from matplotlib.figure import Figure
+
+    figures = {}
+    save = Figure.savefig
+
+    def keep(fig, fname, *args, **kwargs):
+        save(fig, fname, *args, **kwargs)
+        figures[len(figures)] = fig
+
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr(Figure, "savefig", keep)
+        paths = write_results(tmp_path_factory.mktemp("results"), _rows(), _traces(), label="simulation")
+    names = [name for name in paths if name not in ("summary", "pairwise", "report")]
+    assert len(names) == len(figures)
+    return dict(zip(names, figures.values()))
+
+
+def _overlap(a, b, tol: float) -> bool:
+    return a.x0 < b.x1 - tol and b.x0 < a.x1 - tol and a.y0 < b.y1 - tol and b.y0 < a.y1 - tol
+
+
+def test_every_figure_of_the_study_is_checked(saved) -> None:
+    assert set(saved) == {"sigma_bars", "eu_bars", "cop_traces_right-leg", "cop_traces_rotation",
+                          "bland_altman_ml", "bland_altman_ap"}
+
+
+@pytest.mark.parametrize("name", ["sigma_bars", "eu_bars", "cop_traces_rotation", "bland_altman_ml",
+                                  "bland_altman_ap"])
+def test_texts_inside_the_figure_and_clear_of_each_other(saved, name: str) -> None:
+    fig = saved[name]
+    renderer = fig.canvas.get_renderer()
+    page = fig.bbox
+    tol = 1.0  # pixels
+    panels = [ax for ax in fig.axes if ax.axison]
+    boxes = [ax.get_tightbbox(renderer) for ax in panels]  # a panel with its ticks, labels, title
+    for ax, box in zip(panels, boxes):
+        assert page.x0 - tol <= box.x0 and box.x1 <= page.x1 + tol, (name, ax.get_title())
+        assert page.y0 - tol <= box.y0 and box.y1 <= page.y1 + tol, (name, ax.get_title())
+        assert ax.bbox.width > 0.5 * fig.dpi and ax.bbox.height > 0.5 * fig.dpi, (name, ax.get_title())
+    for i in range(len(boxes)):
+        for j in range(i + 1, len(boxes)):
+            assert not _overlap(boxes[i], boxes[j], tol), (name, panels[i].get_title(), panels[j].get_title())
+    title = next(t for t in fig.texts if t.get_text() == fig.get_suptitle()).get_window_extent(renderer)
+    key = fig.legends[0].get_window_extent(renderer)
+    assert title and page.y1 + tol >= title.y1 and title.y0 >= max(b.y1 for b in boxes) - tol, name
+    assert key.y0 >= page.y0 - tol and key.y1 <= min(b.y0 for b in boxes) + tol, name
+    assert page.x0 - tol <= min(title.x0, key.x0) and max(title.x1, key.x1) <= page.x1 + tol, name
+
+
+def test_an_offset_text_sits_between_its_panel_and_the_title(saved) -> None:
+    # SCHC-8x8 − FP spans 6e-7 cm: its y axis shows "1e-7" above the panel, under the title
+    fig = saved["bland_altman_ml"]
+    renderer = fig.canvas.get_renderer()
+    ax = next(a for a in fig.axes if a.get_title() == "SCHC-8x8, right-leg")
+    offset = ax.yaxis.offsetText
+    assert offset.get_text(), "expected an offset text on a 6e-7 cm span"
+    above = offset.get_window_extent(renderer)
+    assert above.y0 >= ax.bbox.y1 - 1.0
+    assert ax.title.get_window_extent(renderer).y0 >= above.y1 - 1.0
+
+
+def test_a_trial_without_a_variant_leaves_its_panel_empty(saved) -> None:
+    fig = saved["bland_altman_ap"]
+    off = [ax for ax in fig.axes if not ax.axison]
+    assert len(off) == 1 and not off[0].lines  # PROP-C-8x8 in right-leg
