@@ -159,20 +159,38 @@ def _print_rows(rows: list[dict[str, Any]]) -> None:
         print(f"  {row['model']} {row['subset']}: MSE {row['MSE']:.4g} rad^2; R2 {r2}")
 
 
-def _train(args: argparse.Namespace) -> int:
+def _learning(verb: str) -> Any:
+    """:mod:`psmat.posture.learn` (imports PyTorch: seconds), or None after one line without it."""
     try:
-        from ..posture.learn import train_posture
+        from ..posture import learn
     except ImportError as exc:
-        print(f"psmat posture train: {_line(exc)}", file=sys.stderr)
+        print(f"psmat posture {verb}: {_line(exc)}", file=sys.stderr)
+        return None
+    return learn
+
+
+def _torch_missing(verb: str) -> bool:
+    """True, after one line, when PyTorch is not installed: found without importing it, so that a
+    missing PyTorch is told before the study is read, and a wrong folder before PyTorch is imported."""
+    from importlib.util import find_spec
+
+    return find_spec("torch") is None and _learning(verb) is None
+
+
+def _train(args: argparse.Namespace) -> int:
+    if _torch_missing("train"):
         return 1
     try:
         found = _study(args, "train")
         if found is None:
             return 1
         study, out = found
-        result = train_posture(study.recordings, out, split=args.split, seed=args.seed, epochs=args.epochs,
-                               patience=args.patience, windows_per_epoch=args.windows_per_epoch,
-                               progress=not args.quiet)
+        learn = _learning("train")  # after the folder is checked: PyTorch takes seconds to import
+        if learn is None:
+            return 1
+        result = learn.train_posture(study.recordings, out, split=args.split, seed=args.seed, epochs=args.epochs,
+                                     patience=args.patience, windows_per_epoch=args.windows_per_epoch,
+                                     progress=not args.quiet)
     except (OSError, ValueError) as exc:
         print(f"psmat posture train: {_line(exc)}", file=sys.stderr)
         return 1
@@ -186,20 +204,20 @@ def _train(args: argparse.Namespace) -> int:
 
 
 def _heldout(args: argparse.Namespace) -> int:
-    try:
-        from ..posture.learn import FinetuneConfig, heldout_study
-    except ImportError as exc:
-        print(f"psmat posture heldout: {_line(exc)}", file=sys.stderr)
+    if _torch_missing("heldout"):
         return 1
     try:
         found = _study(args, "heldout")
         if found is None:
             return 1
         study, out = found
-        ft = FinetuneConfig(epochs=args.finetune_epochs, lr=args.finetune_lr, layers=args.finetune_layers)
-        result = heldout_study(study.recordings, out, seed=args.seed, epochs=args.epochs, patience=args.patience,
-                               windows_per_epoch=args.windows_per_epoch, calibration_s=args.calibration_s,
-                               finetune_config=ft, progress=not args.quiet)
+        learn = _learning("heldout")  # after the folder is checked: PyTorch takes seconds to import
+        if learn is None:
+            return 1
+        ft = learn.FinetuneConfig(epochs=args.finetune_epochs, lr=args.finetune_lr, layers=args.finetune_layers)
+        result = learn.heldout_study(study.recordings, out, seed=args.seed, epochs=args.epochs,
+                                     patience=args.patience, windows_per_epoch=args.windows_per_epoch,
+                                     calibration_s=args.calibration_s, finetune_config=ft, progress=not args.quiet)
     except (OSError, ValueError) as exc:
         print(f"psmat posture heldout: {_line(exc)}", file=sys.stderr)
         return 1

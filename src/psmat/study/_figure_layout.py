@@ -9,10 +9,9 @@ axes' locators and formatters will draw, the axis labels, the titles and the key
 
 from __future__ import annotations
 
-from collections.abc import Sequence
 from typing import Any
 
-__all__ = ["PAD_IN", "arrange"]
+__all__ = ["PAD_IN", "MIN_PANEL_IN", "arrange"]
 
 #: Space between a text and its neighbour, and at the figure's edges (inches).
 PAD_IN = 0.05
@@ -89,14 +88,15 @@ def _ticks(axis: Any, measure: _Measure) -> tuple[list[tuple[float, tuple[float,
     return out, gap, off_h
 
 
-def _decorations(ax: Any, measure: _Measure) -> tuple[Any, float]:
+def _decorations(ax: Any, measure: _Measure) -> tuple[Any, float, float]:
     """(a function (panel width, panel height) -> (left, right, bottom, top): how far the texts
     of ``ax`` reach outside its panel on each side, the height of its y offset text (the
-    "1e-5" above a panel), which its title rises above) (inches)."""
+    "1e-5" above a panel), the height of its title with its pad) (inches). The title rises
+    above the offset texts of its row: ``top`` leaves them out."""
     from matplotlib import rcParams
 
     if not ax.axison:
-        return (lambda w, h: (0.0, 0.0, 0.0, 0.0)), 0.0
+        return (lambda w, h: (0.0, 0.0, 0.0, 0.0)), 0.0, 0.0
     pt = 1.0 / 72.0
     xt, xgap, xoff = _ticks(ax.xaxis, measure)
     yt, ygap, yoff = _ticks(ax.yaxis, measure)
@@ -110,7 +110,7 @@ def _decorations(ax: Any, measure: _Measure) -> tuple[Any, float]:
     ytick_w = max((-e[0] for _, e in yt), default=0.0)  # and left of them
     bottom = (xgap + xtick_h if xt else 0.0) + max(xlab + ax.xaxis.labelpad * pt if xlab else 0.0, xoff)
     left = (ygap + ytick_w if yt else 0.0) + (ylab + ax.yaxis.labelpad * pt if ylab else 0.0)
-    top = (title + rcParams["axes.titlepad"] * pt if title else 0.0) + yoff  # a title rises above the offset
+    top = title + rcParams["axes.titlepad"] * pt if title else 0.0
 
     def reach(w: float, h: float) -> tuple[float, float, float, float]:
         # tick labels near a panel's edge may reach past it (rotated or wide ones)
@@ -119,7 +119,7 @@ def _decorations(ax: Any, measure: _Measure) -> tuple[Any, float]:
                 max([bottom] + [-(f * h + e[2]) for f, e in yt]),
                 max([top] + [f * h + e[3] - h for f, e in yt]))
 
-    return reach, yoff
+    return reach, yoff, top
 
 
 def arrange(fig: Any, axes: Any, title: Any = None, key: Any = None) -> None:
@@ -140,25 +140,32 @@ def arrange(fig: Any, axes: Any, title: Any = None, key: Any = None) -> None:
 
     Notes
     -----
-    The figure keeps its size unless the panels would be smaller than ``MIN_PANEL_IN``;
-    then it grows by what they lack.
+    The figure keeps its size unless it is narrower than its title or key, or its panels would
+    be smaller than ``MIN_PANEL_IN``; then it grows by what they lack.
     """
     measure = _Measure(fig)
     nrows, ncols = len(axes), len(axes[0])
     found = [[_decorations(ax, measure) for ax in row] for row in axes]
     reach = [[f[0] for f in row] for row in found]
-    title_h = measure.height(title) + PAD_IN if title is not None else 0.0
+    lift = [max(f[1] for f in row) for row in found]  # a row's titles in line, above any offset text
+    width, height = fig.get_size_inches()
+    title_h = 0.0
+    if title is not None and title.get_text():
+        x0, x1, y0, y1 = measure.extent(title)
+        title_h = y1 - y0 + PAD_IN
+        width = max(width, x1 - x0 + 2 * PAD_IN)  # a figure narrower than its title or key grows
     key_h = 0.0
     if key is not None:
-        key_h = key.get_window_extent(measure.renderer).height / measure.dpi + PAD_IN
-    width, height = fig.get_size_inches()
+        box = key.get_window_extent(measure.renderer)
+        key_h = box.height / measure.dpi + PAD_IN
+        width = max(width, box.width / measure.dpi + 2 * PAD_IN)
     w, h = width / ncols, height / nrows
     for _ in range(3):  # the reach of edge labels depends on the panel size: settle it
         r = [[reach[i][j](w, h) for j in range(ncols)] for i in range(nrows)]
         left = [max(r[i][j][0] for i in range(nrows)) for j in range(ncols)]
         right = [max(r[i][j][1] for i in range(nrows)) for j in range(ncols)]
         bottom = [max(r[i][j][2] for j in range(ncols)) for i in range(nrows)]
-        top = [max(r[i][j][3] for j in range(ncols)) for i in range(nrows)]
+        top = [max(max(r[i][j][3], found[i][j][2] + lift[i]) for j in range(ncols)) for i in range(nrows)]
         m_left, m_right = PAD_IN + left[0], PAD_IN + right[-1]
         m_top, m_bottom = PAD_IN + title_h + top[0], PAD_IN + key_h + bottom[-1]
         wgap = max((right[j] + PAD_IN + left[j + 1] for j in range(ncols - 1)), default=0.0)
@@ -170,9 +177,9 @@ def arrange(fig: Any, axes: Any, title: Any = None, key: Any = None) -> None:
     fig.set_size_inches(width, height)
     fig.subplots_adjust(left=m_left / width, right=1.0 - m_right / width, bottom=m_bottom / height,
                         top=1.0 - m_top / height, wspace=wgap / w, hspace=hgap / h)
-    for row, row_found in zip(axes, found):
-        for ax, (_, lift) in zip(row, row_found):
-            ax.title.set_y(1.0 + lift / h)  # at its pad above the panel, or above the offset text
+    for row, up in zip(axes, lift):
+        for ax in row:
+            ax.title.set_y(1.0 + up / h)
     if title is not None:
         title.set_y(1.0 - PAD_IN / height)
         title.set_verticalalignment("top")

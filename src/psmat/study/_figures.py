@@ -1,5 +1,7 @@
 """Figures of a balance study (thesis Figs. 3.2-3.7): bars of σ and Eu per variant, CoP
-traces against the platform, Bland–Altman of σ; matplotlib's object API (Agg), PNG.
+traces against the platform, Bland–Altman of σ; matplotlib's object API (Agg), PNG, the panels
+placed by :func:`~psmat.study._figure_layout.arrange` (no layout engine: it drew every figure
+twice).
 
 Every function takes an optional ``label`` (e.g. ``"simulation"``) shown in the title. Each figure
 carries a key that spells out the variants it shows (:func:`psmat.balance.legend_label`).
