@@ -1,4 +1,4 @@
-"""Helpers of tests/test_wheel.py: the installation of psmat those tests run, and the test extras
+"""Helpers of tests/e2e/test_wheel.py: the installation of psmat those tests run, and the test extras
 hidden from its commands.
 
 * :func:`regular_installation`: the psmat that runs the tests, when it is a regular (not

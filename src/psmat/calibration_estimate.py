@@ -44,7 +44,7 @@ def _latent_mean(c: NDArray[np.float64], full_scale: int) -> tuple[float, float,
     Notes
     -----
     ``scipy.stats.norm.fit`` of ``scipy.stats.CensoredData`` gives the same estimate (to
-    1e-8 counts with a tight optimiser; tests/test_calibration.py checks it) but works
+    1e-8 counts with a tight optimiser; tests/unit/test_calibration.py checks it) but works
     sample by sample with a generic optimiser: about 2 s for a 12 800-sample recording and
     10 s for 100 000 at that precision (1e-5 counts off with its default one), where this EM
     on the histogram takes milliseconds to a tenth of a second.

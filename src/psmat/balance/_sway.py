@@ -2,7 +2,7 @@
 
 Santos & Duarte (2016), "A public data set of human balance evaluations", PeerJ 4:e2648,
 publish the area, mean velocity and mean frequency of every trial; these definitions
-reproduce them (``tests/test_balance_sway.py`` checks all 24 trials shipped with the project).
+reproduce them (``tests/unit/test_balance_sway.py`` checks all 24 trials shipped with the project).
 
 All metrics are on the mean-removed trace; axes are M-L (x, columns) and A-P (y, rows), cm.
 """

@@ -1,7 +1,7 @@
 """Measured in simulation, beyond the thesis: SCHC-EQ (the per-cell equilibration of
 :func:`psmat.balance.equilibrate`) against SCHC on trials whose mat the processing does not know.
 
-Each case is built as ``tests/test_study_trial.py`` builds one: a BDS force-platform trajectory
+Each case is built as ``tests/integration/test_study_trial.py`` builds one: a BDS force-platform trajectory
 drives :func:`psmat.twin.trajectory_sway` (two feet, the recorded Fz) through a
 :class:`psmat.twin.MatPhysics` twice as conductive as the nominal sensor model, with 15 %
 log-normal cell gains (drawn from the case's seed), 1 mV noise and 12 bits, on its own clock;

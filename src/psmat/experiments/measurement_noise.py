@@ -9,7 +9,7 @@ quantised frames and takes the SD of the inverted conductance, as the thesis did
 
 Default circuit: the first prototype's DAQ box (``R_adc = 123 kΩ``, ``R_mux = 145 Ω``,
 ``R_o = 2.2 kΩ``, 3.3 V, 12 bits) — the box Table 2.4 was measured with (300 samples in
-30 s is that box's 10 Hz; see tests/test_circuit.py).
+30 s is that box's 10 Hz; see tests/unit/test_circuit.py).
 """
 
 from __future__ import annotations

@@ -1,7 +1,7 @@
 """The thesis' IECM approach in plain NumPy/SciPy: the IECM benchmark's baseline.
 
 Deliberately independent of psmat's C++ core: nothing here imports :mod:`psmat.iecm` (or any
-of psmat). ``tests/test_bench_baseline.py`` checks it against the reference vectors of
+of psmat). ``tests/integration/test_bench_baseline.py`` checks it against the reference vectors of
 ``tests/data/reference/``, closed forms and finite differences.
 
 * :func:`forward_numpy` — ``G = F(g)`` (thesis eq. 2.5–2.7, docs/spec.md §3): the array is a

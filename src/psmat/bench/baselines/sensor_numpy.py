@@ -4,7 +4,7 @@ benchmark's throughput baseline.
 Independent of psmat's C++ model: it reads only a model's parameters (``params``,
 ``thresholds``, ``weights`` of a :class:`psmat.sensor.MPICreep`) and runs the play operators,
 the creep filters and, for the inverse, a bisection of the algebraic loop itself, vectorised
-over cells with a Python loop over samples. ``tests/test_bench_baseline.py`` checks that it
+over cells with a Python loop over samples. ``tests/integration/test_bench_baseline.py`` checks that it
 agrees with the C++ model, so that the benchmark compares like with like.
 
 Pressures in psi, conductances in S, the sample interval ``dt`` in s.

@@ -6,7 +6,7 @@ allows: before every frame it waits for ``INIT INIT``, then reads the frame's fi
 checks the sum, a bad one stored as a missing row. When a byte is lost, that read runs into
 the next frame's marker, so the next frame leaves no row at all. Independent of psmat: it
 reads raw bytes and knows the framing from the thesis, not from :mod:`psmat.protocol`.
-``tests/test_bench_acquire.py`` checks it on a real pseudo-terminal.
+``tests/integration/test_bench_acquire.py`` checks it on a real pseudo-terminal.
 """
 
 from __future__ import annotations

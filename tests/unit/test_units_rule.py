@@ -15,7 +15,7 @@ import pytest
 import psmat
 from psmat import units
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 PACKAGE = ROOT / "src" / "psmat"
 
 # Words that name a physical quantity: a name made with one needs a unit suffix.

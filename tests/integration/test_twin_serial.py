@@ -108,7 +108,7 @@ def test_a_gone_twins_port_never_leads_to_a_later_twin(end: str):
             serial.serial_for_url(port, timeout=0.05)
 
 
-@pytest.mark.skipif(not pty_available(), reason="no pseudo-terminals here (Windows): tests/test_twin_tcp.py covers TCP")
+@pytest.mark.skipif(not pty_available(), reason="no pseudo-terminals here (Windows): tests/integration/test_twin_tcp.py covers TCP")
 def test_simulate_command_prints_the_port_first():
     with subprocess.Popen([sys.executable, "-m", "psmat", "simulate", "--rate", "100", "--protocol", "v1",
                            "--scene", "quiet", "--duration", "20"], stdout=subprocess.PIPE, text=True) as proc:

@@ -77,7 +77,7 @@ def test_the_solution_recorded_before_the_active_set_solver(size):
     # the earlier default's solution, recorded: noisy twin frames and what bounded_newton returned
     # for them at commit 34b050e, before the active-set solver (and the forward model's later
     # round-off changes) existed; made_by in the file says how
-    with np.load(Path(__file__).parent / "data" / "iecm_noisy_bounded.npz") as f:
+    with np.load(Path(__file__).resolve().parents[1] / "data" / "iecm_noisy_bounded.npz") as f:
         G, g_ref = f[f"G{size}"], f[f"g{size}"]
     for method in ("active_set", "newton"):
         g, info = _stream(G, method)

@@ -1,4 +1,4 @@
-"""The NumPy/SciPy baseline (independent IECM cross-check) and the benchmark CLI (its frames: tests/test_twin_conductance.py)."""
+"""The NumPy/SciPy baseline (independent IECM cross-check) and the benchmark CLI (its frames: tests/unit/test_twin_conductance.py)."""
 
 from __future__ import annotations
 

@@ -207,7 +207,7 @@ def test_warm_start_32x32_regression():
     # an earlier build lost this warm-started 32x32 frame (and every later frame of its chunk);
     # frames 14 and 15 of the benchmark scene of that report, kept as data since that
     # synthetic scene (psmat.scenes, a power-law stand-in) is gone: the twin is the one synthetic world
-    with np.load(Path(__file__).parent / "data" / "iecm_warm_start_32x32.npz") as f:
+    with np.load(Path(__file__).resolve().parents[1] / "data" / "iecm_warm_start_32x32.npz") as f:
         g_prev, g = f["g_prev"], f["g"]
     G = psmat.iecm.forward(g)
     sol, info = psmat.iecm.solve(G, g0=g_prev, return_info=True)

@@ -8,7 +8,7 @@ PSMAT_FIGURES: it must raise nothing, print no warning, save its figures there a
 and produce output in the same cells, of the same kinds, as the stored copy (so the stored outputs
 are not stale). The run here sets PSMAT_NOTEBOOK_SMOKE=1: a notebook whose pipeline takes long
 (balance_study) reads it where it sets its sizes and runs every cell on less data than its stored
-run (the numbers differ, the kinds of output do not; tests/test_study_run.py checks the numbers).
+run (the numbers differ, the kinds of output do not; tests/e2e/test_study_run.py checks the numbers).
 """
 
 from __future__ import annotations
@@ -21,7 +21,7 @@ import pytest
 nbformat = pytest.importorskip("nbformat")
 nbclient = pytest.importorskip("nbclient")
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 NOTEBOOKS = sorted((ROOT / "notebooks").glob("*.ipynb"))
 MAX_BYTES = 300_000
 

@@ -22,7 +22,7 @@ def simulated(tmp_path_factory) -> Path:
 
 def test_study_run_writes_the_variants_asked_for_and_says_where(simulated, capsys) -> None:
     # one run for the whole command: --variants beyond the thesis' (by name) ride along;
-    # run_study's default variants are checked in tests/test_study_run.py
+    # run_study's default variants are checked in tests/e2e/test_study_run.py
     capsys.readouterr()
     variants = ["--variants", "default,SCHC-EQ"]
     assert main(["study", "run", str(simulated), "--workers", "1", "--quiet", *variants]) == 0

@@ -14,7 +14,7 @@ import pytest
 from psmat.io import ForcePlateRecording, bds_dir, bds_files, bds_trial, bds_trials_table, load_bds, load_forceplate_csv
 
 #: The trials shipped with the package (the source tree's copy: this test checks the installed one finds it).
-PACKAGE_BDS = Path(__file__).resolve().parents[1] / "src" / "psmat" / "data" / "bds"
+PACKAGE_BDS = Path(__file__).resolve().parents[2] / "src" / "psmat" / "data" / "bds"
 
 
 def parse_bds(path: Path) -> dict[str, np.ndarray]:

@@ -105,7 +105,7 @@ def _readme_stream_example() -> str:
     """The README's `with psmat.iecm.Stream(...)` statement, as printed there."""
     from pathlib import Path
 
-    lines = (Path(__file__).resolve().parents[1] / "README.md").read_text().splitlines()
+    lines = (Path(__file__).resolve().parents[2] / "README.md").read_text().splitlines()
     start = next(k for k, line in enumerate(lines) if line.startswith("with psmat.iecm.Stream("))
     body = [lines[start]]
     for line in lines[start + 1:]:

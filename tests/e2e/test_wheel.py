@@ -36,7 +36,7 @@ from pathlib import Path
 import pytest
 from installed_psmat import hidden_modules, record_hash, regular_installation, write_hider
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"      # PNG specification, §5.2
 HDF5_SIGNATURE = b"\x89HDF\r\n\x1a\n"     # HDF5 file format specification, superblock at offset 0
 DEMO_SECONDS, DEMO_RATE_HZ = 2.0, 100

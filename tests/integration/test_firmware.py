@@ -11,7 +11,7 @@ from pathlib import Path
 
 import pytest
 
-FIRMWARE = Path(__file__).resolve().parents[1] / "firmware"
+FIRMWARE = Path(__file__).resolve().parents[2] / "firmware"
 CORE_SOURCES = sorted(str(p) for p in (FIRMWARE / "core").glob("*.c"))
 HOST_TESTS = ["crc16", "frame", "command", "psm_core", "daq_core", "imu_core"]
 # register-free parts of the BluePill USB CDC-ACM device and the rings (stm32/common)

@@ -92,7 +92,7 @@ def _mat_model(k: float) -> MPICreep:
 @pytest.fixture(scope="module")
 def twin_trial():
     """BDS trial 3, 12 s, through a mat twice as conductive as the nominal model with 15 % gains
-    (seed 5, as tests/test_study_trial.py) and through the same mat without gains (same noise)."""
+    (seed 5, as tests/integration/test_study_trial.py) and through the same mat without gains (same noise)."""
     rec = bds_trial(3)
     keep = rec.t <= rec.t[0] + 12.0
     scene = twin.trajectory_sway(rec.t[keep], rec.cop_ml_cm[keep], rec.cop_ap_cm[keep], rec.fz_n[keep], 50.0)

@@ -23,7 +23,7 @@ from pathlib import Path
 
 import pytest
 
-REPO = Path(__file__).resolve().parents[1]
+REPO = Path(__file__).resolve().parents[2]
 BUILD_DIR = REPO / "build" / "cpp-tests"
 LOCK_FILE = REPO / "build" / "cpp-tests.lock"
 CPP_TESTS = sorted(p.stem for p in (REPO / "src" / "cpp" / "tests").glob("test_*.cpp"))

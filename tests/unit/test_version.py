@@ -13,7 +13,7 @@ import pytest
 
 import psmat
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 if sys.version_info >= (3, 11):
     import tomllib
 else:  # Python 3.10
