@@ -1,8 +1,8 @@
 """psmat - software for low-cost pressure-sensitive mats (Velostat resistive sensor arrays).
 
 Submodules: :mod:`psmat.iecm` (crosstalk removal), :class:`psmat.Circuit` (measurement
-chain counts <-> conductance), :class:`psmat.Calibration` (a box's R_adc and R_mux, as data)
-and :mod:`psmat.calibration_estimate` (their estimates from open/short-circuit recordings),
+chain counts <-> conductance), :class:`psmat.Calibration` (a box's R_adc and R_mux, as data;
+:mod:`psmat.circuit` also has their estimates from open/short-circuit recordings),
 :mod:`psmat.noise` (Table 2.4 noise model), :mod:`psmat.sensor` (Velostat hysteresis +
 creep), :mod:`psmat.protocol` (wire formats), :mod:`psmat.io` (session files, force
 platforms), :mod:`psmat.twin` (the simulated mat: the one synthetic world of tests,
@@ -25,21 +25,20 @@ from ._version import __version__  # the one place the version is written
 # line or a script pays only for what it touches (docs/architecture.md, "Import cost").
 #: The subpackages and modules reachable as ``psmat.NAME`` without importing them first.
 _SUBMODULES = frozenset({
-    "acquire", "balance", "calibration", "calibration_estimate", "circuit", "experiments", "frames", "iecm",
+    "acquire", "balance", "circuit", "experiments", "frames", "iecm",
     "io", "noise", "posture", "process", "protocol", "qzpm", "sensor", "spine", "study", "synth", "twin", "units",
 })
 #: Classes reachable as ``psmat.NAME``, and the module each lives in.
-_CLASSES = {"Calibration": "calibration", "Circuit": "circuit"}
+_CLASSES = {"Calibration": "circuit", "Circuit": "circuit"}
 
-__all__ = ["acquire", "balance", "calibration_estimate", "experiments", "iecm", "io", "noise", "posture", "process",
+__all__ = ["acquire", "balance", "circuit", "experiments", "iecm", "io", "noise", "posture", "process",
            "protocol", "qzpm", "sensor", "spine", "study", "synth", "twin", "Circuit", "Calibration", "__version__"]
 
 TYPE_CHECKING = False
 if TYPE_CHECKING:  # what static checkers and editors see; at run time __getattr__ below imports these
-    from . import (acquire, balance, calibration, calibration_estimate, circuit, experiments, frames, iecm, io, noise,
+    from . import (acquire, balance, circuit, experiments, frames, iecm, io, noise,
                    posture, process, protocol, qzpm, sensor, spine, study, synth, twin, units)
-    from .calibration import Calibration
-    from .circuit import Circuit
+    from .circuit import Calibration, Circuit
 
 
 def __getattr__(name: str) -> object:

@@ -78,6 +78,6 @@ def test_every_public_name_resolves_and_is_listed() -> None:
     for name in psmat.__all__:
         assert getattr(psmat, name) is not None, name
     assert set(psmat.__all__) <= set(dir(psmat))
-    assert psmat.Calibration.__module__ == "psmat.calibration" and psmat.Circuit.__module__ == "psmat.circuit"
+    assert psmat.Calibration.__module__ == "psmat.circuit._calibration" and psmat.Circuit.__module__ == "psmat.circuit._circuit"
     with pytest.raises(AttributeError, match="no attribute 'no_such_thing'"):
         psmat.no_such_thing  # noqa: B018

@@ -16,7 +16,7 @@ import numpy as np
 import pytest
 
 from psmat.balance import align
-from psmat.calibration import Calibration
+from psmat.circuit import Calibration
 from psmat.io import load_forceplate_csv, load_session
 from psmat.process import process_counts, session_circuit
 from psmat.sensor import THESIS_TABLE_2_11

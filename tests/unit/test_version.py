@@ -43,7 +43,7 @@ def test_pyproject_does_not_write_the_version() -> None:
 
 def test_the_build_reads_the_version_psmat_reports(monkeypatch: pytest.MonkeyPatch) -> None:
     """The build backend's own provider, run on the repository, finds ``psmat.__version__``."""
-    regex = pytest.importorskip("scikit_build_core.metadata.regex")
+    from scikit_build_core.metadata import regex  # a test requirement (pyproject.toml, extra "test")
     monkeypatch.chdir(ROOT)  # the provider's input is relative to the project
     settings = {k: v for k, v in _pyproject()["tool"]["scikit-build"]["metadata"]["version"].items()
                 if k != "provider"}

@@ -133,7 +133,7 @@ def run(args: argparse.Namespace) -> int:
         return 1
     calibration = None
     if args.calibration:
-        from ..calibration import Calibration
+        from ..circuit import Calibration
 
         try:
             calibration = Calibration.load(args.calibration).to_dict()

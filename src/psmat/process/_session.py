@@ -20,8 +20,7 @@ from __future__ import annotations
 import os
 from typing import Any
 
-from ..calibration import Calibration
-from ..circuit import Circuit
+from ..circuit import Calibration, Circuit
 from ..sensor import MPICreep
 from ._chain import Processed, Processor
 from ._clock import session_clock

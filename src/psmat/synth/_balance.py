@@ -39,7 +39,7 @@ Each volunteer's box (one box per volunteer, serial ``SIM<seed>-Vnn``)
     independently", §2.2.1) plus a 2.5 Ω mismatch per row and per column line ("all the
     channels have the same value for practical purposes", §2.1.4); R_adc 6.9 MΩ ± 25 % (docs/spec.md
     §2). Its calibration is what ``psmat calibrate`` gives: the real estimator
-    (:mod:`psmat.calibration_estimate`) on simulated recordings through the box's true chain —
+    (:func:`psmat.circuit.from_recordings`) on simulated recordings through the box's true chain —
     1 s open circuit, the four corner pairs shorted, CAL_HOLD — written to
     ``DIR/calibration/<serial>.json`` and stored in each session as ``psmat record
     --calibration`` does (:func:`psmat.process.session_circuit` reads it). Its clock: the frame period

@@ -15,9 +15,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from ..calibration import Calibration
-from ..calibration_estimate import from_recordings
-from ..circuit import Circuit
+from ..circuit import Calibration, Circuit, from_recordings
 from ..sensor import THESIS_TABLE_2_11, MPICreep
 
 __all__ = ["Person", "Box", "MatDraw", "draw_person", "draw_box", "draw_mat", "calibrate_box"]
@@ -181,7 +179,7 @@ def calibrate_box(box: Box, shape: tuple[int, int], rate_hz: float, noise_v: flo
 
     Open circuit: every cell open for :data:`CALIBRATION_SECONDS`; then each corner pair shorted
     by a wire with the box in CAL_HOLD (every reading of the frame samples that pair), through
-    the box's true chain with ``noise_v`` on the ADC node (:mod:`psmat.calibration_estimate`).
+    the box's true chain with ``noise_v`` on the ADC node (:func:`psmat.circuit.from_recordings`).
     """
     R, C = shape
     n = max(2, int(round(CALIBRATION_SECONDS * rate_hz)))

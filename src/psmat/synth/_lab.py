@@ -21,7 +21,7 @@ from typing import Any, Protocol
 import numpy as np
 from numpy.typing import NDArray
 
-from ..calibration import Calibration
+from ..circuit import Calibration
 from ..twin import MatPhysics, PressureScene
 from ._draws import Box, MatDraw, calibrate_box, draw_box, draw_mat
 from ._truth import save_npz_stable, truth_json

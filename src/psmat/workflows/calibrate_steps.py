@@ -20,9 +20,7 @@ from typing import Any
 
 import numpy as np
 
-from .. import calibration_estimate
-from ..calibration import Calibration
-from ..circuit import Circuit
+from ..circuit import Calibration, Circuit, from_recordings
 
 __all__ = ["run_calibration"]
 
@@ -71,6 +69,6 @@ def run_calibration(dev: Any, pairs: Sequence[tuple[int, int]], *, seconds: floa
     samples = {key: np.asarray(v, dtype=np.float64).ravel() for key, v in shorts.items()}
     serial = str((dev.description or {}).get("serial", ""))
     notes = f"psmat calibrate: {len(pairs)} shorted pair(s), {seconds:g} s per step"
-    cal = calibration_estimate.from_recordings(serial, open_counts, samples, circuit, per_pair=per_pair,
+    cal = from_recordings(serial, open_counts, samples, circuit, per_pair=per_pair,
                                                shape=(R, C), notes=notes)
     return cal

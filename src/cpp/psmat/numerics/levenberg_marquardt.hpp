@@ -1,22 +1,30 @@
-// Levenberg-Marquardt for a weighted least-squares problem min 0.5 |r(x)|^2: the LM of IECM's
-// least squares (iecm/solve_lsq.cpp, thesis eq. 2.9: log g or g >= g_floor) and of the QZPM
-// inverse (qzpm/solve.cpp, eq. C.8-C.9: log cells and switches, and the cells alone for given
-// switches). Only QZPM's variable projection runs its own variant on the reduced problem of the
-// switches (Kaufman's Jacobian, geodesic acceleration; qzpm/solve.cpp, varpro).
+// Levenberg-Marquardt for a weighted least-squares problem min 0.5 |r(x)|^2: the one LM loop of
+// the core, used by IECM's least squares (iecm/solve_lsq.cpp, thesis eq. 2.9: log g or
+// g >= g_floor) and by every least-squares step of the QZPM inverse (qzpm/solve.cpp, eq.
+// C.8-C.9: log cells and switches; the cells alone for given switches; and the variable
+// projection on the switches, whose reduced problem supplies Kaufman's Jacobian and the
+// geodesic acceleration hook below).
 //
 // Each iteration solves the Marquardt-damped normal equations
 //   (A + lambda diag(A)) d = -grad,   A = Jw^T Jw,  grad = Jw^T r
 // by Cholesky, with the variables the problem holds at a bound this iteration (fixed) taken out.
-// The step is accepted when the cost decreases by at least 1e-4 of the decrease the linear
-// model predicts; lambda is then divided by lambda_down (down to lambda_min), else multiplied
-// by 4. Ends Converged (max |r_a| <= rtol), LeastSquares (a stationary point: projected gradient
-// <= grad_tol |r|, a relative cost decrease below ftol, or no decrease for any lambda up to
-// 1e16), Stalled (the damped matrix not positive definite for any lambda up to 1e16),
-// MaxIterations or Singular (the start not evaluable).
+// A problem that provides acceleration() gets geodesic acceleration (Transtrum & Sethna): with
+// r'' its second directional derivative of r along d, d2 solves the same damped system for
+// -0.5 Jw^T r''; the step d + d2 is taken when |d2| <= accel_ratio |d| in the norm of diag(A),
+// else lambda is raised as for a rejected step. The step is accepted when the cost decreases
+// by more than accept_ratio of the decrease the linear model predicts (by anything when
+// accept_ratio = 0, the model unused: an accelerated step's); lambda is then divided by
+// lambda_down (down to lambda_min), else multiplied by lambda_up. Ends Converged
+// (max |r_a| <= rtol), LeastSquares (a stationary point: projected gradient <= grad_tol |r|, a
+// relative cost decrease below ftol, or no decrease for any lambda up to lambda_max), Stalled
+// (the damped matrix not positive definite for any lambda up to lambda_max), MaxIterations or
+// Singular (the start not evaluable). Every pass counts as an iteration, rejected ones included.
 #pragma once
 #include <Eigen/Dense>
 #include <algorithm>
 #include <cmath>
+#include <type_traits>
+#include <utility>
 
 #include "psmat/solve_report.hpp"
 
@@ -30,15 +38,31 @@ struct LmSettings {
   double lambda_down = 3.0;   // after an accepted step lambda /= lambda_down ...
   double lambda_min = 1e-12;  // ... down to lambda_min
   double grad_tol = 1e-12;    // LeastSquares when max |grad| over the free variables <= grad_tol |r|
+  double lambda_up = 4.0;     // after a rejected step lambda *= lambda_up (failed Cholesky: 10)
+  double lambda_max = 1e16;   // ... up to lambda_max
+  double accept_ratio = 1e-4;  // accepted: cost decrease > accept_ratio x the predicted one
+                               // (0: any decrease, whatever the linear model predicts)
+  double accel_ratio = 0.75;   // geodesic acceleration taken when |d2| <= accel_ratio |d|
 };
 
 // Matrices and vectors of one solve, kept by the caller so that repeated solves do not allocate.
 struct LmWork {
   Eigen::MatrixXd Jw, A, S;
-  Eigen::VectorXd grad, d, xt, Jd, diag;
+  Eigen::VectorXd grad, d, xt, Jd, diag, d2, rpp;
   Eigen::Array<bool, Eigen::Dynamic, 1> fixed;
   Eigen::LLT<Eigen::MatrixXd> llt;
 };
+
+namespace detail {
+template <class P, class = void>
+struct has_acceleration : std::false_type {};
+template <class P>
+struct has_acceleration<P, std::void_t<decltype(std::declval<P&>().acceleration(
+                               std::declval<const Eigen::VectorXd&>(),
+                               std::declval<const Eigen::VectorXd&>(),
+                               std::declval<const Eigen::VectorXd&>(),
+                               std::declval<Eigen::VectorXd&>()))>> : std::true_type {};
+}  // namespace detail
 
 // Minimises 0.5 |r(x)|^2 from x (the result out). The problem provides
 //   bool evaluate(const Eigen::VectorXd& x, double& cost, double& resid)
@@ -51,7 +75,13 @@ struct LmWork {
 //       then unused), else true with fixed (size of x) marking them;
 //   void step(const Eigen::VectorXd& x, Eigen::VectorXd& d, Eigen::VectorXd& xt)
 //       the trial point of the step d (trust region, parameterisation, bounds); d may be
-//       replaced by the step actually taken (a projected one), which the model then predicts.
+//       replaced by the step actually taken (a projected one), which the model then predicts;
+// and optionally, for geodesic acceleration,
+//   bool acceleration(const Eigen::VectorXd& x, const Eigen::VectorXd& d,
+//                     const Eigen::VectorXd& Jd, Eigen::VectorXd& rpp)
+//       rpp = the second directional derivative of r at x along d (Jd = Jw d given, for a
+//       finite difference); false when there is none this time (the plain step is then taken).
+//       It must leave the problem's evaluation state at x.
 // Iterations, evaluations and factorisations are added to rep; its status, cost and residual
 // are set (the residual and cost those of the final x).
 template <class Problem>
@@ -112,13 +142,35 @@ void levenberg_marquardt(Problem& pb, Eigen::VectorXd& x, const LmSettings& st, 
     ++rep.factorizations;
     if (w.llt.info() != Eigen::Success) {
       lambda *= 10.0;
-      if (lambda > 1e16) {
+      if (lambda > st.lambda_max) {
         rep.status = Status::Stalled;
         break;
       }
       continue;
     }
     w.llt.solveInPlace(w.d);
+    if constexpr (detail::has_acceleration<Problem>::value) {
+      w.Jd.noalias() = w.Jw * w.d;
+      if (pb.acceleration(x, w.d, w.Jd, w.rpp)) {
+        w.d2.noalias() = w.Jw.transpose() * w.rpp;
+        w.d2 *= -0.5;
+        if (any_fixed) w.d2 = w.fixed.select(0.0, w.d2.array()).matrix();
+        w.llt.solveInPlace(w.d2);
+        if (!w.d2.allFinite()) w.d2.setZero();
+        const auto scale = w.A.diagonal().array().max(1e-300).sqrt();
+        const double n1 = (scale * w.d.array()).matrix().norm();
+        const double n2 = (scale * w.d2.array()).matrix().norm();
+        if (n2 > st.accel_ratio * n1) {  // the second-order term too large: a shorter step
+          lambda *= st.lambda_up;
+          if (lambda > st.lambda_max) {
+            rep.status = Status::LeastSquares;
+            break;
+          }
+          continue;
+        }
+        w.d += w.d2;
+      }
+    }
     pb.step(x, w.d, w.xt);
     w.Jd.noalias() = w.Jw * w.d;
     const double predicted = -(w.grad.dot(w.d) + 0.5 * w.Jd.squaredNorm());
@@ -126,7 +178,10 @@ void levenberg_marquardt(Problem& pb, Eigen::VectorXd& x, const LmSettings& st, 
     ++rep.evaluations;
     const bool ok = pb.evaluate(w.xt, ct, rt);
     at_x = false;
-    if (ok && predicted > 0 && (cost - ct) > 1e-4 * predicted) {
+    const bool decrease = st.accept_ratio > 0
+                              ? predicted > 0 && (cost - ct) > st.accept_ratio * predicted
+                              : ct < cost;
+    if (ok && decrease) {
       const double rel_decrease = (cost - ct) / cost;
       x = w.xt;
       cost = ct;
@@ -140,8 +195,8 @@ void levenberg_marquardt(Problem& pb, Eigen::VectorXd& x, const LmSettings& st, 
         break;
       }
     } else {
-      lambda *= 4.0;
-      if (lambda > 1e16) {  // no decrease in any direction: a least-squares point
+      lambda *= st.lambda_up;
+      if (lambda > st.lambda_max) {  // no decrease in any direction: a least-squares point
         rep.status = Status::LeastSquares;
         break;
       }

@@ -178,104 +178,131 @@ SolveReport polish(Shape s, const Eigen::VectorXd& G, const SolveOptions& o, Eig
   return rf;
 }
 
-// Variable projection for the separate-switch problem (docs/qzpm.md §3): the cells are
-// eliminated (solve_cells), Levenberg-Marquardt runs on the R + C log switch conductances with
-// the reduced Jacobian J_r = (I - J_c J_c^+) J_s (Kaufman) and geodesic acceleration (the
-// valleys of the reduced cost are narrow and curved). Returns theta = (cells, switches) at
-// the end; the caller polishes with the full LM.
-Eigen::VectorXd varpro(Shape s, const Eigen::VectorXd& G, const SolveOptions& o,
-                       Eigen::VectorXd g, Eigen::VectorXd sw, SolveReport& acc, bool accel) {
-  const Index nc = s.cells(), nn = s.nodes(), m = G.size();
-  Eigen::VectorXd r(m), rt(m), rh(m), theta(nc + nn);
-  double cost = solve_cells(s, G, o, sw, g, r, acc);
-  theta << g, sw;
-  if (!std::isfinite(cost)) return theta;
-  Lsq full(s, G, o, Switches::Separate);
-  Eigen::MatrixXd Jw, Jc, Js, QtJs, P, Jr, A(nn, nn), M(nn, nn);
-  Eigen::VectorXd b(nn), D(nn), d1(nn), d2(nn), d(nn), gt(nc), gh(nc), swt(nn), swh(nn);
-  Eigen::VectorXd y(nc), dx(nc), rpp(m);  // buffers reused across iterations
-  Eigen::LDLT<Eigen::MatrixXd> ldlt(nn);
-  Eigen::HouseholderQR<Eigen::MatrixXd> qr(m, nc);
-  double lambda = 1e-3;
-  const double stop = std::max(o.rtol, 1e-12);
-  // first-order change of the (eliminated) cells for a switch step e: -J_c^+ J_s e
-  // (qr: the QR of J_c of the current iteration)
-  auto cells_for = [&](const Eigen::VectorXd& e, Eigen::VectorXd& out) {
-    y.noalias() = QtJs.topRows(nc) * e;
-    dx = -qr.matrixQR().topLeftCorner(nc, nc).triangularView<Eigen::Upper>().solve(y);
-    if (!dx.allFinite()) dx.setZero();
-    out = (g.array() * dx.array().max(-2.0).min(2.0).exp()).matrix().cwiseMax(o.g_floor);
-  };
-  for (int it = 0; it < 200; ++it) {
-    if (r.cwiseAbs().maxCoeff() <= stop) break;
-    double c0 = 0, r0 = 0;
-    theta << g, sw;
-    if (!full.evaluate(theta, c0, r0)) break;
-    full.jacobian_log(theta, Jw);
-    Jc = Jw.leftCols(nc);
-    Js = Jw.rightCols(nn);
-    qr.compute(Jc);
-    QtJs = qr.householderQ().transpose() * Js;
-    P = QtJs;
-    P.topRows(nc).setZero();
-    Jr = qr.householderQ() * P;
-    A.setZero();
-    A.selfadjointView<Eigen::Lower>().rankUpdate(Jr.transpose());
-    A.triangularView<Eigen::StrictlyUpper>() = A.transpose();
-    b.noalias() = Jr.transpose() * r;
-    D = A.diagonal().cwiseMax(1e-300);
-    bool accepted = false;
-    while (lambda < 1e12) {
-      M = A;
-      M.diagonal() += lambda * D;
-      ldlt.compute(M);
-      ++acc.factorizations;
-      d1 = ldlt.solve(-b);
-      if (!d1.allFinite()) {
-        lambda *= 4.0;
-        continue;
-      }
-      // geodesic acceleration: second directional derivative of the reduced residual
-      const double h = 0.1;
-      double ch = std::numeric_limits<double>::infinity();
-      if (accel) {
-        swh = (sw.array() * (h * d1).array().exp()).matrix();
-        cells_for(h * d1, gh);
-        ch = solve_cells(s, G, o, swh, gh, rh, acc);
-      }
-      d2.setZero();
-      if (accel && std::isfinite(ch)) {
-        rpp = (2.0 / h) * ((rh - r) / h - Jr * d1);
-        d2 = ldlt.solve(-0.5 * (Jr.transpose() * rpp));
-        if (!d2.allFinite()) d2.setZero();
-        const double n1 = (D.cwiseSqrt().array() * d1.array()).matrix().norm();
-        const double n2 = (D.cwiseSqrt().array() * d2.array()).matrix().norm();
-        if (n2 > 0.75 * n1) {
-          lambda *= 4.0;
-          continue;
-        }
-      }
-      d = d1 + d2;
-      const double mx = d.cwiseAbs().maxCoeff();
-      if (mx > 1.0) d /= mx;
-      swt = (sw.array() * d.array().exp()).matrix();
-      cells_for(d, gt);
-      const double ct = solve_cells(s, G, o, swt, gt, rt, acc);
-      if (std::isfinite(ct) && ct < cost) {
-        accepted = true;
-        break;
-      }
-      lambda *= 4.0;
+// The reduced problem of the variable projection for the separate-switch problem
+// (docs/qzpm.md §3), for numerics::levenberg_marquardt: x = the R + C switch conductances
+// (steps in log, |d log sw| <= 1), the cells eliminated: r(x) is the residual after solve_cells
+// for the switches x, from cells predicted to first order. The Jacobian is the reduced one,
+// J_r = (I - J_c J_c^+) J_s (Kaufman), and acceleration() the geodesic acceleration term by a
+// finite difference along the step (the valleys of the reduced cost are narrow and curved).
+// Inner counters are added to acc.
+class Reduced {
+ public:
+  Reduced(Shape s, const Eigen::VectorXd& G, const SolveOptions& o, const Eigen::VectorXd& g,
+          bool accel, SolveReport& acc)
+      : s_(s), G_(G), o_(o), accel_(accel), acc_(acc), full_(s, G, o, Switches::Separate),
+        gstart_(g), qr_(G.size(), s.cells()) {}
+
+  // cells of the last evaluation (those of x at the end of the LM, whatever its status)
+  const Eigen::VectorXd& cells() const { return g_ev_; }
+
+  bool evaluate(const Eigen::VectorXd& sw, double& cost, double& resid) {
+    if (has_cur_ && sw == sw_cur_) {  // back at the current point: its cells, no new solve
+      g_ev_ = g_cur_;
+      r_ev_ = r_cur_;
+    } else {
+      g_ev_ = gstart_;
+      if (!std::isfinite(solve_cells(s_, G_, o_, sw, g_ev_, r_ev_, acc_))) return false;
     }
-    ++acc.iterations;
-    if (!accepted) break;
-    g = gt;
-    sw = swt;
-    r = rt;
-    cost = 0.5 * r.squaredNorm();
-    lambda = std::max(lambda / 5.0, 1e-14);
+    cost = 0.5 * r_ev_.squaredNorm();
+    resid = r_ev_.cwiseAbs().maxCoeff();
+    return true;
   }
-  theta << g, sw;
+
+  const Eigen::VectorXd& jacobian(const Eigen::VectorXd& sw, Eigen::MatrixXd& Jw) {
+    const Index nc = s_.cells(), nn = s_.nodes();
+    sw_cur_ = sw;  // the point of the last evaluation becomes the current one
+    g_cur_ = g_ev_;
+    r_cur_ = r_ev_;
+    has_cur_ = true;
+    theta_.resize(nc + nn);
+    theta_ << g_cur_, sw;
+    double c = 0, rr = 0;
+    full_.evaluate(theta_, c, rr);
+    full_.jacobian_log(theta_, Jfull_);
+    qr_.compute(Jfull_.leftCols(nc));
+    QtJs_ = qr_.householderQ().transpose() * Jfull_.rightCols(nn);
+    P_ = QtJs_;
+    P_.topRows(nc).setZero();
+    Jw.noalias() = qr_.householderQ() * P_;
+    return r_cur_;
+  }
+
+  bool fix(const Eigen::VectorXd&, const Eigen::VectorXd&,
+           Eigen::Array<bool, Eigen::Dynamic, 1>&) const {
+    return false;  // log switches: no bound to hold
+  }
+
+  void step(const Eigen::VectorXd& sw, Eigen::VectorXd& d, Eigen::VectorXd& swt) {
+    const double mx = d.cwiseAbs().maxCoeff();
+    if (mx > 1.0) d /= mx;
+    swt = (sw.array() * d.array().exp()).matrix();
+    cells_for(d, gstart_);
+  }
+
+  // second directional derivative of the reduced residual along d, by the finite difference
+  // (2/h) ((r(sw e^{h d}) - r) / h - J_r d), h = 0.1
+  bool acceleration(const Eigen::VectorXd& sw, const Eigen::VectorXd& d, const Eigen::VectorXd& Jd,
+                    Eigen::VectorXd& rpp) {
+    if (!accel_) return false;
+    const double h = 0.1;
+    e_ = h * d;
+    swh_ = (sw.array() * e_.array().exp()).matrix();
+    cells_for(e_, gh_);
+    if (!std::isfinite(solve_cells(s_, G_, o_, swh_, gh_, rh_, acc_))) return false;
+    rpp = (2.0 / h) * ((rh_ - r_cur_) / h - Jd);
+    return true;
+  }
+
+ private:
+  // first-order change of the (eliminated) cells for a switch step e: -J_c^+ J_s e (the QR of
+  // J_c at the current point), cells kept above g_floor
+  void cells_for(const Eigen::VectorXd& e, Eigen::VectorXd& out) {
+    const Index nc = s_.cells();
+    y_.noalias() = QtJs_.topRows(nc) * e;
+    dx_ = -qr_.matrixQR().topLeftCorner(nc, nc).triangularView<Eigen::Upper>().solve(y_);
+    if (!dx_.allFinite()) dx_.setZero();
+    out = (g_cur_.array() * dx_.array().max(-2.0).min(2.0).exp()).matrix().cwiseMax(o_.g_floor);
+  }
+
+  Shape s_;
+  const Eigen::VectorXd& G_;
+  SolveOptions o_;
+  bool accel_;
+  SolveReport& acc_;
+  Lsq full_;
+  Eigen::VectorXd gstart_;  // start of the next cells solve
+  Eigen::VectorXd g_ev_, r_ev_;  // cells and residual of the last evaluation
+  bool has_cur_ = false;
+  Eigen::VectorXd sw_cur_, g_cur_, r_cur_;  // the current point (that of the Jacobian)
+  Eigen::VectorXd theta_, e_, swh_, gh_, rh_, y_, dx_;  // buffers reused across iterations
+  Eigen::MatrixXd Jfull_, QtJs_, P_;
+  Eigen::HouseholderQR<Eigen::MatrixXd> qr_;
+};
+
+// Variable projection from (g, sw): the core's LM on the reduced problem (geodesic acceleration
+// when accel). Returns theta = (cells, switches) at the end; the caller polishes with the full
+// LM. Iterations and factorisations (and the inner cells solves) are added to acc.
+Eigen::VectorXd varpro(Shape s, const Eigen::VectorXd& G, const SolveOptions& o,
+                       const Eigen::VectorXd& g, Eigen::VectorXd sw, SolveReport& acc, bool accel) {
+  Reduced pb(s, G, o, g, accel, acc);
+  numerics::LmSettings st;
+  st.max_iter = 200;
+  st.rtol = std::max(o.rtol, 1e-12);
+  st.ftol = 0.0;      // runs until converged or no decrease for any lambda
+  st.grad_tol = 0.0;
+  st.lambda0 = 1e-3;
+  st.lambda_down = 5.0;
+  st.lambda_min = 1e-14;
+  st.lambda_up = 4.0;
+  st.lambda_max = 1e12;
+  st.accept_ratio = 0.0;  // any decrease
+  SolveReport rv;
+  numerics::LmWork work;
+  numerics::levenberg_marquardt(pb, sw, st, rv, work);
+  acc.iterations += rv.iterations;
+  acc.factorizations += rv.factorizations;
+  Eigen::VectorXd theta(s.cells() + s.nodes());
+  theta << pb.cells(), sw;
   return theta;
 }
 }  // namespace

@@ -36,9 +36,9 @@ from typing import Any, Literal
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ._checks import conductances, first_bad, real_dtype
-from ._circuit_checks import check_constants
-from .calibration import Calibration
+from .._checks import conductances, first_bad, real_dtype
+from ._calibration import Calibration
+from ._checks import check_constants
 
 __all__ = [
     "Circuit",

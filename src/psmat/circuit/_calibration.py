@@ -2,10 +2,9 @@
 
 A calibration is data, stored with the box's serial number (JSON, :meth:`Calibration.save` /
 :meth:`Calibration.load`) and applied with :meth:`psmat.circuit.Circuit.calibrated`. The
-estimates come from recordings through
-:mod:`psmat.calibration_estimate` (thesis §2.1.4 end). This module imports neither of
-them: the constants are checked by the validation the circuit uses too
-(:mod:`psmat._circuit_checks`).
+estimates come from recordings through :func:`psmat.circuit.from_recordings` (thesis §2.1.4
+end). This module imports neither of them: the constants are checked by the validation the
+circuit uses too (``circuit/_checks.py``).
 """
 
 from __future__ import annotations
@@ -21,7 +20,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from ._circuit_checks import check_constants
+from ._checks import check_constants
 
 __all__ = ["Calibration", "OpenCircuitStats", "ShortCircuitStats"]
 
@@ -272,7 +271,7 @@ class Calibration:
         """Write the calibration as JSON (UTF-8) to ``path``, whole or not at all
         (:func:`psmat._atomic.write_text_atomic`); with ``overwrite=False`` an existing ``path`` is
         an error (:class:`psmat._atomic.OutputRefused`)."""
-        from ._atomic import write_text_atomic
+        from .._atomic import write_text_atomic
 
         text = json.dumps(self.to_dict(), indent=2, allow_nan=False) + "\n"
         write_text_atomic(path, text, overwrite=overwrite)

@@ -13,7 +13,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from ._checks import first_bad, positive_scalar, real_dtype
+from .._checks import first_bad, positive_scalar, real_dtype
 
 __all__ = ["check_constants"]
 

@@ -6,10 +6,10 @@ Thesis procedure: with the mat unplugged every cell is open, so node X sees ``R_
 pair by pair ("all the channels have the same value for practical purposes").
 
 The divider is undone by :class:`psmat.circuit.Circuit` (the one home of that algebra) and the
-result is a :class:`psmat.calibration.Calibration` (plain data). Example::
+result is a :class:`psmat.circuit.Calibration` (plain data). Example::
 
-    from psmat import Circuit, calibration_estimate
-    cal = calibration_estimate.from_recordings("PSM-0042", open_counts, short_counts, Circuit())
+    from psmat.circuit import Circuit, from_recordings
+    cal = from_recordings("PSM-0042", open_counts, short_counts, Circuit())
     circuit = Circuit().calibrated(cal)
 """
 
@@ -21,10 +21,9 @@ from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy.special import ndtr
 
-from .calibration import Calibration, OpenCircuitStats, ShortCircuitStats
-from .circuit import OPEN, SHORT, Circuit
+from ._calibration import Calibration, OpenCircuitStats, ShortCircuitStats
+from ._circuit import OPEN, SHORT, Circuit
 
 __all__ = ["estimate_r_adc", "estimate_r_mux", "from_open_circuit", "from_short_circuit", "from_recordings"]
 
@@ -66,6 +65,8 @@ def _latent_mean(c: NDArray[np.float64], full_scale: int) -> tuple[float, float,
     mu, s = mean, max(sd, 0.3)
     for _ in range(2000):
         a, b = (lo - mu) / s, (hi - mu) / s
+        from scipy.special import ndtr  # here: scipy is slow to import (docs/architecture.md)
+
         z = np.maximum(ndtr(b) - ndtr(a), 1e-300)  # P(interval), standard normal CDF
         pa, pb = np.exp(-0.5 * a * a) / _SQRT_2PI, np.exp(-0.5 * b * b) / _SQRT_2PI  # density, 0 at ±inf
         apa = np.where(np.isfinite(a), a, 0.0) * pa  # a·phi(a) -> 0 at a = -inf
