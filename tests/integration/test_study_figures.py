@@ -81,6 +81,20 @@ def narrow(tmp_path_factory) -> dict:
     return _written(tmp_path_factory.mktemp("narrow"), _narrow_rows(), {}, None)
 
 
+def _sub_cm_rows() -> list[dict]:
+    """Spreads under 1 cm, as a standing trial has: the A-P axis ticks at 0.00, 0.25, 0.50, 0.75 only
+    once the panels have their final size (at the figure's first size they read 0.0, 0.5)."""
+    return [_row(s, trial, variant, sd_ml_cm=(0.25 + 0.03 * i) * k, sd_ap_cm=(0.55 + 0.05 * i) * k,
+                 eu_cm=0.1 * i * (k - 0.9))
+            for trial in ("right-leg", "left-leg", "rotation") for i, s in enumerate(SUBJECTS)
+            for k, variant in ((1.0, "FP"), (0.8, "PROP"), (1.1, "SCHC"), (0.6, "PROP-C"))]
+
+
+@pytest.fixture(scope="module")
+def sub_cm(tmp_path_factory) -> dict:
+    return _written(tmp_path_factory.mktemp("sub_cm"), _sub_cm_rows(), {}, "simulation")
+
+
 def _overlap(a, b, tol: float) -> bool:
     return a.x0 < b.x1 - tol and b.x0 < a.x1 - tol and a.y0 < b.y1 - tol and b.y0 < a.y1 - tol
 
@@ -91,7 +105,7 @@ def test_every_figure_of_the_studies_is_checked(saved, narrow) -> None:
     assert set(narrow) == {"sigma_bars", "eu_bars", "bland_altman_ml", "bland_altman_ap"}  # no traces
 
 
-@pytest.mark.parametrize("study, name", [(study, name) for study in ("saved", "narrow") for name in
+@pytest.mark.parametrize("study, name", [(study, name) for study in ("saved", "narrow", "sub_cm") for name in
                                          ("sigma_bars", "eu_bars", "cop_traces_rotation", "bland_altman_ml",
                                           "bland_altman_ap") if study == "saved" or "cop" not in name])
 def test_texts_inside_the_figure_and_clear_of_each_other(request, study: str, name: str) -> None:

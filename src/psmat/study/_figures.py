@@ -48,7 +48,11 @@ def _title(text: str, label: str | None) -> str:
 
 def _finish(fig: Any, ax: Any, title: str, key: Any, path: str | os.PathLike[str]) -> Path:
     """Title ``fig``, place its panels, title and ``key`` (:func:`arrange`) and save it to ``path``."""
-    arrange(fig, ax, fig.suptitle(title), key)
+    suptitle = fig.suptitle(title)
+    # twice: the tick locators pick their ticks for the panel size the first pass sets, and the
+    # second measures those labels (wider ones, "0.75" where "0.5" was, would reach out of the figure)
+    for _ in range(2):
+        arrange(fig, ax, suptitle, key)
     return _save(fig, path)
 
 
