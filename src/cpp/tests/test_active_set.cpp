@@ -90,6 +90,9 @@ bool same_free_cell(double g, double g_ref, double G, double rtol) {
 
 }  // namespace
 
+// doctest::Approx(x).epsilon(e) alone allows e·(1 + |x|), an absolute tolerance for small x;
+// .scale(1e-300) makes it relative (e·|x|), which is what the small conductances here need.
+
 TEST_CASE("scaled_hadamard_block: the principal submatrix of S, lower triangle") {
   RandomNetwork x({5, 7}, 2100, 1e-7, 1e-2);
   const Shape s = x.s;
@@ -106,8 +109,8 @@ TEST_CASE("scaled_hadamard_block: the principal submatrix of S, lower triangle")
   for (Index q = 0; q < K.cols(); ++q)
     for (Index r = q; r < K.rows(); ++r) {
       const double ref = S(cells[size_t(r)], cells[size_t(q)]);
-      CHECK(K(r, q) == doctest::Approx(ref).epsilon(1e-12));
-      CHECK(double(Kbig(r, q)) == doctest::Approx(ref).epsilon(1e-6));
+      CHECK(K(r, q) == doctest::Approx(ref).epsilon(1e-12).scale(1e-300));
+      CHECK(double(Kbig(r, q)) == doctest::Approx(ref).epsilon(1e-6).scale(1e-300));
     }
   CHECK(Kbig.rightCols(3).norm() == 0.0f);
   // one column, with a hole (-1) in the list
@@ -118,7 +121,7 @@ TEST_CASE("scaled_hadamard_block: the principal submatrix of S, lower triangle")
   psmat::iecm::scaled_hadamard_column(net, G, with_hole, b, col);
   for (Index r = 0; r < m; ++r) {
     const double ref = r == 2 ? 0.0 : S(cells[size_t(r)], b);
-    CHECK(double(col[r]) == doctest::Approx(ref).epsilon(1e-6));
+    CHECK(double(col[r]) == doctest::Approx(ref).epsilon(1e-6).scale(1e-300));
   }
 }
 
@@ -194,7 +197,7 @@ TEST_CASE("FreeBlockSolver: PCG with the factor of another point and free set so
   std::vector<char> in_I(size_t(s.cells()), 0);
   for (Index r = 0; r < m; ++r) {
     in_I[size_t(I[size_t(r)])] = 1;
-    CHECK(y[I[size_t(r)]] == doctest::Approx(yI[r]).epsilon(1e-8));
+    CHECK(y[I[size_t(r)]] == doctest::Approx(yI[r]).epsilon(1e-8).scale(1e-300));
   }
   for (Index a = 0; a < s.cells(); ++a)
     if (!in_I[size_t(a)]) CHECK(y[a] == 0.0);
@@ -241,7 +244,7 @@ TEST_CASE("FreeBlockSolver::update: cells leave and join; PCG then solves the ne
   CHECK(k <= 3);
   const Index m = Index(I.size());
   const VectorXd yI = dense_free_solve(S, I, b);
-  for (Index r = 0; r < m; ++r) CHECK(y[I[size_t(r)]] == doctest::Approx(yI[r]).epsilon(1e-8));
+  for (Index r = 0; r < m; ++r) CHECK(y[I[size_t(r)]] == doctest::Approx(yI[r]).epsilon(1e-8).scale(1e-300));
   // back to P (the cells that left join again, the odd ones leave)
   REQUIRE(fs.update(net, G, P));
   CHECK(fs.changes(P) == 0);

@@ -55,6 +55,9 @@ double brute_force(const Case& c, Index sel_row, Index sel_col) {
 
 }  // namespace
 
+// doctest::Approx(x).epsilon(e) alone allows e·(1 + |x|), an absolute tolerance for small x;
+// .scale(1e-300) makes it relative (e·|x|), which is what the small conductances here need.
+
 TEST_CASE("qzpm forward equals a brute-force solve of eq. C.4-C.6") {
   for (auto [R, C] : {std::pair<Index, Index>{2, 2}, {3, 4}, {5, 3}}) {
     const Case c = random_case(R, C, static_cast<unsigned>(10 * R + C));
@@ -63,10 +66,10 @@ TEST_CASE("qzpm forward equals a brute-force solve of eq. C.4-C.6") {
     REQUIRE(qzpm::forward(c.g, c.gr, c.gc, net, G));
     for (Index i = 0; i < R; ++i) {
       for (Index p = 0; p < C; ++p)
-        CHECK(G.pairs[i * C + p] == doctest::Approx(brute_force(c, i, p)).epsilon(1e-12));
-      CHECK(G.rows[i] == doctest::Approx(brute_force(c, i, -1)).epsilon(1e-12));
+        CHECK(G.pairs[i * C + p] == doctest::Approx(brute_force(c, i, p)).epsilon(1e-12).scale(1e-300));
+      CHECK(G.rows[i] == doctest::Approx(brute_force(c, i, -1)).epsilon(1e-12).scale(1e-300));
     }
-    for (Index p = 0; p < C; ++p) CHECK(G.cols[p] == doctest::Approx(brute_force(c, -1, p)).epsilon(1e-12));
+    for (Index p = 0; p < C; ++p) CHECK(G.cols[p] == doctest::Approx(brute_force(c, -1, p)).epsilon(1e-12).scale(1e-300));
   }
 }
 
@@ -79,10 +82,10 @@ TEST_CASE("qzpm forward: ideal switches give the zero-potential values") {
   REQUIRE(qzpm::forward(c.g, c.gr, c.gc, net, G));
   const Eigen::Map<const RowMatrixXd> g(c.g.data(), 4, 3);
   for (Index i = 0; i < 4; ++i) {
-    CHECK(G.rows[i] == doctest::Approx(g.row(i).sum()).epsilon(1e-5));
+    CHECK(G.rows[i] == doctest::Approx(g.row(i).sum()).epsilon(1e-5).scale(1e-300));
     for (Index p = 0; p < 3; ++p)
       CHECK(G.pairs[i * 3 + p] ==
-            doctest::Approx(g.row(i).sum() + g.col(p).sum() - 2 * g(i, p)).epsilon(1e-5));
+            doctest::Approx(g.row(i).sum() + g.col(p).sum() - 2 * g(i, p)).epsilon(1e-5).scale(1e-300));
   }
 }
 
@@ -155,5 +158,5 @@ TEST_CASE("qzpm inverse recovers cells and a shared switch") {
   const auto sol = qzpm::solve(c.s, G, o);
   CHECK(sol.report.status == qzpm::Status::Converged);
   CHECK(((sol.g - c.g).array() / c.g.array()).abs().maxCoeff() < 1e-8);
-  CHECK(sol.g_row[0] == doctest::Approx(1.0 / 13.0).epsilon(1e-8));
+  CHECK(sol.g_row[0] == doctest::Approx(1.0 / 13.0).epsilon(1e-8).scale(1e-300));
 }
