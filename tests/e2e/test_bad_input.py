@@ -288,3 +288,21 @@ def test_a_damaged_checkpoint_is_one_error_naming_the_file(damage, tmp_path):
         train_posture(recs, tmp_path, **{**kw, "epochs": 2})
     msg = str(err.value)
     assert str(ckpt) in msg and "checkpoint" in msg and "\n" not in msg
+
+
+@pytest.mark.parametrize("content, says", [
+    (b"\x89HDF\r\n\x1a\n" + bytes(504), "is a session file (HDF5), not a serial port: `psmat info"),
+    (b"0,1,2\n", "is a regular file, not a serial port (a device such as"),
+])
+def test_a_file_given_as_the_port_of_record_is_one_line_and_nothing_written(tmp_path, content, says) -> None:
+    """A recording (or any file) where ``psmat record`` expects a device: one line naming what
+    reads files, exit 1, and no output file."""
+    src = tmp_path / "given.h5"
+    src.write_bytes(content)
+    out = tmp_path / "out.h5"
+    r = subprocess.run([sys.executable, "-m", "psmat", "record", str(src), "--seconds", "1", "-o", str(out)],
+                       capture_output=True, text=True, timeout=120)
+    assert r.returncode == 1, r.stderr
+    lines = r.stderr.strip().splitlines()
+    assert len(lines) == 1 and says in lines[0], r.stderr
+    assert not out.exists() and src.read_bytes() == content

@@ -12,6 +12,7 @@ port connects again.
 from __future__ import annotations
 
 import errno
+import os
 from typing import Any
 from urllib.parse import urlsplit
 
@@ -32,6 +33,10 @@ READ_TIMEOUT_S = 0.05
 def is_url(port: str) -> bool:
     """True for a pyserial URL such as ``loop://`` or ``socket://host:port``."""
     return "://" in port
+
+
+#: The first 8 bytes of every HDF5 file (HDF5 file format specification, the superblock).
+HDF5_SIGNATURE = b"\x89HDF\r\n\x1a\n"
 
 
 def open_port(port: str, baudrate: int, timeout_s: float = READ_TIMEOUT_S) -> Any:
@@ -61,6 +66,14 @@ def open_port(port: str, baudrate: int, timeout_s: float = READ_TIMEOUT_S) -> An
     """
     if is_url(port):
         _check_url(port)
+    elif os.path.isfile(port):  # a recording given where a device is expected: say what reads it
+        with open(port, "rb") as f:
+            session = f.read(8) == HDF5_SIGNATURE
+        if session:
+            raise serial.SerialException(f"{port} is a session file (HDF5), not a serial port: `psmat info {port}` "
+                                         "reads a recorded session (psmat.io.load_session from Python)")
+        raise serial.SerialException(f"{port} is a regular file, not a serial port (a device such as /dev/ttyACM0 "
+                                     "or COM4, or a pyserial URL such as socket://HOST:PORT)")
     # exclusive: on POSIX pyserial takes an flock before it changes settings or flushes input,
     # so a second host is refused instead of stealing bytes (URLs such as loop:// ignore it)
     try:
