@@ -9,12 +9,9 @@ it only when it is asked for.
 
 from __future__ import annotations
 
-import argparse
-import importlib
 import sys
-from types import ModuleType
 
-from .._help import HelpFormatter
+from .._runners import Runners
 
 __all__ = ["BENCHMARKS", "DESCRIPTION", "PROG", "add_arguments", "benchmark_parser", "run", "main"]
 
@@ -38,37 +35,14 @@ DESCRIPTION = ("psmat's benchmarks (docs/spec.md §10), each beside a baseline r
                + "\n\nBENCHMARK --help gives a benchmark's options.")
 
 
-def add_arguments(p: argparse.ArgumentParser) -> None:
-    """BENCHMARK and the options passed on to it (for ``python -m psmat.bench`` and ``psmat bench``)."""
-    p.add_argument("benchmark", nargs="?", choices=tuple(BENCHMARKS), metavar="BENCHMARK",
-                   help=f"the benchmark to run: {', '.join(BENCHMARKS)}")
-    p.add_argument("options", nargs=argparse.REMAINDER, metavar="...",
-                   help="the benchmark's options (BENCHMARK --help lists them)")
-
-
-def _module(name: str) -> ModuleType:
-    if name not in BENCHMARKS:
-        raise ValueError(f"unknown benchmark {name!r}; choose from {', '.join(BENCHMARKS)}")
-    return importlib.import_module(f"{__package__}.{MODULES.get(name, name)}")
-
-
-def benchmark_parser(name: str, prog: str = PROG) -> argparse.ArgumentParser:
-    """The option parser of benchmark ``name``, its usage line starting ``prog name``."""
-    return _module(name).build_parser(f"{prog} {name}")
-
-
-def run(name: str, options: list[str], prog: str = PROG) -> int:
-    """Run benchmark ``name`` with its command-line ``options``; its exit status."""
-    return int(_module(name).main(options, prog=f"{prog} {name}") or 0)
-
-
-def main(argv: list[str] | None = None) -> int:
-    p = argparse.ArgumentParser(prog=PROG, description=DESCRIPTION, formatter_class=HelpFormatter)
-    add_arguments(p)
-    args = p.parse_args(sys.argv[1:] if argv is None else argv)
-    if args.benchmark is None:
-        p.error(f"name a benchmark: {', '.join(BENCHMARKS)}")
-    return run(args.benchmark, args.options)
+RUNNERS = Runners(__package__, PROG, "benchmark", BENCHMARKS, DESCRIPTION, modules=MODULES)
+#: NAME and the options passed on to it (for ``python -m psmat.bench`` and ``psmat bench``).
+add_arguments = RUNNERS.add_arguments
+#: The option parser of a benchmark, its usage line starting ``prog name``.
+benchmark_parser = RUNNERS.parser
+#: Run a benchmark with its command-line options; its exit status.
+run = RUNNERS.run
+main = RUNNERS.main
 
 
 if __name__ == "__main__":

@@ -9,12 +9,9 @@ studies are functions, ``psmat.experiments.table_2_4`` and the others, run by th
 
 from __future__ import annotations
 
-import argparse
-import importlib
 import sys
-from types import ModuleType
 
-from .._help import HelpFormatter
+from .._runners import Runners
 
 __all__ = ["EXPERIMENTS", "PROG", "experiment_parser", "run", "main"]
 
@@ -31,32 +28,14 @@ DESCRIPTION = ("psmat's measurements beyond the thesis, in simulation, each prin
                + "\n\nEXPERIMENT --help gives an experiment's options.")
 
 
-def _module(name: str) -> ModuleType:
-    if name not in EXPERIMENTS:
-        raise ValueError(f"unknown experiment {name!r}; choose from {', '.join(EXPERIMENTS)}")
-    return importlib.import_module(f"{__package__}.{name}")
-
-
-def experiment_parser(name: str, prog: str = PROG) -> argparse.ArgumentParser:
-    """The option parser of experiment ``name``, its usage line starting ``prog name``."""
-    return _module(name).build_parser(f"{prog} {name}")
-
-
-def run(name: str, options: list[str], prog: str = PROG) -> int:
-    """Run experiment ``name`` with its command-line ``options``; its exit status."""
-    return int(_module(name).main(options, prog=f"{prog} {name}") or 0)
-
-
-def main(argv: list[str] | None = None) -> int:
-    p = argparse.ArgumentParser(prog=PROG, description=DESCRIPTION, formatter_class=HelpFormatter)
-    p.add_argument("experiment", nargs="?", choices=tuple(EXPERIMENTS), metavar="EXPERIMENT",
-                   help=f"the experiment to run: {', '.join(EXPERIMENTS)}")
-    p.add_argument("options", nargs=argparse.REMAINDER, metavar="...",
-                   help="the experiment's options (EXPERIMENT --help lists them)")
-    args = p.parse_args(sys.argv[1:] if argv is None else argv)
-    if args.experiment is None:
-        p.error(f"name an experiment: {', '.join(EXPERIMENTS)}")
-    return run(args.experiment, args.options)
+RUNNERS = Runners(__package__, PROG, "experiment", EXPERIMENTS, DESCRIPTION)
+#: NAME and the options passed on to it (for ``python -m psmat.experiments``).
+add_arguments = RUNNERS.add_arguments
+#: The option parser of an experiment, its usage line starting ``prog name``.
+experiment_parser = RUNNERS.parser
+#: Run an experiment with its command-line options; its exit status.
+run = RUNNERS.run
+main = RUNNERS.main
 
 
 if __name__ == "__main__":
