@@ -5,7 +5,7 @@
 ...     print(dev.description, dev.stats)
 
 * :func:`open_device` / :class:`Device` - lifecycle ``open`` (identify) / ``start`` / ``stop``
-  / ``close``, a reader thread per device, a bounded ring buffer, commands, reconnection,
+  / ``close``, a reader thread per device (protocols v1, v2 and a do-it-yourself mat's csv), a bounded ring buffer, commands, reconnection,
   an optional :class:`psmat.io.SessionWriter` hook (:meth:`Device.record_to`);
 * :class:`FrameBatch` - frames with ``host_time_s``, ``valid``, ``seq``, ``device_time_us``;
 * :class:`DeviceStats` - counters; errors :class:`DeviceDisconnected`,
@@ -20,7 +20,7 @@ above are the package's API.
 """
 
 from ._clock import HostClock
-from ._device import Device, DeviceStats, open_device
+from ._device import CSV_BAUDRATE, Device, DeviceStats, open_device
 from ._discover import FoundPort, find_devices, is_psmat_port
 from ._errors import AcquireError, CommandRejected, CommandTimeout, DeviceDisconnected
 from ._identify import IDENTIFY_FIELDS
@@ -32,5 +32,5 @@ from ._stream import StreamDecoder
 __all__ = [
     "open_device", "find_devices", "FoundPort", "Device", "DeviceStats", "FrameBatch", "FrameRing", "StreamDecoder", "HostClock",
     "SessionRecorder", "AcquireError", "DeviceDisconnected", "CommandTimeout", "CommandRejected",
-    "is_psmat_port", "IDENTIFY_FIELDS", "open_port", "read_chunk", "close_port",
+    "is_psmat_port", "IDENTIFY_FIELDS", "open_port", "read_chunk", "close_port", "CSV_BAUDRATE",
 ]

@@ -7,18 +7,25 @@ ring buffer of decoded frames (:class:`~psmat.acquire.FrameRing`). Lifecycle
 :meth:`Device.start` starts streaming and buffering, :meth:`Device.stop` stops both,
 :meth:`Device.close` releases the port. ``with open_device(...) as dev:`` starts on entry
 and closes on exit.
+
+A do-it-yourself mat speaking the csv protocol (``protocol="csv"``, docs/protocol.md) takes no
+commands: it is never asked IDENTIFY, :meth:`Device.start`/:meth:`Device.stop` only gate the
+buffer, and the command methods raise :class:`AcquireError`. Whatever the protocol, a PSM's
+wire order of rows and columns (``row_order``/``col_order``) is undone on every frame, so the
+buffer and a recorded session hold frames in logical order.
 """
 
 from __future__ import annotations
 
 import threading
-from typing import Any, Literal
+from typing import Any, Literal, Sequence
 
 import numpy as np
 import serial
 
 from ..protocol import (CAL_RESUME, DAQ_START, DAQ_STOP, Gap, Opcode, Reply, Status, cal_hold_arg,
                         encode_command, parse_identify)
+from .._checks import is_int
 from ._clock import HostClock
 from ._errors import AcquireError, CommandRejected, CommandTimeout, DeviceDisconnected
 from ._identify import describe, learn
@@ -27,7 +34,12 @@ from ._ring_buffer import FrameBatch, FrameRing
 from ._stats import DeviceStats
 from ._stream import Row, StreamDecoder, default_shape, frame_dtype
 
-__all__ = ["Device", "DeviceStats", "open_device"]
+__all__ = ["Device", "DeviceStats", "open_device", "CSV_BAUDRATE"]
+
+#: Default baud rate of a csv mat (an Arduino sketch's ``Serial.begin(115200)``); the binary
+#: protocols default to 1 Mbit/s (USB CDC ignores it).
+CSV_BAUDRATE = 115_200
+_NO_COMMANDS = "a csv mat takes no commands (it streams its lines from power-up; docs/protocol.md, csv)"
 
 _LINK_ERRORS = (serial.SerialException, OSError)
 _JOIN_S = 1.0
@@ -51,8 +63,9 @@ class Device:
     port : str
         Port name or pyserial URL.
     kind : {"psm", "daq", "imu"}
-    protocol : int
-        Current frame format, 1 or 2 (follows :meth:`set_protocol`; unused for the DAQ).
+    protocol : int or "csv"
+        Current frame format, 1 or 2 (follows :meth:`set_protocol`; unused for the DAQ), or
+        ``"csv"`` for a do-it-yourself mat's text lines.
     shape : tuple of int
         Frame shape: ``(R, C)`` PSM, ``(5, 3)`` IMU, ``(10,)`` DAQ.
     dtype : numpy.dtype
@@ -62,7 +75,13 @@ class Device:
         the device did not report (no reply after the retries, or a reply that lacks them)
         are listed under ``"unknown"`` with a ``"note"`` saying why
         (:func:`._identify.describe`). Empty for the DAQ (no IDENTIFY) and when
-        opened with ``identify=False``.
+        opened with ``identify=False``. A csv mat's says ``proto="csv"``, holds the
+        ``rows``, ``cols`` and ``bits`` it was opened with, and lists the rest as unknown.
+    bits : int
+        ADC resolution a csv mat's counts are checked against (unused by v1/v2).
+    row_order, col_order : tuple of int or None
+        Wire order of a PSM's rows / columns: ``row_order[k]`` is the logical row of the
+        ``k``-th row sent; None: the identity (no reordering, no copy).
     identified : bool
         Whether the device answered IDENTIFY (then :meth:`start` and :meth:`stop` wait for
         their replies).
@@ -74,15 +93,23 @@ class Device:
     """
 
     def __init__(self, port: str, kind: Literal["psm", "daq", "imu"] = "psm", protocol: str | int = "v2",
-                 shape: tuple[int, ...] | None = None, baudrate: int = 1_000_000, buffer_frames: int = 60_000,
+                 shape: tuple[int, ...] | None = None, baudrate: int | None = None, buffer_frames: int = 60_000,
                  reconnect: bool = False, *, reconnect_attempts: int | None = 20, reconnect_delay_s: float = 0.1,
                  reconnect_max_delay_s: float = 2.0, read_timeout_s: float = 1.0,
-                 clock: HostClock | None = None) -> None:
+                 clock: HostClock | None = None, bits: int = 12, row_order: Sequence[int] | None = None,
+                 col_order: Sequence[int] | None = None) -> None:
         if kind not in ("psm", "daq", "imu"):
             raise ValueError(f"kind must be 'psm', 'daq' or 'imu', got {kind!r}")
-        proto = {"v1": 1, "v2": 2, 1: 1, 2: 2}.get(protocol)  # type: ignore[call-overload]
+        protocols: dict[Any, int | str] = {"v1": 1, "v2": 2, 1: 1, 2: 2, "csv": "csv"}
+        proto = None if isinstance(protocol, bool) else protocols.get(protocol)
         if proto is None:
-            raise ValueError(f"protocol must be 'v1' or 'v2', got {protocol!r}")
+            raise ValueError(f"protocol must be 'v1', 'v2' or 'csv', got {protocol!r}")
+        if proto == "csv" and kind != "psm":
+            raise ValueError(f"protocol 'csv' is a do-it-yourself psm mat's, not a {kind}'s")
+        if not is_int(bits) or not 1 <= bits <= 16:
+            raise ValueError(f"bits must be an integer 1 ... 16, got {bits!r}")
+        if baudrate is None:
+            baudrate = CSV_BAUDRATE if proto == "csv" else 1_000_000
         fixed = default_shape(kind)
         if shape is None:
             shape = fixed
@@ -91,6 +118,12 @@ class Device:
             raise ValueError(f"a {kind} frame has shape {fixed}, got {shape}")
         if kind == "psm" and (len(shape) != 2 or min(shape) < 1 or max(shape) > 255):
             raise ValueError(f"a psm frame shape is (R, C) with 1 <= R, C <= 255, got {shape}")
+        if kind != "psm" and (row_order is not None or col_order is not None):
+            raise ValueError(f"row_order/col_order are a psm mat's wire order, not a {kind}'s")
+        self.row_order = _order("row_order", row_order, shape[0]) if kind == "psm" else None
+        self.col_order = _order("col_order", col_order, shape[1]) if kind == "psm" else None
+        self._unwire = _unwire(self.row_order, self.col_order)
+        self.bits = int(bits)
         if reconnect_attempts is not None and reconnect_attempts < 1:
             raise ValueError("reconnect_attempts must be >= 1 or None")
         if not (reconnect_delay_s > 0 and reconnect_max_delay_s >= reconnect_delay_s):
@@ -108,7 +141,7 @@ class Device:
         self.description: dict[str, Any] = {}
         self.identified = False
         self._ring = FrameRing(buffer_frames, shape, self.dtype)
-        self._decoder = StreamDecoder(kind, proto, shape)
+        self._decoder = StreamDecoder(kind, proto, shape, bits=self.bits)
         self.clock = clock if clock is not None else HostClock()
         self._ser: Any = None
         self._write_lock = threading.Lock()
@@ -129,8 +162,13 @@ class Device:
 
     # -- properties ----------------------------------------------------------------------
     @property
-    def protocol(self) -> int:
+    def protocol(self) -> int | str:
         return self._decoder.protocol
+
+    @property
+    def commands(self) -> bool:
+        """Whether the device takes commands (False for the csv protocol; the DAQ takes only ``s``/``f``)."""
+        return self._decoder.protocol != "csv"
 
     @property
     def connected(self) -> bool:
@@ -159,7 +197,8 @@ class Device:
 
     def __repr__(self) -> str:
         state = "closed" if self._closed else ("started" if self._started else "open")
-        return (f"<Device {self.kind} v{self.protocol} {self.shape} on {self.port!r}, {state}, "
+        proto = self.protocol if self.protocol == "csv" else f"v{self.protocol}"
+        return (f"<Device {self.kind} {proto} {self.shape} on {self.port!r}, {state}, "
                 f"{'connected' if self._connected else 'disconnected'}>")
 
     # -- lifecycle -----------------------------------------------------------------------
@@ -195,7 +234,12 @@ class Device:
         self._connected = True
         self._thread = threading.Thread(target=self._run, name=f"psmat-acquire({self.port})", daemon=True)
         self._thread.start()
-        if identify and self.kind != "daq":
+        if not self.commands:
+            self.description = describe(self.kind, {"device": self.kind, "proto": "csv", "rows": self.shape[0],
+                                                    "cols": self.shape[1], "bits": self.bits},
+                                        "a csv mat does not identify itself: rows, cols and bits are as opened, "
+                                        "not reported by the device")
+        elif identify and self.kind != "daq":
             self._identify(identify_timeout_s, identify_attempts)
             self._check_description()
         return self
@@ -234,8 +278,8 @@ class Device:
         """Start buffering frames and tell the device to stream.
 
         PSM/IMU: sends START (waits for its reply when the device answered IDENTIFY, else
-        just writes it); DAQ: sends ``s``. Frames decoded before :meth:`start` are not
-        buffered (counted in ``stats.ignored``).
+        just writes it); DAQ: sends ``s``; a csv mat: nothing (it streams from power-up).
+        Frames decoded before :meth:`start` are not buffered (counted in ``stats.ignored``).
 
         Raises
         ------
@@ -251,6 +295,8 @@ class Device:
         self._send_start()
 
     def _send_start(self, wait: bool = True) -> None:
+        if not self.commands:
+            return
         if self.kind == "daq":
             self._write(DAQ_START)
         elif wait and self.identified:
@@ -274,7 +320,7 @@ class Device:
         if not self._started:
             return
         self._started = False
-        if self._closed or not self._connected:
+        if self._closed or not self._connected or not self.commands:
             return
         try:
             if self.kind == "daq":
@@ -387,9 +433,11 @@ class Device:
         DeviceDisconnected
             The port is gone.
         AcquireError
-            The device is closed, or is the material DAQ (its only commands are ``s``/``f``:
-            use :meth:`start`/:meth:`stop`).
+            The device is closed, is a csv mat (no commands), or is the material DAQ (its only
+            commands are ``s``/``f``: use :meth:`start`/:meth:`stop`).
         """
+        if not self.commands:
+            raise AcquireError(_NO_COMMANDS)
         if self.kind == "daq":
             raise AcquireError("the material DAQ takes no v2 commands, only 's'/'f' (use start()/stop())")
         self._check_open()
@@ -417,7 +465,9 @@ class Device:
         return reply
 
     def set_rate(self, hz: int) -> Reply:
-        """Set the frame rate (frames/s, integer 1 ... 1000)."""
+        """Set the frame rate (frames/s, integer 1 ... 1000); AcquireError for a csv mat."""
+        if not self.commands:
+            raise AcquireError(_NO_COMMANDS)
         if isinstance(hz, bool) or int(hz) != hz or not 1 <= hz <= 1000:
             raise ValueError(f"rate must be an integer 1 ... 1000 frames/s, got {hz!r}")
         reply = self.send_command(Opcode.SET_RATE, int(hz))
@@ -425,7 +475,9 @@ class Device:
         return reply
 
     def set_protocol(self, protocol: int) -> Reply:
-        """Switch the device's frame format to 1 or 2; the decoder follows at the reply."""
+        """Switch the device's frame format to 1 or 2; the decoder follows at the reply (not for a csv mat)."""
+        if not self.commands:
+            raise AcquireError(_NO_COMMANDS)
         if protocol not in (1, 2) or isinstance(protocol, bool):
             raise ValueError(f"protocol must be 1 or 2, got {protocol!r}")
         try:
@@ -537,6 +589,8 @@ class Device:
             return
         n = len(rows)
         frames = np.stack([r.data for r in rows]).astype(self.dtype, copy=False)
+        if self._unwire is not None:
+            frames = frames[self._unwire]   # wire order -> logical order
         valid = np.fromiter((r.valid for r in rows), np.bool_, n)
         seq = np.fromiter((r.seq for r in rows), np.int64, n)
         dev = np.fromiter((r.device_time_us for r in rows), np.int64, n)
@@ -602,6 +656,35 @@ class Device:
         return False
 
 
+def _order(name: str, order: Sequence[int] | None, n: int) -> tuple[int, ...] | None:
+    """A wire order checked as a permutation of ``range(n)``; None for None or the identity."""
+    if order is None:
+        return None
+    try:
+        items = list(order)
+    except TypeError:
+        raise ValueError(f"{name} must be a sequence of {n} line indices, got {order!r}") from None
+    if not all(is_int(k) for k in items) or sorted(int(k) for k in items) != list(range(n)):
+        raise ValueError(f"{name} must be a permutation of 0 ... {n - 1} (each line once), got {items!r}")
+    out = tuple(int(k) for k in items)
+    return None if out == tuple(range(n)) else out
+
+
+def _unwire(row_order: tuple[int, ...] | None, col_order: tuple[int, ...] | None) -> Any:
+    """Index of a (T, R, C) batch that puts wire rows/columns in logical order, or None (identity).
+
+    ``row_order[k]`` is the logical row of the ``k``-th row sent, so logical row ``j`` is wire
+    row ``argsort(row_order)[j]``; likewise for the columns.
+    """
+    if row_order is None and col_order is None:
+        return None
+    rows = slice(None) if row_order is None else np.argsort(row_order)
+    cols = slice(None) if col_order is None else np.argsort(col_order)
+    if row_order is not None and col_order is not None:
+        return (slice(None), rows[:, None], cols[None, :])  # type: ignore[index]
+    return (slice(None), rows, cols)
+
+
 def _opname(opcode: int) -> str:
     try:
         return f"{Opcode(opcode).name} (0x{int(opcode):02X})"
@@ -617,7 +700,7 @@ def _status_name(status: int | None) -> str:
 
 
 def open_device(port: str, kind: Literal["psm", "daq", "imu"] = "psm", protocol: str | int = "v2",
-                shape: tuple[int, ...] | None = None, baudrate: int = 1_000_000, buffer_frames: int = 60_000,
+                shape: tuple[int, ...] | None = None, baudrate: int | None = None, buffer_frames: int = 60_000,
                 reconnect: bool = False, identify: bool = True, *, identify_timeout_s: float = 0.5,
                 identify_attempts: int = 3, **options: Any) -> Device:
     """Open a device and start reading it.
@@ -629,12 +712,14 @@ def open_device(port: str, kind: Literal["psm", "daq", "imu"] = "psm", protocol:
         (``socket://127.0.0.1:5555`` - the twin on TCP, ``rfc2217://host:2217``, ``loop://``).
     kind : {"psm", "daq", "imu"}
         PSM mat, material DAQ (text lines, ``s``/``f``) or spine IMUs.
-    protocol : {"v2", "v1"}
-        Frame format the device streams (ignored for the DAQ).
+    protocol : {"v2", "v1", "csv"}
+        Frame format the device streams (ignored for the DAQ); ``"csv"``: a do-it-yourself
+        PSM mat printing text lines (docs/protocol.md, "csv"): no IDENTIFY, no commands.
     shape : tuple of int, optional
-        PSM ``(R, C)``, default (16, 16); IMU (5, 3) and DAQ (10,) are fixed.
-    baudrate : int
-        Bit/s (USB CDC ignores it).
+        PSM ``(R, C)``, default (16, 16); IMU (5, 3) and DAQ (10,) are fixed. A csv mat's
+        shape is not on the wire: give it.
+    baudrate : int, optional
+        Bit/s (USB CDC ignores it); default 1 000 000, or :data:`CSV_BAUDRATE` (115 200) for csv.
     buffer_frames : int
         Ring-buffer capacity in frames (default 60 000: 6 min at 165 Hz, 31 MB for 16x16);
         when full the oldest frames are dropped and counted.
@@ -647,7 +732,9 @@ def open_device(port: str, kind: Literal["psm", "daq", "imu"] = "psm", protocol:
         (0.5) per attempt, at most ``identify_attempts`` (3) times.
     **options
         Further keywords of :class:`Device` (``read_timeout_s``, reconnection settings,
-        ``clock``: a :class:`HostClock` shared by devices recorded together).
+        ``clock``: a :class:`HostClock` shared by devices recorded together; ``bits``: a csv
+        mat's ADC resolution, 1 ... 16, default 12; ``row_order``/``col_order``: a PSM's wire
+        order of rows/columns, undone on every frame).
 
     Returns
     -------

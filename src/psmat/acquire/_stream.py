@@ -1,7 +1,8 @@
 """One decoder interface over the three devices' wire formats.
 
 :class:`StreamDecoder` wraps :class:`~psmat.protocol.V1Decoder`,
-:class:`~psmat.protocol.ImuV1Decoder`, :class:`~psmat.protocol.V2Decoder` or
+:class:`~psmat.protocol.ImuV1Decoder`, :class:`~psmat.protocol.V2Decoder`,
+:class:`~psmat.protocol.CsvDecoder` (a do-it-yourself mat's text) or
 :class:`~psmat.protocol.DaqLineDecoder` and turns their events into rows (frame, valid,
 seq, device time), replies and v2 sequence gaps, with cumulative counters that survive a
 protocol switch or a reconnection (each of which starts a fresh protocol decoder).
@@ -16,7 +17,7 @@ from typing import Any, Literal
 import numpy as np
 from numpy.typing import NDArray
 
-from ..protocol import (IMU_SHAPE, DAQ_SENSORS, DaqLineDecoder, DaqMalformed, DaqSample, Frame, Gap,
+from ..protocol import (IMU_SHAPE, DAQ_SENSORS, CsvDecoder, DaqLineDecoder, DaqMalformed, DaqSample, Frame, Gap,
                         ImuV1Decoder, Opcode, Reply, Status, V1Decoder, V2Decoder)
 
 __all__ = ["Kind", "Row", "StreamDecoder", "default_shape", "frame_dtype"]
@@ -57,11 +58,15 @@ class StreamDecoder:
     ----------
     kind : {"psm", "daq", "imu"}
         The device.
-    protocol : {1, 2}
-        Frame format (ignored for the text DAQ).
+    protocol : {1, 2, "csv"}
+        Frame format (ignored for the text DAQ); ``"csv"`` (a PSM only): the text lines of a
+        do-it-yourself mat (docs/protocol.md, "csv"), no commands, no replies.
     shape : tuple of int
         Expected frame shape; v2 frames of another shape or kind are discarded and counted
         in ``mismatched`` only (not in ``frames``/``invalid``).
+    bits : int
+        ADC resolution of a csv mat (1 ... 16): a count above ``2**bits - 1`` makes its frame
+        invalid. Unused by the binary protocols.
 
     Attributes
     ----------
@@ -72,14 +77,17 @@ class StreamDecoder:
         ``seq`` went backwards), ``mismatched``; see :attr:`counters`.
     """
 
-    def __init__(self, kind: str, protocol: int, shape: tuple[int, ...]) -> None:
+    def __init__(self, kind: str, protocol: int | str, shape: tuple[int, ...], *, bits: int = 12) -> None:
         if kind not in _KINDS:
             raise ValueError(f"kind must be one of {_KINDS}, got {kind!r}")
-        if protocol not in (1, 2):
-            raise ValueError(f"protocol must be 1 or 2, got {protocol!r}")
+        if protocol not in (1, 2, "csv") or isinstance(protocol, bool):
+            raise ValueError(f"protocol must be 1, 2 or 'csv', got {protocol!r}")
+        if protocol == "csv" and kind != "psm":
+            raise ValueError(f"the csv protocol is a psm mat's, not a {kind}'s")
         self.kind = kind
-        self.protocol = protocol
+        self.protocol: int | str = protocol
         self.shape = tuple(shape)
+        self.bits = int(bits)
         self._base = dict.fromkeys(_COUNTERS, 0)
         self._mismatched_valid = 0
         self._mismatched_invalid = 0
@@ -92,6 +100,8 @@ class StreamDecoder:
     def _new_decoder(self) -> Any:
         if self.kind == "daq":
             return DaqLineDecoder(n_sensors=self.shape[0])
+        if self.protocol == "csv":
+            return CsvDecoder(self.shape, self.bits)  # type: ignore[arg-type]
         if self.protocol == 2:
             return V2Decoder()
         return V1Decoder(self.shape) if self.kind == "psm" else ImuV1Decoder()

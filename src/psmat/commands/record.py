@@ -20,6 +20,17 @@ HELP = "record a session (HDF5) from a mat, IMU or material DAQ, or several at o
 KINDS = ("psm", "imu", "daq")
 
 
+def bits(text: str) -> int:
+    """ADC resolution, an integer 1 ... 16."""
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"must be an integer 1 ... 16, got {text!r}") from None
+    if not 1 <= value <= 16:
+        raise argparse.ArgumentTypeError(f"must be 1 ... 16, got {text!r}")
+    return value
+
+
 @dataclass(frozen=True)
 class Also:
     """One more device: its kind (also the stream's name) and port (None with ``--simulate``)."""
@@ -50,8 +61,12 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--also", type=also, action="append", default=[], metavar="KIND=PORT",
                    help="one more device recorded into the same file as stream KIND, on the same host clock "
                         "(e.g. --also imu=/dev/ttyACM1; with --simulate just --also imu); repeatable, each kind once")
-    p.add_argument("--protocol", choices=("v1", "v2"), default="v2",
-                   help="the devices' frame format (docs/protocol.md)")
+    p.add_argument("--protocol", choices=("v1", "v2", "csv"), default="v2",
+                   help="the devices' frame format (docs/protocol.md): v1, v2, or csv (the text lines of a "
+                        "do-it-yourself mat, e.g. an Arduino: no commands, give --shape and --bits)")
+    p.add_argument("--bits", type=bits, default=None,
+                   help="ADC resolution of a csv mat: a count above 2**bits - 1 is an invalid frame (default 10, an "
+                        "Arduino Uno's ADC; v1/v2 devices carry 12-bit counts and ignore it)")
     p.add_argument("--shape", type=_args.shape, default=(16, 16), help="the mat's rows x columns, e.g. 16x16")
     p.add_argument("--rate", type=_args.rate_hz, default=None,
                    help="ask the first device for this frame rate, the others keep theirs (Hz; default: the "
@@ -85,6 +100,10 @@ def _check(args: argparse.Namespace) -> str | None:
             return f"with --simulate, --also takes a kind only (--also {a.kind}), not a port"
         if not args.simulate and not a.port:
             return f"--also {a.kind} needs the device's port: --also {a.kind}=PORT"
+    if args.protocol == "csv" and (args.device != "psm" or args.also):
+        return "--protocol csv is a do-it-yourself psm mat's text: record it alone, without --device imu/daq or --also"
+    if args.protocol == "csv" and args.rate and not args.simulate:
+        return "a csv mat takes no commands: it keeps its own rate (--rate only with --simulate)"
     if args.simulate and (twin := _args.twin_shape_problem(args.shape)):
         return twin
     if args.rate and args.device == "imu" and args.rate > _args.IMU_MAX_RATE_HZ:
@@ -148,7 +167,8 @@ def run(args: argparse.Namespace) -> int:
             ports = [_twin(stack, w.kind, args, k) for k, w in enumerate(wanted)]
         devs = []
         for k, (w, port) in enumerate(zip(wanted, ports)):
-            dev = open_device(port, w.kind, args.protocol, args.shape if w.kind == "psm" else None, clock=clock)
+            dev = open_device(port, w.kind, args.protocol, args.shape if w.kind == "psm" else None, clock=clock,
+                              bits=args.bits or (10 if args.protocol == "csv" else 12))
             stack.callback(dev.close)
             if k == 0 and args.rate and not args.simulate and w.kind != "daq":
                 dev.set_rate(int(args.rate))

@@ -19,7 +19,9 @@ HELP = "serve the simulated mat (or IMU / material DAQ) on a pseudo-terminal or 
 def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--rate", type=_args.rate_hz, default=None,
                    help="frame rate, at most 1000 (frames/s; default: the device's own, 100 for the mat)")
-    p.add_argument("--protocol", choices=("v1", "v2"), default="v2", help="frame format (docs/protocol.md)")
+    p.add_argument("--protocol", choices=("v1", "v2", "csv"), default="v2",
+                   help="frame format (docs/protocol.md); csv: a do-it-yourself mat's text lines, one frame per line, "
+                        "10-bit counts of an Arduino at 5 V (the mat only)")
     p.add_argument("--device", choices=("psm", "imu", "daq"), default="psm",
                    help="which device to simulate: psm (the pressure-sensitive mat), imu (the spine IMUs, "
                         "inertial measurement units) or daq (the material data-acquisition box)")
@@ -46,15 +48,16 @@ def run(args: argparse.Namespace) -> int:
     import threading
     import time
 
-    from ..twin import Faults, PsmSource, SerialTwin
+    from ..twin import Faults, PsmSource, SerialTwin, diy_circuit
 
     try:
         rows, cols = args.shape
         faults = Faults.parse(args.faults)
         source = None
         if args.device == "psm":
+            physics = {"circuit": diy_circuit()} if args.protocol == "csv" else {}
             source = PsmSource.named(args.scene, args.rate or 100.0, (rows, cols), bds_trial=args.bds_trial,
-                                     seed=args.seed)
+                                     seed=args.seed, **physics)
         twin = SerialTwin(args.device, args.rate, args.protocol, source=source, shape=(rows, cols),
                           faults=faults, seed=args.seed, tcp_port=args.tcp)
     except (ValueError, FileNotFoundError) as exc:  # FileNotFoundError: a BDS trial that is not there

@@ -12,12 +12,15 @@
   (:class:`V1Decoder`, :class:`ImuV1Decoder`, :class:`V2Decoder`) yielding
   :class:`Frame`, :class:`Reply`, :class:`Gap`, at a bounded cost per input byte
   whatever the stream holds (docs/protocol.md, "Decoding cost");
-* ``_daq`` - the material DAQ's text lines and ``s``/``f`` commands.
+* ``_daq`` - the material DAQ's text lines and ``s``/``f`` commands;
+* ``_csv`` - the csv text protocol of do-it-yourself mats (:func:`encode_csv`,
+  :class:`CsvDecoder`, :func:`decode_csv`).
 
 The modules are private (``_crc``, ``_v1``, ...); the names they export here are the package's API.
 """
 
 from ._crc import crc16, crc16_shift
+from ._csv import CSV_REASONS, CSV_SEPARATORS, CsvDecoder, decode_csv, encode_csv
 from ._daq import (DAQ_MAX_COUNT, DAQ_PERIOD_S, DAQ_SENSORS, DAQ_START, DAQ_STOP, DaqLineDecoder, DaqMalformed,
                    DaqSample, encode_daq_command, encode_daq_line, parse_daq_fields, parse_daq_line)
 from ._decoder import (Event, Frame, Gap, ImuV1Decoder, Reply, V1Decoder, V2Decoder, decode_imu_v1, decode_v1,
@@ -43,4 +46,6 @@ __all__ = [
     # daq
     "DAQ_SENSORS", "DAQ_MAX_COUNT", "DAQ_PERIOD_S", "DAQ_START", "DAQ_STOP", "encode_daq_line",
     "parse_daq_fields", "parse_daq_line", "encode_daq_command", "DaqSample", "DaqMalformed", "DaqLineDecoder",
+    # csv
+    "CSV_SEPARATORS", "CSV_REASONS", "encode_csv", "CsvDecoder", "decode_csv",
 ]

@@ -23,6 +23,12 @@ given rate per byte, stalls (the link goes silent for a while, frames scanned me
 are lost, as on a device whose USB stalls), and a disconnect (the pty or the listening
 socket goes away, as when the cable is pulled).
 
+A do-it-yourself mat (``protocol="csv"``, docs/protocol.md) runs no firmware core: the twin
+prints the source's counts as csv text lines at the rate, one frame per line (or ``R`` lines
+per frame with ``csv_layout="block"``) after a header line, and ignores what the host sends,
+as an Arduino sketch does. Its counts have the bits of the source's circuit; without a source
+it is read through :func:`diy_circuit` (an Arduino's 10-bit ADC at 5 V).
+
 :attr:`SerialTwin.port` is what a host opens, with :func:`psmat.acquire.open_device` or
 pyserial's ``serial_for_url``: a path to the pty (removed when the twin stops or is
 disconnected, never handed out again) or the ``socket://`` URL.
@@ -40,7 +46,26 @@ import numpy as np
 from .pty_link import PtyLink, pty_available
 from .tcp_link import TcpLink
 
-__all__ = ["Faults", "SerialTwin", "TwinStats"]
+__all__ = ["Faults", "SerialTwin", "TwinStats", "diy_circuit"]
+
+
+def diy_circuit():
+    """The measurement chain of a do-it-yourself mat on an Arduino Uno (docs/spec.md §2).
+
+    10-bit ADC at ``V_ref`` = 5 V, ``R_o`` = 2.2 kΩ, two CD74HC4067 channels (about 70 Ω each,
+    ``R_mux`` = 140 Ω) and the ATmega328P's ADC input (about 100 MΩ); what a csv twin without a
+    source is read through (firmware/arduino/README.md).
+    """
+    from ..circuit import Circuit
+
+    return Circuit(r_o=2200.0, r_mux=140.0, r_adc=100e6, v_ref=5.0, bits=10)
+
+
+def _source_bits(source) -> int:
+    """ADC bits of a PSM source: its physics' circuit (also behind a calibration fixture), else 12."""
+    physics = getattr(source, "physics", None) or getattr(getattr(source, "mat", None), "physics", None)
+    circuit = getattr(physics, "circuit", None)
+    return int(circuit.bits) if circuit is not None else 12
 
 
 @dataclass
@@ -126,14 +151,17 @@ class SerialTwin:
     rate_hz : float, optional
         Frame rate (the firmware's timer); default 100 Hz (PSM), 10 Hz (IMU), 2 Hz (DAQ).
         A SET_RATE command from the host changes it live.
-    protocol : {"v1", "v2"}
-        Framing of the PSM and IMU.
+    protocol : {"v1", "v2", "csv"}
+        Framing of the PSM and IMU; ``"csv"`` (PSM only): a do-it-yourself mat's text lines,
+        no firmware core, commands ignored.
     source : optional
         Where the firmware's ADC readings come from (``.next()``); default: the ``"sway"``
         scene for the PSM (:class:`~psmat.twin.sources.PsmSource`), the spine model for the
         IMU, the descending protocol for the DAQ.
     shape : (R, C)
         PSM array size.
+    csv_layout : {"line", "block"}
+        csv only: one frame per line, or ``R`` lines of ``C`` numbers closed by a blank line.
     faults : Faults, optional
     serial : str
         The serial number the device reports to IDENTIFY.
@@ -166,22 +194,34 @@ class SerialTwin:
     def __init__(self, kind: str = "psm", rate_hz: float | None = None, protocol: str = "v2", *,
                  source=None, shape: tuple[int, int] = (16, 16), faults: Faults | None = None,
                  serial: str = "TWIN0001", scene: str = "sway", seed: int = 0,
-                 buffer_bytes: int = 65536, tcp_port: int | None = None) -> None:
+                 buffer_bytes: int = 65536, tcp_port: int | None = None, csv_layout: str = "line") -> None:
         from .._core import firmware as fw
         from ..protocol import Opcode, encode_command
         from .sources import DaqSource, ImuSource, PsmSource
 
         if kind not in ("psm", "imu", "daq"):
             raise ValueError(f"kind must be 'psm', 'imu' or 'daq', got {kind!r}")
-        if protocol not in ("v1", "v2"):
-            raise ValueError(f"protocol must be 'v1' or 'v2', got {protocol!r}")
+        if protocol not in ("v1", "v2", "csv"):
+            raise ValueError(f"protocol must be 'v1', 'v2' or 'csv', got {protocol!r}")
+        if protocol == "csv" and kind != "psm":
+            raise ValueError(f"protocol 'csv' is a do-it-yourself psm mat's, not a {kind}'s")
+        if csv_layout not in ("line", "block"):
+            raise ValueError(f"csv_layout must be 'line' or 'block', got {csv_layout!r}")
         self.kind = kind
+        self.protocol = protocol
+        self.csv_layout = csv_layout
         proto = 1 if protocol == "v1" else 2
         default_rate = {"psm": 100.0, "imu": 10.0, "daq": 2.0}[kind]
         rate = float(rate_hz or default_rate)
         if not (0 < rate <= 1000):
             raise ValueError(f"rate must be in (0, 1000] Hz, got {rate}")
-        if kind == "psm":
+        self.bits: int | None = None
+        if protocol == "csv":
+            self.firmware = None  # an Arduino sketch: no firmware core, no commands
+            self.source = source or PsmSource.named(scene, rate, shape, seed=seed, circuit=diy_circuit())
+            self.bits = _source_bits(self.source)
+            self._csv_header = True
+        elif kind == "psm":
             self.firmware = fw.PsmFirmware(shape[0], shape[1], proto, serial)
             if int(rate) != rate:
                 raise ValueError("the PSM's timer takes a whole number of frames per second")
@@ -195,7 +235,7 @@ class SerialTwin:
         else:
             self.firmware = fw.DaqFirmware()
             self.source = source or DaqSource(seed=seed)
-        self._fixed_rate = rate if kind == "daq" else None
+        self._fixed_rate = rate if kind == "daq" or protocol == "csv" else None
         self.faults = faults or Faults()
         self.stats = TwinStats()
         if buffer_bytes < 1:
@@ -259,12 +299,23 @@ class SerialTwin:
 
     def _tick(self, t_us: int) -> bytes:
         reading = self.source.next()
+        if self.protocol == "csv":
+            from ..protocol import encode_csv
+
+            data = encode_csv(reading, self.csv_layout)
+            if self._csv_header:  # the first line a sketch prints: a header of non-numbers
+                self._csv_header = False
+                R, C = np.shape(reading)
+                data = f"# psmat csv twin {R}x{C} {self.bits}-bit {self.csv_layout}\n".encode("ascii") + data
+            return data
         if self.kind == "daq":
             return self.firmware.tick(reading)
         return self.firmware.tick(reading, t_us & 0xFFFFFFFF)
 
     def _receive(self, data: bytes, t_us: int) -> bytes:
         self.stats.commands_bytes += len(data)
+        if self.firmware is None:  # csv: the sketch reads nothing
+            return b""
         if self.kind == "daq":
             return self.firmware.receive(data)
         return self.firmware.receive(data, t_us & 0xFFFFFFFF)

@@ -1,0 +1,181 @@
+"""A do-it-yourself mat's csv text, recorded by the command line (docs/spec.md §5, docs/protocol.md "csv").
+
+* ``psmat record PTY --protocol csv`` on a real pseudo-terminal pair: this test plays the mat,
+  writing a known sequence (a header, frames in both layouts, separators mixed, malformed
+  lines, a value beyond 10 bits) from a thread; the session's rows must be exactly the frames
+  sent, in order, and the malformed ones invalid rows. The expected rows come from how the
+  sequence was built, not from the decoder.
+* ``psmat simulate --protocol csv`` serves text that :func:`psmat.acquire.open_device` reads.
+"""
+
+from __future__ import annotations
+
+import fcntl
+import os
+import signal
+import struct
+import subprocess
+import sys
+import termios
+import threading
+import time
+import tty
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from psmat.acquire import open_device
+from psmat.io import load_session
+from psmat.protocol import encode_csv
+
+from conftest import default_stop_signals
+
+R, C = 16, 16
+BITS = 10
+GUARD_S = 60.0  # hang guard, not a duration
+
+pytestmark = pytest.mark.skipif(not hasattr(os, "openpty"), reason="needs pseudo-terminals (POSIX)")
+
+
+def _line(values: np.ndarray | list, sep: str = ",", eol: str = "\n") -> bytes:
+    return (sep.join(str(v) for v in np.ravel(values)) + eol).encode("ascii")
+
+
+def _sequence(rng: np.random.Generator, rounds: int) -> tuple[list[bytes], list[np.ndarray | None]]:
+    """Items to write (each a few lines) and the rows they must give: a frame, or None for an invalid row."""
+    items: list[bytes] = [b"r0c0,r0c1,r0c2,etc (a header of non-numbers)\r\n"]
+    rows: list[np.ndarray | None] = []
+
+    def frame() -> np.ndarray:
+        return rng.integers(0, 2**BITS, (R, C))
+
+    for _ in range(rounds):
+        f = frame()
+        items.append(encode_csv(f))                                     # one frame per line
+        rows.append(f)
+        f = frame()
+        items.append(_line(f, sep="; ", eol="\r\n"))                    # other separators, CRLF
+        rows.append(f)
+        items.append(_line(frame().ravel()[:-1]))                       # one number short
+        rows.append(None)
+        f = frame()
+        items.append(_line(f, sep=" "))
+        rows.append(f)
+        bad = [str(v) for v in frame().ravel()]
+        bad[17] = "1x7"                                                 # not a number
+        items.append((",".join(bad) + "\n").encode())
+        rows.append(None)
+        over = frame()
+        over[3, 4] = 2**BITS                                            # beyond 10 bits
+        items.append(encode_csv(over))
+        rows.append(None)
+        neg = [str(v) for v in frame().ravel()]
+        neg[200] = "-5"                                                 # a negative number
+        items.append((",".join(neg) + "\n").encode())
+        rows.append(None)
+        f = frame()
+        items.append(encode_csv(f, "block"))                            # R lines, a blank line
+        rows.append(f)
+        f = frame()
+        items.append(encode_csv(f, "block", sep="\t", marker="# frame end", eol="\r\n"))
+        rows.append(f)
+        short_row = frame()
+        text = encode_csv(short_row, "block").split(b"\n")
+        text[5] = b",".join(text[5].split(b",")[:-1])                  # a block row one number short
+        items.append(b"\n".join(text))
+        rows.append(None)
+        items.append(b"".join(_line(r) for r in frame()[:10]) + b"#\n")    # 10 rows, then a marker
+        rows.append(None)
+        f = frame()
+        items.append(encode_csv(f))
+        rows.append(f)
+    return items, rows
+
+
+def _queued(fd: int) -> int:
+    """Bytes waiting in a terminal's input queue."""
+    return struct.unpack("i", fcntl.ioctl(fd, termios.FIONREAD, b"\0\0\0\0"))[0]
+
+
+def _wait(cond, what: str) -> None:
+    deadline = time.monotonic() + GUARD_S
+    while not cond():
+        assert time.monotonic() < deadline, what
+        time.sleep(0.02)
+
+
+def test_record_a_csv_mat_on_a_pty_keeps_every_frame_in_order(tmp_path: Path) -> None:
+    rng = np.random.default_rng(2026)
+    items, expected = _sequence(rng, rounds=3)
+    master, slave = os.openpty()
+    tty.setraw(slave)
+    attrs = termios.tcgetattr(slave)
+    attrs[4] = attrs[5] = termios.B9600  # the recorder opens it at 115200 Bd: that says it is configured
+    termios.tcsetattr(slave, termios.TCSANOW, attrs)
+    out = tmp_path / "diy.h5"
+    proc = subprocess.Popen([sys.executable, "-m", "psmat", "record", os.ttyname(slave), "--protocol", "csv",
+                             "--shape", f"{R}x{C}", "--seconds", "120", "-o", str(out)],
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                            preexec_fn=default_stop_signals)
+    try:
+        # pyserial flushes the input queue right after it configures the port: write after that
+        _wait(lambda: proc.poll() is not None or termios.tcgetattr(slave)[5] == termios.B115200,
+              "the recorder never configured the port")
+        assert proc.poll() is None, proc.communicate()
+        time.sleep(0.5)
+
+        def play() -> None:  # a modest rate, each item in two writes cut at a random byte
+            for item in items:
+                cut = int(rng.integers(0, len(item)))
+                os.write(master, item[:cut])
+                time.sleep(0.005)
+                os.write(master, item[cut:])
+                time.sleep(0.02)
+
+        writer = threading.Thread(target=play, daemon=True)
+        writer.start()
+        writer.join(GUARD_S)
+        assert not writer.is_alive(), "writing to the pty hung"
+        _wait(lambda: _queued(slave) == 0 or proc.poll() is not None, "the recorder stopped reading")
+        time.sleep(1.0)  # the last chunk decoded and journalled
+        proc.send_signal(signal.SIGTERM)
+        stdout, stderr = proc.communicate(timeout=GUARD_S)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.communicate()
+        os.close(master)
+        os.close(slave)
+    assert proc.returncode == 0, stderr
+    s = load_session(out)
+    assert s.complete and s.counts.shape == (len(expected), R, C), (s.counts.shape, len(expected), stderr)
+    assert s.valid.tolist() == [e is not None for e in expected]
+    for k, e in enumerate(expected):
+        if e is not None:
+            np.testing.assert_array_equal(s.counts[k], e, err_msg=f"row {k}")
+    assert s.device["proto"] == "csv" and s.device["bits"] == BITS and "serial" in s.device["unknown"]
+    n_invalid = sum(e is None for e in expected)
+    assert f"{len(expected)} frames recorded, {n_invalid} invalid, losses on the wire unknown" in stdout
+
+
+def test_simulate_serves_csv_that_open_device_reads(tmp_path: Path) -> None:
+    proc = subprocess.Popen([sys.executable, "-m", "psmat", "simulate", "--protocol", "csv", "--scene", "quiet",
+                             "--rate", "50", "--shape", "8x12"],
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                            preexec_fn=default_stop_signals)
+    try:
+        port = proc.stdout.readline().strip()
+        assert port, proc.communicate()
+        with open_device(port, "psm", protocol="csv", shape=(8, 12), bits=BITS) as dev:
+            batch = dev.read(40, timeout_s=GUARD_S)
+            stats = dev.stats
+    finally:
+        proc.send_signal(signal.SIGTERM)
+        proc.communicate(timeout=GUARD_S)
+    assert len(batch) == 40
+    # the host opened the pty mid-stream at most once: every frame but a first partial line is valid
+    assert np.count_nonzero(batch.valid[1:]) == 39 and stats.invalid <= 1
+    assert batch.frames.shape == (40, 8, 12) and int(batch.frames[batch.valid].max()) <= 2**BITS - 1
+    # the quiet scene: two feet on an 8x12 mat load some cells, the rest read the unloaded level
+    assert len(np.unique(batch.frames[batch.valid])) > 10
