@@ -71,7 +71,9 @@ def open_port(port: str, baudrate: int, timeout_s: float = READ_TIMEOUT_S) -> An
             session = f.read(8) == HDF5_SIGNATURE
         if session:
             raise serial.SerialException(f"{port} is a session file (HDF5), not a serial port: `psmat info {port}` "
-                                         "reads a recorded session (psmat.io.load_session from Python)")
+                                         f"summarises a recorded session, `psmat process {port}` computes its "
+                                         f"pressure and CoP, `psmat export {port}` writes it as CSV, Parquet or "
+                                         "MATLAB (psmat.io.load_session from Python)")
         raise serial.SerialException(f"{port} is a regular file, not a serial port (a device such as /dev/ttyACM0 "
                                      "or COM4, or a pyserial URL such as socket://HOST:PORT)")
     # exclusive: on POSIX pyserial takes an flock before it changes settings or flushes input,

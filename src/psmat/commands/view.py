@@ -99,7 +99,9 @@ def _check_files(args: argparse.Namespace) -> str | None:
     port = args.port
     if port is not None and (os.path.isfile(port) or journal_path(port).is_file()):
         return unfinished_line(port) or (f"{port} is a file, not a serial port: psmat view shows a live mat; "
-                                         f"psmat info {port} summarises a recorded session")
+                                         f"psmat info {port} summarises a recorded session, psmat process {port} "
+                                         f"computes its pressure and CoP, psmat export {port} writes it as CSV, "
+                                         "Parquet or MATLAB")
     try:
         check_outputs([args.save], inputs=[port], overwrite=args.overwrite)
     except OutputRefused as exc:

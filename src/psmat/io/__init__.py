@@ -1,8 +1,9 @@
 """Recorded sessions and external data files (docs/spec.md §6).
 
 * :mod:`psmat.io.session` — a recording as one HDF5 file (raw frames, timing, validity,
-  device, calibration, metadata, processed products; several devices as streams on one
-  host clock), crash-safe while it is written.
+  device, calibration, metadata, device profile, events, processed products; several devices
+  as streams on one host clock), crash-safe while it is written; :func:`export` writes its
+  counts, pressure, CoP or events as CSV, Parquet or MATLAB files.
 * the spine IMUs' text logs (the thesis' format): :func:`load_imu_log`, :func:`write_imu_log`
   (private module ``_imu_log``).
 * force-platform centre-of-pressure files (generic CSV and the BDS public data set):
@@ -35,6 +36,7 @@ from .session import (
     SessionFormatError,
     SessionWriter,
     StreamWriter,
+    export,
     export_csv,
     info,
     journal_path,
@@ -60,6 +62,7 @@ __all__ = [
     "SessionWriter",
     "STREAMS_FORMAT_VERSION",
     "StreamWriter",
+    "export",
     "bds_dir",
     "bds_files",
     "bds_trial",

@@ -1,9 +1,10 @@
 """Recorded sessions: one HDF5 file per recording, crash-safe while it is written (docs/spec.md §6).
 
 A session holds the raw frames of one device (a pressure mat, the spine IMUs or the
-material DAQ), per-frame timing and validity, the description of the device, the
-calibration that was used, subject/trial metadata, the reader's error counters and any
-processed products (G, g, pressure, CoP, …) with the parameters that made them. Other
+material DAQ), per-frame timing and validity, the description of the device and its profile,
+the calibration that was used, subject/trial metadata, the reader's error counters, events
+(markers: a host time and a label) and any processed products (G, g, pressure, CoP, …) with
+the parameters that made them. Other
 devices recorded at the same time on the same host clock (the spine IMUs with the mat)
 are **streams** of the session, each with its own frames, timing, validity, device and
 counters.
@@ -12,11 +13,14 @@ Writing::
 
     with SessionWriter("s01_t1.h5", (16, 16), device={"serial": "0000A1B2", "r_o": 2200.0,
                        "v_ref": 3.3, "bits": 12, "fw": "0.1.0", "protocol": 2, "rate": 100},
-                       metadata={"subject": "S01", "trial": 1}) as w:
+                       metadata={"subject": "S01", "trial": 1}, profile=psmat.load_profile("psm16")) as w:
         for frames, t, valid, seq, t_us in reader:         # e.g. from a reader thread
             w.append(frames, t, valid, seq=seq, device_time_us=t_us)
+        w.add_event(time.monotonic(), "eyes closed")      # any thread, the frames' clock
         w.set_counters(dropped_frames=reader.dropped)
     s = load_session("s01_t1.h5")
+    s.events                                               # [(host time s, "eyes closed")]
+    export(s, "counts", "parquet", "s01_t1.counts.parquet")  # also csv, mat; pressure, cop, events
 
 Two devices, one file (each device's reader thread appends to its own stream)::
 
@@ -35,8 +39,10 @@ file written in one go), :mod:`._writer` (:class:`SessionWriter`, :class:`Stream
 (:func:`export_csv`, :func:`info`, :func:`stream_csv_path`), :mod:`._counts`
 (:func:`row_counts`, the error counters per row of a summary), :mod:`._unfinished` (a
 recording that was not closed: :func:`unfinished_line`, :func:`journal_only`, ...),
-:mod:`._truncated` (a file cut short, :func:`recorded_size`), :mod:`._crc`, :mod:`._storage`
-and :mod:`._verify` (the checks). :mod:`psmat.io` re-exports the names most callers need.
+:mod:`._truncated` (a file cut short, :func:`recorded_size`), :mod:`._events` (events: their
+journal and ``/events``), :mod:`._export_formats` (:func:`export`: CSV, Parquet, MATLAB),
+:mod:`._crc`, :mod:`._storage` and :mod:`._verify` (the checks). :mod:`psmat.io` re-exports the
+names most callers need.
 
 On-disk layout (format ``psmat-session``, version 2; 3 with streams)
 =====================================================================
@@ -75,6 +81,8 @@ dataset             shape               dtype      unit     content
 ``/products/NAME``  any                 any        any      processed product (e.g. G, g, pressure, cop),
                                                             Fletcher-32 when it has elements; its CRC-32
                                                             (and ``/counters``') in the attribute ``crc32``
+``/events/``        group                                   events (markers) of the recording (below); only
+                                                            when it has any
 ``/streams/NAME/``  group                                   another device of the same recording (below)
 ==================  ==================  =========  =======  ==============================================
 
@@ -101,14 +109,37 @@ has ``format_version`` 3, so that a psmat that knows only version 2 refuses it i
 loading the first device and silently leaving the others out; a one-device file stays
 version 2.
 
+Events (markers: ``SessionWriter.add_event(host_time_s, label)``, loaded sorted by time as
+``Session.events``, a list of (host time s, label)). The group ``/events`` (attribute
+``n_events`` = E) holds plain numbers only, as every dataset of a session does:
+
+=============================  ===========  ========  =====  ======================================
+in ``/events/``                shape        dtype     unit   content
+=============================  ===========  ========  =====  ======================================
+``host_time_s``                (E,)         float64   s      host clock of each event, the clock of
+                                                             ``/host_time_s``; sorted
+``label_utf8``                 (E, W)       uint8     1      each label's UTF-8 bytes (at most 200),
+                                                             NUL padded to W, the longest label's
+``crc32/host_time_s``,         (⌈E/e⌉,)     uint32    1      CRC-32 per chunk of ``e = min(64, E)``
+``crc32/label_utf8``                                         events (attribute ``chunk_events`` = e)
+=============================  ===========  ========  =====  ======================================
+
+Both datasets are chunked ``e`` events a chunk with Fletcher-32, like the frames: a damaged
+chunk costs its ``e`` events (left out, noted), no more. Labels are fixed-width rows rather than
+one byte array with offsets so that a chunk of labels and a chunk of times hold the same events.
+An older psmat ignores the group (and loads the file without its events); neither ``/events``
+nor ``/profile`` changes ``format_version``.
+
 Attributes of ``/`` (the root group): ``format`` = ``"psmat-session"``, ``format_version``
 (int: 2, or 3 with ``/streams``), ``kind`` (``"psm"``, ``"imu"`` or ``"daq"``), ``frame_shape`` (int array),
 ``frame_dataset`` (``"counts"`` or ``"angles"``), ``created_utc`` (ISO 8601),
 ``psmat_version``, ``complete`` (1), ``n_frames``, ``closed_utc``; after
 :func:`repair_session` also ``repaired_utc`` and ``repair_notes``.
 
-Groups ``/device``, ``/calibration`` (only when one was used) and ``/metadata``: the
-attribute ``json`` holds the whole dictionary as a JSON string (the authoritative copy);
+Groups ``/device``, ``/calibration`` (only when one was used), ``/metadata`` and ``/profile``
+(the device profile the recording was made with, ``psmat.Profile.to_dict()``: shape, pitch,
+geometry, wire order, circuit; only when one was given, :attr:`Session.profile` is None
+otherwise): the attribute ``json`` holds the whole dictionary as a JSON string (the authoritative copy);
 every scalar, string or flat numeric-list entry is also an attribute of its own, so that
 ``h5dump -A`` shows e.g. ``/device`` ``serial``, ``r_o``, ``v_ref``, ``bits``, ``fw``,
 ``protocol``, ``rate``, ``shape``.
@@ -121,7 +152,8 @@ dataset; :func:`load_session` still reads it, with a note that its frames are un
 Files of a psmat before the CRC-32 tables (same format versions: the tables are an addition
 an older reader ignores) load with a note that they carry Fletcher-32 only.
 
-A file received from elsewhere is untrusted (:mod:`._storage`): before any data is
+A file received from elsewhere is untrusted (:mod:`._storage`; ``/profile`` and ``/events`` are
+groups and datasets of numbers like the rest, checked the same way): before any data is
 read, the loader refuses anything but groups and plain datasets of numbers stored in the
 file (external storage, virtual datasets, soft and external links, filters other than
 Fletcher-32), frame and per-frame datasets whose dtype, rank or frame shape is not the kind's,
@@ -170,10 +202,28 @@ exactly one damaged record); its header names the stream and carries the recordi
 id, which ties it to ``PATH.journal``. A killed recording loads from the root
 journal and every stream journal tied to it; :func:`repair_session` writes them all into
 the file; a stream journal whose header is unreadable is left out with a note.
+
+The device profile travels in the root journal's header (key ``profile``; a journal of a psmat
+before profiles has none and loads with ``profile`` None). Events have a journal of their own,
+``PATH.events.journal`` (format: :mod:`._events`), created with the first event: a CRC'd
+header carrying the recording's id (so an events journal of another recording is never taken
+for this one's), then one fixed-size CRC'd record of 220 bytes per event (time, label length,
+the label padded to 200 bytes), written and fsync'd before :meth:`SessionWriter.add_event`
+returns. Why not records in the frame journal: its records have the size of one frame (a
+10-sensor DAQ frame is 20 bytes), too small for a 200-byte label, and a record of another size
+there would break the one-size rule that lets the loader skip exactly one damaged record; a
+file and lock of their own also keep a thread marking events from waiting on the reader
+threads. The loader skips a damaged event record as it skips a frame record (by the framing: a
+tag byte, the length, six zero bytes, then the CRC), so a flipped byte costs that event only.
+When the writer closes, the events journal is read back, its events written sorted into
+``/events`` and checked with the frames, then removed; :func:`repair_session` keeps the events
+of a killed recording.
 """
 
 from ._counts import RowCounts, RowTally, row_counts
+from ._events import MAX_LABEL_BYTES
 from ._export import export_csv, info, stream_csv_path
+from ._export_formats import export
 from ._journal import Journal
 from ._layout import (
     COUNTER_NAMES,
@@ -203,8 +253,10 @@ __all__ = [
     "RowTally",
     "Session",
     "SessionFormatError",
+    "MAX_LABEL_BYTES",
     "SessionWriter",
     "StreamWriter",
+    "export",
     "export_csv",
     "info",
     "journal_only",

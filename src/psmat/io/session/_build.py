@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import json
 import os
-from collections.abc import Iterable, Iterator, Mapping
+from collections.abc import Iterable, Iterator, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -23,6 +23,7 @@ from ..._atomic import fsync_dir
 from ...frames import FrameBatch
 
 from ._crc import CRC_NAME, ChunkCrcs, chunk_crc
+from ._events import EVENTS_CHUNK, Event, create_events, expected_tables, sort_events
 from ._layout import (COUNTER_NAMES, FORMAT_NAME, FORMAT_VERSION, Header, PER_FRAME, PER_FRAME_SPEC, Product, STREAMS_FORMAT_VERSION, StreamBlocks, check_stream_name, partial_path, psmat_version, put_attr, set_flat_attrs, to_json, utc_now)
 from ._verify import Expected, verify_written
 
@@ -181,7 +182,8 @@ def _fill_device(g: h5py.Group, h: Header, n: int, blocks: Iterable[FrameBatch])
 _META_BASE, _META_DEVICE, _META_ENTRY, _META_CHUNK = 4096, 8192, 128, 48
 
 
-def meta_block_size(devices: Iterable[tuple[Header, int]], extra: Iterable[Mapping[str, Any] | None]) -> int:
+def meta_block_size(devices: Iterable[tuple[Header, int]], extra: Iterable[Mapping[str, Any] | None],
+                    n_events: int = 0) -> int:
     """An upper bound (bytes, a multiple of 4096) of the HDF5 metadata of a session file.
 
     Parameters
@@ -189,8 +191,10 @@ def meta_block_size(devices: Iterable[tuple[Header, int]], extra: Iterable[Mappi
     devices : iterable of (Header, int)
         Each device of the file with its frame count.
     extra : iterable of dict or None
-        The other dictionaries stored as attributes (calibration, metadata, products' parameters,
-        extra root attributes).
+        The other dictionaries stored as attributes (calibration, metadata, profile, products'
+        parameters, extra root attributes).
+    n_events : int
+        The events stored (``/events``: a group, two datasets and their CRC-32 tables).
 
     The file is written with this metadata block size: every piece of metadata is allocated
     from one block at the start of the file, so it precedes every frame.
@@ -200,6 +204,8 @@ def meta_block_size(devices: Iterable[tuple[Header, int]], extra: Iterable[Mappi
         return 0 if d is None else 3 * len(to_json(d).encode("utf-8")) + _META_ENTRY * len(d)
 
     total = _META_BASE + sum(size(d) for d in extra)
+    if n_events:
+        total += _META_DEVICE + 2 * _META_CHUNK * -(-n_events // EVENTS_CHUNK)
     for h, n in devices:
         total += _META_DEVICE + size(h.device) + 5 * _META_CHUNK * -(-n // h.chunk_frames)
     return -(-total // 4096) * 4096
@@ -215,6 +221,7 @@ def write_session_file(
     products: Mapping[str, Product] | None = None,
     attrs: Mapping[str, str] | None = None,
     streams: Mapping[str, StreamBlocks] | None = None,
+    events: Sequence[Event] = (),
 ) -> int:
     """Write a complete session file at ``path``, atomically; return the number of frames of the root device.
 
@@ -224,7 +231,8 @@ def write_session_file(
     always a complete one. ``n_frames`` is the number of frames ``blocks`` yields (None:
     ``blocks`` is gathered to count them); ``attrs`` are extra string attributes of ``/``
     (e.g. ``repaired_utc``); ``streams`` the other devices, by stream name (group
-    ``/streams/NAME``).
+    ``/streams/NAME``); ``events`` the recording's (host time s, label) markers (``/events``,
+    sorted by time, checked like the frames).
 
     All of the file's HDF5 metadata precedes its data, and the frames' chunks lie in frame
     order after the CRC-32 tables, counters and products: a copy of the file cut short loses
@@ -246,12 +254,13 @@ def write_session_file(
             st = st._replace(blocks=list(st.blocks))
             st = st._replace(n_frames=sum(len(b) for b in st.blocks))
         devices[f"/streams/{check_stream_name(name)}"] = st
+    events = sort_events(events)
     tmp = partial_path(path)
     tmp.unlink(missing_ok=True)
     try:
-        expected = _write_file(tmp, devices, products or {}, attrs or {})
+        expected = _write_file(tmp, devices, products or {}, attrs or {}, events)
         _atomic.fsync_file(tmp)  # looked up when called: a test stands a failing disk in for it
-        verify_written(tmp, expected)
+        verify_written(tmp, expected, events=expected_tables(events))
     except BaseException:
         tmp.unlink(missing_ok=True)
         raise
@@ -261,17 +270,18 @@ def write_session_file(
 
 
 def _write_file(tmp: Path, devices: Mapping[str, StreamBlocks], products: Mapping[str, Product],
-                attrs: Mapping[str, str]) -> dict[str, Expected]:
+                attrs: Mapping[str, str], events: Sequence[Event] = ()) -> dict[str, Expected]:
     """The file in three passes, so that every piece of metadata precedes every frame.
 
     1. every group, dataset and attribute, no data (all in the metadata block at the start);
-    2. the data that is not frames: CRC-32 tables (zeros for now), counters, products;
+    2. the data that is not frames: CRC-32 tables (zeros for now), counters, events, products;
     3. the frames, chunk by chunk in frame order, then the CRC-32 tables (in place) and
        ``complete`` (in place: the same type).
     """
     header = devices["/"].header
     mbs = meta_block_size([(st.header, int(st.n_frames or 0)) for st in devices.values()],
-                          [header.calibration, header.metadata, dict(attrs), *(p.params for p in products.values())])
+                          [header.calibration, header.metadata, header.profile, dict(attrs),
+                           *(p.params for p in products.values())], n_events=len(events))
     # latest: checksums on every metadata object too; no chunk cache: each chunk goes to the file when written
     with h5py.File(tmp, "w", libver="latest", meta_block_size=mbs, rdcc_nbytes=0) as f:
         put_attr(f, "format", FORMAT_NAME)
@@ -283,7 +293,8 @@ def _write_file(tmp: Path, devices: Mapping[str, StreamBlocks], products: Mappin
         for key, val in attrs.items():
             put_attr(f, key, val)
         _create_dict_groups(f, {"device": header.device, "calibration": header.calibration,
-                                "metadata": header.metadata})
+                                "metadata": header.metadata, "profile": header.profile})
+        made_events = create_events(f, events)
         f.create_group("products")
         data = {}
         for gname, st in devices.items():
@@ -294,7 +305,7 @@ def _write_file(tmp: Path, devices: Mapping[str, StreamBlocks], products: Mappin
                 _create_dict_groups(g, {"device": st.header.device})
             data[gname] = _create_device(g, st.header, int(st.n_frames or 0), st.counters)
         made = [_create_product(f, name, p.data, p.params, p.unit) for name, p in products.items()]
-        for ds, arr in [*(x for d in data.values() for x in d), *made]:
+        for ds, arr in [*(x for d in data.values() for x in d), *made_events, *made]:
             _write_data(ds, arr)
         expected = {gname: Expected(int(st.n_frames or 0),
                                     _fill_device(f[gname], st.header, int(st.n_frames or 0), st.blocks),

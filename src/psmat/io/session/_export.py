@@ -136,6 +136,12 @@ def info(session: Session | str | os.PathLike[str]) -> str:
         cal = {k: v for k, v in s.calibration.items() if not isinstance(v, (list, dict))}
         lines.append(f"  calibration   {_kv(cal)}")
     lines.append(f"  metadata      {_kv(s.metadata)}")
+    if s.profile is not None:
+        lines.append(f"  profile       {s.profile.get('name', '(unnamed)')} "
+                     f"({_kv({k: v for k, v in s.profile.items() if k != 'name' and not isinstance(v, (list, dict))})})")
+    if s.events:
+        lines.append(f"  events        {len(s.events)}, host time {s.events[0][0]:.3f}..{s.events[-1][0]:.3f} s, "
+                     f"first {s.events[0][1]!r}")
     if s.products:
         lines.append("  products")
         for name, p in sorted(s.products.items()):

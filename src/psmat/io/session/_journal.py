@@ -3,7 +3,8 @@
 Format (little-endian; :mod:`psmat.io.session` explains its role):
 
 * ``b"PSMATJ02"``, ``uint32`` header length ``H``, ``H`` bytes of UTF-8 JSON (kind, frame
-  shape and dtype, chunk size, device, calibration, metadata, record size, ``session``: a
+  shape and dtype, chunk size, device, calibration, metadata, ``profile`` when the recording
+  has one (a journal without the key loads with none), record size, ``session``: a
   random id of the recording; for the journal ``PATH.NAME.journal`` of a stream also
   ``stream`` = NAME, with the session's id), ``uint32`` CRC-32 of those ``H`` bytes;
 * then records of ``32 + P + 4`` bytes: ``uint8 type`` (0 frame, 1 counters), ``uint8
@@ -88,6 +89,8 @@ def encode_header(h: Header, session: str, stream: str | None = None) -> bytes:
         "created_utc": h.created_utc,
         "session": session,
     }
+    if h.profile is not None:  # absent in the journals of a psmat before profiles: they load with None
+        doc["profile"] = h.profile
     if stream is not None:
         doc["stream"] = stream
     hb = json.dumps(doc, allow_nan=True).encode("utf-8")
@@ -365,7 +368,8 @@ def _header_fields(doc: Any) -> tuple[Header, int, np.dtype, str | None, str | N
         raise ValueError(f"created_utc {created!r} is not a string")
     h = Header(kind=kind, frame_shape=fshape, device=_dict(doc, "device") or {},
                calibration=_dict(doc, "calibration", none_ok=True), metadata=_dict(doc, "metadata") or {},
-               created_utc=created, chunk_frames=_int(doc, "chunk_frames", 1, MAX_CHUNK_FRAMES))
+               created_utc=created, chunk_frames=_int(doc, "chunk_frames", 1, MAX_CHUNK_FRAMES),
+               profile=_dict(doc, "profile", none_ok=True) if "profile" in doc else None)
     p = payload_bytes(h)
     rec = record_dtype(p)
     if "payload_bytes" in doc and _int(doc, "payload_bytes", 0, 2**62) != p:

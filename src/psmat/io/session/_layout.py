@@ -67,7 +67,7 @@ class SessionFormatError(ValueError):
 # names a stream may not take: the datasets and groups of a session (a stream's name is
 # also part of its journal's and its CSV's file name)
 RESERVED_NAMES = frozenset({"counts", "angles", *PER_FRAME, "counters", "products", "device", "calibration",
-                            "metadata", "streams", "journal", "partial", CRC_NAME})
+                            "metadata", "profile", "events", "streams", "journal", "partial", CRC_NAME})
 
 
 def check_stream_name(name: Any) -> str:
@@ -124,7 +124,8 @@ class Header:
     """What a session holds besides its frames: the device and what was recorded.
 
     ``chunk_frames`` is the number of frames per HDF5 chunk, hence the frames that one
-    damaged chunk costs (docs/spec.md §6).
+    damaged chunk costs (docs/spec.md §6). ``profile``: the device profile the recording was
+    made with (a plain dict, ``psmat.Profile.to_dict()``), None when none was given.
     """
 
     kind: str
@@ -134,6 +135,7 @@ class Header:
     metadata: dict[str, Any]
     created_utc: str
     chunk_frames: int = 256
+    profile: dict[str, Any] | None = None
 
     @property
     def spec(self) -> KindSpec:
@@ -188,6 +190,12 @@ class Session:
         None when the device never sent them (protocol v1).
     device, calibration, metadata : dict
         Device description, calibration used (None if none), subject/trial metadata.
+    profile : dict or None
+        The device profile the recording was made with (``psmat.Profile.to_dict()``: shape,
+        pitch, geometry, circuit, ...); None for a file written without one (older files).
+    events : list of (float, str)
+        Markers of the recording: (host time in s, on the clock of ``host_time_s``; label),
+        sorted by time; ``[]`` when none. Only the root session has them.
     products : dict[str, Product]
     counters : dict[str, int]
         Reader error counters (:data:`COUNTER_NAMES`); empty when they were lost to damage.
@@ -223,6 +231,8 @@ class Session:
     recovered: bool = False
     notes: list[str] = field(default_factory=list)
     streams: dict[str, Session] = field(default_factory=dict)
+    profile: dict[str, Any] | None = None
+    events: list[tuple[float, str]] = field(default_factory=list)
 
     @property
     def frames(self) -> NDArray[Any]:

@@ -38,6 +38,7 @@ from ._layout import (
     utc_now,
 )
 from ._crc import CRC_NAME, chunk_crc
+from ._events import read_events, read_journal
 from ._products import read_products
 from ._storage import check_device, check_objects
 from ._truncated import (
@@ -61,8 +62,8 @@ def load_session(path: str | os.PathLike[str], *, use_journal: bool = True) -> S
     ----------
     path : str or Path
         The session file (``.h5``). Its journal ``PATH.journal`` (and its streams' journals
-        ``PATH.NAME.journal``) is read when the file is missing (the writer was killed
-        before it closed) or unreadable.
+        ``PATH.NAME.journal``, its events journal ``PATH.events.journal``) is read when the
+        file is missing (the writer was killed before it closed) or unreadable.
     use_journal : bool
         False: read the HDF5 file only.
 
@@ -156,8 +157,9 @@ def repair_session(path: str | os.PathLike[str], *, replace_finished: bool = Fal
     streams = {name: StreamBlocks(_header(st, s.created_utc), [_block(st)], st.counters)
                for name, st in s.streams.items()}
     write_session_file(path, _header(s, s.created_utc), [_block(s)], s.counters, products=s.products,
-                       attrs={"repaired_utc": utc_now(), "repair_notes": "; ".join(s.notes)}, streams=streams)
-    for p in (journal_path(path), *(journal_path(path, name) for name in s.streams)):
+                       attrs={"repaired_utc": utc_now(), "repair_notes": "; ".join(s.notes)}, streams=streams,
+                       events=s.events)
+    for p in (journal_path(path, "events"), *(journal_path(path, name) for name in s.streams), journal_path(path)):
         p.unlink(missing_ok=True)
     fsync_dir(path.parent)
     return load_session(path)
@@ -165,7 +167,7 @@ def repair_session(path: str | os.PathLike[str], *, replace_finished: bool = Fal
 
 def _header(s: Session, created: str) -> Header:
     return Header(kind=s.kind, frame_shape=s.frame_shape, device=s.device, calibration=s.calibration,
-                  metadata=s.metadata, created_utc=created or utc_now())
+                  metadata=s.metadata, created_utc=created or utc_now(), profile=s.profile)
 
 
 def _block(s: Session) -> FrameBatch:
@@ -206,7 +208,15 @@ def _from_journal(path: Path, jpath: Path, why: str) -> Session:
                                  version=STREAMS_FORMAT_VERSION, created=h.created_utc, complete=False, recovered=True,
                                  notes=[f"{len(sb)} frames recovered from the journal {sj.path.name}",
                                         *sj.damage_notes()])
+    events: list[tuple[float, str]] = []
+    ejpath = journal_path(path, "events")
+    if j.session is not None and ejpath.is_file():  # the markers, in a journal of their own (._events)
+        events, ev_notes = read_journal(ejpath, j.session)
+        notes.extend(ev_notes)
+        if events:
+            notes.append(f"{len(events)} event(s) recovered from the journal {ejpath.name}")
     s = _session(path, h.kind, b, device=h.device, calibration=h.calibration, metadata=h.metadata,
+                 profile=h.profile, events=sorted(events, key=lambda e: e[0]),
                  counters=j.counters or dict.fromkeys(COUNTER_NAMES, 0),
                  version=STREAMS_FORMAT_VERSION if streams else j.format_version,
                  created=h.created_utc, complete=False, recovered=True, notes=notes)
@@ -298,6 +308,8 @@ def _read_open(f: h5py.File, path: Path, notes: list[str], cut: tuple[int, int] 
         device=_group_json(f, "device", path) or {},
         calibration=_group_json(f, "calibration", path),
         metadata=metadata,
+        profile=_group_json(f, "profile", path),
+        events=read_events(f, notes, None if cut is None else cut[0]),
         products=read_products(f, notes),
         counters=_counters(f, notes),
         version=version, created=created,

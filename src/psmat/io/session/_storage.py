@@ -67,7 +67,9 @@ def check_objects(f: h5py.File, path: Path, *, stored: bool, size: int | None = 
             if isinstance(obj, h5py.Group):
                 todo.append(obj)
             elif isinstance(obj, h5py.Dataset):
-                total += check_dataset(obj, path, size, stored=stored or name not in _FRAME_DATASETS)
+                # /events/host_time_s is named like a per-frame dataset but is never a frame's
+                total += check_dataset(obj, path, size,
+                                       stored=stored or name not in _FRAME_DATASETS or g.name == "/events")
                 if total > size:
                     raise SessionFormatError(f"{path}: its datasets claim {total} bytes of storage, more than the "
                                              f"file's {size} bytes (a forged chunk index)")

@@ -19,6 +19,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ._crc import CRC_NAME, chunk_crc
+from ._events import verify_events
 
 
 class Expected(NamedTuple):
@@ -29,8 +30,12 @@ class Expected(NamedTuple):
     counters: NDArray[np.int64]
 
 
-def verify_written(path: Path, expected: Mapping[str, Expected]) -> None:
+def verify_written(path: Path, expected: Mapping[str, Expected],
+                   events: Mapping[str, NDArray[np.uint32]] | None = None) -> None:
     """RuntimeError unless the file at ``path`` holds what ``expected`` (by group path) says.
+
+    ``events``: the CRC-32 tables ``/events`` must hold (:func:`._events.expected_tables`;
+    empty: the file has no events).
 
     Each chunk is read alone (rows of one chunk at a time), so memory stays one chunk's.
     """
@@ -49,6 +54,8 @@ def verify_written(path: Path, expected: Mapping[str, Expected]) -> None:
                                    f"{want.counters.tolist()}")
             for name, table in want.tables.items():
                 _verify_dataset(path, g[name], g[CRC_NAME][name][()], table, want.n_frames)
+        if events is not None:
+            verify_events(f, path, dict(events))
 
 
 def _verify_dataset(path: Path, ds: h5py.Dataset, stored: NDArray[np.uint32], table: NDArray[np.uint32],

@@ -23,6 +23,7 @@ from ...frames import FrameBatch
 
 from . import _journal as jr
 from ._build import write_session_file
+from ._events import EventsJournal, check_event, sort_events
 from ._layout import (
     COUNTER_NAMES,
     MAX_CHUNK_FRAMES,
@@ -280,6 +281,9 @@ class SessionWriter(StreamWriter):
         The calibration used (e.g. :class:`psmat.Calibration`).
     metadata : dict, optional
         Subject/trial metadata (subject id, trial, condition, operator, notes, …).
+    profile : dict or object with ``to_dict()``, optional
+        The device profile the recording was made with (``psmat.Profile.to_dict()``),
+        stored as ``/profile`` and loaded as :attr:`Session.profile`.
     kind : {"psm", "imu", "daq"}
     chunk_frames : int
         Frames per HDF5 chunk along time: the unit that carries one checksum, so the most
@@ -296,9 +300,12 @@ class SessionWriter(StreamWriter):
         Replace an existing file: it stays as it is until :meth:`close` moves the new one over
         it (the journals of an interrupted recording at ``path`` are removed at once).
 
-    Thread safety: :meth:`append`, :meth:`set_counters` and :meth:`flush` may be called from
-    any thread (calls are serialised internally); frames are stored in call order. Each
-    stream has its own lock, so reader threads of different devices do not wait for each other.
+    Events (markers, :meth:`add_event`) go to their own journal ``PATH.events.journal``.
+
+    Thread safety: :meth:`append`, :meth:`set_counters`, :meth:`add_event` and :meth:`flush` may
+    be called from any thread (calls are serialised internally); frames are stored in call
+    order. Each stream, and the events, has its own lock, so reader threads of different
+    devices (and a thread marking events) do not wait for each other.
     """
 
     def __init__(
@@ -311,6 +318,7 @@ class SessionWriter(StreamWriter):
         kind: str = "psm",
         chunk_frames: int = 256,
         *,
+        profile: Any = None,
         flush_interval_s: float = 0.5,
         flush_frames: int = 512,
         background: bool = True,
@@ -322,19 +330,21 @@ class SessionWriter(StreamWriter):
                              "flush_interval_s > 0")
         self.path = Path(path)
         jpath = journal_path(self.path)
-        for p in (self.path, jpath):
+        ejpath = journal_path(self.path, "events")
+        for p in (self.path, jpath, ejpath):
             if p.exists() and not overwrite:
                 raise FileExistsError(f"{p} exists (pass overwrite=True to replace it)")
         header = Header(kind=kind, frame_shape=fshape, device=_device(device, kind, fshape),
                         calibration=as_dict(calibration, "calibration"),
                         metadata=as_dict(metadata, "metadata") or {}, created_utc=utc_now(),
-                        chunk_frames=int(chunk_frames))
+                        chunk_frames=int(chunk_frames), profile=as_dict(profile, "profile"))
         if overwrite:
             _remove_interrupted(self.path)
         self._overwrite = bool(overwrite)
         self._session = uuid.uuid4().hex  # ties the streams' journals to this recording's
         self._streams: dict[str, StreamWriter] = {}
         self._streams_lock = threading.Lock()
+        self._events = EventsJournal(ejpath, self._session, header.created_utc)
         super().__init__(jpath, header, session=self._session, name=None, label=str(self.path), flush_interval_s=flush_interval_s,
                          flush_frames=flush_frames, background=background)
 
@@ -346,6 +356,43 @@ class SessionWriter(StreamWriter):
     @property
     def metadata(self) -> dict[str, Any]:
         return self.header.metadata
+
+    @property
+    def profile(self) -> dict[str, Any] | None:
+        return self.header.profile
+
+    @property
+    def n_events(self) -> int:
+        """Events added so far (each one on disk: it survives the process being killed)."""
+        return self._events.n_events
+
+    def add_event(self, host_time_s: float, label: str) -> None:
+        """Mark an event of the recording: a host time and a label (e.g. ``"eyes closed"``).
+
+        Parameters
+        ----------
+        host_time_s : float
+            When, in s, on the clock of the frames' ``host_time_s`` (e.g. ``time.monotonic()``
+            if the reader stamps frames with it). Events need not come in time order: the
+            session holds them sorted by time.
+        label : str
+            At most 200 bytes of UTF-8 (any language), no NUL character.
+
+        When this returns, the event is in the events journal ``PATH.events.journal`` and
+        fsync'd: it survives the process being killed, and a power cut. Thread-safe (any
+        thread, while others append frames).
+
+        Raises
+        ------
+        ValueError
+            A label longer than 200 bytes of UTF-8 or holding a NUL, a time that is not
+            finite, or the writer is closed.
+        TypeError
+            A time that is not a number or a label that is not a str.
+        """
+        self._check_usable()
+        t, raw = check_event(host_time_s, label)
+        self._events.add(t, raw)
 
     @property
     def streams(self) -> dict[str, StreamWriter]:
@@ -424,26 +471,31 @@ class SessionWriter(StreamWriter):
             streams = dict(self._streams)
         for w in streams.values():
             err = w._close_journal() or err
+        err = self._events.close() or err
         if err is None:
             try:
+                events = sort_events(self._events.checked())  # read back: RuntimeError if it lost any
                 # read back and checked against the journals' frames before it replaces PATH (._verify)
                 write_session_file(self.path, self.header, self._checked_blocks(), self._counters,
-                                   n_frames=self._n_appended,
+                                   n_frames=self._n_appended, events=events,
                                    streams={name: StreamBlocks(w.header, w._checked_blocks(), w._counters,
                                                                w._n_appended)
                                             for name, w in streams.items()})
             except Exception as e:  # noqa: BLE001 - whatever went wrong, the journals are kept
                 err = e
+        ejpath = self._events.path if self._events.n_events else None
         if err is not None:
-            kept = [str(p) for p in (self.jpath, *(w.jpath for w in streams.values()))]
+            kept = [str(p) for p in (self.jpath, *(w.jpath for w in streams.values()), ejpath) if p is not None]
             many = len(kept) > 1
             raise RuntimeError(
                 f"{self.path}: the session could not be completed ({err}); the journal{'s' if many else ''} "
                 f"{', '.join(kept)} {'were' if many else 'was'} kept — load_session() recovers {'them' if many else 'it'}"
             ) from err
-        self.jpath.unlink()
+        if ejpath is not None:
+            ejpath.unlink()
         for w in streams.values():
             w.jpath.unlink()
+        self.jpath.unlink()  # last: while it is there, the side journals are still tied to a recording
         fsync_dir(self.path.parent)
 
 
@@ -465,7 +517,7 @@ def _remove_interrupted(path: Path) -> None:
         session = None
     for j in jr.stream_journals(path, session)[0].values():
         j.path.unlink(missing_ok=True)
-    for p in (jpath, partial_path(path)):
+    for p in (journal_path(path, "events"), jpath, partial_path(path)):
         p.unlink(missing_ok=True)
 
 
