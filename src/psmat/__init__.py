@@ -7,7 +7,8 @@ chain counts <-> conductance), :class:`psmat.Calibration` (a box's R_adc and R_m
 creep), :mod:`psmat.protocol` (wire formats), :mod:`psmat.io` (session files, force
 platforms), :mod:`psmat.twin` (the simulated mat: the one synthetic world of tests,
 benchmarks and demos), :mod:`psmat.acquire` (reading devices over serial),
-:mod:`psmat.process` (counts → pressure → CoP), :mod:`psmat.qzpm` (IECM for the QZPM readout, App. C),
+:mod:`psmat.process` (counts → pressure → CoP), :mod:`psmat.profile` (devices as data: :class:`psmat.Profile`,
+:func:`psmat.load_profile`), :mod:`psmat.qzpm` (IECM for the QZPM readout, App. C),
 :mod:`psmat.experiments` (the thesis' crosstalk studies), :mod:`psmat.balance` (sway, alignment,
 the chapter 3 variants), :mod:`psmat.study` (a balance study folder run in batch), :mod:`psmat.spine`
 and :mod:`psmat.posture` (the spine's shape, learning it from the cushion) and :mod:`psmat.synth`
@@ -26,19 +27,22 @@ from ._version import __version__  # the one place the version is written
 #: The subpackages and modules reachable as ``psmat.NAME`` without importing them first.
 _SUBMODULES = frozenset({
     "acquire", "balance", "circuit", "experiments", "frames", "iecm",
-    "io", "noise", "posture", "process", "protocol", "qzpm", "sensor", "spine", "study", "synth", "twin", "units",
+    "io", "noise", "posture", "process", "profile", "protocol", "qzpm", "sensor", "spine", "study", "synth", "twin",
+    "units",
 })
-#: Classes reachable as ``psmat.NAME``, and the module each lives in.
-_CLASSES = {"Calibration": "circuit", "Circuit": "circuit"}
+#: Classes (and a function) reachable as ``psmat.NAME``, and the module each lives in.
+_CLASSES = {"Calibration": "circuit", "Circuit": "circuit", "Profile": "profile", "load_profile": "profile"}
 
-__all__ = ["acquire", "balance", "circuit", "experiments", "iecm", "io", "noise", "posture", "process",
-           "protocol", "qzpm", "sensor", "spine", "study", "synth", "twin", "Circuit", "Calibration", "__version__"]
+__all__ = ["acquire", "balance", "circuit", "experiments", "iecm", "io", "noise", "posture", "process", "profile",
+           "protocol", "qzpm", "sensor", "spine", "study", "synth", "twin", "Circuit", "Calibration", "Profile",
+           "load_profile", "__version__"]
 
 TYPE_CHECKING = False
 if TYPE_CHECKING:  # what static checkers and editors see; at run time __getattr__ below imports these
     from . import (acquire, balance, circuit, experiments, frames, iecm, io, noise,
-                   posture, process, protocol, qzpm, sensor, spine, study, synth, twin, units)
+                   posture, process, profile, protocol, qzpm, sensor, spine, study, synth, twin, units)
     from .circuit import Calibration, Circuit
+    from .profile import Profile, load_profile
 
 
 def __getattr__(name: str) -> object:

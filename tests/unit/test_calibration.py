@@ -185,7 +185,9 @@ def test_a_calibration_is_applied_to_a_circuit():
         "GOOD:bits=12.5",
         "GOOD:r_mux_ohm=[[1, 2], [3]]",
         "GOOD:date=\"yesterday\"",
-        "GOOD:version=2",
+        "GOOD:version=3",
+        "GOOD:version=true",
+        "GOOD:pressure=[1]",
         "DROP:serial",
     ],
 )

@@ -1,7 +1,8 @@
 """Balance (thesis chapter 3, docs/spec.md §7): centre of pressure and the thesis' metrics.
 
-* :func:`cop` — the centre of pressure of pressure images (cell (i, p) at
-  :func:`cell_centres_cm`);
+* :func:`cop` — the centre of pressure of pressure images, on the cell centres of a device
+  profile's geometry (:class:`psmat.profile.Geometry`; by default the thesis' mat, cell (i, p)
+  at :func:`cell_centres_cm`);
 * :func:`eu` — the thesis' distance between two CoP traces (eq. 3.1);
 * :func:`sway` — the posturography metrics of a trace (:class:`Sway`);
 * :func:`align` — the time alignment of the mat with a force platform (:class:`Alignment`),

@@ -1,8 +1,11 @@
 """Centre of pressure of pressure images (docs/spec.md §7).
 
-``x = Σ p·x_cell / Σ p`` over cell centres: x is medial–lateral along the columns, y
-anterior–posterior along the rows, in cm. The origin is the centre of cell (0, 0), so cell
-(i, p) sits at ``(p·pitch, i·pitch)`` — the convention of :mod:`psmat.twin.field`.
+``x = Σ p·x_cell / Σ p`` over the cell centres of the mat's geometry
+(:meth:`psmat.profile.Geometry.cell_centres_cm`): x is medial–lateral, y anterior–posterior, in
+cm. The geometry comes from the device profile (docs/spec.md §5 "Device profiles"); without one,
+the default profile's (the thesis' mat): x along the columns, y along the rows, the origin at
+the centre of cell (0, 0), so cell (i, p) sits at ``(p·pitch, i·pitch)`` — the convention of
+:mod:`psmat.twin.field`.
 """
 
 from __future__ import annotations
@@ -10,16 +13,30 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from ..profile import Geometry, default_geometry, geometry_for
+
 __all__ = ["cop", "cell_centres_cm"]
 
 
-def cell_centres_cm(shape: tuple[int, int], pitch_cm: float = 2.0) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """x (columns) and y (rows) of the cell centres, cm: two (C,) and (R,) vectors."""
+def cell_centres_cm(shape: tuple[int, int], pitch_cm: float | None = None
+                    ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """x (columns) and y (rows) of the cell centres in the default orientation, cm: two (C,) and (R,) vectors.
+
+    ``pitch_cm`` None: the default profile's pitch. For any other geometry see
+    :meth:`psmat.profile.Geometry.cell_centres_cm`.
+    """
     R, C = shape
-    return np.arange(C) * float(pitch_cm), np.arange(R) * float(pitch_cm)
+    pitch = default_geometry().pitch_cm if pitch_cm is None else float(pitch_cm)
+    return np.arange(C) * pitch, np.arange(R) * pitch
 
 
-def cop(pressure: ArrayLike, pitch_cm: float = 2.0) -> NDArray[np.float64]:
+def _geometry(shape: tuple[int, ...], pitch_cm: float | None, geometry: Geometry | None) -> Geometry:
+    """The geometry a CoP is computed on (see :func:`cop`), checked against the frames' shape."""
+    return geometry_for((int(shape[0]), int(shape[1])), pitch_cm=pitch_cm, geometry=geometry)
+
+
+def cop(pressure: ArrayLike, pitch_cm: float | None = None, *, geometry: Geometry | None = None
+        ) -> NDArray[np.float64]:
     """Centre of pressure, cm.
 
     Parameters
@@ -27,8 +44,13 @@ def cop(pressure: ArrayLike, pitch_cm: float = 2.0) -> NDArray[np.float64]:
     pressure : array_like, (..., R, C)
         Pressure images (any unit: the CoP does not depend on it), >= 0, e.g. (T, R, C) or
         one (R, C) frame; NaN cells (missing readings) are left out of both sums.
-    pitch_cm : float
-        Cell pitch (thesis mat: 2 cm).
+    pitch_cm : float, optional
+        Cell pitch (cm) of a mat in the default orientation (x along the columns, y along the
+        rows, cell (0, 0) at the origin). Not with ``geometry``.
+    geometry : psmat.profile.Geometry, optional
+        Where the cells are (a profile's ``geometry``: pitch, origin, axis directions), for
+        frames of its shape. Neither given: the default profile's geometry (the thesis' mat,
+        2 cm pitch) for the frames' shape.
 
     Returns
     -------
@@ -38,15 +60,19 @@ def cop(pressure: ArrayLike, pitch_cm: float = 2.0) -> NDArray[np.float64]:
     p = np.asarray(pressure, dtype=np.float64)
     if p.ndim < 2:
         raise ValueError(f"pressure must be (..., R, C), got shape {p.shape}")
-    if not (np.isfinite(pitch_cm) and pitch_cm > 0):
-        raise ValueError(f"pitch_cm must be positive, got {pitch_cm}")
+    geo = _geometry(p.shape[-2:], pitch_cm, geometry)
     if np.any(p < 0):
         idx = tuple(int(v) for v in np.argwhere(p < 0)[0])
         raise ValueError(f"pressure must be >= 0 (index {idx} is {p[idx]:g})")
     p = np.where(np.isfinite(p), p, 0.0)
-    x, y = cell_centres_cm(p.shape[-2:], pitch_cm)
     total = p.sum(axis=(-2, -1))
-    with np.errstate(invalid="ignore", divide="ignore"):
-        out = np.stack([p.sum(axis=-2) @ x / total, p.sum(axis=-1) @ y / total], axis=-1)
+    coords = []
+    for coordinate in ("x", "y"):
+        # each coordinate changes along one axis of the frame: sum over the other, then weigh the lines
+        axis, pos = geo.axis_positions_cm(coordinate)
+        lines = p.sum(axis=-2) if axis == -1 else p.sum(axis=-1)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            coords.append(lines @ pos / total)
+    out = np.stack(coords, axis=-1)
     out[total <= 0] = np.nan
     return out

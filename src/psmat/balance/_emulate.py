@@ -17,6 +17,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from .. import _checks
+from ..profile import default_geometry
 from ._cop import cop
 
 __all__ = ["Subgrid", "subgrids", "subgrid_cops"]
@@ -32,13 +33,16 @@ class Subgrid(NamedTuple):
     pitch_cm: float  # k · pitch
 
 
-def subgrids(images: ArrayLike, pitch_cm: float = 2.0, factor: int = 2) -> Iterator[Subgrid]:
-    """The ``factor²`` sub-grids of ``images`` (..., R, C), each keeping one of ``factor`` rows and columns."""
+def subgrids(images: ArrayLike, pitch_cm: float | None = None, factor: int = 2) -> Iterator[Subgrid]:
+    """The ``factor²`` sub-grids of ``images`` (..., R, C), each keeping one of ``factor`` rows and columns.
+
+    ``pitch_cm`` (cm) is the full mat's; None: the default profile's (docs/spec.md §5 "Device profiles").
+    """
     a = np.asarray(images, dtype=np.float64)
     if a.ndim < 2:
         raise ValueError(f"images must be (..., R, C), got shape {a.shape}")
     k = _checks.positive_int("factor", factor, minimum=2)
-    pitch = _checks.positive("pitch_cm", pitch_cm)
+    pitch = _checks.positive("pitch_cm", default_geometry().pitch_cm if pitch_cm is None else pitch_cm)
     R, C = a.shape[-2:]
     if R < k or C < k:
         raise ValueError(f"a {R}x{C} mat has no {k}x coarser sub-grid")
@@ -47,7 +51,7 @@ def subgrids(images: ArrayLike, pitch_cm: float = 2.0, factor: int = 2) -> Itera
             yield Subgrid(r0, c0, a[..., r0::k, c0::k], np.array([c0 * pitch, r0 * pitch]), k * pitch)
 
 
-def subgrid_cops(pressure_kpa: ArrayLike, pitch_cm: float = 2.0, factor: int = 2) -> NDArray[np.float64]:
+def subgrid_cops(pressure_kpa: ArrayLike, pitch_cm: float | None = None, factor: int = 2) -> NDArray[np.float64]:
     """CoP (cm, full-mat coordinates) of each sub-grid: (factor², ..., 2), choices in row-major order.
 
     ``pressure_kpa`` (..., R, C): any pressure unit gives the same CoP; the chain's is kPa.

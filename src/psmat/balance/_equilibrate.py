@@ -52,6 +52,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from .. import _checks
+from ..profile import default_geometry
 from ..sensor import MPICreep, frame_periods
 from ..units import PSI_PA
 from ._scale import scale_factor, trial_cells, usable_steps
@@ -181,7 +182,7 @@ def _fit(forces: Callable[[NDArray[np.float64]], NDArray[np.float64]], B: NDArra
 
 
 def equilibrate(g: ArrayLike, periods: float | ArrayLike, weight_n: float | ArrayLike | None, *,
-                sensor: MPICreep | None = None, cell_area_cm2: float = 4.0, block_s: float = 0.5,
+                sensor: MPICreep | None = None, cell_area_cm2: float | None = None, block_s: float = 0.5,
                 contrast: float = 100.0, max_iter: int = 20) -> Equilibration:
     """Learn the per-cell gains of a mat from one standing trial.
 
@@ -196,8 +197,8 @@ def equilibrate(g: ArrayLike, periods: float | ArrayLike, weight_n: float | Arra
         Body weight W (N), or the platform's vertical force on the mat's frames (N).
     sensor : MPICreep, optional
         The nominal sensor model (default the thesis' Table 2.11).
-    cell_area_cm2 : float
-        Cell area A (cm²).
+    cell_area_cm2 : float, optional
+        Cell area A (cm²); default the default profile's (docs/spec.md §5 "Device profiles").
     block_s : float
         Length (s) of the blocks whose mean force is fitted: the bandwidth of the fit.
     contrast : float
@@ -220,7 +221,8 @@ def equilibrate(g: ArrayLike, periods: float | ArrayLike, weight_n: float | Arra
     shape = np.shape(g)[1:]
     per = frame_periods(periods, T)
     w_all = _weights(weight_n, T)
-    area = _checks.positive("cell_area_cm2", cell_area_cm2)
+    area = _checks.positive("cell_area_cm2", default_geometry().cell_area_cm2 if cell_area_cm2 is None
+                            else cell_area_cm2)
     block = _checks.positive("block_s", block_s)
     ratio = _checks.positive("contrast", contrast)
     iters = _checks.positive_int("max_iter", max_iter)

@@ -23,6 +23,7 @@ from numpy.typing import ArrayLike
 from scipy import optimize
 
 from .. import _checks
+from ..profile import default_geometry
 from ..sensor import MPICreep, frame_periods, steps_over_gaps
 from ..units import PSI_PA
 
@@ -40,12 +41,18 @@ def trial_cells(g: ArrayLike) -> np.ndarray:
 
 
 def mean_force_n(g: ArrayLike, dt: float | ArrayLike, f: float = 1.0, sensor: MPICreep | None = None,
-                 cell_area_cm2: float = 4.0) -> float:
+                 cell_area_cm2: float | None = None) -> float:
     """Left side of eq. 3.3 (N): the trial's mean of ``Σ M(f·g)·A`` over its complete frames."""
     cells = trial_cells(g)
     usable, steps = usable_steps(cells, frame_periods(dt, cells.shape[0]))
     return _mean_force(cells[usable], steps, f, sensor or MPICreep.thesis(),
-                       _checks.positive("cell_area_cm2", cell_area_cm2))
+                       _cell_area(cell_area_cm2))
+
+
+def _cell_area(cell_area_cm2: float | None) -> float:
+    """The cell area (cm²), checked; None: the default profile's (docs/spec.md §5 "Device profiles")."""
+    return _checks.positive("cell_area_cm2", default_geometry().cell_area_cm2 if cell_area_cm2 is None
+                            else cell_area_cm2)
 
 
 def usable_steps(cells: np.ndarray, periods: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -55,15 +62,17 @@ def usable_steps(cells: np.ndarray, periods: np.ndarray) -> tuple[np.ndarray, np
     return usable, steps_over_gaps(periods, usable)[0]
 
 
-def _mean_force(cells: np.ndarray, steps: np.ndarray, f: float, sensor: MPICreep, area_cm2: float) -> float:
-    """Mean force (N) of the complete frames ``cells`` (U, n) stepped by ``steps`` (U,): one run over the trial."""
-    p_psi = sensor.inverse(f * cells, steps)
-    return float(np.mean(p_psi.sum(axis=1)) * PSI_PA * area_cm2 * 1e-4)
+def _mean_force(cells: np.ndarray, steps: np.ndarray, f: float, sensor: MPICreep, area_cm2: float,
+                in_mean: np.ndarray | None = None) -> float:
+    """Mean force (N) of the complete frames ``cells`` (U, n) stepped by ``steps`` (U,): one run over the trial;
+    the mean over the frames ``in_mean`` (U,) bool, default all."""
+    force = sensor.inverse(f * cells, steps).sum(axis=1)
+    return float(np.mean(force if in_mean is None else force[in_mean]) * PSI_PA * area_cm2 * 1e-4)
 
 
 def scale_factor(g: ArrayLike, dt: float | ArrayLike, weight_n: float, sensor: MPICreep | None = None,
-                 cell_area_cm2: float = 4.0, *, bracket: tuple[float, float] = (1e-3, 1e3),
-                 rtol: float = 1e-10) -> float:
+                 cell_area_cm2: float | None = None, *, bracket: tuple[float, float] = (1e-3, 1e3),
+                 rtol: float = 1e-10, mean_over: ArrayLike | None = None) -> float:
     """Solve eq. 3.3 for ``f``.
 
     Parameters
@@ -78,12 +87,15 @@ def scale_factor(g: ArrayLike, dt: float | ArrayLike, weight_n: float, sensor: M
         Body weight W (N).
     sensor : MPICreep, optional
         The nominal sensor model (the pneumatic fit); default the thesis' (Table 2.11).
-    cell_area_cm2 : float
-        Cell area A (cm²); 4 cm² on the thesis mat.
+    cell_area_cm2 : float, optional
+        Cell area A (cm²); default the default profile's (4 cm² on the thesis mat).
     bracket : (low, high)
         Where ``f`` is searched.
     rtol : float
         Relative tolerance on ``f`` (dimensionless).
+    mean_over : (T,) bool array, optional
+        The frames whose force enters the mean (default all): e.g. only those with the load
+        settled; the sensor model still runs over every complete frame (the load's history).
 
     Returns
     -------
@@ -99,7 +111,7 @@ def scale_factor(g: ArrayLike, dt: float | ArrayLike, weight_n: float, sensor: M
     cells = trial_cells(g)
     periods = frame_periods(dt, cells.shape[0])
     w = _checks.positive("weight_n", weight_n)
-    area = _checks.positive("cell_area_cm2", cell_area_cm2)
+    area = _cell_area(cell_area_cm2)
     lo, hi = _checks.pair("bracket", bracket, labels="low, high")
     rtol = _checks.positive("rtol", rtol)
     if not 0 < lo < hi:
@@ -114,9 +126,17 @@ def scale_factor(g: ArrayLike, dt: float | ArrayLike, weight_n: float, sensor: M
 
     usable, steps = usable_steps(cells, periods)  # once: every evaluation of the root reuses them
     cells = cells[usable]
+    in_mean = None
+    if mean_over is not None:
+        chosen = np.asarray(mean_over, dtype=bool)
+        if chosen.shape != usable.shape:
+            raise ValueError(f"mean_over must be one flag per frame {usable.shape}, got shape {chosen.shape}")
+        in_mean = chosen[usable]
+        if not in_mean.any():
+            raise ValueError("mean_over leaves no complete frame in the mean")
 
     def excess(f: float) -> float:
-        return _mean_force(cells, steps, f, sensor, area) - w
+        return _mean_force(cells, steps, f, sensor, area, in_mean) - w
 
     def log_ratio(u: float) -> float:
         with np.errstate(divide="ignore"):

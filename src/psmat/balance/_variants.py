@@ -29,8 +29,9 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from ..profile import Geometry
 from ..sensor import MPICreep, inverse_over_gaps
-from ._cop import cop
+from ._cop import _geometry, cop
 from ._emulate import subgrids
 from ._equilibrate import equilibrate
 from ._scale import scale_factor
@@ -44,6 +45,8 @@ VARIANTS = BASE_VARIANTS + tuple(f"{v}-8x8" for v in BASE_VARIANTS)
 #: Variants beyond the thesis, computed when asked for by name.
 EXTRA_VARIANTS = ("SCHC-EQ",)
 KNOWN_VARIANTS = VARIANTS + EXTRA_VARIANTS
+#: Rows and columns of the full mat per row and column of the emulated 8×8 one (thesis §3.2.1).
+_FACTOR = 2
 
 
 @dataclass(frozen=True)
@@ -130,8 +133,9 @@ class VariantTrace:
 
 
 def variant_traces(G: ArrayLike, g: ArrayLike, periods: float | ArrayLike, *, weight_n: float | None,
-                   sensor: MPICreep | None = None, pitch_cm: float = 2.0, cell_area_cm2: float = 4.0,
-                   names: tuple[str, ...] = VARIANTS) -> dict[str, VariantTrace]:
+                   sensor: MPICreep | None = None, pitch_cm: float | None = None,
+                   cell_area_cm2: float | None = None, names: tuple[str, ...] = VARIANTS,
+                   geometry: Geometry | None = None) -> dict[str, VariantTrace]:
     """The CoP of each named variant from the chain's G and g (T, R, C); missing frames NaN.
 
     Parameters
@@ -145,10 +149,17 @@ def variant_traces(G: ArrayLike, g: ArrayLike, periods: float | ArrayLike, *, we
         Body weight (N), needed by the SCHC variants only.
     sensor : MPICreep, optional
         The nominal sensor model (default the thesis' Table 2.11).
-    pitch_cm, cell_area_cm2 : float
-        Cell pitch and cell area of the full mat.
+    pitch_cm : float, optional
+        Cell pitch of the full mat (cm), in the default orientation (:func:`cop`); not with
+        ``geometry``.
+    cell_area_cm2 : float, optional
+        Cell area of the full mat (cm²); default the geometry's, ``pitch²``.
     names : tuple of str
         Which variants (default :data:`VARIANTS`; any of :data:`KNOWN_VARIANTS`).
+    geometry : psmat.profile.Geometry, optional
+        Where the full mat's cells are (a profile's geometry); the 8×8 choices are placed in its
+        coordinates (:meth:`~psmat.profile.Geometry.subgrid`). Neither this nor ``pitch_cm``:
+        the default profile's geometry.
     """
     unknown = [n for n in names if n not in KNOWN_VARIANTS]
     if unknown:
@@ -158,17 +169,20 @@ def variant_traces(G: ArrayLike, g: ArrayLike, periods: float | ArrayLike, *, we
     G = np.asarray(G, dtype=np.float64)
     g = np.asarray(g, dtype=np.float64)
     sensor = sensor or MPICreep.thesis()
+    geo = _geometry(G.shape[-2:], pitch_cm, geometry)
+    cell_area = geo.cell_area_cm2 if cell_area_cm2 is None else float(cell_area_cm2)
     out: dict[str, VariantTrace] = {}
     for name in names:
         base, coarse = name.removesuffix("-8x8"), name.endswith("-8x8")
         if coarse:
-            choices = [(s.images, s.offset_cm, s.pitch_cm) for s in subgrids(G if base == "PROP-C" else g, pitch_cm)]
-            area = cell_area_cm2 * 4.0
+            choices = [(s.images, geo.subgrid(s.rows0, s.cols0, _FACTOR))
+                       for s in subgrids(G if base == "PROP-C" else g, geo.pitch_cm, _FACTOR)]
+            area = cell_area * _FACTOR**2  # each kept cell stands for the cells skipped around it
         else:
-            choices = [(G if base == "PROP-C" else g, np.zeros(2), pitch_cm)]
-            area = cell_area_cm2
+            choices = [(G if base == "PROP-C" else g, geo)]
+            area = cell_area
         cops, factors = [], []
-        for img, offset, pitch in choices:
+        for img, where in choices:
             if base in ("PROP", "PROP-C"):
                 p = img
             elif base == "CHC":
@@ -181,6 +195,6 @@ def variant_traces(G: ArrayLike, g: ArrayLike, periods: float | ArrayLike, *, we
                 f = scale_factor(img, periods, float(weight_n), sensor, area)
                 factors.append(f)
                 p = inverse_over_gaps(sensor, f * img, periods)
-            cops.append(cop(p, pitch) + offset)
+            cops.append(cop(p, geometry=where))
         out[name] = VariantTrace(name, np.stack(cops), np.array(factors) if factors else None)
     return out

@@ -1,5 +1,10 @@
 """Calibration of a DAQ box as data: R_adc, R_mux and their diagnostics, with JSON I/O (docs/spec.md §2).
 
+The file may also carry the mat's pressure calibration (docs/spec.md §4, :mod:`psmat.pressure`)
+under ``"pressure"``: opaque here (a JSON object this layer stores and gives back), so a file may
+hold the electronics part, the pressure part or both. Version 2 of the format added it and lets
+the electronics keys be absent; version 1 files (always with R_adc and R_mux) still load.
+
 A calibration is data, stored with the box's serial number (JSON, :meth:`Calibration.save` /
 :meth:`Calibration.load`) and applied with :meth:`psmat.circuit.Circuit.calibrated`. The
 estimates come from recordings through :func:`psmat.circuit.from_recordings` (thesis §2.1.4
@@ -25,7 +30,11 @@ from ._checks import check_constants
 __all__ = ["Calibration", "OpenCircuitStats", "ShortCircuitStats"]
 
 _FORMAT = "psmat-calibration"
-_VERSION = 1
+_VERSION = 2
+#: versions this psmat reads: 1 (electronics only), 2 (optional electronics, optional "pressure")
+_READS = (1, 2)
+#: keys of the electronics part, absent from a version-2 file without one
+_ELECTRONICS = ("r_adc_ohm", "r_mux_ohm", "open_circuit", "short_circuit")
 
 
 def _reject_constant(name: str) -> Any:
@@ -106,9 +115,10 @@ class Calibration:
     ----------
     serial : str
         Serial number of the DAQ box.
-    r_adc : float
-        ADC input resistance (Ω), > 0.
-    r_mux : float or ndarray, shape (R, C)
+    r_adc : float or None
+        ADC input resistance (Ω), > 0; None (with ``r_mux`` None): no electronics part, only
+        the pressure part (the box's nominal R_adc and R_mux apply).
+    r_mux : float or ndarray, shape (R, C), or None
         Series resistance of the two mux channels (Ω), >= 0: one value, or one per pair.
     r_o, v_ref, bits : float, float, int
         Circuit constants the estimates were made with: divider resistor (Ω), reference
@@ -121,11 +131,14 @@ class Calibration:
         Diagnostics of the open-circuit recording, if ``r_adc`` came from one.
     short_stats : ShortCircuitStats or None
         Diagnostics of the short-circuit recordings, if ``r_mux`` came from them.
+    mat_calibration : dict or None
+        The mat's pressure calibration (:meth:`psmat.pressure.PressureCalibration.to_dict`),
+        stored as given.
     """
 
     serial: str
-    r_adc: float
-    r_mux: float | NDArray[np.float64]
+    r_adc: float | None = None
+    r_mux: float | NDArray[np.float64] | None = None
     r_o: float = 2200.0
     v_ref: float = 3.3
     bits: int = 12
@@ -133,6 +146,12 @@ class Calibration:
     notes: str = ""
     open_stats: OpenCircuitStats | None = None
     short_stats: ShortCircuitStats | None = None
+    mat_calibration: dict[str, Any] | None = None
+
+    @property
+    def has_electronics(self) -> bool:
+        """Whether the file holds R_adc and R_mux (else only a pressure part)."""
+        return self.r_adc is not None
 
     def __post_init__(self) -> None:
         if not isinstance(self.serial, str):
@@ -145,6 +164,15 @@ class Calibration:
             _dt.datetime.fromisoformat(self.date)
         except ValueError:
             raise ValueError(f"date must be ISO 8601 (YYYY-MM-DD[THH:MM:SS]), got {self.date!r}") from None
+        if self.mat_calibration is not None:
+            if not isinstance(self.mat_calibration, Mapping):
+                raise TypeError(f"mat_calibration must be a dict, got {type(self.mat_calibration).__name__}")
+            self.mat_calibration = dict(self.mat_calibration)
+        if (self.r_adc is None) != (self.r_mux is None):
+            raise ValueError("r_adc and r_mux come together: give both (the electronics part) or neither")
+        if self.r_adc is None:  # no electronics part: the constants are still checked
+            self.r_o, _, _, self.v_ref, self.bits = check_constants(self.r_o, 0.0, math.inf, self.v_ref, self.bits)
+            return
         # the circuit's own checks (types, ranges, r_mux shape), with the same messages
         self.r_o, self.r_mux, self.r_adc, self.v_ref, self.bits = check_constants(
             self.r_o, self.r_mux, self.r_adc, self.v_ref, self.bits
@@ -160,6 +188,7 @@ class Calibration:
             and np.array_equal(self.r_mux, other.r_mux)
             and self.open_stats == other.open_stats
             and self.short_stats == other.short_stats
+            and self.mat_calibration == other.mat_calibration
         )
 
     __hash__ = None  # type: ignore[assignment]
@@ -180,11 +209,17 @@ class Calibration:
             "r_o_ohm": self.r_o,
             "v_ref_volt": self.v_ref,
             "bits": self.bits,
+            "pressure": self.mat_calibration,
+        }
+        if not self.has_electronics:
+            return d
+        assert self.r_adc is not None and self.r_mux is not None
+        d.update({
             "r_adc_ohm": None if math.isinf(self.r_adc) else self.r_adc,
             "r_mux_ohm": self.r_mux if isinstance(self.r_mux, float) else arr(self.r_mux),
             "open_circuit": None,
             "short_circuit": None,
-        }
+        })
         if self.open_stats is not None:
             s = self.open_stats
             d["open_circuit"] = {
@@ -212,8 +247,12 @@ class Calibration:
                 raise TypeError("top level is not an object")
             if d.get("format") != _FORMAT:
                 raise ValueError(f"'format' is {d.get('format')!r}, expected {_FORMAT!r}")
-            if d.get("version") != _VERSION:
-                raise ValueError(f"unsupported version {d.get('version')!r} (this psmat reads {_VERSION})")
+            version = d.get("version")
+            if isinstance(version, bool) or version not in _READS:
+                raise ValueError(f"unsupported version {version!r} (this psmat reads {', '.join(map(str, _READS))})")
+            pressure = d.get("pressure") if version >= 2 else None
+            if pressure is not None and not isinstance(pressure, Mapping):
+                raise TypeError(f"'pressure' must be an object, got {pressure!r}")
 
             def num(x: Any, key: str) -> float:
                 if isinstance(x, bool) or not isinstance(x, (int, float)):
@@ -225,6 +264,16 @@ class Calibration:
                 if a.ndim != 2 or a.size == 0:
                     raise ValueError(f"{key!r} must be a non-empty 2-D nested list")
                 return a
+
+            if version >= 2 and "r_adc_ohm" not in d and "r_mux_ohm" not in d:  # the pressure part alone
+                if any(k in d for k in _ELECTRONICS):
+                    raise ValueError("open_circuit/short_circuit without r_adc_ohm and r_mux_ohm")
+                bits = d["bits"]
+                if isinstance(bits, bool) or not isinstance(bits, int):
+                    raise TypeError(f"'bits' must be an integer, got {bits!r}")
+                return cls(serial=d["serial"], r_o=num(d["r_o_ohm"], "r_o_ohm"),
+                           v_ref=num(d["v_ref_volt"], "v_ref_volt"), bits=bits, date=d["date"],
+                           notes=d.get("notes", ""), mat_calibration=pressure)
 
             rm = d["r_mux_ohm"]
             r_mux = arr(rm, "r_mux_ohm") if isinstance(rm, list) else num(rm, "r_mux_ohm")
@@ -262,6 +311,7 @@ class Calibration:
                 notes=d.get("notes", ""),
                 open_stats=open_stats,
                 short_stats=short_stats,
+                mat_calibration=pressure,
             )
         except (KeyError, TypeError, ValueError, AttributeError) as exc:
             what = f"missing key {exc}" if isinstance(exc, KeyError) else str(exc)

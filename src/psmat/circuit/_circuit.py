@@ -140,6 +140,8 @@ class Circuit:
         """
         if not isinstance(cal, Calibration):
             raise TypeError(f"expected a Calibration, got {type(cal).__name__}")
+        if not cal.has_electronics:
+            raise ValueError(f"calibration {cal.serial!r} holds no R_adc and R_mux (only a pressure part)")
         for name, mine, theirs in (("r_o", self.r_o, cal.r_o), ("v_ref", self.v_ref, cal.v_ref)):
             if not math.isclose(mine, theirs, rel_tol=1e-9):
                 raise ValueError(f"calibration {cal.serial!r} was made with {name}={theirs}, circuit has {mine}")

@@ -36,7 +36,7 @@ infinities:
 from ..units import PSI_KPA
 from ._chain import Processed, Processor, open_floor, process_counts
 from ._clock import SessionClock, session_clock
-from ._session import process_loaded, process_session, session_circuit
+from ._session import process_loaded, process_session, session_circuit, session_pressure
 
 __all__ = ["Processed", "Processor", "process_counts", "process_loaded", "process_session", "session_circuit",
-           "session_clock", "SessionClock", "open_floor", "PSI_KPA"]
+           "session_pressure", "session_clock", "SessionClock", "open_floor", "PSI_KPA"]

@@ -14,6 +14,9 @@ from numpy.typing import ArrayLike, NDArray
 from .. import _checks, iecm
 from ..balance import cop
 from ..circuit import OPEN, SHORT, Circuit
+from ..pressure import PressureCalibration
+from ..pressure import describe as describe_pressure
+from ..profile import Geometry, geometry_for
 from ..sensor import MPICreep, frame_periods, steps_over_gaps
 from ..units import PSI_KPA
 from ._clock import SessionClock
@@ -66,11 +69,19 @@ class Processor:
     circuit : Circuit, optional
         The box's measurement chain (with its calibration); default ``Circuit()``.
     sensor : MPICreep, optional
-        Sensor model for compensation; default the thesis' (Table 2.11).
+        Sensor model for compensation; default the pressure calibration's when it has one, else
+        the thesis' (Table 2.11).
     g_rest : float
         Conductance of an unloaded cell (S), subtracted before the sensor model.
-    pitch_cm : float
-        Cell pitch for the CoP, cm.
+    mat_calibration : PressureCalibration, optional
+        The mat's pressure calibration (:mod:`psmat.pressure`): the sensor model runs on
+        ``max(g − g_rest, 0) · gains · scale``; ``params["pressure_calibration"]`` says which
+        (``"uncalibrated: ..."`` without one).
+    pitch_cm : float, optional
+        Cell pitch for the CoP (cm) of a mat in the default orientation; not with ``geometry``.
+    geometry : psmat.profile.Geometry, optional
+        Where the cells are, for the CoP (a profile's ``geometry``); neither this nor
+        ``pitch_cm``: the default profile's geometry (docs/spec.md §5 "Device profiles").
     method : str or None
         IECM method (:func:`psmat.iecm.solve`); None computes G and the raw CoP only
         (g, pressure and CoP NaN).
@@ -89,8 +100,9 @@ class Processor:
     """
 
     def __init__(self, shape: tuple[int, int], *, circuit: Circuit | None = None, sensor: MPICreep | None = None,
-                 g_rest: float = 0.0, pitch_cm: float = 2.0, method: str | None = "newton",
-                 threads: int | None = 1) -> None:
+                 g_rest: float = 0.0, pitch_cm: float | None = None, method: str | None = "newton",
+                 threads: int | None = 1, mat_calibration: PressureCalibration | None = None,
+                 geometry: Geometry | None = None) -> None:
         self.shape = _checks.shape2(shape)
         if min(self.shape) < 2:
             raise ValueError(f"shape must be (R, C) with R, C >= 2, got {shape}")
@@ -100,9 +112,19 @@ class Processor:
             raise ValueError(f"unknown method {method!r}; choose one of {iecm.METHODS} or None")
         self.threads = None if threads is None else _checks.positive_int("threads", threads)
         self.circuit = Circuit() if circuit is None else circuit
-        self.sensor = MPICreep.thesis() if sensor is None else sensor
+        if mat_calibration is not None and not isinstance(mat_calibration, PressureCalibration):
+            raise TypeError(f"mat_calibration must be a PressureCalibration, got {type(mat_calibration).__name__}")
+        if mat_calibration is not None and mat_calibration.sensor is not None and sensor is not None:
+            raise ValueError("the pressure calibration has its own sensor model; pass no sensor")
+        gains = None if mat_calibration is None else mat_calibration.gains
+        if gains is not None and gains.shape != self.shape:
+            raise ValueError(f"the pressure calibration is for a {gains.shape[0]}x{gains.shape[1]} mat, this one is "
+                             f"{self.shape[0]}x{self.shape[1]}")
+        self.mat_calibration = mat_calibration
+        self.sensor = sensor or (mat_calibration.sensor if mat_calibration is not None else None) or MPICreep.thesis()
         self.g_rest = float(g_rest)
-        self.pitch_cm = _checks.positive("pitch_cm", pitch_cm)
+        self.geometry = geometry_for(self.shape, pitch_cm=pitch_cm, geometry=geometry)
+        self.pitch_cm = self.geometry.pitch_cm
         self.method = method
         self.floor = open_floor(self.circuit)
         self._stream: iecm.Stream | None = None  # threads == 1: the worker keeps warm start and preconditioner
@@ -110,8 +132,10 @@ class Processor:
         self._state = self.sensor.rest_state(self.shape)
         self._since = 0.0  # time since the previous usable frame not yet stepped by the sensor model, s
         self._params = {"circuit": self.circuit.as_dict(), "sensor": self.sensor.params, "g_rest_s": self.g_rest,
-                        "pitch_cm": self.pitch_cm, "iecm_method": method, "open_policy": "smallest resolvable G",
-                        "missing_policy": "NaN; the sensor model steps over the gap"}
+                        "pitch_cm": self.pitch_cm, "geometry": self.geometry.to_dict(),
+                        "iecm_method": method, "open_policy": "smallest resolvable G",
+                        "missing_policy": "NaN; the sensor model steps over the gap",
+                        "pressure_calibration": describe_pressure(mat_calibration)}
 
     def push(self, counts: ArrayLike, dt: float | ArrayLike, valid: ArrayLike | None = None, *,
              progress: bool | None = None) -> Processed:
@@ -154,11 +178,13 @@ class Processor:
         if self.method is not None and usable.any():
             g[usable], info = self._iecm(G[usable], progress)
             u = np.maximum(g[usable] - self.g_rest, 0.0)
+            if self.mat_calibration is not None:
+                u = self.mat_calibration.effective(u)
             pressure[usable] = self.sensor.inverse(u, steps, self._state) * PSI_KPA
         params = {"dt_s": float(dt) if np.ndim(dt) == 0 else periods.tolist(), **self._params,
                   "frames_missing": int((~usable).sum())}
-        return Processed(G=G, g=g, pressure_kpa=pressure, cop_cm=cop(pressure, self.pitch_cm),
-                         cop_raw_cm=cop(G, self.pitch_cm), usable=usable, params=params, solve_info=info)
+        return Processed(G=G, g=g, pressure_kpa=pressure, cop_cm=cop(pressure, geometry=self.geometry),
+                         cop_raw_cm=cop(G, geometry=self.geometry), usable=usable, params=params, solve_info=info)
 
     def _iecm(self, G: NDArray[np.float64], progress: bool | None) -> tuple[NDArray[np.float64], iecm.SolveInfo]:
         """Crosstalk removal of the usable frames (S), warm-started across pushes."""
@@ -210,8 +236,8 @@ class Processor:
 
 def process_counts(counts: NDArray[Any], dt: float | ArrayLike, *, valid: NDArray[np.bool_] | None = None,
                    circuit: Circuit | None = None, sensor: MPICreep | None = None, g_rest: float = 0.0,
-                   pitch_cm: float = 2.0, method: str | None = "newton", threads: int | None = None,
-                   progress: bool | None = None) -> Processed:
+                   pitch_cm: float | None = None, method: str | None = "newton", threads: int | None = None,
+                   progress: bool | None = None, geometry: Geometry | None = None) -> Processed:
     """Run the chain (:mod:`psmat.process`) on a recording: one push of all its frames.
 
     Parameters
@@ -228,8 +254,8 @@ def process_counts(counts: NDArray[Any], dt: float | ArrayLike, *, valid: NDArra
         Sensor model for compensation; default the thesis' (Table 2.11).
     g_rest : float
         Conductance of an unloaded cell (S), subtracted before the sensor model.
-    pitch_cm : float
-        Cell pitch for the CoP, cm.
+    pitch_cm, geometry
+        Where the cells are, for the CoP, as :class:`Processor` (default the default profile's).
     method, threads
         As :class:`Processor`; ``threads`` None (default) uses all cores.
     progress : bool, optional
@@ -239,5 +265,5 @@ def process_counts(counts: NDArray[Any], dt: float | ArrayLike, *, valid: NDArra
     if c.ndim != 3:
         raise ValueError(f"counts must be (T, R, C), got shape {c.shape}")
     with Processor(c.shape[1:], circuit=circuit, sensor=sensor, g_rest=g_rest, pitch_cm=pitch_cm, method=method,
-                   threads=threads) as proc:
+                   threads=threads, geometry=geometry) as proc:
         return proc.push(c, dt, valid=valid, progress=progress)

@@ -13,6 +13,12 @@ data ... applied when data are loaded"), in this order:
 So a stored calibration is never silently overridden by a ``circuit`` argument; a box
 calibrated after the recording is applied with ``calibration=``. The products' parameters say
 which circuit was used (``circuit_from``).
+
+The mat's pressure calibration (:mod:`psmat.pressure`, the ``"pressure"`` part of a calibration
+file) follows the same order: the ``calibration=`` file's when it has one (a calibration made
+after the recording), else the one the session stores, else none (the nominal model's relative
+kPa). ``params["pressure_calibration"]`` says which, ``pressure_calibration_from`` from where. A
+file with only a pressure part leaves the circuit as it is.
 """
 
 from __future__ import annotations
@@ -21,6 +27,8 @@ import os
 from typing import Any
 
 from ..circuit import Calibration, Circuit
+from ..pressure import PressureCalibration
+from ..profile import Geometry, geometry_for, session_profile
 from ..sensor import MPICreep
 from ._chain import Processed, Processor
 from ._clock import session_clock
@@ -36,7 +44,8 @@ def _stored_circuit(stored: dict[str, Any]) -> Circuit:
     """The circuit a session stores: a calibration file's content or a ``Circuit.as_dict()``."""
     if stored.get("format") == "psmat-calibration":
         cal = Calibration.from_dict(stored)
-        return Circuit(r_o=cal.r_o, v_ref=cal.v_ref, bits=cal.bits).calibrated(cal)
+        nominal = Circuit(r_o=cal.r_o, v_ref=cal.v_ref, bits=cal.bits)
+        return nominal.calibrated(cal) if cal.has_electronics else nominal
     return Circuit(**{arg: stored[k] for k, arg in _CIRCUIT_KEYS.items() if k in stored})
 
 
@@ -56,7 +65,22 @@ def _resolve(session: Any, circuit: Circuit | None,
     if cal.serial and serial is not None and str(serial) != cal.serial:
         raise ValueError(f"{os.path.basename(calibration)} is box {cal.serial!r}; the session was recorded with "
                          f"box {serial!r}")
+    if not cal.has_electronics:
+        return found, source
     return found.calibrated(cal), f"{source}, R_adc and R_mux from {os.path.basename(calibration)}"
+
+
+def session_pressure(session: Any, calibration: str | os.PathLike[str] | None = None
+                     ) -> tuple[PressureCalibration | None, str]:
+    """The mat's pressure calibration for a session (module docstring) and where it came from, in words."""
+    if calibration is not None:
+        part = Calibration.load(calibration).mat_calibration
+        if part is not None:
+            return PressureCalibration.from_dict(part), os.path.basename(calibration)
+    stored = session.calibration or {}
+    if stored.get("format") == "psmat-calibration" and stored.get("pressure") is not None:
+        return PressureCalibration.from_dict(stored["pressure"]), "the session's stored calibration"
+    return None, "none"
 
 
 def session_circuit(session: Any, *, circuit: Circuit | None = None,
@@ -77,10 +101,27 @@ def session_circuit(session: Any, *, circuit: Circuit | None = None,
     return _resolve(session, circuit, calibration)[0]
 
 
+def _session_geometry(session: Any, pitch_cm: float | None,
+                      geometry: Geometry | None) -> tuple[Geometry, dict[str, Any]]:
+    """Where a session's cells are: the caller's ``geometry`` or ``pitch_cm``, else the session's
+    profile's (:func:`psmat.profile.session_profile`); and what the products' params say of it."""
+    shape = session.frame_shape
+    if geometry is not None or pitch_cm is not None:
+        given = "geometry" if geometry is not None else "pitch_cm"
+        return geometry_for(shape, pitch_cm=pitch_cm, geometry=geometry), {"profile": None,
+                                                                           "geometry_from": f"the caller's {given}"}
+    prof = session_profile(session)
+    if prof.geometry is None:
+        raise ValueError(f"the session's profile {prof.name!r} is a {prof.kind} device's: no mat geometry")
+    return (geometry_for(shape, geometry=prof.geometry),
+            {"profile": prof.name, "geometry_from": f"the session's profile {prof.name!r} ({prof.source})"})
+
+
 def process_loaded(session: Any, *, circuit: Circuit | None = None,
                    calibration: str | os.PathLike[str] | None = None, sensor: MPICreep | None = None,
-                   g_rest: float = 0.0, pitch_cm: float = 2.0, method: str | None = "newton",
-                   threads: int | None = 1, progress: bool | None = None) -> Processed:
+                   g_rest: float = 0.0, pitch_cm: float | None = None, method: str | None = "newton",
+                   threads: int | None = 1, progress: bool | None = None,
+                   geometry: Geometry | None = None) -> Processed:
     """Run the chain on a loaded mat session: counts → G → g → pressure (kPa) → CoP.
 
     Each frame is stepped with its own period (:func:`session_clock`: the device clock when the
@@ -94,13 +135,18 @@ def process_loaded(session: Any, *, circuit: Circuit | None = None,
     circuit, calibration
         The session's circuit, in the order of :func:`session_circuit`: the stored
         calibration first, ``circuit`` only for a session without one, then a calibration
-        file's R_adc and R_mux.
+        file's R_adc and R_mux. The pressure calibration: the file's, else the stored one
+        (:func:`session_pressure`).
     sensor : MPICreep, optional
-        Sensor model for compensation; default the thesis' (Table 2.11).
+        Sensor model for compensation; default the pressure calibration's, else the thesis' (Table 2.11).
     g_rest : float
         Conductance of an unloaded cell (S), subtracted before the sensor model.
-    pitch_cm : float
-        Cell pitch for the CoP, cm.
+    pitch_cm : float, optional
+        Cell pitch for the CoP (cm), in the default orientation; not with ``geometry``.
+    geometry : psmat.profile.Geometry, optional
+        Where the cells are, for the CoP. Neither given: the geometry of the session's profile
+        (:func:`psmat.profile.session_profile`: the stored one, else one built from the device
+        record), as ``params["geometry"]``, ``["profile"]`` and ``["geometry_from"]`` record.
     method, threads
         As :class:`Processor`: ``threads=1`` (default) solves the frames in order on one worker.
     progress : bool, optional
@@ -124,20 +170,24 @@ def process_loaded(session: Any, *, circuit: Circuit | None = None,
         raise ValueError(f"{session.n_frames} frame(s); at least 2 are needed for a frame period")
     clock = session_clock(session)
     cir, source = _resolve(session, circuit, calibration)
-    with Processor(session.frame_shape, circuit=cir, sensor=sensor, g_rest=g_rest, pitch_cm=pitch_cm, method=method,
-                   threads=threads) as proc:
+    pressure, pressure_from = session_pressure(session, calibration)
+    geo, geo_params = _session_geometry(session, pitch_cm, geometry)
+    with Processor(session.frame_shape, circuit=cir, sensor=sensor, g_rest=g_rest, geometry=geo, method=method,
+                   threads=threads, mat_calibration=pressure) as proc:
         out = proc.push(session.counts, clock.periods_s, valid=session.valid, progress=progress)
     del out.params["dt_s"]  # one per frame: the session's own time columns hold them
     out.params.update(frame_clock=f"{clock.source}: each frame stepped with its own period",
-                      median_period_s=clock.step_s, circuit_from=source)
+                      median_period_s=clock.step_s, circuit_from=source, pressure_calibration_from=pressure_from)
+    out.params.update(geo_params)
     out.clock = clock
     return out
 
 
 def process_session(path: str | os.PathLike[str], *, circuit: Circuit | None = None,
                     calibration: str | os.PathLike[str] | None = None, sensor: MPICreep | None = None,
-                    g_rest: float = 0.0, pitch_cm: float = 2.0, method: str | None = "newton",
-                    threads: int | None = None, save: bool = True, progress: bool | None = None) -> Processed:
+                    g_rest: float = 0.0, pitch_cm: float | None = None, method: str | None = "newton",
+                    threads: int | None = None, save: bool = True, progress: bool | None = None,
+                    geometry: Geometry | None = None) -> Processed:
     """Process a recorded PSM session file (:func:`process_loaded`) and (``save``) store the products in it.
 
     The circuit is the session's stored calibration when it has one, else ``circuit`` (else
@@ -152,7 +202,7 @@ def process_session(path: str | os.PathLike[str], *, circuit: Circuit | None = N
     s = load_session(path)
     try:
         out = process_loaded(s, circuit=circuit, calibration=calibration, sensor=sensor, g_rest=g_rest,
-                             pitch_cm=pitch_cm, method=method, threads=threads, progress=progress)
+                             pitch_cm=pitch_cm, method=method, threads=threads, progress=progress, geometry=geometry)
     except ValueError as exc:
         raise ValueError(f"{path}: {exc}") from None
     if save:

@@ -30,8 +30,8 @@ COLUMNS = ("subject", "trial", "variant") + METRICS + ("eu_cm", "eu_ml_cm", "eu_
 DEFAULT_PARAMS: dict[str, Any] = {
     "variants": list(VARIANTS),
     "method": "newton",  # IECM
-    "pitch_cm": 2.0,
-    "cell_area_cm2": 4.0,
+    "pitch_cm": None,  # cm; None: the geometry of the session's profile (psmat.profile.session_profile)
+    "cell_area_cm2": None,  # cm²; None: the cell area of that geometry (pitch²)
     "window_s": None,  # None: the whole overlap of mat and platform
     "max_lag_s": None,
     "align_on": "PROP",
@@ -134,6 +134,7 @@ def _process(session: Path, forceplate: Path | None, subject: str, trial: str, w
              p: dict[str, Any], names: tuple[str, ...], calibration: Path | None, found: Traces) -> Rows:
     from ..io import load_forceplate_csv, load_session
     from ..process import process_loaded
+    from ..profile import session_profile
 
     s = load_session(session)
     if s.kind != "psm":
@@ -155,6 +156,7 @@ def _process(session: Path, forceplate: Path | None, subject: str, trial: str, w
     weight_n = None if weight_kg is None else n_from_kg(float(weight_kg))
     traces = variant_traces(out.G, out.g, periods, weight_n=weight_n, sensor=sensor,
                             pitch_cm=p["pitch_cm"], cell_area_cm2=p["cell_area_cm2"],
+                            geometry=None if p["pitch_cm"] is not None else session_profile(s).geometry,
                             names=tuple(n for n in names if weight_n is not None or not n.startswith("SCHC")))
     base = {"frames": s.n_frames, "frames_missing": missing, "frames_unconverged": unconverged}
     if forceplate is None:

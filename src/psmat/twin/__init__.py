@@ -20,7 +20,8 @@ pressure becomes conductance only through the sensor model (:class:`MatPhysics`)
 * :mod:`psmat.twin.sources` — what each simulated device measures, tick by tick.
 * :mod:`psmat.twin.serial_twin` — :class:`SerialTwin`: the firmware core on the host,
   served on a real pseudo-terminal or on TCP (``socket://127.0.0.1:PORT``, where the system
-  has no pty), with fault injection (:mod:`~psmat.twin.pty_link`, :mod:`~psmat.twin.tcp_link`).
+  has no pty), with fault injection (:mod:`~psmat.twin.pty_link`, :mod:`~psmat.twin.tcp_link`);
+  with ``protocol="csv"`` a do-it-yourself mat printing text lines (:func:`diy_circuit`).
 """
 
 from .anatomy import foot, two_feet
@@ -28,10 +29,10 @@ from .arrays import random_array
 from .conductance import swaying_feet
 from .field import MAT_SIZE_CM, PSI_PA, Lobes, cell_force_n, cell_pressure_psi, mat_pitch_cm
 from .mat import MatPhysics, MatTruth
-from .scenes import PressureScene, quiet_standing, single_leg_sway, trajectory_sway
+from .scenes import PressureScene, quiet_standing, single_leg_sway, trajectory_sway, uniform_load
 from .seated import (SeatedDay, SeatedSession, SeatedSubject, draw_seated_day, draw_seated_subject, seated_session,
                      sitting)
-from .serial_twin import Faults, SerialTwin, TwinStats
+from .serial_twin import Faults, SerialTwin, TwinStats, diy_circuit
 from .sources import SCENES, CalibrationFixture, DaqSource, ImuSource, PsmSource, make_scene
 
 __all__ = [
@@ -40,6 +41,7 @@ __all__ = [
     "Faults",
     "SerialTwin",
     "TwinStats",
+    "diy_circuit",
     "SCENES",
     "CalibrationFixture",
     "DaqSource",
@@ -56,6 +58,7 @@ __all__ = [
     "foot",
     "quiet_standing",
     "single_leg_sway",
+    "uniform_load",
     "sitting",
     "trajectory_sway",
     "two_feet",

@@ -62,6 +62,10 @@ class MatPhysics:
         SD of the ADC-node noise (V); thesis Table 2.4: about 1 mV.
     seed : int
         Seeds the cell gains and the noise.
+    sensitivity : float
+        A global conductance factor on every cell (dimensionless, > 0): the thesis found its
+        large mat 1.3–4× more conductive than the pneumatic samples the model was fitted on
+        (§3.2.2, eq. 3.3). The per-cell gains are ``sensitivity · exp(variability · N(0, 1))``.
     """
 
     shape: tuple[int, int] = (16, 16)
@@ -72,6 +76,7 @@ class MatPhysics:
     circuit: Circuit = field(default_factory=Circuit)
     noise_v: float = 1e-3
     seed: int = 0
+    sensitivity: float = 1.0
 
     def __post_init__(self) -> None:
         R, C = (int(v) for v in self.shape)
@@ -81,11 +86,13 @@ class MatPhysics:
             raise ValueError(f"dt must be a positive number of seconds, got {self.dt}")
         if not (self.variability >= 0 and self.g_rest > 0 and self.noise_v >= 0):
             raise ValueError("variability >= 0, g_rest > 0 (S) and noise_v >= 0 (V) are required")
+        if not (self.sensitivity > 0 and np.isfinite(self.sensitivity)):
+            raise ValueError(f"sensitivity must be a finite factor > 0, got {self.sensitivity!r}")
         self.shape = (R, C)
         if self.sensor is None:
             self.sensor = MPICreep.thesis()
         self._rng = np.random.default_rng(self.seed)
-        self.gain = np.exp(self.variability * self._rng.standard_normal(self.shape))
+        self.gain = self.sensitivity * np.exp(self.variability * self._rng.standard_normal(self.shape))
         self._state = self.sensor.rest_state(self.shape)
 
     def reset(self) -> None:

@@ -10,6 +10,9 @@ the load between their groups so that the field's CoP follows a target
 * :func:`trajectory_sway` — the CoP follows a recorded force-platform trajectory (e.g.
   the BDS data set; :func:`psmat.io.load_bds`), total force following ``Fz``,
   on two feet or on one (:func:`stance_groups`).
+* :func:`uniform_load` — the whole mat under one pressure (a bladder or masses on a rigid
+  plate), put on after an unloaded lead-in: the recordings of an equilibration
+  (:func:`psmat.pressure.equilibrate`).
 * seated scenes — :func:`psmat.twin.seated.sitting` and
   :func:`~psmat.twin.seated.seat_scene` (the cushion, docs/spec.md §8), built on :func:`scene_args`
   and :class:`PressureScene` here.
@@ -38,7 +41,7 @@ from .steering import steer
 from .sway import check_band, sway_noise, time_base
 
 __all__ = ["PressureScene", "quiet_standing", "single_leg_sway", "trajectory_sway", "stance_groups", "scene_args",
-           "STANCES"]
+           "STANCES", "uniform_load"]
 
 #: Stances of :func:`trajectory_sway`: both feet, or only the right or the left foot.
 STANCES = ("two", "right", "left")
@@ -498,3 +501,43 @@ def trajectory_sway(
         {"rate_hz": rate, "seed": None, "offset_cm": offset, "input_rate_hz": float((tt.size - 1) / (tt[-1] - tt[0])),
          **feet},
     )
+
+
+def uniform_load(duration_s: float, rate_hz: float, level_kpa: float, shape: tuple[int, int] = (16, 16),
+                 pitch_cm: float = 2.0, *, onset_s: float = 1.0, ramp_s: float = 0.5) -> PressureScene:
+    """The whole mat under one pressure, put on after an unloaded lead-in.
+
+    Parameters
+    ----------
+    duration_s : float
+        Length of the recording in s.
+    rate_hz : float
+        Frame rate in Hz.
+    level_kpa : float
+        The uniform pressure once the load is on, kPa (> 0).
+    shape : (R, C)
+        Mat size in cells.
+    pitch_cm : float
+        Cell pitch in cm.
+    onset_s : float
+        Unloaded time before the load starts to go on, s (>= 0).
+    ramp_s : float
+        Time the load takes to go on (linear), s (>= 0).
+
+    Returns
+    -------
+    PressureScene
+        Every cell at the same pressure; the CoP at the mat centre.
+    """
+    shape_, pitch, _, _ = _mat_args(shape, pitch_cm, 0.0, 1)
+    level = positive("level_kpa", level_kpa)
+    onset = fraction("onset_s", onset_s, 0.0, math.inf)
+    ramp = fraction("ramp_s", ramp_s, 0.0, math.inf)
+    t, rate = time_base(duration_s, rate_hz)
+    on = np.clip((t - onset) / ramp, 0.0, 1.0) if ramp > 0 else (t >= onset).astype(np.float64)
+    p_psi = np.broadcast_to((level / kpa_from_psi(1.0)) * on[:, None, None], (t.size,) + shape_).copy()
+    force = cell_force_n(p_psi, pitch)
+    cop = np.broadcast_to(mat_centre_cm(shape_, pitch), (t.size, 2)).copy()
+    meta = {"scene": "uniform_load", "shape": shape_, "pitch_cm": pitch, "rate_hz": rate, "level_kpa": level,
+            "onset_s": onset, "ramp_s": ramp}
+    return PressureScene(pressure_psi=p_psi, t=t, cop_true_cm=cop, force_n=force, meta=meta)
