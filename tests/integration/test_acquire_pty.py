@@ -368,3 +368,16 @@ def test_close_while_reconnecting_is_fast() -> None:
     finally:
         dev.close()
         fake.close()
+
+
+def test_cal_hold_asks_for_the_wire_position_of_a_logical_cell() -> None:
+    """The box holds multiplexer channels: on a mat wired out of order (row_order[k] is the logical
+    row of the k-th row on the wire) the logical cell (3, 5) is wire row 12, wire column 0 here."""
+    rows = tuple(range(15, -1, -1))           # wire row k is logical row 15 - k: logical 3 is wire 12
+    cols = (5,) + tuple(c for c in range(16) if c != 5)  # logical column 5 comes first on the wire
+    with FakeDevice(rate=100) as fake:
+        with open_device(fake.port, row_order=rows, col_order=cols) as dev:
+            assert dev.cal_hold(3, 5).status == Status.OK
+            assert dev.cal_resume().status == Status.OK
+        assert [c for c in fake.commands if c[0] == Opcode.CAL_HOLD] == [(Opcode.CAL_HOLD, 12 << 8 | 0),
+                                                                          (Opcode.CAL_HOLD, 0xFFFFFFFF)]

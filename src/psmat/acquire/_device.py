@@ -489,13 +489,19 @@ class Device:
         return reply
 
     def cal_hold(self, row: int, col: int) -> Reply:
-        """Calibration mode: every cell reads the held row-column pair (0-based indices)."""
+        """Calibration mode: every cell reads the held row-column pair (0-based logical indices).
+
+        The box selects multiplexer channels, so a mat wired in another order (``row_order``,
+        ``col_order``) is asked for the wire position of the logical cell.
+        """
         if self.kind != "psm":
             raise AcquireError("cal_hold is a PSM command")
         r, c = self.shape
         if not (0 <= row < r and 0 <= col < c):
             raise ValueError(f"cell ({row}, {col}) is outside the {r}x{c} mat")
-        return self.send_command(Opcode.CAL_HOLD, cal_hold_arg(row, col))
+        wire_row = row if self.row_order is None else self.row_order.index(row)
+        wire_col = col if self.col_order is None else self.col_order.index(col)
+        return self.send_command(Opcode.CAL_HOLD, cal_hold_arg(wire_row, wire_col))
 
     def cal_resume(self) -> Reply:
         """Leave calibration mode (full scans again)."""

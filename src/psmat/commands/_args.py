@@ -13,7 +13,7 @@ from pathlib import Path
 from typing import Any
 
 __all__ = ["shape", "seconds", "session_seconds", "rate_hz", "positive_int", "tcp_port", "nonnegative",
-           "conductance", "input_file", "figure_file", "twin_shape_problem", "TWIN_MAX_LINES",
+           "conductance", "input_file", "figure_file", "twin_shape_problem", "bits", "TWIN_MAX_LINES",
            "IMU_MAX_RATE_HZ"]
 
 #: rows and columns a mat may have: IECM needs at least 2 (docs/spec.md §3), the protocol's
@@ -130,6 +130,17 @@ def _checked(check: Callable[..., float], name: str, value: float, **kwargs: Any
         return check(name, value, **kwargs)
     except ValueError as exc:
         raise argparse.ArgumentTypeError(str(exc)) from None
+
+
+def bits(text: str) -> int:
+    """ADC resolution (bits), an integer 1 ... 16."""
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"must be an integer 1 ... 16, got {text!r}") from None
+    if not 1 <= value <= 16:
+        raise argparse.ArgumentTypeError(f"must be 1 ... 16, got {text!r}")
+    return value
 
 
 def positive_int(text: str) -> int:

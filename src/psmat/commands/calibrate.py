@@ -2,7 +2,10 @@
 
 ``psmat calibrate PORT`` (or ``--simulate``) calibrates the electronics: it asks the person to
 unplug the mat, then to wire a few row–column pairs, records each step and writes the JSON
-that :class:`psmat.Calibration` / :class:`psmat.Circuit` load.
+that :class:`psmat.Calibration` / :class:`psmat.Circuit` load. The box is the ``--profile``'s
+(default psm16, the thesis' 12-bit 3.3 V box): its shape, protocol and circuit; the file records
+that circuit's R_o, V_ref and ADC bits, for which the estimates hold. A box whose open circuit
+reads full scale (R_adc beyond the ADC's resolution, as an Arduino's) keeps the nominal R_adc.
 
 The pressure steps add their part, dated, to a calibration file (``--calibration``, created if
 missing, replaced whole or not at all), from session files recorded with ``psmat record``:
@@ -24,7 +27,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from . import _args
+from . import _args, _profile_args
 
 NAME = "calibrate"
 HELP = ("calibrate the box (R_adc from an open circuit, R_mux from shorted pairs) or the mat's pressure "
@@ -42,9 +45,11 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                    help="the pressure step's recordings: session files (equilibrate: one per level; known-load: "
                         "one), or the material DAQ's log (pneumatic)")
     p.add_argument("--simulate", action="store_true", help="calibrate the digital twin (no person needed)")
-    p.add_argument("--protocol", choices=("v1", "v2"), default="v2",
-                   help="the box's frame format (docs/protocol.md)")
-    p.add_argument("--shape", type=_args.shape, default=(16, 16), help="the mat's rows x columns, e.g. 16x16")
+    _profile_args.add_profile_argument(p)
+    p.add_argument("--protocol", choices=("v1", "v2"), default=None,
+                   help="the box's frame format (docs/protocol.md; default: the profile's)")
+    p.add_argument("--shape", type=_args.shape, default=None,
+                   help="the mat's rows x columns, e.g. 16x16 (default: the profile's, 16x16 for psm16)")
     p.add_argument("--pairs", default="corners",
                    help="row,column pairs to short: 'corners', 'all', or a list like 0,0;15,15")
     p.add_argument("--seconds", type=_args.seconds, default=1.0, help="recording length of each step (s)")
@@ -98,8 +103,13 @@ def run(args: argparse.Namespace) -> int:
         print(f"psmat calibrate: {stray[0]} belongs to a pressure step ({', '.join(STEPS)}), not to the "
               "electronics (PORT or --simulate)", file=sys.stderr)
         return 1
-    R, C = args.shape
-    if args.simulate and (twin_problem := _args.twin_shape_problem(args.shape)):
+    try:  # the box: its shape, protocol and measurement chain
+        prof = _profile_args.resolve(args, "psm")
+    except ValueError as exc:
+        print(f"psmat calibrate: {exc}", file=sys.stderr)
+        return 1
+    R, C = prof.shape
+    if args.simulate and (twin_problem := _args.twin_shape_problem((R, C))):
         print(f"psmat calibrate: {twin_problem}", file=sys.stderr)
         return 1
     try:
@@ -112,12 +122,17 @@ def run(args: argparse.Namespace) -> int:
     if args.simulate:
         from ..twin import CalibrationFixture, PsmSource, SerialTwin
 
-        fixture = CalibrationFixture(PsmSource.named("quiet", 100, (R, C), duration_s=10))
-        twin = SerialTwin("psm", 100, args.protocol, source=fixture, shape=(R, C)).start()
+        rate, note = _profile_args.twin_rate_hz(None, prof)
+        if note:
+            print(f"psmat calibrate: {note}", file=sys.stderr)
+        # the profile's box and mat: shape, circuit (what the open and shorted set-ups read through), wire order
+        fixture = CalibrationFixture(PsmSource.named("quiet", rate, profile=prof, duration_s=10))
+        twin = SerialTwin("psm", rate, prof.protocol, source=fixture, shape=(R, C)).start()
         port = twin.port
     prompt = (lambda text: print(text)) if args.yes or args.simulate else input
     try:
-        with open_device(port, "psm", args.protocol, (R, C)) as dev:
+        with open_device(port, "psm", prof.protocol, (R, C), prof.baudrate, bits=prof.bits, row_order=prof.row_order,
+                         col_order=prof.col_order) as dev:
             # the file name is known once the box has said its serial: refuse before any step
             out = Path(args.out or f"psmat_calibration_{(dev.description or {}).get('serial') or 'unknown'}.json")
             try:
@@ -128,7 +143,7 @@ def run(args: argparse.Namespace) -> int:
             dev.start()
             cal = run_calibration(dev, pairs, seconds=args.seconds, prompt=prompt,
                                   set_fixture=(lambda m: setattr(fixture, "mode", m)) if fixture else None,
-                                  per_pair=args.per_pair)
+                                  per_pair=args.per_pair, circuit=prof.circuit(), rate_hz=prof.rate_hz)
     except (ValueError, RuntimeError) as exc:
         print(f"psmat calibrate: {exc}", file=sys.stderr)
         return 1
@@ -143,8 +158,9 @@ def run(args: argparse.Namespace) -> int:
     r_mux = cal.r_mux if isinstance(cal.r_mux, float) else f"per pair, median {float(__import__('numpy').median(cal.r_mux)):.1f}"
     print(f"R_adc = {cal.r_adc / 1e6:.3g} MOhm, R_mux = {r_mux if isinstance(r_mux, str) else f'{r_mux:.1f}'} Ohm "
           f"(box {cal.serial or 'without serial'})")
-    print(f"written {out}; apply it with psmat.Circuit().calibrated(psmat.Calibration.load(path)), or pass it to "
-          "psmat.process.process_session(..., calibration=path)")
+    print(f"written {out} (R_o {cal.r_o:g} Ohm, V_ref {cal.v_ref:g} V, {cal.bits}-bit: profile {prof.name}); apply "
+          f"it with psmat.Circuit(r_o={cal.r_o:g}, v_ref={cal.v_ref:g}, bits={cal.bits}).calibrated("
+          "psmat.Calibration.load(path)), or pass it to psmat.process.process_session(..., calibration=path)")
     return 0
 
 

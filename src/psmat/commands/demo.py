@@ -3,6 +3,10 @@
 Records a person swaying from the digital twin through the serial link, removes crosstalk,
 compensates the sensor, computes the CoP and compares it with the force platform's; writes
 a figure and the session file. ``--crosstalk`` runs the single-frame crosstalk demo instead.
+
+The mat is the one of ``--profile NAME|FILE`` (default ``psm16``, the thesis' mat; docs/spec.md §5
+"Device profiles"): the twin is a mat of its shape, pitch and circuit, the port is read with its
+protocol, and the session stores it, so the processing places the CoP on its geometry.
 """
 
 from __future__ import annotations
@@ -10,7 +14,9 @@ from __future__ import annotations
 import argparse
 import sys
 
-from . import _args
+from typing import Any
+
+from . import _args, _profile_args
 
 NAME = "demo"
 HELP = "record, process and plot a swaying person on the simulated mat (or --port PORT)"
@@ -23,14 +29,16 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                    "found on USB, else the digital twin)")
     p.add_argument("--twin", action="store_true", help="use the digital twin even if a mat is plugged in")
     p.add_argument("--seconds", type=_args.session_seconds, default=8.0, help="recording length, at most an hour (s)")
-    p.add_argument("--rate", type=_args.positive_int, default=100, help="frame rate of the recording (frames/s)")
+    _profile_args.add_profile_argument(p)
+    p.add_argument("--rate", type=_args.positive_int, default=None,
+                   help="frame rate of the recording (frames/s; default: the profile's)")
     p.add_argument("--session", default="psmat_demo.h5", help="session file to write (HDF5)")
     p.add_argument("--bds-trial", type=int, default=1,
                    help="trial of the BDS data set (force-platform recordings of human sway shipped with psmat) "
                         "driving the twin")
     p.add_argument("--crosstalk", action="store_true", help="run the single-frame crosstalk demo instead")
-    p.add_argument("--shape", type=_args.shape, default=(16, 16),
-                   help="rows x cols of the simulated mat, e.g. 16x16")
+    p.add_argument("--shape", type=_args.shape, default=None,
+                   help="rows x cols of the mat, e.g. 16x16 (default: the profile's; with --crosstalk 16x16)")
     p.add_argument("--noise-mv", type=_args.nonnegative, default=1.0,
                    help="with --crosstalk: standard deviation of the voltage noise on the ADC node (mV)")
     p.add_argument("--seed", type=int, default=0, help="seed of the simulation's random draws")
@@ -39,25 +47,34 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                    help="replace an existing figure or session file (each only once its new one is complete)")
 
 
-def _check(args: argparse.Namespace) -> str | None:
+def _rate(args: argparse.Namespace, prof: Any) -> float:
+    """The recording's frame rate (frames/s): ``--rate``, else the profile's."""
+    return float(args.rate) if args.rate is not None else float(prof.rate_hz)
+
+
+def _check(args: argparse.Namespace, prof: Any) -> str | None:
     """Why the outputs may not be written (one line), or None; nothing is touched."""
     from .. import _checks
     from .._atomic import OutputRefused, check_outputs
     from ..io import journal_path
     from ..io.session import unfinished_line
 
-    if args.rate > _checks.MAX_RATE_HZ:
+    rate = _rate(args, prof)
+    shape = (args.shape or (16, 16)) if args.crosstalk else tuple(prof.shape)
+    if rate > _checks.MAX_RATE_HZ:
         return (f"--rate is at most {_checks.MAX_RATE_HZ} frames/s (the PSM firmware's fastest, docs/spec.md §5), "
-                f"got {args.rate}")
-    if args.port is None and (twin := _args.twin_shape_problem(args.shape)):
+                f"got {rate:g}")
+    if args.port is None and (twin := _args.twin_shape_problem(shape)):
         return twin
     if args.port is None and not args.crosstalk:  # the twin's scene, as workflows.sway_demo sizes it
         from ..twin.sources import check_scene
 
+        if prof.protocol != "csv" and rate != int(rate):
+            return f"the simulated mat's timer takes a whole number of frames per second, got {rate:g} (give --rate)"
         try:
-            check_scene(max(60.0, args.seconds + 1), args.rate, args.shape)
+            check_scene(max(60.0, args.seconds + 1), rate, shape)
         except ValueError as exc:
-            return f"--seconds {args.seconds:g} at --rate {args.rate} on --shape {args.shape[0]}x{args.shape[1]}: {exc}"
+            return f"--seconds {args.seconds:g} at --rate {rate:g} on --shape {shape[0]}x{shape[1]}: {exc}"
     outputs = [args.out] if args.crosstalk else [args.out, args.session]
     if not args.crosstalk:
         unfinished = unfinished_line(args.session)  # its journal is the only copy of that recording
@@ -74,8 +91,14 @@ def _check(args: argparse.Namespace) -> str | None:
 
 
 def run(args: argparse.Namespace) -> int:
-    rows, cols = args.shape
-    problem = _check(args)  # before a port is opened or anything is recorded
+    try:
+        prof = _profile_args.resolve(args, "psm")
+    except ValueError as exc:
+        print(f"psmat demo: {exc}", file=sys.stderr)
+        return 1
+    rows, cols = (args.shape or (16, 16)) if args.crosstalk else tuple(prof.shape)
+    rate = _rate(args, prof)
+    problem = _check(args, prof)  # before a port is opened or anything is recorded
     if problem:
         print(f"psmat demo: {problem}", file=sys.stderr)
         return 1
@@ -89,11 +112,12 @@ def run(args: argparse.Namespace) -> int:
                 args.port = found[0].port
                 print(f"psmat demo: using the mat on {args.port} ({found[0].description}); --twin for the simulation")
 
-        print(f"psmat demo: {args.seconds:g} s of a person swaying, {rows}x{cols} at {args.rate} Hz")
+        print(f"psmat demo: {args.seconds:g} s of a person swaying, {rows}x{cols} at {rate:g} Hz "
+              f"(profile {prof.name}, {prof.pitch_cm:g} cm pitch)")
         try:
-            run_sway_demo(args.out, seconds=args.seconds, rate_hz=args.rate, session=args.session,
-                          bds_trial=args.bds_trial, port=args.port, shape=args.shape, seed=args.seed,
-                          overwrite=args.overwrite)
+            run_sway_demo(args.out, seconds=args.seconds, rate_hz=rate, session=args.session,
+                          bds_trial=args.bds_trial, port=args.port, seed=args.seed, overwrite=args.overwrite,
+                          profile=prof)
         except FileNotFoundError as exc:  # the force-platform trial the twin follows is not there
             print(f"psmat demo: {exc}", file=sys.stderr)
             return 1

@@ -4,6 +4,12 @@ The first device (PORT, --device) is the session's root; each --also KIND=PORT i
 device, recorded as the stream KIND of the same file (e.g. the spine IMUs with the mat,
 docs/spec.md §8). All devices share one host clock, so every stream's host_time_s is on the same
 clock; each device's reader thread appends to its own stream.
+
+The first device is described by its profile (``--profile``, or its kind's shipped one, with
+``--protocol``, ``--shape`` and ``--bits`` overriding those fields; ``psmat profiles`` lists them),
+which the session stores (``Session.profile``); an ``--also`` device by its kind's shipped
+profile, kept under ``"profile"`` in its stream's device dict. A twin (``--simulate``) is the
+profile's device.
 """
 
 from __future__ import annotations
@@ -12,23 +18,12 @@ import argparse
 from dataclasses import dataclass
 from typing import Any
 
-from . import _args
+from . import _args, _profile_args
 
 NAME = "record"
 HELP = "record a session (HDF5) from a mat, IMU or material DAQ, or several at once; Ctrl-C stops cleanly"
 
 KINDS = ("psm", "imu", "daq")
-
-
-def bits(text: str) -> int:
-    """ADC resolution, an integer 1 ... 16."""
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"must be an integer 1 ... 16, got {text!r}") from None
-    if not 1 <= value <= 16:
-        raise argparse.ArgumentTypeError(f"must be 1 ... 16, got {text!r}")
-    return value
 
 
 @dataclass(frozen=True)
@@ -55,22 +50,26 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                    "socket://127.0.0.1:5555 (omit with --simulate)")
     p.add_argument("-o", "--out", required=True, help="session file to write (.h5)")
     p.add_argument("--simulate", action="store_true", help="record the digital twin (one per device)")
-    p.add_argument("--device", choices=KINDS, default="psm",
+    _profile_args.add_profile_argument(p)
+    p.add_argument("--device", choices=KINDS, default=None,
                    help="kind of the first device: psm (a pressure-sensitive mat), imu (spine IMUs, inertial "
-                        "measurement units) or daq (the material data-acquisition box)")
+                        "measurement units) or daq (the material data-acquisition box); default: the --profile's "
+                        "kind, else psm (a --device that disagrees with --profile is refused)")
     p.add_argument("--also", type=also, action="append", default=[], metavar="KIND=PORT",
                    help="one more device recorded into the same file as stream KIND, on the same host clock "
                         "(e.g. --also imu=/dev/ttyACM1; with --simulate just --also imu); repeatable, each kind once")
-    p.add_argument("--protocol", choices=("v1", "v2", "csv"), default="v2",
+    p.add_argument("--protocol", choices=("v1", "v2", "csv"), default=None,
                    help="the devices' frame format (docs/protocol.md): v1, v2, or csv (the text lines of a "
-                        "do-it-yourself mat, e.g. an Arduino: no commands, give --shape and --bits)")
-    p.add_argument("--bits", type=bits, default=None,
-                   help="ADC resolution of a csv mat: a count above 2**bits - 1 is an invalid frame (default 10, an "
-                        "Arduino Uno's ADC; v1/v2 devices carry 12-bit counts and ignore it)")
-    p.add_argument("--shape", type=_args.shape, default=(16, 16), help="the mat's rows x columns, e.g. 16x16")
+                        "do-it-yourself mat, e.g. an Arduino: no commands); default: the profile's (without "
+                        "--profile, csv means the arduino16 mat)")
+    p.add_argument("--bits", type=_args.bits, default=None,
+                   help="ADC resolution of a csv mat: a count above 2**bits - 1 is an invalid frame (default: the "
+                        "profile's, 10 for arduino16; v1/v2 devices carry 12-bit counts)")
+    p.add_argument("--shape", type=_args.shape, default=None,
+                   help="the mat's rows x columns, e.g. 16x16 (default: the profile's, 16x16 for psm16)")
     p.add_argument("--rate", type=_args.rate_hz, default=None,
                    help="ask the first device for this frame rate, the others keep theirs (Hz; default: the "
-                        "device's own)")
+                        "device's own; a twin's is its profile's rate_hz)")
     p.add_argument("--seconds", type=_args.seconds, default=None,
                    help="stop after this long (s; default: at Ctrl-C)")
     p.add_argument("--calibration", type=_args.input_file, default=None,
@@ -82,8 +81,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                    help="replace an existing session file (it stays as it is until the new one is complete)")
 
 
-def _check(args: argparse.Namespace) -> str | None:
-    """What is wrong with the command line that argparse cannot see, or None."""
+def _check(args: argparse.Namespace, profiles: list[Any]) -> str | None:
+    """What is wrong with the command line that argparse cannot see, or None (``profiles``: each
+    device's profile, the first device's first)."""
     import os
 
     from .._atomic import OutputRefused, check_outputs
@@ -92,6 +92,8 @@ def _check(args: argparse.Namespace) -> str | None:
 
     if bool(args.port) == bool(args.simulate):
         return "give a PORT or --simulate"
+    prof = profiles[0]
+    kind = prof.kind
     kinds = [a.kind for a in args.also]
     if len(set(kinds)) != len(kinds):
         return f"--also names each kind once, got {', '.join(kinds)}"
@@ -100,13 +102,14 @@ def _check(args: argparse.Namespace) -> str | None:
             return f"with --simulate, --also takes a kind only (--also {a.kind}), not a port"
         if not args.simulate and not a.port:
             return f"--also {a.kind} needs the device's port: --also {a.kind}=PORT"
-    if args.protocol == "csv" and (args.device != "psm" or args.also):
+    if prof.protocol == "csv" and (kind != "psm" or args.also):
         return "--protocol csv is a do-it-yourself psm mat's text: record it alone, without --device imu/daq or --also"
-    if args.protocol == "csv" and args.rate and not args.simulate:
+    if prof.protocol == "csv" and args.rate and not args.simulate:
         return "a csv mat takes no commands: it keeps its own rate (--rate only with --simulate)"
-    if args.simulate and (twin := _args.twin_shape_problem(args.shape)):
-        return twin
-    if args.rate and args.device == "imu" and args.rate > _args.IMU_MAX_RATE_HZ:
+    for pr in profiles:
+        if args.simulate and pr.kind == "psm" and (twin := _args.twin_shape_problem(tuple(pr.shape))):
+            return twin
+    if args.rate and kind == "imu" and args.rate > _args.IMU_MAX_RATE_HZ:
         return (f"the spine IMUs run at most {_args.IMU_MAX_RATE_HZ} Hz (the BNO055's fusion output), "
                 f"got --rate {args.rate:g}")
     unfinished = unfinished_line(args.out)  # its journals are the only copy of that recording: never replaced
@@ -146,7 +149,13 @@ def run(args: argparse.Namespace) -> int:
     from ..acquire import HostClock, open_device
     from ..io import SessionWriter, load_session, row_counts
 
-    problem = _check(args)
+    try:  # the devices' profiles: the first's from --profile and the options, the others' their kind's
+        kind = _profile_args.device_kind(args)
+        prof = _profile_args.resolve(args, kind)
+        profiles = [prof, *(_also_profile(args, a.kind) for a in args.also)]
+        problem = _check(args, profiles)
+    except ValueError as exc:
+        problem = str(exc)
     if problem:
         print(f"psmat record: {problem}", file=sys.stderr)
         return 1
@@ -159,18 +168,17 @@ def run(args: argparse.Namespace) -> int:
         except (OSError, ValueError) as exc:  # unreadable, not JSON, not a calibration: named by the loader
             print(f"psmat record: {' '.join(str(exc).split())}", file=sys.stderr)
             return 1
-    wanted = [Also(args.device, args.port), *args.also]
+    wanted = [Also(kind, args.port), *args.also]
     clock = HostClock()  # one host clock for every device's frames
     with contextlib.ExitStack() as stack:  # closed in reverse: recording stopped, writer, devices, twins
         ports = [w.port for w in wanted]
         if args.simulate:
-            ports = [_twin(stack, w.kind, args, k) for k, w in enumerate(wanted)]
+            ports = [_twin(stack, pr, args.rate if k == 0 else None, k) for k, pr in enumerate(profiles)]
         devs = []
-        for k, (w, port) in enumerate(zip(wanted, ports)):
-            dev = open_device(port, w.kind, args.protocol, args.shape if w.kind == "psm" else None, clock=clock,
-                              bits=args.bits or (10 if args.protocol == "csv" else 12))
+        for k, (pr, port) in enumerate(zip(profiles, ports)):
+            dev = open_device(port, pr.kind, clock=clock, **_device_options(pr))
             stack.callback(dev.close)
-            if k == 0 and args.rate and not args.simulate and w.kind != "daq":
+            if k == 0 and args.rate and not args.simulate and pr.kind != "daq":
                 dev.set_rate(int(args.rate))
             devs.append(dev)
         root = devs[0]
@@ -180,11 +188,12 @@ def run(args: argparse.Namespace) -> int:
             meta["stream_ports"] = {w.kind: p for w, p in zip(args.also, ports[1:])}
         writer = stack.enter_context(SessionWriter(args.out, root.shape, device=dict(root.description or {}),
                                                    calibration=calibration, metadata=meta, kind=root.kind,
-                                                   overwrite=args.overwrite))
+                                                   profile=prof.to_dict(), overwrite=args.overwrite))
         sources = [_Source(None, root, writer)]
-        for w, dev in zip(args.also, devs[1:]):
+        for w, dev, pr in zip(args.also, devs[1:], profiles[1:]):  # a stream keeps its profile in its device dict
             sources.append(_Source(w.kind, dev, writer.add_stream(w.kind, kind=dev.kind, shape=dev.shape,
-                                                                  device=dict(dev.description or {}))))
+                                                                  device={**(dev.description or {}),
+                                                                          "profile": pr.to_dict()})))
         for src in sources:
             src.dev.record_to(src.writer)
             stack.callback(src.dev.stop_recording)  # the final counters, before the writer closes
@@ -204,12 +213,37 @@ def run(args: argparse.Namespace) -> int:
     return status
 
 
-def _twin(stack: Any, kind: str, args: argparse.Namespace, k: int) -> str:
-    """Start the digital twin of the ``k``-th device (stopped when ``stack`` closes); its port."""
-    from ..twin import SerialTwin
+def _also_profile(args: argparse.Namespace, kind: str) -> Any:
+    """The profile of an ``--also`` device: its kind's shipped one, with the command line's
+    ``--protocol`` (not the DAQ's), ``--shape`` and ``--bits`` (a mat's: it is never the first device then)."""
+    options = argparse.Namespace(profile=None, protocol=None if kind == "daq" else args.protocol,
+                                 shape=args.shape, bits=args.bits)
+    return _profile_args.resolve(options, kind)
 
-    twin = SerialTwin(kind, args.rate if k == 0 else None, args.protocol, shape=args.shape,
-                      serial=f"TWIN{k + 1:04d}").start()
+
+def _device_options(prof: Any) -> dict[str, Any]:
+    """:func:`psmat.acquire.open_device`'s keywords for a device of profile ``prof``."""
+    options: dict[str, Any] = {"baudrate": prof.baudrate}
+    if prof.kind != "daq":  # the DAQ's text lines have one format, whatever the protocol says
+        options["protocol"] = prof.protocol
+    if prof.kind == "psm":
+        options.update(shape=tuple(prof.shape), bits=prof.bits, row_order=prof.row_order, col_order=prof.col_order)
+    return options
+
+
+def _twin(stack: Any, prof: Any, rate_hz: float | None, k: int) -> str:
+    """Start the digital twin of the ``k``-th device, of profile ``prof`` at ``rate_hz`` (None: the
+    profile's), stopped when ``stack`` closes; its port."""
+    import sys
+
+    from ..twin import PsmSource, SerialTwin
+
+    rate, note = _profile_args.twin_rate_hz(rate_hz, prof)
+    if note:
+        print(f"psmat record: {note}", file=sys.stderr)
+    source = PsmSource.named("sway", rate, profile=prof) if prof.kind == "psm" else None
+    twin = SerialTwin(prof.kind, rate, "v2" if prof.kind == "daq" else prof.protocol, source=source,
+                      shape=tuple(prof.shape) if prof.kind == "psm" else (16, 16), serial=f"TWIN{k + 1:04d}").start()
     stack.callback(twin.stop)
     return twin.port
 

@@ -10,28 +10,33 @@ from __future__ import annotations
 
 import argparse
 
-from . import _args
+from . import _args, _profile_args
 
 NAME = "simulate"
 HELP = "serve the simulated mat (or IMU / material DAQ) on a pseudo-terminal or TCP; prints the port first"
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
+    _profile_args.add_profile_argument(p)
     p.add_argument("--rate", type=_args.rate_hz, default=None,
-                   help="frame rate, at most 1000 (frames/s; default: the device's own, 100 for the mat)")
-    p.add_argument("--protocol", choices=("v1", "v2", "csv"), default="v2",
-                   help="frame format (docs/protocol.md); csv: a do-it-yourself mat's text lines, one frame per line, "
-                        "10-bit counts of an Arduino at 5 V (the mat only)")
-    p.add_argument("--device", choices=("psm", "imu", "daq"), default="psm",
+                   help="frame rate, at most 1000 (frames/s; default: the profile's rate_hz, rounded to a whole "
+                        "number for a firmware's timer: 100 for the thesis' mat)")
+    p.add_argument("--protocol", choices=("v1", "v2", "csv"), default=None,
+                   help="frame format (docs/protocol.md); csv: a do-it-yourself mat's text lines, one frame per line "
+                        "(the mat only; without --profile the arduino16 mat's 10-bit counts at 5 V); default: the "
+                        "profile's")
+    p.add_argument("--device", choices=("psm", "imu", "daq"), default=None,
                    help="which device to simulate: psm (the pressure-sensitive mat), imu (the spine IMUs, "
-                        "inertial measurement units) or daq (the material data-acquisition box)")
+                        "inertial measurement units) or daq (the material data-acquisition box); default: the "
+                        "--profile's kind, else psm (one that disagrees with --profile is refused)")
     p.add_argument("--scene", default="sway",
                    help="the mat's scene: sway (a force-platform trajectory of the BDS data set), quiet, "
                         "single-leg, sitting")
     p.add_argument("--bds-trial", type=int, default=1,
                    help="trial of the BDS data set (force-platform recordings of human sway shipped with psmat) "
                         "driving the sway scene")
-    p.add_argument("--shape", type=_args.shape, default=(16, 16), help="the mat's rows x columns, e.g. 16x16")
+    p.add_argument("--shape", type=_args.shape, default=None,
+                   help="the mat's rows x columns, e.g. 16x16 (default: the profile's, 16x16 for psm16)")
     p.add_argument("--faults", default="", help="fault injection (default: none), e.g. bit_flip=1e-5,drop_byte=1e-6,"
                    "stall_every_s=5,stall_s=0.2,disconnect_after_s=30")
     p.add_argument("--duration", type=_args.seconds, default=None, help="stop after this long (s; default: never)")
@@ -48,27 +53,30 @@ def run(args: argparse.Namespace) -> int:
     import threading
     import time
 
-    from ..twin import Faults, PsmSource, SerialTwin, diy_circuit
+    from ..twin import Faults, PsmSource, SerialTwin
 
     try:
-        rows, cols = args.shape
+        kind = _profile_args.device_kind(args)
+        prof = _profile_args.resolve(args, kind)
+        rate, note = _profile_args.twin_rate_hz(args.rate, prof)
         faults = Faults.parse(args.faults)
         source = None
-        if args.device == "psm":
-            physics = {"circuit": diy_circuit()} if args.protocol == "csv" else {}
-            source = PsmSource.named(args.scene, args.rate or 100.0, (rows, cols), bds_trial=args.bds_trial,
-                                     seed=args.seed, **physics)
-        twin = SerialTwin(args.device, args.rate, args.protocol, source=source, shape=(rows, cols),
-                          faults=faults, seed=args.seed, tcp_port=args.tcp)
+        if kind == "psm":  # the profile's mat: shape, pitch, circuit and wire order
+            source = PsmSource.named(args.scene, rate, profile=prof, bds_trial=args.bds_trial, seed=args.seed)
+        twin = SerialTwin(kind, rate, "v2" if kind == "daq" else prof.protocol, source=source,
+                          shape=tuple(prof.shape) if kind == "psm" else (16, 16), faults=faults, seed=args.seed,
+                          tcp_port=args.tcp)
     except (ValueError, FileNotFoundError) as exc:  # FileNotFoundError: a BDS trial that is not there
         print(f"psmat simulate: {exc}", file=sys.stderr)
         return 1
     except OSError as exc:  # the TCP port is taken
         print(f"psmat simulate: cannot listen on 127.0.0.1:{args.tcp}: {exc.strerror or exc}", file=sys.stderr)
         return 1
+    if note:
+        print(f"psmat simulate: {note}", file=sys.stderr)
     print(twin.port, flush=True)
-    print(f"serving a simulated {args.device} ({args.protocol}, {twin.rate_hz:g} Hz) on {twin.port}; Ctrl-C stops",
-          file=sys.stderr, flush=True)
+    print(f"serving a simulated {kind} (profile {prof.name}, {prof.protocol}, {twin.rate_hz:g} Hz) on {twin.port}; "
+          "Ctrl-C stops", file=sys.stderr, flush=True)
     done = threading.Event()
     signal.signal(signal.SIGTERM, lambda *_: done.set())
     twin.start()

@@ -11,13 +11,21 @@ view with a message and exit status 3; an error a person can fix (no port, no di
 port that cannot be opened) is one line and status 1, as in every command. Without a display, ``--seconds S --save out.png``
 renders headless (MPLBACKEND=Agg) and writes a screenshot (without ``--seconds`` it runs
 until Ctrl-C).
+
+The mat is described by its profile (``--profile NAME|FILE``, default ``psm16``, or
+``arduino16`` with ``--protocol csv``; docs/spec.md §5 "Device profiles"): its protocol, shape,
+ADC bits, line speed and wire order open the port, its geometry places the images and the CoP
+(cm), its circuit turns counts into conductance, and ``--simulate`` serves a twin of it.
+``--protocol``, ``--shape`` and ``--bits`` override the profile's. With neither ``--shape``
+nor ``--profile``, a mat whose IDENTIFY reports another shape is read with that shape.
 """
 
 from __future__ import annotations
 
 import argparse
+from typing import Any
 
-from . import _args
+from . import _args, _profile_args
 
 NAME = "view"
 HELP = "live window on a mat (PORT) or the digital twin (--simulate): raw image, pressure, CoP"
@@ -30,14 +38,20 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("port", nargs="?", default=None, help="the mat's serial port (/dev/ttyACM0, COM4, a pty) or a "
                    "pyserial URL such as socket://127.0.0.1:5555")
     p.add_argument("--simulate", action="store_true", help="view the digital twin instead of a mat")
-    p.add_argument("--rate", type=_args.positive_int, default=100,
-                   help="with --simulate: the twin's frame rate (frames/s)")
-    p.add_argument("--protocol", choices=("v1", "v2"), default="v2",
-                   help="the mat's frame format (docs/protocol.md)")
+    _profile_args.add_profile_argument(p)
+    p.add_argument("--rate", type=_args.positive_int, default=None,
+                   help="with --simulate: the twin's frame rate (frames/s; default: the profile's)")
+    p.add_argument("--protocol", choices=("v1", "v2", "csv"), default=None,
+                   help="the mat's frame format (docs/protocol.md): v1, v2, or csv (the text lines of a "
+                        "do-it-yourself mat; default: the profile's)")
     p.add_argument("--scene", default="sway",
                    help="with --simulate: the twin's scene, sway, quiet, single-leg or sitting")
     p.add_argument("--shape", type=_args.shape, default=None,
-                   help="the mat's rows x columns, e.g. 16x16 (default: what the mat reports, else 16x16)")
+                   help="the mat's rows x columns, e.g. 16x16 (default: the profile's; without --profile, what "
+                        "the mat reports, else the profile's)")
+    p.add_argument("--bits", type=_args.bits, default=None,
+                   help="ADC resolution of a csv mat: a count above 2**bits - 1 is an invalid frame (default: the "
+                        "profile's; v1/v2 mats carry 12-bit counts)")
     p.add_argument("--decimate", type=_args.positive_int, default=1, help="process and draw every Nth frame")
     p.add_argument("--seconds", type=_args.seconds, default=None,
                    help="close after this long (s; default: when the window is closed)")
@@ -109,12 +123,20 @@ def _check_files(args: argparse.Namespace) -> str | None:
     return None
 
 
+def _open(port: str, prof: Any) -> Any:
+    """The mat on ``port`` opened as its profile says: protocol, shape, ADC bits, line speed, wire order."""
+    from ..acquire import open_device
+
+    return open_device(port, "psm", prof.protocol, tuple(prof.shape), baudrate=prof.baudrate, bits=prof.bits,
+                       row_order=prof.row_order, col_order=prof.col_order)
+
+
 def run(args: argparse.Namespace) -> int:
     import sys
 
     import serial
 
-    from ..acquire import AcquireError, open_device
+    from ..acquire import AcquireError
 
     def err(msg: str) -> None:
         print(f"psmat view: {msg}", file=sys.stderr, flush=True)
@@ -131,26 +153,39 @@ def run(args: argparse.Namespace) -> int:
         err(problem)
         return 1
 
+    try:
+        prof = _profile_args.resolve(args, "psm")
+    except ValueError as exc:
+        err(str(exc))
+        return 1
     twin = None
     port = args.port
     if args.simulate:
-        from ..twin import SerialTwin
+        from ..twin import PsmSource, SerialTwin
 
+        rate = args.rate or prof.rate_hz
+        if problem := _args.twin_shape_problem(prof.shape):
+            err(problem)
+            return 1
         try:
-            twin = SerialTwin("psm", args.rate, args.protocol, shape=args.shape or (16, 16), scene=args.scene).start()
-        except ValueError as exc:
+            source = PsmSource.named(args.scene, rate, profile=prof)
+            twin = SerialTwin("psm", rate, prof.protocol, source=source, shape=prof.shape).start()
+        except (ValueError, FileNotFoundError) as exc:
             err(str(exc))
             return 1
         port = twin.port
-        print(f"simulated mat ({args.scene}, {args.protocol}, {twin.rate_hz:g} Hz) on {port}", flush=True)
+        print(f"simulated mat ({prof.name}, {args.scene}, {prof.protocol}, {twin.rate_hz:g} Hz) on {port}",
+              flush=True)
     dev = None
     try:
         try:
-            dev = open_device(port, "psm", args.protocol, args.shape or (16, 16))
-            d = dev.description
-            if args.shape is None and "rows" in d and "cols" in d and (d["rows"], d["cols"]) != dev.shape:
+            dev = _open(port, prof)
+            d = dev.description or {}
+            if (args.shape is None and args.profile is None and "rows" in d and "cols" in d
+                    and (int(d["rows"]), int(d["cols"])) != tuple(dev.shape)):
                 dev.close()
-                dev = open_device(port, "psm", args.protocol, (int(d["rows"]), int(d["cols"])))
+                prof = prof.with_shape((int(d["rows"]), int(d["cols"])))  # what the mat reports
+                dev = _open(port, prof)
             dev.start()
         except (serial.SerialException, OSError, AcquireError) as exc:
             err(f"cannot read a mat on {port}: {exc}")
@@ -158,7 +193,8 @@ def run(args: argparse.Namespace) -> int:
 
         from ..live import LiveView, run_view
 
-        view = LiveView(dev, iecm=not args.no_iecm, decimate=args.decimate, g_rest=args.g_rest,
+        view = LiveView(dev, profile=prof, iecm=not args.no_iecm, decimate=args.decimate, g_rest=args.g_rest,
+                        rate_hz=twin.rate_hz if twin is not None else None,
                         port=f"{port}{' (twin)' if twin else ''}")
 
         def stop_device() -> None:

@@ -17,13 +17,16 @@ and returns a result object with the arrays, a ``.table()`` text (Markdown) and 
   IECM adapted to the QZPM readout vs the closed-form QZPM (:mod:`.qzpm_acceptance`;
   needs :mod:`psmat.qzpm`).
 
-Beyond the thesis, on simulated balance trials, two measurements run as commands
+Beyond the thesis, in simulation, three measurements run as commands
 (``python -m psmat.experiments --help`` lists them; each prints its table):
 
 * ``python -m psmat.experiments equilibration`` — SCHC-EQ (a per-cell equilibration,
   :func:`psmat.balance.equilibrate`) against SCHC.
 * ``python -m psmat.experiments dynamic_correction`` — SCHC-DYN (a linear correction fitted
   on other volunteers, :mod:`psmat.study` (``_dynamic.py``)) against SCHC, and the models compared.
+* ``python -m psmat.experiments pressure_calibration`` — the kPa of twin mats of unknown
+  sensitivity and cell gains against the truth, before and after the ``psmat calibrate``
+  pressure steps (:mod:`.pressure_calibration`).
 
 Figures: :func:`save_figure` writes PNGs to ``$PSMAT_FIGURES`` or ``./psmat_figures``.
 The notebooks in ``notebooks/`` run each study; ``docs/thesis_results.md`` compares the

@@ -22,6 +22,8 @@ EXPERIMENTS = {
                      "balance trials through mats with unknown cell gains",
     "dynamic_correction": "SCHC-DYN (a linear correction fitted on other volunteers) against SCHC, on a "
                           "simulated balance study",
+    "pressure_calibration": "the kPa of twin mats the processing does not know, before and after the psmat "
+                            "calibrate pressure steps (equilibrate, known-load), against the truth",
 }
 DESCRIPTION = ("psmat's measurements beyond the thesis, in simulation, each printing its table:\n\n"
                + "\n".join(f"* {name}: {line}" for name, line in EXPERIMENTS.items())

@@ -5,8 +5,13 @@ Three panels, refreshed a few tens of times per second:
 1. **raw** - equivalent conductance ``G`` (mS) of the newest frame (docs/spec.md §2);
 2. **pressure** - crosstalk removed (docs/spec.md §3), unloaded leakage ``g_rest`` subtracted, the
    inverse sensor model applied (docs/spec.md §4); in kPa, the current CoP marked;
-3. **CoP** - the last ``history_s`` seconds of the centre of pressure (docs/spec.md §7, the
-   convention of :func:`psmat.balance.cop`): M-L (x, columns) and A-P (y, rows) in cm.
+3. **CoP** - the last ``history_s`` seconds of the centre of pressure (docs/spec.md §7,
+   :func:`psmat.balance.cop`): M-L (x) and A-P (y) in cm, in the coordinates of the mat's
+   profile (:class:`psmat.profile.Geometry`: pitch, origin, axis directions).
+
+Both images are drawn in those coordinates too (:func:`psmat.live.mat_image`): whichever way a
+profile runs its axes, x grows to the right and y upwards, and the CoP marker sits on the
+loaded cells.
 
 The numbers are those of the one processing chain, :class:`psmat.process.Processor`: the view
 pushes the frames it shows with the time between them, and the chain carries the IECM warm
@@ -36,7 +41,9 @@ from numpy.typing import NDArray
 from ..acquire import DeviceDisconnected
 from ..circuit import Circuit
 from ..process import Processor
+from ..profile import Geometry, Profile, default_profile
 from ..sensor import MPICreep
+from ._mat_image import mat_extent_cm, mat_image
 
 __all__ = ["LiveView", "ViewResult", "run_view", "FrameSource", "SlidingRate"]
 
@@ -114,7 +121,8 @@ class LiveView:
         returning a :class:`~psmat.acquire.FrameBatch`, and ``stats``
         (``frames``, ``invalid``, ``dropped_wire``, ``dropped_buffer``).
     shape : (int, int), optional
-        Mat shape (R, C); default ``device.shape``, else (16, 16).
+        Mat shape (R, C); default ``device.shape``, else the geometry's, else the default
+        profile's (the thesis' mat, 16 x 16).
     iecm : bool
         Remove crosstalk and compensate the sensor (the pressure panel). False shows the raw
         image and the CoP of the raw ``G`` only (for slow machines).
@@ -124,16 +132,21 @@ class LiveView:
         Length of the CoP trace, s.
     rate_hz : float, optional
         The mat's frame rate (frames/s), for frame times without a device clock (protocol v1);
-        default ``device.description["rate"]``, else 100.
+        default ``device.description["rate"]``, else the profile's (else the default profile's).
     circuit : Circuit, optional
-        Measurement chain; default ``Circuit()``.
+        Measurement chain; default the profile's (:meth:`psmat.Profile.circuit`), else ``Circuit()``.
     sensor : MPICreep, optional
         Sensor model; default the thesis' (Table 2.11).
     g_rest : float
         Conductance of an unloaded cell (S), subtracted before the sensor model; default
         1e-7 S (10 MΩ, the digital twin's leakage).
-    pitch_cm : float
-        Cell pitch, cm (thesis mat: 2 cm).
+    pitch_cm : float, optional
+        Cell pitch (cm) of a mat in the default orientation; not with ``geometry``.
+    geometry : psmat.profile.Geometry, optional
+        Where the cells are (cm): the CoP's coordinates and the images' extent. Default the
+        profile's, else (without ``pitch_cm``) the default profile's for the shape.
+    profile : psmat.Profile, optional
+        The mat's profile: the default of ``geometry``, ``circuit`` and ``rate_hz``.
     budget_s : float
         Least processing time allowed per :meth:`update`, s (the budget is 60 % of the time
         since the previous update when that is more); beyond it older frames are skipped.
@@ -150,7 +163,12 @@ class LiveView:
     pressure_kpa : ndarray (R, C)
         Newest compensated pressure, kPa (NaN before the first frame, or without IECM).
     cop_t, cop_cm : ndarray (N,), (N, 2)
-        CoP trace: frame time (s, device clock when known) and (M-L, A-P) in cm.
+        CoP trace: frame time (s, device clock when known) and (M-L, A-P) in cm, in the
+        coordinates of :attr:`geometry`.
+    geometry : psmat.profile.Geometry
+        Where the cells are (the processing chain's).
+    pitch_cm : float
+        Its pitch (cm).
     last_seq : int
         Device sequence number of the newest processed frame (-1 unknown).
     received, processed, unusable : int
@@ -160,13 +178,22 @@ class LiveView:
     def __init__(self, device: FrameSource, *, shape: tuple[int, int] | None = None, iecm: bool = True,
                  decimate: int = 1, history_s: float = 10.0, rate_hz: float | None = None,
                  circuit: Circuit | None = None, sensor: MPICreep | None = None, g_rest: float = 1e-7,
-                 pitch_cm: float = 2.0, budget_s: float = 0.04, port: str | None = None, fig: Any = None) -> None:
+                 pitch_cm: float | None = None, budget_s: float = 0.04, port: str | None = None, fig: Any = None,
+                 geometry: Geometry | None = None, profile: Profile | None = None) -> None:
         if int(decimate) != decimate or decimate < 1:
             raise ValueError(f"decimate must be a positive integer, got {decimate!r}")
         if not (history_s > 0 and budget_s > 0):
             raise ValueError("history_s and budget_s must be > 0")
         self.device = device
-        shape = shape or getattr(device, "shape", None) or (16, 16)
+        if profile is not None:
+            if profile.geometry is None:
+                raise ValueError(f"profile {profile.name!r} describes a {profile.kind} device, not a mat")
+            if geometry is None and pitch_cm is None:
+                geometry = profile.geometry
+            if circuit is None:
+                circuit = profile.circuit()
+        shape = (shape or getattr(device, "shape", None) or (geometry.shape if geometry is not None else None)
+                 or default_profile().shape)
         if len(shape) != 2 or min(shape) < 2:
             raise ValueError(f"shape must be (R, C) with R, C >= 2, got {shape}")
         self.shape: tuple[int, int] = (int(shape[0]), int(shape[1]))
@@ -174,10 +201,11 @@ class LiveView:
         self.decimate = int(decimate)
         self.history_s = float(history_s)
         desc = getattr(device, "description", None) or {}
-        self.rate_hz = float(rate_hz or desc.get("rate") or 100.0)
+        self.rate_hz = float(rate_hz or desc.get("rate") or (profile or default_profile()).rate_hz)
         self._chain = Processor(self.shape, circuit=circuit, sensor=sensor, g_rest=g_rest, pitch_cm=pitch_cm,
-                                method="newton" if self.use_iecm else None, threads=1)
-        self.pitch_cm = self._chain.pitch_cm
+                                geometry=geometry, method="newton" if self.use_iecm else None, threads=1)
+        self.geometry: Geometry = self._chain.geometry
+        self.pitch_cm = self.geometry.pitch_cm
         self.budget_s = float(budget_s)
         self.port = str(port if port is not None else getattr(device, "port", "?"))
         self._t_prev: float | None = None     # frame time of the previous pushed frame (s)
@@ -324,12 +352,11 @@ class LiveView:
         else:
             fig.clear()
         self.fig = fig
-        R, C = self.shape
-        pc = self.pitch_cm
-        extent = (-pc / 2, (C - 0.5) * pc, -pc / 2, (R - 0.5) * pc)
+        extent = mat_extent_cm(self.geometry)  # the mat in its profile's coordinates (cm)
+        span_cm = (min(extent[0], extent[2]), max(extent[1], extent[3]))
         gs = fig.add_gridspec(1, panels, left=0.8 / fig.get_figwidth(), right=0.98, bottom=0.12, top=0.80, wspace=0.35,
                               width_ratios=[1] * (panels - 1) + [1.5])
-        blank = np.zeros(self.shape)
+        blank = mat_image(np.zeros(self.shape), self.geometry)
         self.ax_raw = fig.add_subplot(gs[0, 0])
         self.im_raw = self.ax_raw.imshow(blank, origin="lower", cmap="viridis", extent=extent, vmin=0, vmax=1,
                                          interpolation="nearest")
@@ -346,10 +373,10 @@ class LiveView:
             self._label_mat_axes(self.ax_p)
             (self.cop_marker,) = self.ax_p.plot([], [], "+", color="cyan", ms=14, mew=2)
         self.ax_cop = fig.add_subplot(gs[0, -1])
-        (self.line_x,) = self.ax_cop.plot([], [], color="tab:blue", lw=1.3, label="M-L (x, columns)")
-        (self.line_y,) = self.ax_cop.plot([], [], color="tab:red", lw=1.3, label="A-P (y, rows)")
+        (self.line_x,) = self.ax_cop.plot([], [], color="tab:blue", lw=1.3, label="M-L (x)")
+        (self.line_y,) = self.ax_cop.plot([], [], color="tab:red", lw=1.3, label="A-P (y)")
         self.ax_cop.set_xlim(-self.history_s, 0.0)
-        self.ax_cop.set_ylim(0.0, max(R, C) * pc)
+        self.ax_cop.set_ylim(*span_cm)
         self.ax_cop.set_xlabel("time relative to the newest frame (s)")
         self.ax_cop.set_ylabel("CoP (cm)")
         what = "pressure" if self.use_iecm else "raw G (no IECM)"
@@ -361,7 +388,7 @@ class LiveView:
         self._animated = [a for a in (self.im_raw, self.im_p, self.cop_marker, self.line_x, self.line_y,
                                       self._status) if a is not None]
         self._vmax = {"raw": 0.0, "p": 0.0}
-        self._ylim = (0.0, max(R, C) * pc)
+        self._ylim = span_cm
         fig.canvas.mpl_connect("draw_event", self._on_draw)
 
     def _label_mat_axes(self, ax: Any) -> None:
@@ -382,11 +409,11 @@ class LiveView:
 
     def _update_artists(self, stats: Any, now: float) -> None:
         if self.processed:
-            self.im_raw.set_data(self.G * 1e3)
+            self.im_raw.set_data(mat_image(self.G * 1e3, self.geometry))
             self._rescale("raw", self.im_raw, self.G * 1e3, now)
             if self.im_p is not None:
                 p = np.nan_to_num(self.pressure_kpa)
-                self.im_p.set_data(p)
+                self.im_p.set_data(mat_image(p, self.geometry))
                 self._rescale("p", self.im_p, p, now)
             tr = np.array(self._trace, np.float64).reshape(-1, 3)
             if len(tr):

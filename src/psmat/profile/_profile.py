@@ -134,6 +134,18 @@ class Profile:
             a = a[..., np.argsort(self.col_order)]
         return a
 
+    def logical_to_wire(self, frames: ArrayLike) -> NDArray[Any]:
+        """The inverse of :meth:`wire_to_logical`: logical frames (..., R, C) in the order the mat
+        sends its rows and columns (what a simulated mat with this wiring puts on the wire)."""
+        a = np.asarray(frames)
+        if a.ndim < 2 or a.shape[-2:] != tuple(self.shape[-2:]) or self.geometry is None:
+            raise ValueError(f"frames must be (..., {', '.join(map(str, self.shape))}) of a mat, got shape {a.shape}")
+        if self.row_order is not None:
+            a = a[..., list(self.row_order), :]
+        if self.col_order is not None:
+            a = a[..., list(self.col_order)]
+        return a
+
     # ------------------------------------------------------------------ as data
     def _tables(self) -> dict[str, Any]:
         """The TOML layout, without ``source``."""

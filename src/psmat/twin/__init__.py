@@ -21,7 +21,7 @@ pressure becomes conductance only through the sensor model (:class:`MatPhysics`)
 * :mod:`psmat.twin.serial_twin` — :class:`SerialTwin`: the firmware core on the host,
   served on a real pseudo-terminal or on TCP (``socket://127.0.0.1:PORT``, where the system
   has no pty), with fault injection (:mod:`~psmat.twin.pty_link`, :mod:`~psmat.twin.tcp_link`);
-  with ``protocol="csv"`` a do-it-yourself mat printing text lines (:func:`diy_circuit`).
+  with ``protocol="csv"`` a do-it-yourself mat printing text lines (the ``arduino16`` profile).
 """
 
 from .anatomy import foot, two_feet
@@ -32,7 +32,7 @@ from .mat import MatPhysics, MatTruth
 from .scenes import PressureScene, quiet_standing, single_leg_sway, trajectory_sway, uniform_load
 from .seated import (SeatedDay, SeatedSession, SeatedSubject, draw_seated_day, draw_seated_subject, seated_session,
                      sitting)
-from .serial_twin import Faults, SerialTwin, TwinStats, diy_circuit
+from .serial_twin import Faults, SerialTwin, TwinStats
 from .sources import SCENES, CalibrationFixture, DaqSource, ImuSource, PsmSource, make_scene
 
 __all__ = [
@@ -41,7 +41,6 @@ __all__ = [
     "Faults",
     "SerialTwin",
     "TwinStats",
-    "diy_circuit",
     "SCENES",
     "CalibrationFixture",
     "DaqSource",

@@ -27,7 +27,7 @@ A do-it-yourself mat (``protocol="csv"``, docs/protocol.md) runs no firmware cor
 prints the source's counts as csv text lines at the rate, one frame per line (or ``R`` lines
 per frame with ``csv_layout="block"``) after a header line, and ignores what the host sends,
 as an Arduino sketch does. Its counts have the bits of the source's circuit; without a source
-it is read through :func:`diy_circuit` (an Arduino's 10-bit ADC at 5 V).
+it is read through the circuit of the ``arduino16`` profile (an Arduino's 10-bit ADC at 5 V).
 
 :attr:`SerialTwin.port` is what a host opens, with :func:`psmat.acquire.open_device` or
 pyserial's ``serial_for_url``: a path to the pty (removed when the twin stops or is
@@ -46,19 +46,10 @@ import numpy as np
 from .pty_link import PtyLink, pty_available
 from .tcp_link import TcpLink
 
-__all__ = ["Faults", "SerialTwin", "TwinStats", "diy_circuit"]
+__all__ = ["Faults", "SerialTwin", "TwinStats", "CSV_PROFILE"]
 
-
-def diy_circuit():
-    """The measurement chain of a do-it-yourself mat on an Arduino Uno (docs/spec.md §2).
-
-    10-bit ADC at ``V_ref`` = 5 V, ``R_o`` = 2.2 kΩ, two CD74HC4067 channels (about 70 Ω each,
-    ``R_mux`` = 140 Ω) and the ATmega328P's ADC input (about 100 MΩ); what a csv twin without a
-    source is read through (firmware/arduino/README.md).
-    """
-    from ..circuit import Circuit
-
-    return Circuit(r_o=2200.0, r_mux=140.0, r_adc=100e6, v_ref=5.0, bits=10)
+#: the mat a csv twin without a source simulates: a do-it-yourself Arduino mat (firmware/arduino/README.md)
+CSV_PROFILE = "arduino16"
 
 
 def _source_bits(source) -> int:
@@ -218,7 +209,11 @@ class SerialTwin:
         self.bits: int | None = None
         if protocol == "csv":
             self.firmware = None  # an Arduino sketch: no firmware core, no commands
-            self.source = source or PsmSource.named(scene, rate, shape, seed=seed, circuit=diy_circuit())
+            if source is None:
+                from ..profile import load_profile
+
+                source = PsmSource.named(scene, rate, seed=seed, profile=load_profile(CSV_PROFILE).with_shape(shape))
+            self.source = source
             self.bits = _source_bits(self.source)
             self._csv_header = True
         elif kind == "psm":

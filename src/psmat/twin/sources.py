@@ -23,6 +23,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from .. import _checks
+from ..profile import Profile, default_geometry
 from . import scenes as _scenes
 from .mat import MatPhysics
 from .seated import draw_imu_device, imu_readings, seated_session
@@ -52,8 +53,9 @@ def check_scene(duration_s: float, rate_hz: float, shape: tuple[int, int]) -> tu
 
 
 def make_scene(name: str, duration_s: float, rate_hz: float, shape: tuple[int, int] = (16, 16), *,
-               bds_trial: int = 1, seed: int = 0) -> _scenes.PressureScene:
-    """A named pressure scene (psi) of ``duration_s`` at ``rate_hz`` (see the module docstring).
+               bds_trial: int = 1, seed: int = 0, pitch_cm: float | None = None) -> _scenes.PressureScene:
+    """A named pressure scene (psi) of ``duration_s`` at ``rate_hz`` (see the module docstring), on a mat of
+    ``shape`` cells at ``pitch_cm`` (default the thesis mat's pitch, :func:`psmat.profile.default_geometry`).
 
     Raises
     ------
@@ -63,21 +65,23 @@ def make_scene(name: str, duration_s: float, rate_hz: float, shape: tuple[int, i
         computed.
     """
     rate_hz, duration_s = check_scene(duration_s, rate_hz, shape)
+    pitch = default_geometry().pitch_cm if pitch_cm is None else _checks.positive("pitch_cm", pitch_cm)
     if name == "sway":
         from ..io import bds_trial as _bds
 
         rec = _bds(bds_trial)  # a missing trial is a one-line FileNotFoundError, never a substitute scene
         keep = rec.t <= rec.t[0] + duration_s
         scene = _scenes.trajectory_sway(rec.t[keep], rec.cop_ml_cm[keep], rec.cop_ap_cm[keep],
-                                          rec.fz_n[keep], rate_hz, shape)
+                                          rec.fz_n[keep], rate_hz, shape, pitch)
         scene.meta["source"] = f"BDS{bds_trial:05d}"
         return scene
     if name == "sitting":
-        return seated_session(seed, shape=shape, pitch_cm=2.0).pressure(time_base(duration_s, rate_hz)[0], shape, 2.0)
+        return seated_session(seed, shape=shape, pitch_cm=pitch).pressure(time_base(duration_s, rate_hz)[0], shape,
+                                                                         pitch)
     makers = {"quiet": _scenes.quiet_standing, "single-leg": _scenes.single_leg_sway}
     if name not in makers:
         raise ValueError(f"unknown scene {name!r}; choose one of {', '.join(SCENES)}")
-    return makers[name](duration_s, rate_hz, shape, seed=seed)
+    return makers[name](duration_s, rate_hz, shape, pitch_cm=pitch, seed=seed)
 
 
 @dataclass
@@ -87,26 +91,51 @@ class PsmSource:
     scene: _scenes.PressureScene
     physics: MatPhysics
     block: int = 64
+    #: the mat's profile when its rows and columns are sent in another order than the logical one:
+    #: the counts come out in wire order (:meth:`psmat.Profile.logical_to_wire`), as a reader sees them
+    wire: Profile | None = None
 
     def __post_init__(self) -> None:
         if self.scene.pressure_psi.shape[1:] != self.physics.shape:
             raise ValueError("the scene and the mat physics have different shapes")
+        if self.wire is not None and tuple(self.wire.shape) != self.physics.shape:
+            raise ValueError(f"the wire order is for a {self.wire.shape} mat, the physics is {self.physics.shape}")
         self._k = 0  # frame index into the scene (wraps)
         self._buf = np.empty((0, *self.physics.shape), np.uint16)
         self._pos = 0
         self.frames = 0  # frames produced
 
     @classmethod
-    def named(cls, scene: str = "sway", rate_hz: float = 100.0, shape: tuple[int, int] = (16, 16), *,
-              duration_s: float = 60.0, bds_trial: int = 1, seed: int = 0, **physics) -> "PsmSource":
-        sc = make_scene(scene, duration_s, rate_hz, shape, bds_trial=bds_trial, seed=seed)
-        return cls(sc, MatPhysics(shape=shape, dt=1.0 / rate_hz, seed=seed, **physics))
+    def named(cls, scene: str = "sway", rate_hz: float = 100.0, shape: tuple[int, int] | None = None, *,
+              duration_s: float = 60.0, bds_trial: int = 1, seed: int = 0, profile: Profile | None = None,
+              **physics) -> "PsmSource":
+        """A named scene (:func:`make_scene`) played through a mat's physics.
+
+        ``profile`` (a mat's :class:`psmat.Profile`) gives the shape, the pitch the scene is drawn
+        at, the circuit (unless ``circuit=`` is passed among ``physics``) and the wire order of the
+        counts; without it the mat is the thesis' (``shape`` default 16 x 16). ``physics`` are
+        further :class:`MatPhysics` arguments.
+        """
+        if profile is not None:
+            if profile.kind != "psm":
+                raise ValueError(f"profile {profile.name!r} is a {profile.kind}, not a mat")
+            if shape is not None and tuple(shape) != tuple(profile.shape):
+                raise ValueError(f"shape {tuple(shape)} is not the profile's {tuple(profile.shape)}")
+            shape = tuple(profile.shape)
+            physics.setdefault("circuit", profile.circuit())
+        shape = (16, 16) if shape is None else tuple(shape)
+        sc = make_scene(scene, duration_s, rate_hz, shape, bds_trial=bds_trial, seed=seed,
+                        pitch_cm=None if profile is None else profile.pitch_cm)
+        wire = profile if profile is not None and (profile.row_order or profile.col_order) else None
+        return cls(sc, MatPhysics(shape=shape, dt=1.0 / rate_hz, seed=seed, **physics), wire=wire)
 
     def _refill(self) -> None:
         T = self.scene.pressure_psi.shape[0]
         idx = (self._k + np.arange(self.block)) % T
         self._k = int((self._k + self.block) % T)
         self._buf = self.physics.counts(self.scene.pressure_psi[idx])
+        if self.wire is not None:
+            self._buf = self.wire.logical_to_wire(self._buf)
         self._pos = 0
 
     def next(self) -> NDArray[np.uint16]:
@@ -198,4 +227,6 @@ class CalibrationFixture:
             if kind != "short":
                 raise ValueError(f"mode must be 'mat', 'open' or ('short', row, col), got {self.mode!r}")
             G[i, p] = self.wire_s
-        return phys.circuit.counts(G, noise_v=phys.noise_v, rng=phys._rng)
+        counts = phys.circuit.counts(G, noise_v=phys.noise_v, rng=phys._rng)
+        # (i, p) is a logical row and column: on the wire they come in the mat's order, as its frames do
+        return counts if self.mat.wire is None else self.mat.wire.logical_to_wire(counts)

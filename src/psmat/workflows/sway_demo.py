@@ -13,6 +13,11 @@ cell-to-cell gain variability (15 % by default, :class:`psmat.twin.mat.MatPhysic
 a sensor model shared by all cells cannot know: the demo measures it by processing the same
 frames once more with the twin's own gains divided out (known only to the simulation) and
 shows both on the figure.
+
+The mat is a device profile's (:class:`psmat.Profile`, default the thesis' ``psm16``): the twin
+has its shape, pitch, circuit and wire order, the port is read with its protocol, and the session
+stores it, so that :func:`psmat.process.process_session` computes the CoP on its geometry (cm,
+its origin and axis directions); the platform's CoP is expressed in the same coordinates.
 """
 
 from __future__ import annotations
@@ -25,7 +30,7 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["run_sway_demo", "record_sway", "sway_figure", "SwayRecording"]
+__all__ = ["run_sway_demo", "record_sway", "sway_figure", "SwayRecording", "scene_to_mat_cm"]
 
 
 def _rms(d: np.ndarray) -> float:
@@ -61,44 +66,75 @@ class SwayRecording:
     res: dict[str, Any]
 
 
+def _mat_profile(profile: Any, shape: tuple[int, int] | None) -> Any:
+    """The mat's profile: ``profile`` (default the default profile) for ``shape`` when given."""
+    from ..profile import default_profile
+
+    prof = default_profile() if profile is None else profile
+    if prof.geometry is None:
+        raise ValueError(f"profile {prof.name!r} describes a {prof.kind} device, not a mat")
+    return prof if shape is None else prof.with_shape(tuple(shape))
+
+
+def scene_to_mat_cm(xy_cm: np.ndarray, geometry: Any) -> np.ndarray:
+    """Points (..., 2) in a scene's coordinates (cm; cell (i, p) at (p·pitch, i·pitch), the twin's
+    convention) in the coordinates of ``geometry`` (a :class:`psmat.profile.Geometry` of the same
+    pitch: its origin and axis directions). Affine, so a CoP maps to the CoP."""
+    xy = np.asarray(xy_cm, np.float64)
+    index = {"columns": xy[..., 0] / geometry.pitch_cm, "rows": xy[..., 1] / geometry.pitch_cm}  # fractional p, i
+    out = []
+    for direction, origin in zip((geometry.x, geometry.y), geometry.origin_cm):
+        sign = 1.0 if direction[0] == "+" else -1.0
+        out.append(origin + sign * index[direction[1:]] * geometry.pitch_cm)
+    return np.stack(out, axis=-1)
+
+
 def record_sway(*, seconds: float = 8.0, rate_hz: int = 100, session: str | Path = "psmat_demo.h5",
-                bds_trial: int = 1, port: str | None = None, shape: tuple[int, int] = (16, 16), seed: int = 0,
-                progress: bool | None = None, log=print, overwrite: bool = False) -> SwayRecording:
+                bds_trial: int = 1, port: str | None = None, shape: tuple[int, int] | None = None, seed: int = 0,
+                progress: bool | None = None, log=print, overwrite: bool = False, profile: Any = None
+                ) -> SwayRecording:
     """Record ``seconds`` from the twin (or the mat on ``port``), process and compare.
 
-    Prints the frames, the losses and the CoP errors (cm RMS) against the force platform. An
-    existing ``session`` is an error (:class:`psmat._atomic.OutputRefused`) unless ``overwrite``;
-    it is then replaced only when the new recording is complete (:class:`psmat.io.SessionWriter`).
+    ``profile`` (a mat's :class:`psmat.Profile`, default the default profile ``psm16``) is the
+    mat: the twin's shape, pitch, circuit and wire order, the protocol the port is read with, and
+    what the session stores; ``shape`` (rows, columns), when given, reshapes it
+    (:meth:`psmat.Profile.with_shape`). Prints the frames, the losses and the CoP errors (cm RMS)
+    against the force platform. An existing ``session`` is an error
+    (:class:`psmat._atomic.OutputRefused`) unless ``overwrite``; it is then replaced only when the
+    new recording is complete (:class:`psmat.io.SessionWriter`).
     """
     from psmat._progress import tqdm
 
     from .._atomic import check_outputs
     from ..acquire import open_device
-    from ..circuit import Circuit
     from ..io import SessionWriter, load_session
     from ..process import process_session
     from ..sensor import MPICreep
     from ..twin import PsmSource, SerialTwin
 
     session = Path(session)
+    prof = _mat_profile(profile, shape)
+    shape = (int(prof.shape[0]), int(prof.shape[1]))
     check_outputs([session], overwrite=overwrite)  # before the twin or the port is touched
     twin = source = None
     if port is None:
-        source = PsmSource.named("sway", rate_hz, shape, duration_s=max(60.0, seconds + 1), bds_trial=bds_trial,
-                                 seed=seed)
-        twin = SerialTwin("psm", rate_hz, "v2", source=source, shape=shape).start()
+        source = PsmSource.named("sway", rate_hz, duration_s=max(60.0, seconds + 1), bds_trial=bds_trial,
+                                 seed=seed, profile=prof)
+        twin = SerialTwin("psm", rate_hz, prof.protocol, source=source, shape=shape).start()
         port = twin.port
-        log(f"no mat given: the digital twin serves {shape[0]}x{shape[1]} frames at {rate_hz} Hz on {port} "
+        log(f"no mat given: the digital twin of {prof.name} serves {shape[0]}x{shape[1]} frames "
+            f"({prof.pitch_cm:g} cm pitch, {prof.protocol}) at {rate_hz:g} Hz on {port} "
             f"({source.scene.meta.get('source', 'quiet standing')})")
-    circuit = Circuit()
+    circuit = prof.circuit()
     try:
-        with open_device(port, "psm", "v2", shape) as dev:
+        with open_device(port, "psm", prof.protocol, shape, baudrate=prof.baudrate, bits=prof.bits,
+                         row_order=prof.row_order, col_order=prof.col_order) as dev:
             desc = dict(dev.description or {})
             desc.setdefault("rate", rate_hz)
             meta = {"subject": "digital twin" if twin else "unknown", "task": "quiet standing, eyes open",
                     "force_platform": (source.scene.meta.get("source") if source else None)}
             with SessionWriter(session, shape, device=desc, calibration=circuit.as_dict(), metadata=meta,
-                               overwrite=overwrite) as writer:
+                               profile=prof.to_dict(), overwrite=overwrite) as writer:
                 dev.record_to(writer)
                 dev.start()
                 t0 = time.monotonic()
@@ -129,7 +165,8 @@ def record_sway(*, seconds: float = 8.0, rate_hz: int = 100, session: str | Path
     truth = known = None
     if source is not None and s.seq is not None:
         T = source.scene.pressure_psi.shape[0]
-        truth = source.scene.cop_true_cm[np.asarray(s.seq) % T]
+        # the platform's CoP, from the scene's coordinates into the profile's (those of the chain's CoP)
+        truth = scene_to_mat_cm(source.scene.cop_true_cm[np.asarray(s.seq) % T], _geometry(proc))
         known = _cop_with_known_gains(proc, sensor, g_rest, source.physics.gain)
         ok = proc.usable & np.all(np.isfinite(proc.cop_cm), axis=1) & np.all(np.isfinite(known), axis=1)
         d_raw, d, d_known = (c[ok] - truth[ok] for c in (proc.cop_raw_cm, proc.cop_cm, known))
@@ -154,6 +191,13 @@ def _xy(v) -> str:
     return f"({x:+.2f}, {y:+.2f})"
 
 
+def _geometry(proc) -> Any:
+    """The geometry the chain computed the CoP on (its params, a profile's ``[geometry]`` table)."""
+    from ..profile import Geometry
+
+    return Geometry.from_dict(proc.params["geometry"])
+
+
 def _cop_with_known_gains(proc, sensor, g_rest: float, gain: np.ndarray) -> np.ndarray:
     """CoP (T, 2) cm of the chain's g with each cell's gain divided out before the inverse
     model: the twin's cells are ``g = gain · direct(p) + g_rest`` (MatPhysics)."""
@@ -163,14 +207,16 @@ def _cop_with_known_gains(proc, sensor, g_rest: float, gain: np.ndarray) -> np.n
     u = np.maximum(proc.g - g_rest, 0.0) / gain  # NaN frames stay NaN: the model skips them
     p = sensor.inverse(u, proc.clock.periods_s) * PSI_KPA  # each frame stepped with its own period (s)
     with np.errstate(invalid="ignore"):
-        return cop(np.nan_to_num(p), proc.params["pitch_cm"])
+        return cop(np.nan_to_num(p), geometry=_geometry(proc))
 
 
 def run_sway_demo(out: str | Path = "psmat_demo.png", *, seconds: float = 8.0, rate_hz: int = 100,
                   session: str | Path = "psmat_demo.h5", bds_trial: int = 1, port: str | None = None,
-                  shape: tuple[int, int] = (16, 16), seed: int = 0, progress: bool | None = None,
-                  log=print, overwrite: bool = False) -> dict[str, Any]:
+                  shape: tuple[int, int] | None = None, seed: int = 0, progress: bool | None = None,
+                  log=print, overwrite: bool = False, profile: Any = None) -> dict[str, Any]:
     """Record ``seconds`` from the twin (or the mat on ``port``), process, compare, plot.
+
+    ``profile`` and ``shape``: the mat, as in :func:`record_sway`.
 
     Returns a dict of what it printed: frames, losses, CoP errors (cm) and the paths. Existing
     files ``out`` and ``session`` are an error (:class:`psmat._atomic.OutputRefused`, before
@@ -186,7 +232,7 @@ def run_sway_demo(out: str | Path = "psmat_demo.png", *, seconds: float = 8.0, r
     import matplotlib.pyplot as plt
 
     rec = record_sway(seconds=seconds, rate_hz=rate_hz, session=session, bds_trial=bds_trial, port=port,
-                      shape=shape, seed=seed, progress=progress, log=log, overwrite=overwrite)
+                      shape=shape, seed=seed, progress=progress, log=log, overwrite=overwrite, profile=profile)
     fig = sway_figure(rec)
     out = Path(out)
     with replacing(out, overwrite=overwrite) as tmp:
@@ -198,17 +244,19 @@ def run_sway_demo(out: str | Path = "psmat_demo.png", *, seconds: float = 8.0, r
 
 
 def sway_figure(rec: SwayRecording):
-    """The demo's figure (a matplotlib Figure): one frame's G and pressure on the mat (cm, as
-    in ``psmat view``), and the CoP traces against the force platform with their RMS errors."""
+    """The demo's figure (a matplotlib Figure): one frame's G and pressure on the mat (cm, in the
+    coordinates of the session's profile, as in ``psmat view``), and the CoP traces against the
+    force platform with their RMS errors."""
     import matplotlib.pyplot as plt
+
+    from ..live import mat_extent_cm, mat_image
 
     s, proc, truth, res = rec.session, rec.processed, rec.truth_cm, rec.res
     t = s.host_time_s - s.host_time_s[0] if s.device_time_us is None else (s.device_time_us - s.device_time_us[0]) * 1e-6
     usable = np.flatnonzero(proc.usable)
     k = int(usable[len(usable) // 2])
-    R, C = s.counts.shape[1:]
-    pc = float(proc.params["pitch_cm"])
-    extent = (-pc / 2, (C - 0.5) * pc, -pc / 2, (R - 0.5) * pc)  # cell (i, p) centred at (p·pc, i·pc), docs/spec.md §7
+    geometry = _geometry(proc)  # the profile's: pitch, origin, axis directions (docs/spec.md §7)
+    extent = mat_extent_cm(geometry)
     fig = plt.figure(figsize=(12.5, 8.2), layout="constrained")
     gs = fig.add_gridspec(2, 3)
     maps = ((proc.G[k] * 1e3, "viridis", "G (mS)", f"raw: equivalent conductance G\nframe {k}, crosstalk included",
@@ -217,7 +265,8 @@ def sway_figure(rec: SwayRecording):
              "corrected: pressure\nIECM + inverse sensor model", proc.cop_cm[k], "+", "mat CoP, corrected"))
     for row, (img, cmap, unit, title, c, mk, lab) in enumerate(maps):
         ax = fig.add_subplot(gs[row, 0])
-        im = ax.imshow(img, origin="lower", cmap=cmap, extent=extent, interpolation="nearest")
+        im = ax.imshow(mat_image(img, geometry), origin="lower", cmap=cmap, extent=extent,
+                       interpolation="nearest")
         fig.colorbar(im, ax=ax, shrink=0.8, label=unit)
         ax.plot(*c, mk, color="cyan", ms=10, mew=2, label=lab)
         if truth is not None:
