@@ -166,3 +166,27 @@ def test_a_clock_that_gives_no_period_is_one_clear_error(counts, tmp_path, host,
         w.append(counts, host, np.ones(T, bool))
     with pytest.raises(ValueError, match=match):
         process_session(path, save=False)
+
+
+def test_a_session_without_calibration_is_read_through_its_profiles_circuit(tmp_path) -> None:
+    """A do-it-yourself mat (the arduino16 profile: 10 bits, 5 V) recorded without a calibration:
+    its counts go back to G through that circuit, not the thesis' 12-bit 3.3 V default."""
+    from psmat.profile import load_profile
+
+    prof = load_profile("arduino16").with_shape(SHAPE)
+    arduino = Circuit(r_o=2200.0, r_mux=140.0, r_adc=100e6, v_ref=5.0, bits=10)  # the profile's numbers, by hand
+    g = np.full(SHAPE, 2e-5)
+    g[2:4, 2:4] = 1e-3
+    G = iecm.forward(g)
+    frames = np.repeat(arduino.counts(G)[None], 4, axis=0)
+    path = tmp_path / "diy.h5"
+    with SessionWriter(path, SHAPE, {"proto": "csv", "bits": 10}, profile=prof.to_dict()) as w:
+        w.append(frames, 1.7e9 + np.arange(4) * 0.1, np.ones(4, bool))
+    s = load_session(path)
+    assert session_circuit(s).bits == 10 and session_circuit(s).v_ref == 5.0
+    out = process_loaded(s, method=None)
+    assert "arduino16" in out.params["circuit_from"]
+    # 10-bit quantisation: G within the step of one count at these readings (a few %)
+    np.testing.assert_allclose(out.G[0], G, rtol=0.05)
+    wrong = Circuit().conductance(frames[0])  # the 12-bit 3.3 V default would be far off
+    assert np.nanmax(np.abs(wrong / G - 1)) > 0.5

@@ -6,7 +6,9 @@ data ... applied when data are loaded"), in this order:
 
 1. the calibration the session stores (``Session.calibration``: a ``psmat calibrate`` file's
    content or a ``Circuit.as_dict()``), when it has one;
-2. else the ``circuit`` the caller passes; else the default ``Circuit()``;
+2. else the ``circuit`` the caller passes; else the circuit of the session's device profile
+   (:func:`psmat.profile.session_profile`: the stored profile, or one rebuilt from the device
+   record of an older file: a 10-bit 5 V Arduino mat is read as one);
 3. then a calibration *file* the caller passes (``calibration=``) replaces that circuit's R_adc
    and R_mux (:meth:`Circuit.calibrated`), after checking that it is the same box (serial).
 
@@ -57,7 +59,8 @@ def _resolve(session: Any, circuit: Circuit | None,
     elif circuit is not None:
         found, source = circuit, "the circuit passed by the caller"
     else:
-        found, source = Circuit(), "the default circuit"
+        prof = session_profile(session)
+        found, source = prof.circuit(), f"the session's profile {prof.name!r} ({prof.source})"
     if calibration is None:
         return found, source
     cal = Calibration.load(calibration)

@@ -290,7 +290,8 @@ def sway_figure(rec: SwayRecording):
                     label=f"same frames, the twin's own cell gains divided out: {res['cop_rms_known_gains_cm']:.3f} cm RMS")
         ax.set_ylabel(f"CoP {name} (cm)")
         ax.grid(alpha=0.3)
-    ax.set_xlabel("time (s, device clock)")
+    ax.set_xlabel("time (s, device clock)" if s.device_time_us is not None else
+                  "time (s, host clock: the device sends no timestamps; no platform trace without sequence numbers)")
     fig.legend(*ax.get_legend_handles_labels(), loc="outside lower right", ncols=2, fontsize=8)
     title = f"psmat demo: {s.n_frames} frames recorded through the serial link ({Path(s.path).name})"
     if rec.cop_known_gains_cm is not None:

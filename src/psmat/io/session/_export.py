@@ -109,6 +109,10 @@ def _frame_lines(s: Session, pad: str) -> list[str]:
 def _v1_limit(s: Session) -> str:
     """What the v1 framing's check cannot see (docs/protocol.md), for a session recorded with it; else ''."""
     proto = s.device.get("proto", s.device.get("protocol"))
+    if str(proto).lower() == "csv":
+        return ("protocol csv: text lines without a checksum; a line is checked only for its count of numbers and "
+                "their range (0 ... 2**bits - 1), so a digit changed on the wire is in the file marked valid "
+                "(docs/protocol.md)")
     v1 = str(proto).lower() in ("1", "v1") or (s.kind in ("psm", "imu") and s.seq is None and s.n_frames > 0)
     if not v1 or s.kind not in ("psm", "imu"):
         return ""
