@@ -57,7 +57,10 @@ def _entries(text: str) -> dict[str, str]:
     its name for a positional): what follows the invocation, continuation lines joined."""
     entries: dict[str, str] = {}
     key = None
-    for line in text.splitlines():
+    lines = text.splitlines()
+    # the entries follow the description (whose bullets may be indented too): from argparse's first section
+    first = next((k for k, line in enumerate(lines) if line in ("positional arguments:", "options:")), len(lines))
+    for line in lines[first:]:
         m = re.match(r"^  (\S.*?)(?:\s{2,}(.*))?$", line)  # an entry starts two spaces in
         if m and not line.startswith("   "):
             key = m.group(1).split(",")[0].split()[0]

@@ -282,7 +282,7 @@ def _volunteer(out: Path, index: int, vid: str, person: Person, streams: list[np
         st = record_session(out / "sessions" / f"{stem}.h5", traj, mat, trial=trial, lead_s=lead, frames=frames,
                             rate_hz=rate, clock_error=box.clock_error, device_start_us=d0,
                             host_start_s=host0 + platform_start, loss_rate=box.loss_rate, pitch_cm=PITCH_CM,
-                            foot=foot, device=kit.device, calibration=kit.calibration.to_dict(),
+                            foot=foot, device=kit.device, profile=kit.profile, calibration=kit.calibration.to_dict(),
                             metadata={"subject": vid, "trial": trial, "simulated": True,
                                       "operator": "psmat.synth.simulate_study"}, rng=rng)
         _session_truth(out, stem, traj, st, frames, rate, box, d0, host0 + platform_start, n_fp, fp_end, lead)

@@ -205,7 +205,8 @@ class SessionTruth:
 def record_session(path: Path, traj: Trajectory, mat: MatPhysics, *, trial: str, lead_s: float, frames: int,
                    rate_hz: float, clock_error: float, device_start_us: int, host_start_s: float, loss_rate: float,
                    pitch_cm: float, foot: dict[str, float], device: dict[str, Any], calibration: dict[str, Any],
-                   metadata: dict[str, Any], rng: np.random.Generator) -> SessionTruth:
+                   metadata: dict[str, Any], rng: np.random.Generator, profile: dict[str, Any] | None = None
+                   ) -> SessionTruth:
     """Simulate and write one mat session (:class:`psmat.io.SessionWriter`) in chunks of :data:`CHUNK` frames.
 
     Frame ``k`` happens at platform time ``lead_s + k·T·(1 + clock_error)`` (``T = 1/rate_hz``);
@@ -230,7 +231,7 @@ def record_session(path: Path, traj: Trajectory, mat: MatPhysics, *, trial: str,
     bounds = list(range(0, frames, CHUNK)) + [frames]
     if len(bounds) > 2 and bounds[-1] - bounds[-2] < 2:  # no chunk of one frame: a scene needs two
         del bounds[-2]
-    with SessionWriter(path, (R, C), device, calibration=calibration, metadata=metadata) as w:
+    with SessionWriter(path, (R, C), device, calibration=calibration, metadata=metadata, profile=profile) as w:
         for a, b in zip(bounds[:-1], bounds[1:]):
             target, fz = traj.at(t_platform[a:b])
             disp = target - np.asarray(position)

@@ -22,6 +22,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..circuit import Calibration
+from ..profile import load_profile
 from ..twin import MatPhysics, PressureScene
 from ._draws import Box, MatDraw, calibrate_box, draw_box, draw_mat
 from ._truth import save_npz_stable, truth_json
@@ -29,8 +30,10 @@ from ._truth import save_npz_stable, truth_json
 __all__ = ["PITCH_CM", "NOISE_V", "new_root", "write_subjects", "MatKit", "equip", "host_times", "MatTally",
            "write_mat_chunk"]
 
-#: Cell pitch of the simulated mats (cm): the thesis' mat, 16 × 16 cells on 32 cm (docs/spec.md §1).
-PITCH_CM = 2.0
+#: The simulated lab's mats: the thesis' (docs/spec.md §1), recorded with its profile as ``psmat record`` does.
+MAT_PROFILE = "psm16"
+#: Cell pitch of the simulated mats (cm): the profile's, 16 × 16 cells on 32 cm.
+PITCH_CM = float(load_profile(MAT_PROFILE).pitch_cm)
 #: ADC-node noise (V): docs/spec.md §10 "noisy", thesis Table 2.4.
 NOISE_V = 1e-3
 
@@ -72,6 +75,8 @@ class MatKit:
         Pressure → counts through the box's true chain, at the box's true frame period.
     device : dict
         The box as its IDENTIFY reply describes it (what ``psmat record`` stores).
+    profile : dict
+        The mat's device profile (:data:`MAT_PROFILE` at the mat's shape), as ``psmat record`` stores it.
     """
 
     draw: MatDraw
@@ -79,6 +84,7 @@ class MatKit:
     calibration: Calibration
     mat: MatPhysics
     device: dict[str, Any]
+    profile: dict[str, Any]
 
     def truth(self, subject: str, person: dict[str, Any]) -> dict[str, Any]:
         """The subject's truth: person, mat, box and the calibration found (``truth/<folder>/<id>.json``)."""
@@ -111,7 +117,7 @@ def equip(out: Path, serial: str, rng_mat: np.random.Generator, rng_box: np.rand
     device = {"device": "psm", "fw": "0.1.0", "rows": shape[0], "cols": shape[1],
               "rate": int(rate_hz) if float(rate_hz).is_integer() else rate_hz, "proto": 2, "serial": box.serial,
               "r_o": 2200, "v_ref": 3.3, "bits": 12, "pitch_cm": PITCH_CM}
-    return MatKit(draw, box, cal, mat, device)
+    return MatKit(draw, box, cal, mat, device, load_profile(MAT_PROFILE).with_shape(shape).to_dict())
 
 
 def host_times(t_s: NDArray[np.float64], host0_s: float, rng: np.random.Generator) -> NDArray[np.float64]:

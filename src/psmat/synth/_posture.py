@@ -209,7 +209,7 @@ def _subject(out: Path, index: int, pid: str, person: SeatedSubject, streams: li
         meta = {"subject": pid, "trial": "posture", "day": d, "simulated": True, "study": "posture",
                 "operator": "psmat.synth.simulate_posture_study"}
         _session(out, stem, session, mat, kit.box, imu_device, rng, rate, host0, kit.device, kit.calibration.to_dict(),
-                 meta)
+                 meta, profile=kit.profile)
         bar.update(1)
 
 
@@ -239,7 +239,7 @@ def _imu_stream(session: SeatedSession, device: ImuDevice, rng: np.random.Genera
 
 def _session(out: Path, stem: str, session: SeatedSession, mat: MatPhysics, box: Box, imu_device: ImuDevice,
              rng: np.random.Generator, rate: float, host0: float, device: dict[str, Any], calibration: dict[str, Any],
-             metadata: dict[str, Any]) -> None:
+             metadata: dict[str, Any], profile: dict[str, Any] | None = None) -> None:
     """Simulate and write one session (mat at the root, IMUs as stream ``imu``) and its truth."""
     imu, imu_truth, imu_timing = _imu_stream(session, imu_device, rng, host0)
     start = float(rng.uniform(0.0, 0.5))
@@ -259,7 +259,7 @@ def _session(out: Path, stem: str, session: SeatedSession, mat: MatPhysics, box:
     tally = MatTally.empty((R, C))
     imu_dev = imu_identity(imu_device.serial)
     with SessionWriter(out / "sessions" / f"{stem}.h5", (R, C), device, calibration=calibration,
-                       metadata=metadata) as w:
+                       metadata=metadata, profile=profile) as w:
         stream = w.add_stream("imu", kind="imu", shape=(5, 3), device=imu_dev)
         stream.append(imu["angles"], imu["host"], imu["valid"], seq=imu["seq"], device_time_us=imu["t_us"])
         for a in range(0, frames, CHUNK):
