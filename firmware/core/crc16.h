@@ -12,4 +12,9 @@
 uint16_t pm_crc16_update(uint16_t crc, const uint8_t *data, size_t n);
 uint16_t pm_crc16(const uint8_t *data, size_t n);
 
+#ifndef PM_CRC16_BITWISE
+/* table[b]: the register after the byte b is shifted through the polynomial from zero (crc16.c) */
+extern const uint16_t pm_crc16_table[256];
+#endif
+
 #endif

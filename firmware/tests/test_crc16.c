@@ -19,5 +19,15 @@ int main(void)
         crc = pm_crc16_update(crc, digits + cut, 9 - cut);
         CHECK_EQ(crc, 0x29B1);
     }
+
+#ifndef PM_CRC16_BITWISE
+    /* the table is the bitwise recurrence: byte b shifted through the polynomial from zero */
+    for (unsigned b = 0; b < 256; b++) {
+        uint16_t r = (uint16_t)(b << 8);
+        for (int k = 0; k < 8; k++)
+            r = (r & 0x8000u) ? (uint16_t)((r << 1) ^ 0x1021u) : (uint16_t)(r << 1);
+        CHECK_EQ(pm_crc16_table[b], r);
+    }
+#endif
     return check_report("test_crc16");
 }

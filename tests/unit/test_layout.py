@@ -28,7 +28,7 @@ LAYERS: list[tuple[str, set[str]]] = [
     ("formats", {"protocol", "io"}),
     ("models", {"circuit", "noise", "iecm", "qzpm", "sensor", "profile"}),
     ("processing", {"process", "balance", "acquire", "spine", "pressure"}),
-    ("world", {"twin"}),
+    ("world", {"twin", "emulator"}),
     ("synthetic", {"synth"}),
     ("studies", {"study", "posture"}),
     ("applications", {"cli", "__main__", "commands", "live", "workflows", "bench", "experiments"}),

@@ -28,9 +28,12 @@ uint32_t micros(void)
     return (hi << 16) | (lo & 0xFFFFu);
 }
 
+/* At least `us` microseconds: t0 is read somewhere inside a tick of the 1 MHz counter, so
+ * waiting for `us` ticks could end after as little as us - 1 µs (delay_us(1): 0-1 µs, and
+ * the mux could settle for less than the 1 µs the ADC needs); waiting for us + 1 ticks cannot. */
 void delay_us(uint32_t us)
 {
     uint32_t t0 = micros();
-    while (micros() - t0 < us) {
+    while (micros() - t0 <= us) {
     }
 }

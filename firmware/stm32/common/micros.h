@@ -3,5 +3,5 @@
 #include <stdint.h>
 void micros_init(void);
 uint32_t micros(void); /* free-running 32-bit microsecond clock, wraps every 71.6 min */
-void delay_us(uint32_t us);
+void delay_us(uint32_t us); /* waits at least us microseconds (at most us + 1) */
 #endif

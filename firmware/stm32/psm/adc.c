@@ -1,5 +1,6 @@
 /* Code 2.5 with registers: ADC clock 12 MHz (clock.c), 13.5 + 12.5 cycles = 2.2 us per
- * conversion, software trigger, 1 us mux settling before each conversion (delay_us(1)). */
+ * conversion, software trigger, at least 1 us of mux settling between the select lines' write
+ * and the conversion's start (delay_us(1) waits at least 1 us: micros.c). */
 #include "adc.h"
 
 #include "micros.h"
