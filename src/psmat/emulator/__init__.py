@@ -13,6 +13,8 @@ without a model fails the run with :class:`UnmodelledAccess`, naming the address
   :class:`Flash` (``_rcc``), :class:`Afio`, :class:`GpioA`/``B``/``C`` (``_gpio``),
   :class:`Tim2`/``3``/``4`` (``_tim``), :class:`Adc1`, :class:`Usart1`, :class:`Uid`.
 * :func:`build_images` (``_build``) — ``make -C firmware stm32 LINK=uart`` in a source checkout.
+* :class:`ImuBoard` (``_imu_board``) — the IMU image with five :class:`Bno055` models on three
+  bit-banged, open-drain :class:`I2cBus` lines (``_bno055``, ``_i2c``).
 * :class:`PsmBoard` (``_psm_board``) — the PSM image reading a mat of known counts through the
   board's multiplexer wiring, with the settling time of every conversion.
 """
@@ -32,6 +34,9 @@ from ._stm32f103 import PERIPHERAL_CLASSES
 from ._tim import Tim2, Tim3, Tim4, Timer
 from ._uid import Uid
 from ._usart import Usart1
+from ._i2c import I2cBus, I2cDevice, I2cEvent
+from ._bno055 import Bno055
+from ._imu_board import IMU_BUS_PINS, IMU_SENSOR_SLOTS, ImuBoard
 
 __all__ = [
     "PERIPHERAL_CLASSES",
@@ -63,4 +68,11 @@ __all__ = [
     "UnmodelledAccess",
     "Usart1",
     "load_image",
+    "I2cBus",
+    "I2cDevice",
+    "I2cEvent",
+    "Bno055",
+    "IMU_BUS_PINS",
+    "IMU_SENSOR_SLOTS",
+    "ImuBoard",
 ]
