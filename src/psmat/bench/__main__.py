@@ -27,6 +27,8 @@ BENCHMARKS = {
     "study": "a thesis-size simulated balance study end to end, beside a plain multiprocessing pool over the "
              "sessions",
     "import": "the time of import psmat and of psmat --help in fresh processes, beside import numpy",
+    "firmware": "the PSM image in the emulator: instructions per frame, in the CRC and in busy-waits, scan time, "
+                "beside the image with the earlier bitwise CRC",
 }
 #: the module of a benchmark whose name is not a module name (``import`` is a Python keyword)
 MODULES = {"import": "import_cost"}

@@ -262,6 +262,16 @@ class Machine:
 
         return self._uc.reg_read(getattr(arm_const, f"UC_ARM_REG_{name.upper()}"))
 
+    def on_instruction(self, callback: Callable[[int], None], begin: int, end: int) -> None:
+        """Call ``callback(address)`` before every instruction executed at ``begin <= address <= end``.
+
+        For measurements (``python -m psmat.bench firmware`` counts instructions per function); a
+        hook on a wide range slows the emulation down, so keep ranges to what is measured.
+        """
+        from unicorn import UC_HOOK_CODE
+
+        self._uc.hook_add(UC_HOOK_CODE, lambda _uc, address, _size, _data: callback(address), begin=begin, end=end)
+
     @property
     def symbols(self) -> dict[str, int]:
         """Symbol name → address (Thumb bit cleared) from the ELF."""

@@ -22,11 +22,15 @@ pressure becomes conductance only through the sensor model (:class:`MatPhysics`)
   served on a real pseudo-terminal or on TCP (``socket://127.0.0.1:PORT``, where the system
   has no pty), with fault injection (:mod:`~psmat.twin.pty_link`, :mod:`~psmat.twin.tcp_link`);
   with ``protocol="csv"`` a do-it-yourself mat printing text lines (the ``arduino16`` profile).
+* :mod:`psmat.twin.emulated` — :class:`EmulatedTwin`: the STM32 PSM firmware image itself, run
+  in :mod:`psmat.emulator`, served on the same link (:mod:`~psmat.twin.serving`: the link, its
+  queue, faults and counters, shared with :class:`SerialTwin`).
 """
 
 from .anatomy import foot, two_feet
 from .arrays import random_array
 from .conductance import swaying_feet
+from .emulated import EmulatedTwin
 from .field import MAT_SIZE_CM, PSI_PA, Lobes, cell_force_n, cell_pressure_psi, mat_pitch_cm
 from .mat import MatPhysics, MatTruth
 from .scenes import PressureScene, quiet_standing, single_leg_sway, trajectory_sway, uniform_load
@@ -40,6 +44,7 @@ __all__ = [
     "MatTruth",
     "Faults",
     "SerialTwin",
+    "EmulatedTwin",
     "TwinStats",
     "SCENES",
     "CalibrationFixture",

@@ -37,16 +37,13 @@ disconnected, never handed out again) or the ``socket://`` URL.
 from __future__ import annotations
 
 import math
-import threading
 import time
-from dataclasses import dataclass, field
 
 import numpy as np
 
-from .pty_link import PtyLink, pty_available
-from .tcp_link import TcpLink
+from .serving import Faults, LinkServer, TwinStats
 
-__all__ = ["Faults", "SerialTwin", "TwinStats", "CSV_PROFILE"]
+__all__ = ["Faults", "SerialTwin", "TwinStats", "CSV_PROFILE"]  # Faults, TwinStats: from .serving
 
 #: the mat a csv twin without a source simulates: a do-it-yourself Arduino mat (firmware/arduino/README.md)
 CSV_PROFILE = "arduino16"
@@ -59,81 +56,7 @@ def _source_bits(source) -> int:
     return int(circuit.bits) if circuit is not None else 12
 
 
-@dataclass
-class Faults:
-    """Corruption of the byte stream (all off by default).
-
-    Parameters
-    ----------
-    bit_flip : float
-        Probability that a byte has one bit flipped.
-    drop_byte : float
-        Probability that a byte is lost.
-    stall_every_s, stall_s : float
-        Every ``stall_every_s`` seconds the link is silent for ``stall_s`` (0 = never).
-    disconnect_after_s : float or None
-        Close the port (the pty, or the TCP listener and its host) after this many seconds of serving.
-    seed : int
-    """
-
-    bit_flip: float = 0.0
-    drop_byte: float = 0.0
-    stall_every_s: float = 0.0
-    stall_s: float = 0.0
-    disconnect_after_s: float | None = None
-    seed: int = 0
-
-    def __post_init__(self) -> None:
-        if not (0 <= self.bit_flip <= 1 and 0 <= self.drop_byte <= 1):
-            raise ValueError("bit_flip and drop_byte are probabilities per byte, in [0, 1]")
-        if self.stall_every_s < 0 or self.stall_s < 0:
-            raise ValueError("stall_every_s and stall_s must be >= 0 s")
-        self._rng = np.random.default_rng(self.seed)
-
-    @classmethod
-    def parse(cls, text: str) -> "Faults":
-        """From ``"bit_flip=1e-5,drop_byte=1e-6,stall_every_s=5,stall_s=0.2,disconnect_after_s=30"``."""
-        kwargs: dict[str, float] = {}
-        for item in filter(None, (s.strip() for s in text.split(","))):
-            key, _, value = item.partition("=")
-            if key not in cls.__dataclass_fields__ or key.startswith("_"):
-                raise ValueError(f"unknown fault {key!r}; known: bit_flip, drop_byte, stall_every_s, "
-                                 "stall_s, disconnect_after_s, seed")
-            kwargs[key] = int(value) if key == "seed" else float(value)
-        return cls(**kwargs)
-
-    @property
-    def corrupts(self) -> bool:
-        return self.bit_flip > 0 or self.drop_byte > 0
-
-    def apply(self, data: bytes) -> tuple[bytes, int, int]:
-        """Corrupted ``data``, bits flipped, bytes dropped."""
-        if not self.corrupts or not data:
-            return data, 0, 0
-        a = np.frombuffer(data, np.uint8).copy()
-        flips = np.flatnonzero(self._rng.random(a.size) < self.bit_flip)
-        a[flips] ^= (1 << self._rng.integers(0, 8, flips.size)).astype(np.uint8)
-        keep = self._rng.random(a.size) >= self.drop_byte
-        return a[keep].tobytes(), int(flips.size), int(a.size - keep.sum())
-
-    def stalled(self, t: float) -> bool:
-        return self.stall_every_s > 0 and self.stall_s > 0 and (t % self.stall_every_s) < self.stall_s
-
-
-@dataclass
-class TwinStats:
-    ticks: int = 0  # timer interrupts
-    frames_sent: int = 0  # frames queued for the pty (whole)
-    frames_unsent: int = 0  # frames the host did not take (buffer full, stall)
-    bytes_sent: int = 0
-    commands_bytes: int = 0
-    bits_flipped: int = 0
-    bytes_dropped: int = 0
-    late_ticks: int = 0  # times the twin fell more than a period behind (the ticks missed are lost)
-    errors: list[str] = field(default_factory=list)
-
-
-class SerialTwin:
+class SerialTwin(LinkServer):
     """A simulated device served on a pseudo-terminal or on TCP (127.0.0.1).
 
     Parameters
@@ -231,61 +154,11 @@ class SerialTwin:
             self.firmware = fw.DaqFirmware()
             self.source = source or DaqSource(seed=seed)
         self._fixed_rate = rate if kind == "daq" or protocol == "csv" else None
-        self.faults = faults or Faults()
-        self.stats = TwinStats()
-        if buffer_bytes < 1:
-            raise ValueError("buffer_bytes must be positive")
-        self.buffer_bytes = int(buffer_bytes)
-        self._pending = bytearray()
-        if tcp_port is None and pty_available():
-            self._link: PtyLink | TcpLink = PtyLink(f"tty{kind.upper()}")
-        else:
-            self._link = TcpLink(0 if tcp_port is None else tcp_port)
-        self._queued_for = self._link.connection  # the host the queued bytes are meant for
-        self.port = self._link.port
-        self.transport = self._link.transport
-        self._stop = threading.Event()
-        self._thread: threading.Thread | None = None
-        self._t0 = 0.0
-        self.disconnected = False
+        self._open_link(faults, buffer_bytes, tcp_port)
 
-    # -------------------------------------------------------------------- lifecycle
     def start(self) -> "SerialTwin":
-        if self._thread is None:
-            self._thread = threading.Thread(target=self._serve, name=f"psmat-twin-{self.kind}", daemon=True)
-            self._thread.start()
-        return self
-
-    def stop(self, timeout_s: float = 2.0) -> None:
-        """Stop serving: end the serving thread (waiting up to ``timeout_s`` s for it) and close the link."""
-        self._stop.set()
-        if self._thread is not None:
-            self._thread.join(timeout_s)
-        self._release()
-
-    def __enter__(self) -> "SerialTwin":
-        return self.start()
-
-    def __exit__(self, *exc) -> None:
-        self.stop()
-
-    def serve_forever(self) -> None:
-        """Serve in the calling thread until :meth:`stop` (from another thread) or Ctrl-C."""
-        try:
-            self._serve()
-        finally:
-            self._release()
-
-    def disconnect(self) -> None:
-        """Pull the cable: the port and the pty (or the TCP listener and connection) disappear;
-        the host's reads fail and it cannot open the port again."""
-        self.disconnected = True
-        self._stop.set()
-        self._release()
-
-    def _release(self) -> None:
-        """Close the link (the pty and its path, or the sockets); idempotent, from any thread."""
-        self._link.close()
+        """Serve in a background thread; returns the twin."""
+        return super().start()
 
     # -------------------------------------------------------------------- the device
     @property
@@ -315,39 +188,6 @@ class SerialTwin:
             return self.firmware.receive(data)
         return self.firmware.receive(data, t_us & 0xFFFFFFFF)
 
-    def _send(self, data: bytes, t: float, is_frame: bool) -> None:
-        """Queue a packet for the host: whole, or (queue full, link stalled, no host on TCP) not at all."""
-        if not data:
-            return
-        if self.faults.stalled(t) or not self._link.connected:
-            self.stats.frames_unsent += is_frame
-            return
-        self._forget_gone_host()
-        data, flipped, dropped = self.faults.apply(data)
-        self.stats.bits_flipped += flipped
-        self.stats.bytes_dropped += dropped
-        if len(self._pending) + len(data) > self.buffer_bytes:
-            self.stats.frames_unsent += is_frame  # the host is not reading: drop the packet whole
-            return
-        self._pending += data
-        self.stats.frames_sent += is_frame
-        self._flush()
-
-    def _flush(self) -> None:
-        """Move queued bytes into the link as far as it takes them (never blocks)."""
-        self._forget_gone_host()
-        if not self._pending:
-            return
-        n = self._link.write(self._pending)
-        del self._pending[:n]
-        self.stats.bytes_sent += n
-
-    def _forget_gone_host(self) -> None:
-        """Drop bytes queued for a TCP host that has left: the next host starts at a packet boundary."""
-        if self._link.connection != self._queued_for or not self._link.connected:
-            self._pending.clear()
-            self._queued_for = self._link.connection
-
     def _serve(self) -> None:
         self._t0 = time.monotonic()
         next_t = self._t0
@@ -360,14 +200,10 @@ class SerialTwin:
                     return
                 wait = next_t - now
                 if wait > 0:
-                    r, w = self._link.wait(min(wait, 0.05), bool(self._pending))
-                    if w:
-                        self._flush()
-                    if r:
-                        data = self._link.read()
-                        if data:
-                            t_us = int((time.monotonic() - self._t0) * 1e6)
-                            self._send(self._receive(data, t_us), elapsed, is_frame=False)
+                    data = self._poll_link(min(wait, 0.05))
+                    if data:
+                        t_us = int((time.monotonic() - self._t0) * 1e6)
+                        self._send(self._receive(data, t_us), elapsed, is_frame=False)
                     continue
                 # the MCU stamps a scan with its timer's time, not with when the host got round to it
                 t_us = int(round((next_t - self._t0) * 1e6))
