@@ -16,6 +16,9 @@ import pytest
 
 from psmat.protocol import Reply, Status, V1Decoder, decode_v2
 
+#: the repository's firmware sources (the images are built from them, whether psmat is installed or not)
+FIRMWARE = Path(__file__).resolve().parents[2] / "firmware"
+
 pytest.importorskip("unicorn")
 pytest.importorskip("elftools")
 
@@ -35,10 +38,10 @@ def work(tmp_path_factory: pytest.TempPathFactory) -> Path:
     """A folder with the images built by ``psmat firmware build --out D`` and the mat m.npy."""
     folder = tmp_path_factory.mktemp("fw")
     if shutil.which("make") is None or shutil.which("arm-none-eabi-gcc") is None:
-        proc = _psmat(["firmware", "build", "--out", "D"], folder)
+        proc = _psmat(["firmware", "build", "--out", "D", "--source", str(FIRMWARE)], folder)
         assert proc.returncode == 1 and len(proc.stderr.strip().splitlines()) == 1, proc.stderr
         pytest.skip(proc.stderr.strip())
-    proc = _psmat(["firmware", "build", "--out", "D"], folder)
+    proc = _psmat(["firmware", "build", "--out", "D", "--source", str(FIRMWARE)], folder)
     assert proc.returncode == 0, proc.stderr
     lines = dict(line.split(": ", 1) for line in proc.stdout.strip().splitlines())
     assert (folder / lines["psm"]).resolve() == (folder / "D" / "stm32-uart" / "psm.elf").resolve()

@@ -264,7 +264,7 @@ def test_parquet_without_pyarrow_is_one_line_naming_the_extra(processed, tmp_pat
 
 
 # ---------------------------------------------------------------------- a session given as a port
-@pytest.mark.parametrize("cmd", [["record", "--seconds", "1", "-o", "OUT"], ["view"]])
+@pytest.mark.parametrize("cmd", [["record", "--seconds", "1", "-o", "OUT"]])  # psmat view replays it
 def test_a_session_given_as_a_port_names_the_commands_that_read_files(processed, tmp_path, cmd) -> None:
     out = tmp_path / "out.h5"
     args = [a if a != "OUT" else str(out) for a in cmd]

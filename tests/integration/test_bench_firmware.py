@@ -8,6 +8,8 @@ from __future__ import annotations
 
 import re
 
+from pathlib import Path
+
 import pytest
 
 pytest.importorskip("unicorn")
@@ -24,7 +26,7 @@ LINK_HZ = 1e6 / (FRAME_BYTES * 10)
 @pytest.fixture(scope="module")
 def images(tmp_path_factory):
     try:
-        return bench.build_pair(tmp_path_factory.mktemp("fw"))
+        return bench.build_pair(tmp_path_factory.mktemp("fw"), source=Path(__file__).resolve().parents[2] / "firmware")
     except BuildUnavailable as exc:
         pytest.skip(str(exc))
 

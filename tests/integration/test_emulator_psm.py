@@ -28,6 +28,9 @@ from psmat.emulator import BuildUnavailable, PsmBoard, build_images  # noqa: E40
 from psmat.protocol import (CAL_RESUME, Frame, Gap, Opcode, Reply, Status, V2Decoder, cal_hold_arg,  # noqa: E402
                             encode_command, encode_v1, encode_v2, parse_identify)
 
+#: the repository's firmware sources (the images are built from them, whether psmat is installed or not)
+FIRMWARE = Path(__file__).resolve().parents[2] / "firmware"
+
 #: the unique ID the board reports; its serial, the XOR of the words, worked out by hand byte by byte:
 #: 12^0F^15 = 08, 34^0F^A5 = 9E, 56^0F^A5 = FC, 78^0F^A5 = D2 (a leading 0: the 8 digits are padded)
 UID = (0x12345678, 0x0F0F0F0F, 0x15A5A5A5)
@@ -45,7 +48,7 @@ STEP_S = 0.5e-3                      # how far the host lets the board run betwe
 def elf(tmp_path_factory: pytest.TempPathFactory) -> Path:
     """The PSM image, built once for the module (LINK=uart: the emulator models USART1)."""
     try:
-        return build_images(tmp_path_factory.mktemp("firmware"), link="uart")["psm"]
+        return build_images(tmp_path_factory.mktemp("firmware"), link="uart", source=FIRMWARE)["psm"]
     except BuildUnavailable as exc:
         pytest.skip(str(exc))
 

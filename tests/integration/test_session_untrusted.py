@@ -363,6 +363,8 @@ HEADERS: dict[str, dict[str, object]] = {
     "unknown kind": {"kind": "eeg"},
     "imu of 4 x 4": {"kind": "imu", "frame_dtype": "<f4"},
     "float psm counts": {"frame_dtype": "<f4"},
+    "lsl of float32 samples": {"kind": "lsl", "frame_shape": [16], "frame_dtype": "<f4"},
+    "lsl frame of rank 2": {"kind": "lsl", "frame_dtype": "<f8"},
     "4 GiB records": {"frame_shape": [65536, 32768], "payload_bytes": 2**32, "record_bytes": 2**32 + 36},
     "zero chunk frames": {"chunk_frames": 0},
     "boolean chunk frames": {"chunk_frames": True},

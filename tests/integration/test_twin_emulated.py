@@ -12,6 +12,8 @@ import select
 import time
 
 import numpy as np
+from pathlib import Path
+
 import pytest
 
 pytest.importorskip("unicorn")
@@ -23,6 +25,9 @@ from psmat.emulator import BuildUnavailable, build_images  # noqa: E402
 from psmat.twin import EmulatedTwin, PsmSource  # noqa: E402
 from psmat.twin.pty_link import pty_available  # noqa: E402
 
+#: the repository's firmware sources (the images are built from them, whether psmat is installed or not)
+FIRMWARE = Path(__file__).resolve().parents[2] / "firmware"
+
 UID = (0x0BADF00D, 0x13572468, 0xCAFEBABE)
 SERIAL = f"{0x0BADF00D ^ 0x13572468 ^ 0xCAFEBABE:08X}"
 
@@ -30,7 +35,7 @@ SERIAL = f"{0x0BADF00D ^ 0x13572468 ^ 0xCAFEBABE:08X}"
 @pytest.fixture(scope="module")
 def psm_elf(tmp_path_factory):
     try:
-        return build_images(tmp_path_factory.mktemp("fw"), link="uart")["psm"]
+        return build_images(tmp_path_factory.mktemp("fw"), link="uart", source=FIRMWARE)["psm"]
     except BuildUnavailable as exc:
         pytest.skip(str(exc))
 

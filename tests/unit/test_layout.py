@@ -31,7 +31,7 @@ LAYERS: list[tuple[str, set[str]]] = [
     ("world", {"twin", "emulator"}),
     ("synthetic", {"synth"}),
     ("studies", {"study", "posture"}),
-    ("applications", {"cli", "__main__", "commands", "live", "workflows", "bench", "experiments"}),
+    ("applications", {"cli", "__main__", "commands", "live", "workflows", "bench", "experiments", "lab"}),
 ]
 # Edges the ranks alone would allow but the plan forbids: the studies see the simulated
 # world only through psmat.synth, so that what processes a study never knows the twin.

@@ -23,8 +23,10 @@ QUANTITY_WORDS = {
     "time", "times", "period", "rate", "fs", "pitch", "pressure", "pressures", "force", "forces",
     "weight", "mass", "angle", "angles", "lag", "duration", "seconds", "length", "area", "distance",
     "height", "width", "radius", "interval", "delay", "timeout", "freq", "frequency", "voltage",
-    "resistance", "temperature", "cop", "velocity", "speed", "latency",
+    "resistance", "temperature", "cop", "velocity", "latency",
 }
+# "speed" is not among them: in psmat it is a playback's multiple of real time, a ratio (docs/spec.md §1);
+# a physical speed is a velocity, with its unit (``velocity_cm_s``).
 # docs/spec.md §1: the suffixes, and the products of two of them.
 SUFFIXES = {"s", "ms", "us", "hz", "fps", "cm", "mm", "m", "cm2", "mm2", "deg", "rad", "kpa", "pa",
             "psi", "n", "kg", "v", "mv", "ohm", "cells", "cm_s", "kpa_s", "n_s", "m_s2"}
@@ -34,7 +36,7 @@ UNITLESS = {"weight_decay"}
 CONTRACT = {"psmat.balance.cop": {"pressure"}, "psmat.balance.sway": {"cop"},
             "psmat.balance.align": {"cop_ref", "cop", "t_ref"}, "psmat.posture.spine_points": {"angles"}}
 # The library's public packages, every one (the applications are checked by their help texts).
-APPLICATIONS = {"cli", "__main__", "commands", "live", "workflows", "bench", "experiments"}
+APPLICATIONS = {"cli", "__main__", "commands", "live", "workflows", "bench", "experiments", "lab"}
 
 
 def _library() -> list[str]:

@@ -15,6 +15,9 @@ Nothing in psmat's library imports this package. Each benchmark is one module wi
 * :mod:`psmat.bench.study` — a thesis-size simulated balance study end to end.
 * :mod:`psmat.bench.import_cost` (``python -m psmat.bench import``) — the time of
   ``import psmat`` and ``psmat --help`` beside ``import numpy``, in fresh processes.
+* :mod:`psmat.bench.lab` — the lab page in headless Chromium (frames drawn/s, latency,
+  server CPU while recording; its browser side in ``lab_page``) beside the matplotlib view,
+  driven through :mod:`psmat.bench.chromium` (a small DevTools client, also the tests').
 
 :mod:`psmat.bench.baselines` holds the independent re-implementations the benchmarks time
 beside psmat (NumPy/SciPy IECM, the NumPy sensor model, the thesis-style reader);

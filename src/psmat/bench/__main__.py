@@ -29,6 +29,8 @@ BENCHMARKS = {
     "import": "the time of import psmat and of psmat --help in fresh processes, beside import numpy",
     "firmware": "the PSM image in the emulator: instructions per frame, in the CRC and in busy-waits, scan time, "
                 "beside the image with the earlier bitwise CRC",
+    "lab": "the lab page in headless Chromium (frames drawn/s, latency from a frame's device time to the page, "
+           "server CPU while recording) beside the matplotlib view, at 100 and 165 Hz",
 }
 #: the module of a benchmark whose name is not a module name (``import`` is a Python keyword)
 MODULES = {"import": "import_cost"}

@@ -90,8 +90,9 @@ def link_limit_hz(baud: float, frame_bytes: int) -> float:
     return baud / (10.0 * frame_bytes)
 
 
-def build_pair(build_dir: str | Path) -> dict[str, Path]:
-    """Build the two PSM images (:data:`IMAGES`) under ``build_dir``; their ELF files by name.
+def build_pair(build_dir: str | Path, source: str | Path | None = None) -> dict[str, Path]:
+    """Build the two PSM images (:data:`IMAGES`) under ``build_dir`` from the firmware folder ``source``
+    (default :func:`psmat.emulator.firmware_dir`); their ELF files by name.
 
     Raises
     ------
@@ -100,7 +101,7 @@ def build_pair(build_dir: str | Path) -> dict[str, Path]:
     """
     from ..emulator import build_images
 
-    return {name: build_images(Path(build_dir) / f"image{k}", link="uart", extra_cflags=flags)["psm"]
+    return {name: build_images(Path(build_dir) / f"image{k}", link="uart", extra_cflags=flags, source=source)["psm"]
             for k, (name, flags) in enumerate(IMAGES)}
 
 

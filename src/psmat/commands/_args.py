@@ -12,7 +12,7 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-__all__ = ["shape", "seconds", "session_seconds", "rate_hz", "positive_int", "tcp_port", "nonnegative",
+__all__ = ["shape", "seconds", "speed", "session_seconds", "rate_hz", "positive_int", "tcp_port", "nonnegative",
            "conductance", "input_file", "figure_file", "twin_shape_problem", "bits", "TWIN_MAX_LINES",
            "IMU_MAX_RATE_HZ"]
 
@@ -51,6 +51,11 @@ def _positive(text: str, what: str) -> float:
 def seconds(text: str) -> float:
     """A duration in s, finite and > 0."""
     return _positive(text, "a duration in seconds")
+
+
+def speed(text: str) -> float:
+    """A replay speed: recorded seconds per second, finite and > 0 (2 = twice as fast)."""
+    return _positive(text, "a replay speed")
 
 
 def rate_hz(text: str) -> float:

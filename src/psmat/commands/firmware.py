@@ -34,6 +34,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                    help="the build folder: the images land in DIR/stm32-uart/ (uart) or DIR/stm32/ (usb)")
     b.add_argument("--link", choices=("uart", "usb"), default="uart",
                    help="the link the images talk over: USART1 at 1 Mbit/s (what the emulator runs) or USB")
+    b.add_argument("--source", metavar="DIR", default=None,
+                   help="the firmware folder of a psmat clone (default: the checkout psmat runs from, else "
+                        "./firmware)")
     r = sub.add_parser("run", help="run the PSM image in the emulator and write the bytes it sends",
                        description="Execute the PSM image (LINK=uart) in the emulator on a mat of known counts "
                                    "and write every byte it sends on USART1 from power-up, once N frames are out.")
@@ -62,7 +65,7 @@ def _build(args: argparse.Namespace) -> int:
     from ..emulator import BuildUnavailable, build_images
 
     try:
-        images = build_images(args.out, link=args.link)
+        images = build_images(args.out, link=args.link, source=args.source)
     except BuildUnavailable as exc:
         print(f"psmat firmware build: {_line(exc)}", file=sys.stderr)
         return 1

@@ -10,6 +10,13 @@ The first device is described by its profile (``--profile``, or its kind's shipp
 which the session stores (``Session.profile``); an ``--also`` device by its kind's shipped
 profile, kept under ``"profile"`` in its stream's device dict. A twin (``--simulate``) is the
 profile's device.
+
+``--lsl NAME`` records another program's Lab Streaming Layer stream (a force platform, EEG; found
+by its name, else its type) as one more stream of the session, of kind ``lsl``: its samples as
+float64 ``(T, channels)``, their LSL timestamps mapped to the session's host clock
+(``host_time_s = timestamp + LSL time correction + offset``, the offset between LSL's clock and
+the host clock measured once when the stream is opened; psmat.acquire.LslInlet). The session's
+stream is named ``lsl_NAME`` (characters other than letters, digits and ``_`` made ``_``).
 """
 
 from __future__ import annotations
@@ -58,6 +65,10 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--also", type=also, action="append", default=[], metavar="KIND=PORT",
                    help="one more device recorded into the same file as stream KIND, on the same host clock "
                         "(e.g. --also imu=/dev/ttyACM1; with --simulate just --also imu); repeatable, each kind once")
+    p.add_argument("--lsl", action="append", default=[], metavar="NAME",
+                   help="also record the Lab Streaming Layer stream NAME (its name, else its type: a force platform, "
+                        "EEG) as the stream lsl_NAME of the session, on the same host clock (waits up to 5 s for it); "
+                        "repeatable")
     p.add_argument("--protocol", choices=("v1", "v2", "csv"), default=None,
                    help="the devices' frame format (docs/protocol.md): v1, v2, or csv (the text lines of a "
                         "do-it-yourself mat, e.g. an Arduino: no commands); default: the profile's (without "
@@ -97,6 +108,9 @@ def _check(args: argparse.Namespace, profiles: list[Any]) -> str | None:
     kinds = [a.kind for a in args.also]
     if len(set(kinds)) != len(kinds):
         return f"--also names each kind once, got {', '.join(kinds)}"
+    lsl = [lsl_stream_name(n) for n in args.lsl]
+    if len(set(lsl)) != len(lsl):
+        return f"--lsl names each stream once, got {', '.join(args.lsl)}"
     for a in args.also:
         if args.simulate and a.port:
             return f"with --simulate, --also takes a kind only (--also {a.kind}), not a port"
@@ -120,7 +134,7 @@ def _check(args: argparse.Namespace, profiles: list[Any]) -> str | None:
                       overwrite=args.overwrite)
     except OutputRefused as exc:
         return str(exc)
-    journals = [journal_path(args.out), *(journal_path(args.out, k) for k in kinds)]
+    journals = [journal_path(args.out), *(journal_path(args.out, k) for k in (*kinds, *lsl))]
     taken = [p for p in journals if os.path.lexists(p)]
     if taken and not args.overwrite:
         return f"{taken[0]} exists; add --overwrite to replace it"
@@ -171,6 +185,9 @@ def run(args: argparse.Namespace) -> int:
     wanted = [Also(kind, args.port), *args.also]
     clock = HostClock()  # one host clock for every device's frames
     with contextlib.ExitStack() as stack:  # closed in reverse: recording stopped, writer, devices, twins
+        lsl_devs = _open_lsl(stack, args.lsl, clock)  # first: a stream that is not there stops before any file
+        if lsl_devs is None:
+            return 1
         ports = [w.port for w in wanted]
         if args.simulate:
             ports = [_twin(stack, pr, args.rate if k == 0 else None, k) for k, pr in enumerate(profiles)]
@@ -194,6 +211,9 @@ def run(args: argparse.Namespace) -> int:
             sources.append(_Source(w.kind, dev, writer.add_stream(w.kind, kind=dev.kind, shape=dev.shape,
                                                                   device={**(dev.description or {}),
                                                                           "profile": pr.to_dict()})))
+        for name, dev in lsl_devs:  # another program's LSL stream, float64 (T, channels)
+            sources.append(_Source(name, dev, writer.add_stream(name, kind="lsl", shape=dev.shape,
+                                                                device=dev.description)))
         for src in sources:
             src.dev.record_to(src.writer)
             stack.callback(src.dev.stop_recording)  # the final counters, before the writer closes
@@ -211,6 +231,34 @@ def run(args: argparse.Namespace) -> int:
               f"{st.dropped_buffer} dropped by the host buffer"
               + (f"; ended early: {src.ended}" if src.ended and len(sources) > 1 else ""))
     return status
+
+
+def lsl_stream_name(name: str) -> str:
+    """The session stream an LSL stream ``name`` is recorded as: ``lsl_NAME``, characters other than
+    ASCII letters, digits and ``_`` made ``_`` (so never a device kind's or a reserved name), at most
+    64 characters."""
+    import re
+
+    return "lsl_" + re.sub(r"[^A-Za-z0-9_]", "_", name)[:60]
+
+
+def _open_lsl(stack: Any, names: list[str], clock: Any) -> list[tuple[str, Any]] | None:
+    """The ``--lsl`` streams opened on ``clock`` (closed with ``stack``), by session stream name;
+    None after printing one line when one cannot be opened."""
+    import sys
+
+    from ..acquire import AcquireError, open_lsl
+
+    out = []
+    for name in names:
+        try:
+            dev = open_lsl(name, 5.0, clock=clock)
+        except (ImportError, AcquireError, ValueError) as exc:
+            print(f"psmat record: --lsl {name}: {' '.join(str(exc).split())}", file=sys.stderr)
+            return None
+        stack.callback(dev.close)
+        out.append((lsl_stream_name(name), dev))
+    return out
 
 
 def _also_profile(args: argparse.Namespace, kind: str) -> Any:

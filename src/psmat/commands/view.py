@@ -1,7 +1,11 @@
 """``psmat view``: a live window on a mat - raw image, pressure, centre-of-pressure trace.
 
 ``psmat view PORT`` reads a mat on a serial port; ``psmat view --simulate`` serves the
-digital twin on a pseudo-terminal and reads that. The window shows the equivalent
+digital twin on a pseudo-terminal and reads that; ``psmat view S.h5`` replays a recorded
+session (:func:`psmat.acquire.open_playback`) at its recorded times, ``--speed X`` times as
+fast, drawn with the profile stored in the session (else one rebuilt from it, or ``--profile``); its
+status line says ``replay of S.h5 at X×``. A recording that was not closed (its journal only)
+is not replayed: one line says ``psmat repair S.h5`` finishes it. The window shows the equivalent
 conductance G (mS, crosstalk included), the pressure (kPa) after IECM and the inverse sensor
 model, and the last 10 s of the CoP (M-L and A-P, cm); the title line shows the port, the
 frames/s received, invalid and lost frames, the processing rate and the display rate.
@@ -35,8 +39,11 @@ EXIT_DISCONNECTED = 3
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
-    p.add_argument("port", nargs="?", default=None, help="the mat's serial port (/dev/ttyACM0, COM4, a pty) or a "
-                   "pyserial URL such as socket://127.0.0.1:5555")
+    p.add_argument("port", nargs="?", default=None, help="the mat's serial port (/dev/ttyACM0, COM4, a pty), a "
+                   "pyserial URL such as socket://127.0.0.1:5555, or a recorded session file (S.h5) to replay")
+    p.add_argument("--speed", type=_args.speed, default=None,
+                   help="with a session file as PORT: replay speed, recorded seconds per second (2 = twice as "
+                        "fast; default 1)")
     p.add_argument("--simulate", action="store_true", help="view the digital twin instead of a mat")
     _profile_args.add_profile_argument(p)
     p.add_argument("--rate", type=_args.positive_int, default=None,
@@ -110,12 +117,22 @@ def _check_files(args: argparse.Namespace) -> str | None:
     from ..io import journal_path
     from ..io.session import unfinished_line
 
+    from ._replay import REPLAY_FIXED, is_session_file
+
     port = args.port
     if port is not None and (os.path.isfile(port) or journal_path(port).is_file()):
-        return unfinished_line(port) or (f"{port} is a file, not a serial port: psmat view shows a live mat; "
-                                         f"psmat info {port} summarises a recorded session, psmat process {port} "
-                                         f"computes its pressure and CoP, psmat export {port} writes it as CSV, "
-                                         "Parquet or MATLAB")
+        problem = unfinished_line(port)  # a recording not closed: psmat repair finishes it
+        if problem:
+            return problem
+        if not is_session_file(port):
+            return (f"{port} is neither a serial port nor a session file (HDF5): psmat view shows a live mat "
+                    "(/dev/ttyACM0, COM4, socket://HOST:PORT) or replays a recorded session (S.h5)")
+        given = [opt for opt, attr in REPLAY_FIXED if getattr(args, attr, None) is not None]
+        if given:
+            return (f"{', '.join(given)}: a replay's shape, protocol, ADC bits and rate are the session's "
+                    f"({port}); leave {'them' if len(given) > 1 else 'it'} out")
+    elif args.speed is not None:
+        return "--speed replays a session file given as PORT (psmat view S.h5 --speed 2), not a live mat"
     try:
         check_outputs([args.save], inputs=[port], overwrite=args.overwrite)
     except OutputRefused as exc:
@@ -153,13 +170,26 @@ def run(args: argparse.Namespace) -> int:
         err(problem)
         return 1
 
-    try:
-        prof = _profile_args.resolve(args, "psm")
-    except ValueError as exc:
-        err(str(exc))
-        return 1
+    from ._replay import is_session_file, open_replay, replay_label
+
     twin = None
+    dev = None
     port = args.port
+    replay = is_session_file(port)
+    if replay:
+        try:
+            dev, prof, note = open_replay(port, args.speed or 1.0, args.profile)
+        except (OSError, ValueError) as exc:
+            err(str(exc))
+            return 1
+        print(f"{replay_label(port, dev.speed)}: {dev.n_frames} frames, {dev.duration_s:.1f} s recorded, profile "
+              f"{prof.name}{'; ' + note if note else ''}", flush=True)
+    else:
+        try:
+            prof = _profile_args.resolve(args, "psm")
+        except ValueError as exc:
+            err(str(exc))
+            return 1
     if args.simulate:
         from ..twin import PsmSource, SerialTwin
 
@@ -176,26 +206,26 @@ def run(args: argparse.Namespace) -> int:
         port = twin.port
         print(f"simulated mat ({prof.name}, {args.scene}, {prof.protocol}, {twin.rate_hz:g} Hz) on {port}",
               flush=True)
-    dev = None
     try:
-        try:
-            dev = _open(port, prof)
-            d = dev.description or {}
-            if (args.shape is None and args.profile is None and "rows" in d and "cols" in d
-                    and (int(d["rows"]), int(d["cols"])) != tuple(dev.shape)):
-                dev.close()
-                prof = prof.with_shape((int(d["rows"]), int(d["cols"])))  # what the mat reports
+        if not replay:
+            try:
                 dev = _open(port, prof)
-            dev.start()
-        except (serial.SerialException, OSError, AcquireError) as exc:
-            err(f"cannot read a mat on {port}: {exc}")
-            return EXIT_DISCONNECTED if isinstance(exc, AcquireError) else 1
+                d = dev.description or {}
+                if (args.shape is None and args.profile is None and "rows" in d and "cols" in d
+                        and (int(d["rows"]), int(d["cols"])) != tuple(dev.shape)):
+                    dev.close()
+                    prof = prof.with_shape((int(d["rows"]), int(d["cols"])))  # what the mat reports
+                    dev = _open(port, prof)
+                dev.start()
+            except (serial.SerialException, OSError, AcquireError) as exc:
+                err(f"cannot read a mat on {port}: {exc}")
+                return EXIT_DISCONNECTED if isinstance(exc, AcquireError) else 1
 
         from ..live import LiveView, run_view
 
+        label = replay_label(port, dev.speed) if replay else f"{port}{' (twin)' if twin else ''}"
         view = LiveView(dev, profile=prof, iecm=not args.no_iecm, decimate=args.decimate, g_rest=args.g_rest,
-                        rate_hz=twin.rate_hz if twin is not None else None,
-                        port=f"{port}{' (twin)' if twin else ''}")
+                        rate_hz=twin.rate_hz if twin is not None else None, port=label)
 
         def stop_device() -> None:
             dev.close()

@@ -23,19 +23,21 @@ class BuildUnavailable(RuntimeError):
 
 
 def firmware_dir() -> Path:
-    """The repository's ``firmware/`` folder (the sources of the images).
+    """The repository's ``firmware/`` folder (the sources of the images): beside the package when
+    psmat runs from its checkout (an editable install), else ``./firmware`` of a clone psmat is run
+    from (an installed psmat run in its repository, as CI does).
 
     Raises
     ------
     BuildUnavailable
-        psmat runs from an installed wheel, which does not carry the firmware's sources.
+        Neither holds the firmware's Makefile (an installed wheel carries no firmware sources).
     """
-    found = Path(__file__).resolve().parents[3] / "firmware"
-    if not (found / "Makefile").is_file():
-        raise BuildUnavailable("the firmware sources (firmware/ of the psmat repository) are not here: psmat is "
-                               "installed from a wheel; build the images in a clone with make -C firmware stm32 "
-                               "LINK=uart")
-    return found
+    for found in (Path(__file__).resolve().parents[3] / "firmware", Path.cwd() / "firmware"):
+        if (found / "Makefile").is_file() and (found / "stm32").is_dir():
+            return found
+    raise BuildUnavailable("the firmware sources (firmware/ of the psmat repository) are not here: run from a "
+                           "clone of the repository, or build the images there with make -C firmware stm32 "
+                           "LINK=uart")
 
 
 def build_images(build_dir: str | os.PathLike[str], *, link: str = "uart", extra_cflags: str = "",
@@ -64,6 +66,8 @@ def build_images(build_dir: str | os.PathLike[str], *, link: str = "uart", extra
     if link not in ("uart", "usb"):
         raise ValueError(f"link must be 'uart' or 'usb', got {link!r}")
     src = Path(source) if source is not None else firmware_dir()
+    if not (src / "Makefile").is_file():
+        raise BuildUnavailable(f"{src} is not the firmware folder of a psmat clone (no Makefile)")
     for tool in ("make", ARM_GCC):
         if shutil.which(tool) is None:
             raise BuildUnavailable(f"{tool} is not on PATH (Debian: apt-get install make gcc-arm-none-eabi)")

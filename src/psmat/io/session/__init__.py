@@ -65,6 +65,10 @@ dataset             shape               dtype      unit     content
 ``/counts``         (T, R, C) psm       uint16     count    raw ADC counts of the mat, row-major cells
                     (T, 10) daq                             material-DAQ 10-bit counts, one column per sensor
 ``/angles``         (T, 5, 3) imu       float32    deg      Euler angles (heading, roll, pitch) per IMU
+``/samples``        (T, N) lsl          float64    (below)  another program's Lab Streaming Layer stream
+                                                            (a force platform, EEG): N channels, each in
+                                                            the unit the device dict's ``channel_units``
+                                                            names (the dataset's ``unit`` attribute says so)
 ``/host_time_s``    (T,)                float64    s        host clock when the frame was received
 ``/valid``          (T,)                uint8      1        1 = frame passed its checksum/CRC, 0 = kept
                                                             as a placeholder (values meaningless)
@@ -94,7 +98,8 @@ layout), holding the same per-frame datasets with the same chunking and Fletcher
 =============================  ===========  ===================================================
 in ``/streams/NAME/``          shape        content
 =============================  ===========  ===================================================
-``counts`` or ``angles``       (T_k, ...)   the stream's frames, as the root's for its kind
+``counts``, ``angles`` or      (T_k, ...)   the stream's frames, as the root's for its kind
+``samples``
 ``host_time_s``                (T_k,)       host clock when received, the same clock as ``/host_time_s``
 ``valid``, ``seq``,            (T_k,)       as at the root
 ``device_time_us``
@@ -104,6 +109,11 @@ in ``/streams/NAME/``          shape        content
 =============================  ===========  ===================================================
 
 Attributes of ``/streams/NAME``: ``kind``, ``frame_shape``, ``frame_dataset``, ``n_frames``.
+A stream of kind ``lsl`` (``psmat record --lsl NAME``) holds the samples of a Lab Streaming Layer
+stream: ``host_time_s`` its samples' LSL timestamps mapped to the host clock
+(:class:`psmat.acquire.LslInlet`), ``valid`` 1, ``seq`` -1 (LSL numbers no samples),
+``device_time_us`` the LSL timestamp on the sender's clock (µs); its device dict holds the LSL
+stream's name, type, source id, nominal rate, channel labels and units, and the clock offsets used.
 Metadata and calibration are the root's; products live at the root. A file with streams
 has ``format_version`` 3, so that a psmat that knows only version 2 refuses it instead of
 loading the first device and silently leaving the others out; a one-device file stays
@@ -131,8 +141,8 @@ An older psmat ignores the group (and loads the file without its events); neithe
 nor ``/profile`` changes ``format_version``.
 
 Attributes of ``/`` (the root group): ``format`` = ``"psmat-session"``, ``format_version``
-(int: 2, or 3 with ``/streams``), ``kind`` (``"psm"``, ``"imu"`` or ``"daq"``), ``frame_shape`` (int array),
-``frame_dataset`` (``"counts"`` or ``"angles"``), ``created_utc`` (ISO 8601),
+(int: 2, or 3 with ``/streams``), ``kind`` (``"psm"``, ``"imu"``, ``"daq"`` or ``"lsl"``), ``frame_shape``
+(int array), ``frame_dataset`` (``"counts"``, ``"angles"`` or ``"samples"``), ``created_utc`` (ISO 8601),
 ``psmat_version``, ``complete`` (1), ``n_frames``, ``closed_utc``; after
 :func:`repair_session` also ``repaired_utc`` and ``repair_notes``.
 

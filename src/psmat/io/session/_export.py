@@ -23,6 +23,8 @@ def _cell_names(kind: str, shape: tuple[int, ...]) -> list[str]:
         return [f"s{k}_{a}_deg" for k in range(shape[0]) for a in _IMU_ANGLES[: shape[1]]]
     if kind == "daq":
         return [f"s{k}_count" for k in range(shape[0])]
+    if kind == "lsl":
+        return [f"ch{k}" for k in range(shape[0])]
     r, c = shape
     return [f"c_{i}_{p}" for i in range(r) for p in range(c)]
 
@@ -38,7 +40,7 @@ def export_csv(session: Session | str | os.PathLike[str], path: str | os.PathLik
     """Write one CSV row per frame: ``time_s, valid, seq``, then the frame values; return ``path``.
 
     Cell columns are ``c_{i}_{p}`` (row-major) for a mat, ``s{k}_{heading|roll|pitch}_deg``
-    for the IMUs, ``s{k}_count`` for the material DAQ. ``valid`` is 1/0; ``seq`` is empty
+    for the IMUs, ``s{k}_count`` for the material DAQ, ``ch{k}`` for an LSL stream. ``valid`` is 1/0; ``seq`` is empty
     when unknown. Values are written exactly (integers; shortest round-trip floats).
     ``missing``: if given (e.g. ``""``), the cells of invalid frames are written as this
     string instead of the stored placeholder values. Each stream of a multi-device session

@@ -50,6 +50,9 @@ KINDS: dict[str, KindSpec] = {
     "psm": KindSpec("counts", np.dtype("<u2"), "count", "time, row, column"),
     "imu": KindSpec("angles", np.dtype("<f4"), "deg", "time, sensor, (heading, roll, pitch)"),
     "daq": KindSpec("counts", np.dtype("<u2"), "count", "time, sensor"),
+    # another program's Lab Streaming Layer stream (a force platform, EEG): any numbers, each
+    # channel in the unit its device dict names (``channel_units``)
+    "lsl": KindSpec("samples", np.dtype("<f8"), "as device channel_units", "time, channel"),
 }
 # per-frame datasets: dtype, unit, description, fill value of a frame whose chunk is damaged
 PER_FRAME_SPEC: dict[str, tuple[str, str, str, Any]] = {
@@ -66,7 +69,7 @@ class SessionFormatError(ValueError):
 
 # names a stream may not take: the datasets and groups of a session (a stream's name is
 # also part of its journal's and its CSV's file name)
-RESERVED_NAMES = frozenset({"counts", "angles", *PER_FRAME, "counters", "products", "device", "calibration",
+RESERVED_NAMES = frozenset({"counts", "angles", "samples", *PER_FRAME, "counters", "products", "device", "calibration",
                             "metadata", "profile", "events", "streams", "journal", "partial", CRC_NAME})
 
 
@@ -153,6 +156,8 @@ def frame_shape_of(kind: str, shape: int | tuple[int, ...]) -> tuple[int, ...]:
         raise ValueError(f"an imu frame shape is (n_sensors, 3), got {fshape}")
     if kind == "daq" and len(fshape) != 1:
         raise ValueError(f"a daq frame shape is (n_sensors,), got {fshape}")
+    if kind == "lsl" and len(fshape) != 1:
+        raise ValueError(f"an lsl frame shape is (n_channels,), got {fshape}")
     if any(x < 1 for x in fshape):
         raise ValueError(f"frame shape must be positive, got {fshape}")
     if int(np.prod(fshape, dtype=np.float64)) > MAX_FRAME_VALUES:

@@ -273,7 +273,8 @@ class SessionWriter(StreamWriter):
         ``overwrite=True``.
     shape : tuple of int
         Frame shape: ``(R, C)`` for ``kind="psm"``, ``(5, 3)`` for ``"imu"`` (sensors ×
-        heading/roll/pitch), ``(10,)`` (or ``10``) for ``"daq"``.
+        heading/roll/pitch), ``(10,)`` (or ``10``) for ``"daq"``, ``(N,)`` for ``"lsl"`` (N
+        channels of a Lab Streaming Layer stream, float64, usually a stream: :meth:`add_stream`).
     device : dict
         Device description (serial, r_o, v_ref, bits, fw, protocol, rate, …; e.g. the
         parsed IDENTIFY reply). ``shape`` and ``kind`` are added if missing.
@@ -284,7 +285,7 @@ class SessionWriter(StreamWriter):
     profile : dict or object with ``to_dict()``, optional
         The device profile the recording was made with (``psmat.Profile.to_dict()``),
         stored as ``/profile`` and loaded as :attr:`Session.profile`.
-    kind : {"psm", "imu", "daq"}
+    kind : {"psm", "imu", "daq", "lsl"}
     chunk_frames : int
         Frames per HDF5 chunk along time: the unit that carries one checksum, so the most
         frames one damaged byte of the finished file can cost.

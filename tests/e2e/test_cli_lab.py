@@ -1,0 +1,311 @@
+"""``psmat lab``: the real server in a subprocess, over real HTTP and WebSocket on loopback.
+
+``psmat lab --simulate --no-browser --port 0 --data DIR`` serves the digital twin; the tests
+read the page's address from its first line of output. Without the token nothing answers
+and nothing is written; with it a trial is recorded with markers and its file checked
+against what the device counted; a client that never reads its WebSocket costs the recording
+nothing (every frame between the first and the last is in the file, seq without a gap);
+a request naming a path outside the data folder stays inside it or is refused.
+"""
+
+from __future__ import annotations
+
+import base64
+import json
+import os
+import re
+import signal
+import socket
+import subprocess
+import sys
+import time
+import urllib.error
+import urllib.request
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+pytest.importorskip("starlette")
+pytest.importorskip("uvicorn")
+websockets_sync = pytest.importorskip("websockets.sync.client")
+
+from psmat.io import journal_path, load_session  # noqa: E402
+
+from conftest import default_stop_signals  # noqa: E402
+
+URL = re.compile(r"^http://127\.0\.0\.1:(\d+)/\?token=([A-Za-z0-9_-]{43})$")
+#: element ids the page must have (the lab's contract with the browser tests and the benchmark)
+PAGE_IDS = ("raw", "pressure", "cop", "rates", "subject", "trial", "note", "record", "sessions", "play", "pause",
+            "seek", "speed", "sway")
+
+
+class Lab:
+    """A running ``psmat lab`` subprocess: its address, token and data folder."""
+
+    def __init__(self, data: Path, *extra: str) -> None:
+        self.data = data
+        self.proc = subprocess.Popen([sys.executable, "-m", "psmat", "lab", "--simulate", "--no-browser", "--port", "0",
+                                      "--data", str(data), *extra], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                                     text=True, preexec_fn=default_stop_signals)
+        line = self.proc.stdout.readline().strip()
+        m = URL.match(line)
+        if not m:
+            self.proc.kill()
+            raise AssertionError(f"first line {line!r}; stderr: {self.proc.stderr.read()}")
+        self.url, self.port, self.token = line, int(m.group(1)), m.group(2)
+        self.base = f"http://127.0.0.1:{self.port}"
+
+    def request(self, method: str, path: str, body: dict | None = None, token: str | None = "") -> tuple[int, dict]:
+        """(status, JSON body); ``token`` "" uses the lab's, None sends none."""
+        tok = self.token if token == "" else token
+        headers = {"Content-Type": "application/json"}
+        if tok is not None:
+            headers["Authorization"] = f"Bearer {tok}"
+        data = None if body is None else json.dumps(body).encode()
+        req = urllib.request.Request(self.base + path, data=data, method=method, headers=headers)
+        try:
+            with urllib.request.urlopen(req, timeout=60) as resp:
+                raw = resp.read()
+                status = resp.status
+        except urllib.error.HTTPError as exc:
+            raw, status = exc.read(), exc.code
+        try:
+            return status, json.loads(raw)
+        except ValueError:
+            return status, {"_text": raw.decode("utf-8", "replace")}
+
+    def get_text(self, path: str) -> tuple[int, str]:
+        try:
+            with urllib.request.urlopen(self.base + path, timeout=30) as resp:
+                return resp.status, resp.read().decode()
+        except urllib.error.HTTPError as exc:
+            return exc.code, exc.read().decode()
+
+    def stop(self) -> int:
+        if self.proc.poll() is None:
+            self.proc.send_signal(signal.SIGTERM)
+            try:
+                self.proc.wait(30)
+            except subprocess.TimeoutExpired:
+                self.proc.kill()
+                self.proc.wait()
+        self.proc.stdout.close()
+        self.proc.stderr.close()
+        return self.proc.returncode
+
+
+@pytest.fixture(scope="module")
+def lab(tmp_path_factory: pytest.TempPathFactory):
+    data = tmp_path_factory.mktemp("lab") / "data"
+    lab = Lab(data)
+    yield lab
+    lab.stop()
+
+
+def _wait_frames(lab: Lab, n: int) -> dict:
+    """The status once the device has delivered at least ``n`` frames."""
+    for _ in range(600):
+        status, st = lab.request("GET", "/api/status")
+        assert status == 200
+        if st["device"]["counters"]["frames"] >= n:
+            return st
+        time.sleep(0.05)
+    raise AssertionError(f"fewer than {n} frames: {st}")
+
+
+def test_first_line_is_the_address_with_a_fresh_token(lab: Lab) -> None:
+    assert lab.port > 0 and URL.match(lab.url)
+
+
+def test_without_the_token_nothing_answers_and_nothing_is_written(lab: Lab) -> None:
+    before = sorted(os.listdir(lab.data))
+    for token in (None, "wrong" + lab.token[5:]):
+        for method, path, body in (("GET", "/api/status", None), ("GET", "/api/sessions", None),
+                                   ("POST", "/api/record/start", {"subject": "nope", "trial": "t", "note": ""}),
+                                   ("POST", "/api/marker", {"label": "x"}), ("POST", "/api/record/stop", {}),
+                                   ("POST", "/api/replay/open", {"session": "x.h5"}), ("GET", "/", None),
+                                   ("GET", "/static/app.js", None)):
+            status, out = lab.request(method, path, body, token=token)
+            assert status == 401, (method, path, status, out)
+    for query in ("", "?token=", f"?token={lab.token[:-1]}"):
+        assert lab.get_text("/" + query)[0] == 401
+        with pytest.raises(Exception) as refused:
+            websockets_sync.connect(f"ws://127.0.0.1:{lab.port}/ws{query}", open_timeout=10).close()
+        assert "403" in str(refused.value) or "401" in str(refused.value), refused.value
+    assert sorted(os.listdir(lab.data)) == before
+    status, st = lab.request("GET", "/api/status")
+    assert status == 200 and st["recording"] is False
+
+
+def test_page_and_assets_are_served_with_the_token(lab: Lab) -> None:
+    status, html = lab.get_text(f"/?token={lab.token}")
+    assert status == 200
+    for ident in PAGE_IDS:
+        assert f'id="{ident}"' in html, ident
+    assert html.count('class="marker"') == 9 and 'data-label="' in html
+    assert "http://" not in html and "https://" not in html   # nothing from elsewhere: works offline
+    for name, needle in (("app.js", "window.psmatLab"), ("style.css", "canvas")):
+        status, text = lab.get_text(f"/static/{name}?token={lab.token}")
+        assert status == 200 and needle in text
+    for name in ("framesDrawn", "lastFrameDeviceTimeUs", "lastLatencyMs", "connected"):
+        assert name in lab.get_text(f"/static/app.js?token={lab.token}")[1]
+    assert lab.get_text(f"/static/../_app.py?token={lab.token}")[0] == 404
+
+
+def test_websocket_delivers_display_frames(lab: Lab) -> None:
+    _wait_frames(lab, 20)
+    with websockets_sync.connect(f"ws://127.0.0.1:{lab.port}/ws?token={lab.token}", open_timeout=10) as ws:
+        hello = json.loads(ws.recv(timeout=10))
+        assert hello["type"] == "hello" and hello["status"]["device"]["shape"] == [16, 16]
+        frames = [json.loads(ws.recv(timeout=10)) for _ in range(5)]
+    seqs = [f["seq"] for f in frames]
+    assert all(f["type"] == "frame" for f in frames) and seqs == sorted(seqs) and len(set(seqs)) == 5
+    for f in frames:
+        r, c = f["shape"]
+        counts = np.frombuffer(base64.b64decode(f["counts"]), "<u2")
+        pressure = np.frombuffer(base64.b64decode(f["pressure"]), "<f4")
+        assert (r, c) == (16, 16) and counts.size == pressure.size == r * c
+        assert counts.max() <= 4095 and [int(counts.min()), int(counts.max())] == f["counts_range"]
+        assert np.all(np.isfinite(pressure)) and pressure.min() >= 0 and pressure.max() > 0   # someone stands
+        x0, x1, y0, y1 = f["extent_cm"]   # the CoP of a person standing on the mat lies on the mat
+        assert f["cop_cm"] is not None and x0 <= f["cop_cm"][0] <= x1 and y0 <= f["cop_cm"][1] <= y1
+
+
+def _stalled_client(port: int, token: str) -> socket.socket:
+    """A WebSocket client that completes the handshake and then never reads (a tiny receive buffer)."""
+    s = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
+    s.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, 2048)
+    s.connect(("127.0.0.1", port))
+    key = base64.b64encode(os.urandom(16)).decode()
+    s.sendall((f"GET /ws?token={token} HTTP/1.1\r\nHost: 127.0.0.1:{port}\r\nUpgrade: websocket\r\n"
+               f"Connection: Upgrade\r\nSec-WebSocket-Key: {key}\r\nSec-WebSocket-Version: 13\r\n\r\n").encode())
+    head = b""
+    while b"\r\n\r\n" not in head:
+        head += s.recv(1)
+    assert head.startswith(b"HTTP/1.1 101"), head
+    return s
+
+
+def test_a_trial_with_markers_is_recorded_whole_while_a_client_never_reads(lab: Lab) -> None:
+    _wait_frames(lab, 20)
+    stalled = _stalled_client(lab.port, lab.token)
+    try:
+        status, st = lab.request("GET", "/api/status")
+        assert st["clients"] >= 1
+        status, started = lab.request("POST", "/api/record/start",
+                                      {"subject": "P01", "trial": "eyes-open", "note": "quiet stance, é"})
+        assert status == 201, started
+        path = Path(started["session"])
+        assert path.parent == lab.data.resolve() and path.name.startswith("P01_eyes-open_")
+        status, again = lab.request("POST", "/api/record/start", {"subject": "P01", "trial": "t2", "note": ""})
+        assert status == 409, again   # one writer per session
+        times = []
+        for label in ("eyes closed", "eyes open"):
+            st = _wait_frames(lab, lab.request("GET", "/api/status")[1]["device"]["counters"]["frames"] + 50)
+            status, out = lab.request("POST", "/api/marker", {"label": label})
+            assert status == 200 and out["label"] == label
+            times.append(out["host_time_s"])
+        _wait_frames(lab, lab.request("GET", "/api/status")[1]["device"]["counters"]["frames"] + 100)
+        status, stopped = lab.request("POST", "/api/record/stop", {})
+        assert status == 200, stopped
+    finally:
+        stalled.close()
+    assert stopped["session"] == str(path) and stopped["events"] == 2
+    s = load_session(path)
+    assert s.complete and not journal_path(path).exists()
+    assert s.n_frames == stopped["frames"] >= 200   # the test waited for 200 frames of the device while recording
+    # every frame the device sent between the first and the last recorded one is in the file
+    np.testing.assert_array_equal(s.seq, s.seq[0] + np.arange(s.n_frames))
+    assert s.valid.all() and s.counters["dropped_frames"] == 0
+    assert stopped["device_counters"]["dropped_wire"] == 0
+    ev_times = [t for t, _ in s.events]
+    labels = [label for _, label in s.events]
+    assert labels == ["eyes closed", "eyes open"]
+    np.testing.assert_allclose(ev_times, times)
+    assert s.host_time_s[0] < ev_times[0] < ev_times[1] < s.host_time_s[-1]
+    assert s.metadata["subject"] == "P01" and s.metadata["trial"] == "eyes-open"
+    assert s.metadata["note"] == "quiet stance, é"
+    assert s.profile is not None and s.profile["name"] == "psm16"
+    sway = stopped["sway"]["metrics"]
+    assert sway is not None and sway["path_cm"] > 0 and sway["sd_ml_cm"] > 0 and sway["area95_cm2"] > 0
+    status, listed = lab.request("GET", "/api/sessions")
+    assert path.name in [r["name"] for r in listed["sessions"]]
+    status, st = lab.request("GET", "/api/status")
+    assert st["recording"] is False and st["device"]["counters"]["connected"]   # the server lived on
+
+
+def test_requests_cannot_leave_the_data_folder(lab: Lab) -> None:
+    outside = lab.data.parent
+    before = sorted(os.listdir(outside))
+    status, started = lab.request("POST", "/api/record/start", {"subject": "../../x", "trial": "/etc/y", "note": ""})
+    assert status == 201
+    status, stopped = lab.request("POST", "/api/record/stop", {})
+    assert status == 200
+    p = Path(stopped["session"])
+    assert p.parent == lab.data.resolve() and p.is_file()
+    assert sorted(os.listdir(outside)) == before
+    assert load_session(p).metadata["subject"] == "../../x"   # kept as typed, in the metadata only
+    for name in ("../../etc/passwd", "/etc/passwd", "..", ".", "", f"../{lab.data.name}/../x.h5"):
+        status, out = lab.request("POST", "/api/replay/open", {"session": name})
+        assert status in (400, 403, 404), (name, status, out)
+    link = lab.data / "link.h5"
+    link.symlink_to(outside / "elsewhere.h5")
+    status, out = lab.request("POST", "/api/replay/open", {"session": "link.h5"})
+    assert status == 403, out
+    link.unlink()
+
+
+def test_state_errors_are_refused_with_one_line(lab: Lab) -> None:
+    for path, body in (("/api/record/stop", {}), ("/api/marker", {"label": "x"}), ("/api/replay/play", {})):
+        status, out = lab.request("POST", path, body)
+        assert status == 409 and "\n" not in out["error"]
+    status, out = lab.request("POST", "/api/record/start", {"subject": 3, "trial": "t", "note": ""})
+    assert status == 400 and "subject" in out["error"]
+    req = urllib.request.Request(lab.base + "/api/marker", data=b"{not json", method="POST",
+                                 headers={"Authorization": f"Bearer {lab.token}"})
+    with pytest.raises(urllib.error.HTTPError) as bad:
+        urllib.request.urlopen(req, timeout=30)
+    assert bad.value.code == 400
+
+
+def test_a_recorded_session_replays_through_the_page_api(lab: Lab) -> None:
+    pytest.importorskip("psmat.acquire._playback")
+    status, listed = lab.request("GET", "/api/sessions")
+    name = next(r["name"] for r in listed["sessions"] if r["name"].startswith("P01_"))
+    s = load_session(lab.data / name)
+    status, rep = lab.request("POST", "/api/replay/open", {"session": name, "speed": 2})
+    assert status == 200, rep
+    try:
+        assert rep["name"] == name and rep["duration_s"] > 0
+        with websockets_sync.connect(f"ws://127.0.0.1:{lab.port}/ws?token={lab.token}", open_timeout=10) as ws:
+            assert json.loads(ws.recv(timeout=10))["type"] == "hello"
+            f = json.loads(ws.recv(timeout=10))
+        assert s.seq[0] <= f["seq"] <= s.seq[-1]   # frames of the recording, not of the live mat
+        for action, body in (("pause", {}), ("seek", {"t_s": 0.5}), ("speed", {"speed": 0.5}), ("play", {})):
+            status, out = lab.request("POST", f"/api/replay/{action}", body)
+            assert status == 200, (action, out)
+        assert out["speed"] == 0.5 and out["paused"] is False
+        status, out = lab.request("POST", "/api/replay/seek", {"t_s": -1})
+        assert status == 400
+        status, st = lab.request("GET", "/api/status")
+        assert st["source"] == "replay" and st["replay"]["name"] == name
+    finally:
+        status, out = lab.request("POST", "/api/replay/close", {})
+    assert status == 200
+    assert lab.request("GET", "/api/status")[1]["source"] == "live"
+
+
+def test_sigterm_while_recording_closes_the_file(tmp_path: Path) -> None:
+    lab = Lab(tmp_path / "data")
+    try:
+        _wait_frames(lab, 10)
+        status, started = lab.request("POST", "/api/record/start", {"subject": "S", "trial": "T", "note": ""})
+        assert status == 201
+        _wait_frames(lab, lab.request("GET", "/api/status")[1]["device"]["counters"]["frames"] + 50)
+    finally:
+        code = lab.stop()
+    assert code == 128 + signal.SIGTERM
+    p = Path(started["session"])
+    s = load_session(p)
+    assert s.complete and s.n_frames > 0 and not journal_path(p).exists()
