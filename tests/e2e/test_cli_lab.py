@@ -37,7 +37,7 @@ from conftest import default_stop_signals  # noqa: E402
 URL = re.compile(r"^http://127\.0\.0\.1:(\d+)/\?token=([A-Za-z0-9_-]{43})$")
 #: element ids the page must have (the lab's contract with the browser tests and the benchmark)
 PAGE_IDS = ("raw", "pressure", "cop", "rates", "subject", "trial", "note", "record", "sessions", "play", "pause",
-            "seek", "speed", "sway")
+            "seek", "speed", "sway", "calibrate", "cal-step", "cal-record", "cal-finish", "cal-cancel", "cal-result")
 
 
 class Lab:
@@ -69,7 +69,8 @@ class Lab:
                 raw = resp.read()
                 status = resp.status
         except urllib.error.HTTPError as exc:
-            raw, status = exc.read(), exc.code
+            with exc:  # the error response holds the connection: closed here, not by the garbage collector
+                raw, status = exc.read(), exc.code
         try:
             return status, json.loads(raw)
         except ValueError:
@@ -80,7 +81,8 @@ class Lab:
             with urllib.request.urlopen(self.base + path, timeout=30) as resp:
                 return resp.status, resp.read().decode()
         except urllib.error.HTTPError as exc:
-            return exc.code, exc.read().decode()
+            with exc:
+                return exc.code, exc.read().decode()
 
     def stop(self) -> int:
         if self.proc.poll() is None:

@@ -162,3 +162,27 @@ def _wait_marker_sent(server) -> None:
         if time.monotonic() > deadline:
             pytest.fail("the marker never reached the recording")
         time.sleep(0.05)
+
+
+# after the screenshot: the open-circuit step leaves a burst of noise in the page's CoP trace
+def test_the_calibration_panel_walks_through_the_first_step(lab) -> None:
+    server, browser, data = lab
+    for sel in ("#calibrate", "#cal-step", "#cal-record", "#cal-finish", "#cal-cancel", "#cal-result"):
+        assert browser.evaluate(f"!!document.querySelector({json.dumps(sel)})"), f"the page lacks {sel}"
+    browser.click("#calibrate")
+    step = browser.wait_for("document.querySelector('#cal-step').textContent.includes('Unplug') && "
+                            "document.querySelector('#cal-step').textContent", timeout_s=GUARD_S)
+    assert step.startswith("Step 1 of 5")   # the open step, then the four corners
+    assert server.api("/api/status")["calibration"]["active"] is True
+    browser.click("#cal-record")   # the twin unplugs its mat itself: the open circuit reads near full scale
+    line = browser.wait_for("[...document.querySelectorAll('#cal-diag li')].map(li => li.textContent)"
+                            ".find(t => t.startsWith('open:'))", timeout_s=GUARD_S)
+    assert float(line.split("mean ")[1].split()[0]) > 0.99 * 4095, line
+    assert "row 0 to column 0" in browser.evaluate("document.querySelector('#cal-step').textContent")
+    browser.click("#cal-cancel")
+    deadline = time.monotonic() + GUARD_S
+    while server.api("/api/status")["calibration"] is not None:
+        if time.monotonic() > deadline:
+            pytest.fail("the server's calibration walk-through never ended after Cancel")
+        time.sleep(0.05)
+    assert not (data / "calibration").exists()   # cancelled: no file

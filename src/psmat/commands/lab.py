@@ -7,7 +7,10 @@ server runs in this process: the device's reader thread feeds a running recordin
 frames for the page (raw counts, pressure, centre of pressure) at most ``--display-rate``
 times a second, and the page (a local web page, no internet needed) starts and stops trials
 (subject, trial, note), marks events (buttons and keys 1-9; stored in the session file), shows
-the trial's sway metrics when it stops, and lists and replays the data folder's sessions.
+the trial's sway metrics when it stops, and lists and replays the data folder's sessions. Its
+"Calibrate the box" panel walks through the open/short calibration of the electronics
+(docs/spec.md §2; as ``psmat calibrate``; with ``--simulate`` the twin sets up each step itself)
+and writes ``DATA/calibration/<serial>.json``; the trials recorded afterwards store it.
 
 Security: the server listens on 127.0.0.1 (this machine only) unless ``--host`` says otherwise
 (a warning is printed then: anyone who can reach the port and learns the token can record and
@@ -70,16 +73,18 @@ def _start_source(args: argparse.Namespace, lab: Any, stack: Any) -> None:
         return
     prof = _profile_args.resolve(args, "psm")
     port = args.device_port
+    fixture = None
     if args.simulate:
-        from ..twin import PsmSource, SerialTwin
+        from ..twin import CalibrationFixture, PsmSource, SerialTwin
 
         rate, note = _profile_args.twin_rate_hz(args.rate, prof)
         if note:
             print(f"psmat lab: {note}", file=sys.stderr)
         if problem := _args.twin_shape_problem(tuple(prof.shape)):
             raise ValueError(problem)
-        source = PsmSource.named(args.scene, rate, profile=prof)
-        twin = SerialTwin("psm", rate, prof.protocol, source=source, shape=tuple(prof.shape)).start()
+        # the scene behind the calibration set-ups (mode "mat" passes it through), as psmat calibrate --simulate
+        fixture = CalibrationFixture(PsmSource.named(args.scene, rate, profile=prof))
+        twin = SerialTwin("psm", rate, prof.protocol, source=fixture, shape=tuple(prof.shape)).start()
         stack.callback(twin.stop)
         port = twin.port
         print(f"psmat lab: simulated mat ({prof.name}, {args.scene}, {prof.protocol}, {twin.rate_hz:g} Hz) on {port}",
@@ -88,7 +93,8 @@ def _start_source(args: argparse.Namespace, lab: Any, stack: Any) -> None:
                       row_order=prof.row_order, col_order=prof.col_order)
     stack.callback(dev.close)
     dev.start()
-    lab.attach_live(dev, prof, f"{port}{' (twin)' if args.simulate else ''}", simulated=bool(args.simulate))
+    lab.attach_live(dev, prof, f"{port}{' (twin)' if args.simulate else ''}", simulated=bool(args.simulate),
+                    set_fixture=(lambda mode: setattr(fixture, "mode", mode)) if args.simulate else None)
 
 
 def run(args: argparse.Namespace) -> int:

@@ -14,11 +14,16 @@ is refused (403), before any route runs. The routes:
 ``GET /api/sessions``      ``{"sessions": [{"name", "session", "bytes", "modified_utc"}]}``
 ``POST /api/replay/open``  ``{"session", "speed"?}``; ``/play``, ``/pause``, ``/seek {"t_s"}``,
                            ``/speed {"speed"}``, ``/close``
+``POST /api/calibrate/...`` the box's calibration walk-through (:mod:`._calibrate`): ``start``
+                           ``{"pairs"?, "seconds"?}`` → the steps; ``step`` ``{"step": "open"}``
+                           or ``{"step": "short", "row", "col"}`` → its diagnostics; ``finish``
+                           → ``{"path", "r_adc_ohm", "r_mux_ohm", ...}``; ``cancel``
 ``WS /ws``                 display messages (:mod:`._display`), newest only
 =========================  ==========================================================
 
 Errors are ``{"error": "one line"}`` with 400 (bad input), 403 (a path outside the data
-folder), 404, 409 (the state does not allow it: a second recording, no recording), 501 (no
+folder), 404, 409 (the state does not allow it: a second recording, no recording, a calibration
+while recording or replaying, a step that read nothing), 501 (no
 playback in this installation).
 """
 
@@ -231,6 +236,22 @@ def build_app(lab: LabSession, token: str, hub: ClientHub | None = None) -> Star
             return await call(lab.replay_do, action, body[key])
         return _error(404, f"no replay action {action!r}")
 
+    async def calibrate(request: Request) -> Response:
+        action = request.path_params["action"]
+        try:
+            body = await _body(request)
+        except ValueError as exc:
+            return _error(400, exc)
+        if action == "start":
+            return await call(lab.calibrate_start, body.get("pairs"), body.get("seconds", 1.0))
+        if action == "step":
+            return await call(lab.calibrate_step, body.get("step"), body.get("row"), body.get("col"))
+        if action == "finish":
+            return await call(lab.calibrate_finish)
+        if action == "cancel":
+            return await call(lab.calibrate_cancel)
+        return _error(404, f"no calibrate action {action!r}")
+
     async def ws(websocket: WebSocket) -> None:
         await websocket.accept()
         hub.loop = asyncio.get_running_loop()
@@ -282,7 +303,8 @@ def build_app(lab: LabSession, token: str, hub: ClientHub | None = None) -> Star
     routes = [Route("/", page), Route("/static/{name}", asset), Route("/api/status", status),
               Route("/api/record/start", record_start, methods=["POST"]), Route("/api/marker", marker, methods=["POST"]),
               Route("/api/record/stop", record_stop, methods=["POST"]), Route("/api/sessions", sessions),
-              Route("/api/replay/{action}", replay, methods=["POST"]), WebSocketRoute("/ws", ws)]
+              Route("/api/replay/{action}", replay, methods=["POST"]),
+              Route("/api/calibrate/{action}", calibrate, methods=["POST"]), WebSocketRoute("/ws", ws)]
     app = Starlette(routes=routes, middleware=[Middleware(TokenGuard, token=token)], lifespan=lifespan)
     app.state.lab = lab
     app.state.hub = hub

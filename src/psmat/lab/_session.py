@@ -21,7 +21,9 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
+from ._calibrate import CalibrationWalk, parse_pairs
 from ._display import DisplayFeed
+from ._errors import LabConflict
 from ._replay import Replay, open_replay, session_profile_of
 from ._security import confine, safe_component
 
@@ -29,10 +31,6 @@ __all__ = ["LabSession", "LabConflict", "trial_sway"]
 
 #: longest wait for the device's reader thread to finish the batch it was recording (s)
 _DETACH_WAIT_S = 0.5
-
-
-class LabConflict(RuntimeError):
-    """An action the lab's state does not allow now (a second recording, no recording to stop, ...)."""
 
 
 class LabSession:
@@ -58,6 +56,10 @@ class LabSession:
         self.live_profile: Any = None
         self.live_label = ""
         self.live_simulated = False
+        self._set_fixture: Callable[[Any], None] | None = None
+        self.walk: CalibrationWalk | None = None   # the calibration walk-through in progress
+        self.calibration: Any = None     # the psmat.Calibration made in this server run (stored in recordings)
+        self.calibration_path: Path | None = None
         self.replay: Replay | None = None
         self._feed: DisplayFeed | None = None
         self._writer: Any = None
@@ -74,12 +76,15 @@ class LabSession:
         """The device shown and recorded now: the replay's, else the live one."""
         return self.replay.device if self.replay is not None else self.live
 
-    def attach_live(self, device: Any, profile: Any, label: str, *, simulated: bool = False) -> None:
+    def attach_live(self, device: Any, profile: Any, label: str, *, simulated: bool = False,
+                    set_fixture: Callable[[Any], None] | None = None) -> None:
         """Show a started live device (a mat or the twin: ``simulated``) of ``profile``; ``label``
-        names it (its port)."""
+        names it (its port). ``set_fixture`` switches the twin's calibration set-up
+        (:class:`psmat.twin.CalibrationFixture`'s ``mode``) during a calibration walk-through."""
         with self._lock:
             self.live, self.live_profile, self.live_label = device, profile, label
             self.live_simulated = bool(simulated)
+            self._set_fixture = set_fixture
             if self.replay is None:
                 self._show(device, profile)
 
@@ -106,6 +111,8 @@ class LabSession:
         with self._lock:
             if self._writer is not None:
                 raise LabConflict("a recording is running: stop it before replaying a session")
+            if self.walk is not None:
+                raise LabConflict("a calibration is in progress: finish or cancel it before replaying a session")
             rep = open_replay(path, speed)
             try:
                 prof = session_profile_of(path, rep.device)
@@ -170,6 +177,8 @@ class LabSession:
         with self._lock:
             if self._writer is not None:
                 raise LabConflict(f"a recording is running ({self._writer.path.name}): one at a time")
+            if self.walk is not None:
+                raise LabConflict("a calibration is in progress: finish or cancel it before recording")
             dev = self.source
             if dev is None:
                 raise LabConflict("no device to record")
@@ -189,8 +198,11 @@ class LabSession:
             meta = {"subject": subject, "trial": trial, "note": note, "app": "psmat lab",
                     "port": str(self.replay.path) if replaying else self.live_label,
                     "simulated": self.live_simulated and not replaying, "replayed": replaying}
+            cal = self.calibration.to_dict() if self.calibration is not None and not replaying else None
+            if cal is not None:
+                meta["calibration_file"] = str(self.calibration_path)
             writer = SessionWriter(path, dev.shape, device=dict(dev.description or {}), metadata=meta, kind=dev.kind,
-                                   profile=prof.to_dict() if prof is not None else None)
+                                   profile=prof.to_dict() if prof is not None else None, calibration=cal)
             try:
                 dev.record_to(writer)
             except BaseException:
@@ -233,6 +245,80 @@ class LabSession:
                    "metadata": dict(self._rec_meta), "device_counters": _counters(stats)}
             self._last_stop = out
             return out
+
+    # ------------------------------------------------------------------ calibration
+    def calibrate_start(self, pairs: Any = None, seconds: Any = 1.0) -> dict[str, Any]:
+        """Begin the box's calibration walk-through (:mod:`._calibrate`) on the live device: its
+        steps. An unfinished walk-through is replaced."""
+        with self._lock:
+            if self._writer is not None:
+                raise LabConflict("a recording is running: stop it before calibrating the box")
+            if self.replay is not None:
+                raise LabConflict("a session is being replayed: close the replay before calibrating the box")
+            if self.live is None:
+                raise LabConflict("no live box to calibrate (psmat lab PORT or --simulate)")
+            if self.live.kind != "psm":
+                raise LabConflict(f"the electronics calibration is for a PSM box, not a {self.live.kind} device")
+            old = self.walk
+            if old is not None and old.busy:
+                raise LabConflict("a calibration step is being recorded: wait for it or cancel")
+            walk = CalibrationWalk(self.live, self.live_profile, parse_pairs(pairs, tuple(self.live.shape)),
+                                   seconds, set_fixture=self._set_fixture)
+            if old is not None:
+                old.cancel()
+            self.walk = walk
+            return walk.state()
+
+    def _walk(self) -> CalibrationWalk:
+        with self._lock:
+            if self.walk is None:
+                raise LabConflict("no calibration in progress (POST /api/calibrate/start first)")
+            return self.walk
+
+    def calibrate_step(self, step: Any, row: Any = None, col: Any = None) -> dict[str, Any]:
+        """Record one step (about the walk's ``seconds``; the display keeps running): its diagnostics."""
+        return self._walk().record(step, row, col)
+
+    def calibrate_finish(self) -> dict[str, Any]:
+        """Estimate R_adc and R_mux from the recorded steps (``psmat calibrate``'s code) and write
+        ``DATA/calibration/<serial or unknown>.json`` (whole or not at all); recordings started
+        afterwards store it."""
+        walk = self._walk()
+        if walk.busy:
+            raise LabConflict("a calibration step is being recorded: wait for it")
+        if not walk.state()["ready"]:
+            raise LabConflict("record the open step and at least one short step before finishing")
+        log: list[str] = []
+        try:
+            cal = walk.estimate(lambda text: log.append(str(text).strip()))
+        except (ValueError, RuntimeError) as exc:
+            raise LabConflict(f"the calibration failed: {exc}") from exc
+        path = confine(self.data_dir, f"calibration/{safe_component(cal.serial, 'unknown')}.json")
+        path.parent.mkdir(parents=True, exist_ok=True)
+        cal.save(path, overwrite=True)
+        with self._lock:
+            if self.walk is walk:
+                self.walk = None
+            self.calibration, self.calibration_path = cal, path
+        walk.reset_fixture()
+        return {"path": str(path), "name": f"calibration/{path.name}", **self._calibration_values(), "log": log}
+
+    def calibrate_cancel(self) -> dict[str, Any]:
+        """End the walk-through without a file (a step being recorded stops); ``{"cancelled": bool}``."""
+        with self._lock:
+            walk, self.walk = self.walk, None
+        if walk is not None:
+            walk.cancel()
+        return {"cancelled": walk is not None}
+
+    def _calibration_values(self) -> dict[str, Any]:
+        cal = self.calibration
+        if cal is None:
+            return {}
+        r_mux = cal.r_mux if isinstance(cal.r_mux, float) else float(__import__("numpy").median(cal.r_mux))
+        return {"serial": cal.serial, "r_adc_ohm": None if not math.isfinite(cal.r_adc) else float(cal.r_adc),
+                "r_mux_ohm": float(r_mux), "r_o_ohm": float(cal.r_o), "v_ref_volt": float(cal.v_ref),
+                "bits": int(cal.bits), "date": cal.date}
 
     # ------------------------------------------------------------------ status
     def sessions(self) -> list[dict[str, Any]]:
@@ -278,6 +364,9 @@ class LabSession:
                     "recording": writer is not None, "session": str(writer.path) if writer is not None else None,
                     "record": rec, "last_stop": self._last_stop,
                     "replay": self.replay.state() if self.replay is not None else None,
+                    "calibration": self.walk.state() if self.walk is not None else None,
+                    "calibrated": ({"path": str(self.calibration_path), **self._calibration_values()}
+                                   if self.calibration is not None else None),
                     "data_dir": str(self.data_dir), "time_s": time.time()}
 
     def close(self) -> None:
@@ -292,6 +381,9 @@ class LabSession:
                 self._feed = None
             if self._writer is not None:
                 self.stop_recording()
+            if self.walk is not None:
+                self.walk.cancel()
+                self.walk = None
             if self.replay is not None:
                 self.replay.close()
                 self.replay = None

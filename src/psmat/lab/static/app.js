@@ -1,11 +1,12 @@
 // psmat lab page: plain JavaScript, no dependencies. Draws the display messages the server
 // pushes over /ws (raw counts, pressure, CoP trace) and drives the JSON API (record, markers,
-// sessions, replay). Every request carries the page's token.
+// sessions, replay, the box's calibration walk-through). Every request carries the page's token.
 "use strict";
 
 (function () {
   const token = new URLSearchParams(window.location.search).get("token") || "";
-  const state = { latest: null, dirty: false, trace: [], recording: false, replay: null, extent: null };
+  const state = { latest: null, dirty: false, trace: [], recording: false, replay: null, extent: null,
+    cal: null, calPending: false };
   const lab = window.psmatLab = {
     framesDrawn: 0, messages: 0, lastFrameDeviceTimeUs: null, lastLatencyMs: null, connected: false,
     // arrival of each frame message (for python -m psmat.bench lab): the device clock mapped onto the
@@ -212,6 +213,11 @@
     } else {
       $("replay-state").textContent = "live";
     }
+    if (!state.calPending) {  // a reloaded page finds the walk-through where it was
+      state.cal = s.calibration || null;
+      renderCal();
+      if (s.calibrated && !$("cal-result").textContent) showCalResult(s.calibrated, "last calibration");
+    }
   }
 
   async function poll() {
@@ -283,6 +289,69 @@
       applyStatus(await api("GET", "/api/status"));
     } catch (e) { /* shown */ }
   }
+
+  // ---------------------------------------------------------------- calibration of the box
+  function calCurrent() {
+    return state.cal ? state.cal.steps.find((st) => !st.done) || null : null;
+  }
+
+  function pct(v) { return (100 * v).toFixed(1) + " %"; }
+
+  function renderCal() {
+    const c = state.cal, cur = calCurrent(), busy = state.calPending || (c && c.busy);
+    $("calibrate").disabled = !!busy;
+    $("calibrate").textContent = c ? "Start again" : "Start";
+    $("cal-record").disabled = !c || !cur || !!busy;
+    $("cal-finish").disabled = !c || !c.ready || !!busy;
+    $("cal-cancel").disabled = !c;
+    if (!c) { $("cal-diag").replaceChildren(); return; }
+    const n = c.steps.length, k = cur ? c.steps.indexOf(cur) + 1 : n;
+    $("cal-step").textContent = busy ? "Recording the step (" + c.seconds + " s): leave the set-up as it is..." :
+      cur ? "Step " + k + " of " + n + ": " + cur.instruction : "All steps recorded: press Finish.";
+    const items = [];
+    for (const st of c.steps) {
+      if (!st.diagnostics) continue;
+      const d = st.diagnostics, li = document.createElement("li");
+      li.textContent = st.key + ": " + d.frames + " frames, mean " + d.mean_count.toFixed(1) + " counts, spread " +
+        d.spread_count.toFixed(2) + ", clipped " + pct(d.clipped_fraction);
+      items.push(li);
+    }
+    $("cal-diag").replaceChildren(...items);
+  }
+
+  function showCalResult(r, what) {
+    const radc = r.r_adc_ohm === null ? "beyond the ADC's resolution" : (r.r_adc_ohm / 1e6).toFixed(3) + " MΩ";
+    $("cal-result").textContent = (what ? what + ": " : "") + "R_adc = " + radc + ", R_mux = " +
+      r.r_mux_ohm.toFixed(1) + " Ω (box " + (r.serial || "without serial") + "), written to " + r.path +
+      "; the trials recorded from now on store it.";
+  }
+
+  async function calDo(action, body) {
+    state.calPending = true;
+    renderCal();
+    try {
+      const out = await api("POST", "/api/calibrate/" + action, body || {});
+      if (action === "start") { state.cal = out; $("cal-result").textContent = ""; }
+      else if (action === "step") state.cal = out.calibration;
+      else if (action === "finish") {
+        state.cal = null;
+        $("cal-step").textContent = "Done: plug the mat back in.";
+        showCalResult(out, "");
+      } else { state.cal = null; $("cal-step").textContent = "Calibration cancelled."; }
+    } catch (e) { /* shown */ } finally {
+      state.calPending = false;
+      renderCal();
+    }
+  }
+
+  $("calibrate").addEventListener("click", () => calDo("start"));
+  $("cal-record").addEventListener("click", () => {
+    const cur = calCurrent();
+    if (!cur) return;
+    calDo("step", cur.step === "open" ? { step: "open" } : { step: "short", row: cur.row, col: cur.col });
+  });
+  $("cal-finish").addEventListener("click", () => calDo("finish"));
+  $("cal-cancel").addEventListener("click", () => calDo("cancel"));
 
   $("record").addEventListener("click", toggleRecord);
   for (const b of document.querySelectorAll("button.marker[data-label]")) {
