@@ -27,20 +27,20 @@ from ._version import __version__  # the one place the version is written
 #: The subpackages and modules reachable as ``psmat.NAME`` without importing them first.
 _SUBMODULES = frozenset({
     "acquire", "balance", "circuit", "experiments", "frames", "iecm",
-    "io", "noise", "posture", "process", "profile", "protocol", "qzpm", "sensor", "spine", "study", "synth", "twin",
-    "units",
+    "io", "noise", "posture", "pressure", "process", "profile", "protocol", "qzpm", "regions", "sensor", "spine",
+    "study", "synth", "twin", "units",
 })
 #: Classes (and a function) reachable as ``psmat.NAME``, and the module each lives in.
 _CLASSES = {"Calibration": "circuit", "Circuit": "circuit", "Profile": "profile", "load_profile": "profile"}
 
-__all__ = ["acquire", "balance", "circuit", "experiments", "iecm", "io", "noise", "posture", "process", "profile",
-           "protocol", "qzpm", "sensor", "spine", "study", "synth", "twin", "Circuit", "Calibration", "Profile",
-           "load_profile", "__version__"]
+__all__ = ["acquire", "balance", "circuit", "experiments", "iecm", "io", "noise", "posture", "pressure",
+           "process", "profile", "protocol", "qzpm", "regions", "sensor", "spine", "study", "synth", "twin", "Circuit",
+           "Calibration", "Profile", "load_profile", "__version__"]
 
 TYPE_CHECKING = False
 if TYPE_CHECKING:  # what static checkers and editors see; at run time __getattr__ below imports these
-    from . import (acquire, balance, circuit, experiments, frames, iecm, io, noise,
-                   posture, process, profile, protocol, qzpm, sensor, spine, study, synth, twin, units)
+    from . import (acquire, balance, circuit, experiments, frames, iecm, io, noise, posture, pressure,
+                   process, profile, protocol, qzpm, regions, sensor, spine, study, synth, twin, units)
     from .circuit import Calibration, Circuit
     from .profile import Profile, load_profile
 

@@ -27,7 +27,7 @@ LAYERS: list[tuple[str, set[str]]] = [
                     "_signals", "_orphans", "_parallel", "_help", "_runners", "_version", "units", "frames"}),
     ("formats", {"protocol", "io"}),
     ("models", {"circuit", "noise", "iecm", "qzpm", "sensor", "profile"}),
-    ("processing", {"process", "balance", "acquire", "spine", "pressure"}),
+    ("processing", {"process", "balance", "acquire", "spine", "pressure", "regions"}),
     ("world", {"twin", "emulator"}),
     ("synthetic", {"synth"}),
     ("studies", {"study", "posture"}),

@@ -5,6 +5,8 @@
   at :func:`cell_centres_cm`);
 * :func:`eu` — the thesis' distance between two CoP traces (eq. 3.1);
 * :func:`sway` — the posturography metrics of a trace (:class:`Sway`);
+* :func:`descriptors` — the 72 posturography descriptors of Quijoux et al. (2021), preset
+  ``quijoux2021`` (SWARII to 25 Hz, 10 Hz zero-phase low-pass), keyed by the paper's names;
 * :func:`align` — the time alignment of the mat with a force platform (:class:`Alignment`),
   built on :func:`search_lag`, psmat's one cross-correlation search;
 * :func:`scale_factor` — the SCHC factor of eq. 3.3;
@@ -20,6 +22,7 @@ below are the package's API.
 
 from ._align import Alignment, align, pearson_at_lag, resample_standardised, search_lag
 from ._cop import cell_centres_cm, cop
+from ._descriptors import descriptors
 from ._emulate import Subgrid, subgrid_cops, subgrids
 from ._equilibrate import Equilibration, equilibrate
 from ._eu import eu
@@ -28,8 +31,8 @@ from ._sway import Sway, mean_frequency, prediction_ellipse_area, sway
 from ._variants import (BASE_VARIANTS, EXTRA_VARIANTS, KNOWN_VARIANTS, VARIANTS, VariantName, VariantTrace, describe,
                         legend_label, variant_traces)
 
-__all__ = ["cop", "cell_centres_cm", "eu", "sway", "Sway", "prediction_ellipse_area", "mean_frequency", "align",
-           "Alignment", "search_lag", "pearson_at_lag", "resample_standardised", "scale_factor", "mean_force_n",
-           "equilibrate", "Equilibration", "Subgrid", "subgrids", "subgrid_cops", "BASE_VARIANTS", "VARIANTS",
-           "EXTRA_VARIANTS", "KNOWN_VARIANTS", "VariantName", "describe", "legend_label", "VariantTrace",
+__all__ = ["cop", "cell_centres_cm", "eu", "sway", "Sway", "descriptors", "prediction_ellipse_area", "mean_frequency",
+           "align", "Alignment", "search_lag", "pearson_at_lag", "resample_standardised", "scale_factor",
+           "mean_force_n", "equilibrate", "Equilibration", "Subgrid", "subgrids", "subgrid_cops", "BASE_VARIANTS",
+           "VARIANTS", "EXTRA_VARIANTS", "KNOWN_VARIANTS", "VariantName", "describe", "legend_label", "VariantTrace",
            "variant_traces"]
