@@ -12,7 +12,7 @@ from psmat.balance import _desc_dynamic, _desc_positional, _preprocess, descript
 
 # docs/spec.md §7: the 72 names of the preset, written out.
 _AXES = ("ML", "AP")
-SPEC_NAMES = {
+NAMES_OF_SECTION_7 = {
     "mean_value_ML", "mean_value_AP",
     "mean_distance_ML", "mean_distance_AP", "mean_distance_Radius",
     "maximal_distance_ML", "maximal_distance_AP", "maximal_distance_Radius",
@@ -62,9 +62,9 @@ def _random_walk(seed: int = 3, n: int = 6000) -> tuple[np.ndarray, np.ndarray, 
 # --- the entry point -------------------------------------------------------------------------
 
 def test_the_72_names_of_the_spec() -> None:
-    assert len(SPEC_NAMES) == 72
+    assert len(NAMES_OF_SECTION_7) == 72
     out = descriptors(*_random_walk())
-    assert set(out) == SPEC_NAMES
+    assert set(out) == NAMES_OF_SECTION_7
     assert all(isinstance(v, float) for v in out.values())
     assert np.all(np.isfinite(list(out.values())))
 

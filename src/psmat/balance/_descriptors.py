@@ -40,7 +40,8 @@ def descriptors(t_s: ArrayLike, ml_cm: ArrayLike, ap_cm: ArrayLike,
     ValueError
         Arrays of different lengths or not one-dimensional, non-finite values, times that do
         not increase strictly, a trace too short for the low-pass (under 16 samples at
-        25 Hz, about 0.64 s), non-uniform times without a preset, an unknown preset.
+        25 Hz, about 0.64 s) or for the stabilogram diffusion's lags (a few seconds, see
+        docs/spec.md §7), non-uniform times without a preset, an unknown preset.
     """
     prep = prepare(t_s, ml_cm, ap_cm, preset)
     ml, ap, fs = prep.ml_cm, prep.ap_cm, prep.fs_hz
