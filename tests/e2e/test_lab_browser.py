@@ -116,9 +116,11 @@ def test_a_click_on_record_records_the_trial_with_its_marker(lab) -> None:
     assert len(s.counts) > 0 and s.valid.all()
     seq = np.asarray(s.seq)
     assert np.all(np.diff(seq) == 1), "frames lost between the device and the session file"
-    # the twin's clock: one frame every 1/100 s (the psm16 profile's rate), from its seq
-    steps = np.diff(np.asarray(s.device_time_us)) / np.diff(seq)
-    assert np.allclose(steps, 1e6 / 100, atol=1.0)
+    # the twin's clock: frames on the grid of its 1/100 s timer (the psm16 profile's rate); a tick the
+    # twin's thread ran late for is lost as a timer's missed interrupt would be (twin/serial_twin.py),
+    # so a step is a whole number of periods, not always one (a loaded machine skips some)
+    steps = np.diff(np.asarray(s.device_time_us)) / 1e4
+    assert np.all(steps >= 1 - 1e-4) and np.allclose(steps, np.round(steps), atol=1e-4), steps
     # the marker, on the session's host clock, lies inside the recorded trial
     marks = [(t, text) for t, text in s.events if text == label]
     assert len(marks) == 1, s.events
