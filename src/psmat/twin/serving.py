@@ -190,7 +190,9 @@ class LinkServer:
         self._link.close()
 
     def _serve(self) -> None:
-        raise NotImplementedError
+        """The serving thread's loop: each kind of server has its own (``SerialTwin`` ticks the
+        host-compiled firmware core, ``EmulatedTwin`` runs the emulated image); this base serves nothing."""
+        raise NotImplementedError(f"{type(self).__name__} does not say how it serves (LinkServer._serve)")
 
     # -------------------------------------------------------------------- the link
     def _poll_link(self, timeout_s: float) -> bytes:
