@@ -87,6 +87,7 @@ class FakeDevice:
         self.sent = 0
         self._rx = bytearray()
         self._stop = threading.Event()
+        self._close_lock = threading.Lock()
         self._thread = threading.Thread(target=self._run, name="FakeDevice", daemon=True)
         self._thread.start()
 
@@ -195,11 +196,13 @@ class FakeDevice:
         must not close numbers the system has since handed to someone else.
         """
         self._stop.set()
-        self._thread.join(2.0)
-        for fd in (self.master, self.slave):
+        if self._thread is not threading.current_thread():
+            self._thread.join(2.0)
+        with self._close_lock:  # a timer's hangup and the test's close may race: one closes
+            fds, self.master, self.slave = (self.master, self.slave), None, None
+        for fd in fds:
             if fd is not None:
                 os.close(fd)
-        self.master = self.slave = None
 
     close = hangup
 
