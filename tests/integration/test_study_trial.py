@@ -82,7 +82,7 @@ def test_bad_sessions_are_rows_with_a_status_not_exceptions(trial, tmp_path) -> 
 
 def test_traces_are_the_aligned_window_the_metrics_come_from(trial) -> None:
     session, plate, weight_kg, lag = trial
-    params = {"variants": ["PROP", "SCHC-8x8"]}
+    params = {"variants": ["PROP", "SCHC-8x8"], "preprocess": None}  # raw: the SDs of the traces themselves
     rows, traces = process_trial(session, plate, "S01", "right", weight_kg, params, traces=True)
     np.testing.assert_equal(rows, process_trial(session, plate, "S01", "right", weight_kg, params))
     by = {r["variant"]: r for r in rows}

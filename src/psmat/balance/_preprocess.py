@@ -17,7 +17,7 @@ from scipy import signal
 
 from .. import _checks
 
-__all__ = ["Prepared", "prepare", "swarii", "lowpass", "RATE_HZ", "WINDOW_S", "CUTOFF_HZ", "ORDER"]
+__all__ = ["Prepared", "prepare", "preprocess", "swarii", "lowpass", "RATE_HZ", "WINDOW_S", "CUTOFF_HZ", "ORDER"]
 
 #: The preset's resampling rate (Hz) and SWARII window (s).
 RATE_HZ = 25.0
@@ -138,6 +138,46 @@ def _uniform_rate_hz(t: NDArray[np.float64]) -> float:
         raise ValueError(f"preset=None needs uniform t_s, but a step differs from the mean {mean:g} s by {worst:g} s; "
                          "use preset='quijoux2021' to resample")
     return 1.0 / mean
+
+
+def preprocess(t_s: ArrayLike, ml_cm: ArrayLike, ap_cm: ArrayLike, preset: str | None = "quijoux2021"
+               ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+    """A CoP trace through a preset's resampling and filter, NOT centred (docs/spec.md §7, §9).
+
+    The study applies this to the platform and to every mat variant alike before the sway
+    metrics, so both go through the same processing.
+
+    Parameters
+    ----------
+    t_s, ml_cm, ap_cm : array, (N,)
+        Sample times (s, strictly increasing, irregular steps allowed) and the CoP's M-L and
+        A-P coordinates (cm), finite.
+    preset : {"quijoux2021", None}
+        ``"quijoux2021"``: SWARII to 25 Hz (window 1/25 s) from the first sample, then a
+        4th-order Butterworth low-pass at 10 Hz run forward and backward (zero phase).
+        ``None``: the trace as given (checked, copied).
+
+    Returns
+    -------
+    (t_s, ml_cm, ap_cm)
+        Times (s) — ``t_s[0] + k / 25`` with the preset — and coordinates (cm), absolute (the
+        mean is kept). Equal to :func:`prepare`'s trace plus its mean, up to rounding (the
+        filter passes a constant unchanged).
+
+    Raises
+    ------
+    ValueError
+        As :func:`prepare`: bad arrays, times that do not increase, a trace too short for the
+        low-pass (under 16 samples at 25 Hz), an unknown preset.
+    """
+    t, ml, ap = _inputs(t_s, ml_cm, ap_cm)
+    xy = np.column_stack((ml, ap))
+    if preset == "quijoux2021":
+        t, xy = swarii(t, xy, RATE_HZ, WINDOW_S)
+        xy = lowpass(xy, RATE_HZ)
+    elif preset is not None:
+        raise ValueError(f"preset must be 'quijoux2021' or None, got {preset!r}")
+    return t.copy(), np.ascontiguousarray(xy[:, 0]), np.ascontiguousarray(xy[:, 1])
 
 
 def prepare(t_s: ArrayLike, ml_cm: ArrayLike, ap_cm: ArrayLike, preset: str | None) -> Prepared:

@@ -55,10 +55,19 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                    help="comma-separated processing variants to compute (default: the thesis' PROP, PROP-C, "
                         "CHC, SCHC and their 8x8; 'default' stands for those, e.g. default,SCHC-EQ adds the "
                         "per-cell equilibration). " + _variant_key())
+    r.add_argument("--preprocess", choices=("quijoux2021", "none"), default="quijoux2021",
+                   help="the preprocessing of every trace (platform and mat alike) before its sway metrics: "
+                        "quijoux2021 = SWARII resampling to 25 Hz, 4th-order Butterworth low-pass at "
+                        "10 Hz forward and backward; none = the raw traces. Eu is always on the unfiltered "
+                        "aligned traces at the mat's frame times (thesis eq. 3.1)")
+    r.add_argument("--descriptors", choices=("quijoux2021",), default=None,
+                   help="add the 72 posturography descriptors of Quijoux et al. (2021) (preset quijoux2021) to "
+                        "every row of metrics.csv, on the same aligned window")
     r.add_argument("--quiet", action="store_true", help="no progress bar")
     s = sub.add_parser("simulate", help="write a simulated balance study into DIR",
                        description="Write a simulated balance study (docs/spec.md §7): three trials per volunteer "
-                                   "(right-leg, left-leg, rotation) driven by BDS force-platform trajectories.")
+                                   "(right-leg, left-leg, rotation; a fourth, romberg, with --romberg) driven by BDS "
+                                   "force-platform trajectories.")
     s.add_argument("dir", metavar="DIR", help="the study folder to create")
     s.add_argument("--volunteers", type=_args.positive_int, required=True, help="number of volunteers")
     s.add_argument("--seconds", type=_args.session_seconds, required=True,
@@ -68,6 +77,10 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     s.add_argument("--bds", nargs="+", metavar="FILE", default=None,
                    help="trial files of the BDS data set (force-platform recordings of human sway) to draw "
                         "trajectories from (default: those shipped with psmat)")
+    s.add_argument("--romberg", action="store_true",
+                   help="add a fourth trial per volunteer, 'romberg': eyes open then eyes closed (each --seconds "
+                        "long, BDS trials of one subject on a firm surface) in one session with the markers "
+                        "'eyes open' and 'eyes closed' (docs/spec.md §7)")
 
 
 def run(args: argparse.Namespace) -> int:
@@ -80,12 +93,13 @@ def _run(args: argparse.Namespace) -> int:
     if args.workers is not None and (args.scheduler is not None or args.scheduler_file is not None):
         print("psmat study run: give --workers or --scheduler/--scheduler-file, not both", file=sys.stderr)
         return 1
-    params = None
+    params: dict[str, object] = {"preprocess": None if args.preprocess == "none" else args.preprocess,
+                                 "descriptors": args.descriptors}
     if args.variants is not None:
         from ..balance import VARIANTS
 
         names = [n.strip() for n in args.variants.split(",") if n.strip()]
-        params = {"variants": [v for n in names for v in (VARIANTS if n == "default" else (n,))]}
+        params["variants"] = [v for n in names for v in (VARIANTS if n == "default" else (n,))]
     try:
         from ..study import security
 
@@ -104,7 +118,7 @@ def _simulate(args: argparse.Namespace) -> int:
 
     try:
         root = simulate_study(args.dir, volunteers=args.volunteers, duration_s=args.seconds, seed=args.seed,
-                              rate_hz=args.rate, bds_paths=args.bds, progress=True)
+                              rate_hz=args.rate, bds_paths=args.bds, progress=True, romberg=args.romberg)
     except (OSError, ValueError) as exc:
         print(f"psmat study simulate: {_line(exc)}", file=sys.stderr)
         return 1

@@ -44,7 +44,8 @@ from numpy.lib.stride_tricks import sliding_window_view
 from numpy.typing import NDArray
 from scipy import linalg, optimize, signal
 
-from ..balance import eu, sway
+from ..balance import eu
+from ._row_metrics import descriptor_values, sway_metrics
 from ._trial import COLUMNS
 
 __all__ = ["MODELS", "Correction", "fit_correction", "dynamic_rows"]
@@ -177,9 +178,10 @@ def _series(trace: Mapping[str, Any] | None, base: str) -> _Series | str:
 
 
 def _row(base_row: Mapping[str, Any], variant: str, status: str, **values: Any) -> dict[str, Any]:
-    row = {c: np.nan for c in COLUMNS}
+    row = {c: np.nan for c in (*COLUMNS, *base_row)}
     row.update({c: base_row[c] for c in ("subject", "trial", "lag_s", "r_align", "factor", "frames",
-                                         "frames_missing", "frames_unconverged") if c in base_row})
+                                         "frames_missing", "frames_unconverged", "duration_s", "rate_hz", "ispgr")
+                if c in base_row})
     row.update(variant=variant, status=status, **values)
     return row
 
@@ -193,8 +195,8 @@ def _fold_of(subjects: Sequence[str], folds: int | None) -> dict[str, int]:
 
 def dynamic_rows(rows: Sequence[Mapping[str, Any]], traces: Mapping[Key, Mapping[str, Any]], *, base: str = "SCHC",
                  folds: int | None = None, model: str = "fir", by_trial: bool = True, rate_hz: float | None = None,
-                 fir_half_s: float = 0.1, ridge: float = 1e-3
-                 ) -> tuple[list[dict[str, Any]], dict[Key, dict[str, NDArray[np.float64]]]]:
+                 fir_half_s: float = 0.1, ridge: float = 1e-3, preprocess: str | None = None,
+                 descriptors: str | None = None) -> tuple[list[dict[str, Any]], dict[Key, dict[str, NDArray[np.float64]]]]:
     """Rows and traces of the variant ``<base>-DYN``: each session's base trace corrected by a
     model fitted on the other folds' volunteers.
 
@@ -217,6 +219,9 @@ def dynamic_rows(rows: Sequence[Mapping[str, Any]], traces: Mapping[Key, Mapping
         One model per trial type (default), or one pooled over the trial types.
     rate_hz : float, optional
         Fitting rate (Hz); default the median of the sessions' rates.
+    preprocess, descriptors : str or None
+        As the study's parameters of these names (:data:`psmat.study.DEFAULT_PARAMS`): the sway
+        metrics after that preprocessing, the descriptors of that preset as extra values.
 
     Returns
     -------
@@ -287,8 +292,10 @@ def dynamic_rows(rows: Sequence[Mapping[str, Any]], traces: Mapping[Key, Mapping
             continue
         c = _at(s.t, s.grid, corr.apply(s.x)) + s.mat.mean(axis=0)
         a, b = c - c.mean(axis=0), s.fp - s.fp.mean(axis=0)
-        metrics = {**sway(c, 1.0 / float(np.median(np.diff(s.t)))).as_dict(), "eu_cm": eu(a, b),
+        metrics = {**sway_metrics(s.t, c, 1.0 / float(np.median(np.diff(s.t))), preprocess), "eu_cm": eu(a, b),
                    "eu_ml_cm": eu(a[:, 0], b[:, 0]), "eu_ap_cm": eu(a[:, 1], b[:, 1])}
+        if descriptors is not None:
+            metrics.update(descriptor_values(s.t, c, descriptors))
         out[key] = _row(r, name, "ok", **metrics)
         new_traces[key] = {"t_s": s.t, "FP": s.fp, name: c}
     return [out[k] for k in by_key if k in out], new_traces

@@ -32,8 +32,9 @@ __all__ = ["Expect", "TEXT_COLUMNS", "parse_json", "plain_rows", "check_rows", "
            "encode_result", "decode_result", "first_line"]
 
 #: the columns that hold text; every other column holds a number or nothing (null / NaN)
-TEXT_COLUMNS = frozenset({"subject", "trial", "variant", "status"})
+TEXT_COLUMNS = frozenset({"subject", "trial", "variant", "ispgr", "status"})
 _RESULT = "__result__"
+_BASE = frozenset(COLUMNS)
 
 
 @dataclass(frozen=True)
@@ -44,6 +45,8 @@ class Expect:
     subject: str
     trial: str
     variants: tuple[str, ...]
+    #: the rows' columns: :data:`COLUMNS`, then the descriptors' when the run asked for them
+    columns: tuple[str, ...] = COLUMNS
 
 
 def _no_constant(name: str) -> Any:
@@ -70,8 +73,9 @@ def _plain(value: Any) -> Any:
 
 
 def plain_rows(rows: Rows) -> list[dict[str, Any]]:
-    """Rows as JSON values, columns in :data:`COLUMNS` order (NaN → null)."""
-    return [{c: _plain(r[c]) for c in COLUMNS} for r in rows]
+    """Rows as JSON values, columns in :data:`COLUMNS` order then any further ones (the
+    descriptors) in the row's order (NaN → null)."""
+    return [{c: _plain(r[c]) for c in (*COLUMNS, *(k for k in r if k not in _BASE))} for r in rows]
 
 
 def check_rows(value: Any, expect: Expect) -> Rows:
@@ -80,7 +84,7 @@ def check_rows(value: Any, expect: Expect) -> Rows:
     Raises
     ------
     ValueError
-        Not a non-empty list of objects with exactly the columns of :data:`COLUMNS`; a text
+        Not a non-empty list of objects with exactly the columns ``expect.columns``; a text
         column not text or a number column not a number (booleans and non-finite numbers
         refused); another subject or trial; variants other than ``FP`` then ``expect.variants``.
     """
@@ -88,10 +92,10 @@ def check_rows(value: Any, expect: Expect) -> Rows:
         raise ValueError("no rows (a session has one row per variant)")
     out: Rows = []
     for k, r in enumerate(value):
-        if not isinstance(r, dict) or set(r) != set(COLUMNS):
+        if not isinstance(r, dict) or set(r) != set(expect.columns):
             raise ValueError(f"row {k} does not have exactly the columns of metrics.csv")
         row: dict[str, Any] = {}
-        for c in COLUMNS:
+        for c in expect.columns:
             v = r[c]
             if c in TEXT_COLUMNS:
                 if not isinstance(v, str):

@@ -215,7 +215,8 @@ def _eu_gain(summary: Sequence[Mapping[str, Any]], trials: Sequence[str]) -> lis
 
 
 def render_report(study: StudyRows, summary: Sequence[Mapping[str, Any]], pairwise: Sequence[Mapping[str, Any]],
-                  figures: Mapping[str, str], problems: Sequence[str] = (), label: str | None = None) -> str:
+                  figures: Mapping[str, str], problems: Sequence[str] = (), label: str | None = None,
+                  preprocessing: str | None = None) -> str:
     """The Markdown report.
 
     Parameters
@@ -229,6 +230,8 @@ def render_report(study: StudyRows, summary: Sequence[Mapping[str, Any]], pairwi
         What the study folder lacked (one line each).
     label : str, optional
         What the numbers are (e.g. ``"simulation"``), in the title.
+    preprocessing : str, optional
+        One sentence: the preprocessing the sway metrics were computed after (with its parameters).
     """
     title = "Balance study results" + (f" ({label})" if label else "")
     out = _summary(summary)
@@ -248,5 +251,6 @@ def render_report(study: StudyRows, summary: Sequence[Mapping[str, Any]], pairwi
     if figures:
         out += ["## Figures", ""]
         out += [f"![{name}]({path})\n" for name, path in figures.items()]
-    out = [f"# {title}", "", *_size(study, problems, "\n".join(out)), *out]
+    out = [f"# {title}", "", *_size(study, problems, "\n".join(out)),
+           *([f"Preprocessing: {preprocessing}", ""] if preprocessing else []), *out]
     return "\n".join(out).rstrip("\n") + "\n"

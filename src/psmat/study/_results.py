@@ -40,7 +40,7 @@ def _slug(name: str) -> str:
 
 def write_results(results_dir: str | os.PathLike[str], rows: Iterable[Mapping[str, Any]],
                   traces: Mapping[tuple[str, str], Mapping[str, Any]] | None = None, problems: Sequence[str] = (),
-                  label: str | None = None) -> dict[str, Path]:
+                  label: str | None = None, preprocessing: str | None = None) -> dict[str, Path]:
     """Write the summary, the pairwise comparisons, the figures and the report of a study.
 
     Parameters
@@ -57,6 +57,8 @@ def write_results(results_dir: str | os.PathLike[str], rows: Iterable[Mapping[st
         What the study folder lacked (listed in the report).
     label : str, optional
         What the numbers are (e.g. ``"simulation"``), shown in the titles and the report.
+    preprocessing : str, optional
+        One sentence for the report: the preprocessing behind the sway metrics.
 
     Returns
     -------
@@ -91,7 +93,7 @@ def write_results(results_dir: str | os.PathLike[str], rows: Iterable[Mapping[st
         for metric, name in (("sd_ml_cm", "bland_altman_ml"), ("sd_ap_cm", "bland_altman_ap")):
             figures[name] = fig.bland_altman_plot(study, summary, metric, figures_dir / f"{name}.png", label)
     relative = {name: path.relative_to(out_dir).as_posix() for name, path in figures.items()}
-    report = render_report(study, summary, pairwise, relative, problems, label)
+    report = render_report(study, summary, pairwise, relative, problems, label, preprocessing)
     written["report"] = _write_text(out_dir / "report.md", report)
     return {**written, **figures}
 
@@ -122,7 +124,8 @@ def _reusable(results: Path, index: Path, digest: str) -> tuple[dict[str, Path] 
 
 
 def write_outputs(results: Path, rows: Iterable[Mapping[str, Any]], traces: Mapping[tuple[str, str], Any],
-                  problems: list[str], inputs_digest: str, label: str | None = None) -> dict[str, Path]:
+                  problems: list[str], inputs_digest: str, label: str | None = None,
+                  preprocessing: str | None = None) -> dict[str, Path]:
     """:func:`write_results`, skipped when ``results/.outputs.json`` proves that the outputs on
     disk are those of ``inputs_digest`` (see the module docstring).
 
@@ -130,8 +133,8 @@ def write_outputs(results: Path, rows: Iterable[Mapping[str, Any]], traces: Mapp
     ----------
     results : Path
         ``DIR/results``.
-    rows, traces, label
-        As for :func:`write_results`.
+    rows, traces, label, preprocessing
+        As for :func:`write_results` (the caller's digest covers them).
     problems : list of str
         As for :func:`write_results`; a line is appended when outputs on disk were found
         changed or the index unreadable (they are written again, the line in the report).
@@ -146,7 +149,7 @@ def write_outputs(results: Path, rows: Iterable[Mapping[str, Any]], traces: Mapp
     if why is not None:
         problems.append(f"{index.name} not used ({' '.join(why.split())}); summary, figures and report rewritten")
         inputs_digest = hashlib.sha256((inputs_digest + "\n" + problems[-1]).encode()).hexdigest()
-    outputs = write_results(results, rows, traces, problems, label=label)
+    outputs = write_results(results, rows, traces, problems, label=label, preprocessing=preprocessing)
     top = results.resolve()
     entries = {name: {"path": Path(p).resolve().relative_to(top).as_posix(), "sha256": file_sha256(Path(p))}
                for name, p in outputs.items()}

@@ -53,11 +53,14 @@ from ..balance import KNOWN_VARIANTS
 from ._cache import SessionStore, Stored, TraceFiles, canonical_json, file_sha256, normalise_rows, result_key, \
     study_lock, write_text_atomic
 from ._layout import StudyItem, StudyLayout, find_study
+from ._row_metrics import preprocessing_sentence
 from ._task import SessionTask, run_task, status_rows
 from ._trial import COLUMNS, DEFAULT_PARAMS, Rows, Traces
 
 __all__ = ["RunReport", "run_study", "write_metrics", "TRIALS"]
 
+#: the presets of params "preprocess" and "descriptors" (None: no preprocessing / no descriptors)
+PRESETS = ("quijoux2021", None)
 #: the thesis' trials in the order of its tables (docs/spec.md §9); other trial names sort after them
 TRIALS = ("right-leg", "left-leg", "rotation")
 
@@ -192,34 +195,41 @@ def run_study(root: str | os.PathLike[str], *, workers: int | None = None, sched
         traces: Mapping[tuple[str, str], Traces] = TraceFiles(
             {(tasks[s].subject, tasks[s].trial): t for s in keep if (t := done[s].traces)})
         if "SCHC" in p["variants"]:  # beyond the thesis: SCHC-DYN across volunteers
-            rows, traces = _with_dynamic(rows, traces)
+            rows, traces = _with_dynamic(rows, traces, p)
         metrics = layout.results / "metrics.csv"
         write_metrics(metrics, rows)
         outputs = _write_outputs(layout.results, rows, traces, problems, __version__,
-                                 "simulation" if layout.simulated else None)
+                                 "simulation" if layout.simulated else None, preprocessing_sentence(p["preprocess"]))
     return RunReport(layout.root, len(tasks), len(tasks) - reused - len(failed), reused, len(failed), problems,
                      metrics, outputs)
 
 
 def write_metrics(path: Path, rows: Sequence[dict[str, Any]]) -> None:
-    """``metrics.csv`` (docs/spec.md §9): the columns of :data:`COLUMNS`, floats as ``repr`` (exact, so a
-    rerun is byte-identical), NaN as an empty field; written atomically."""
+    """``metrics.csv`` (docs/spec.md §9): the columns of :data:`COLUMNS` then any further ones the
+    rows hold (the descriptors, when asked for), floats as ``repr`` (exact, so a rerun is
+    byte-identical), NaN or a missing value as an empty field; written atomically."""
+    cols, seen = list(COLUMNS), set(COLUMNS)
+    for r in rows:
+        new = [c for c in r if c not in seen]
+        cols += new
+        seen.update(new)
     buf = io.StringIO()
     w = csv.writer(buf, lineterminator="\n")
-    w.writerow(COLUMNS)
+    w.writerow(cols)
     for r in rows:
-        w.writerow([_cell(r[c]) for c in COLUMNS])
+        w.writerow([_cell(r.get(c, math.nan)) for c in cols])
     write_text_atomic(path, buf.getvalue())
 
 
-def _with_dynamic(rows: Rows, traces: Mapping[tuple[str, str], Traces]
+def _with_dynamic(rows: Rows, traces: Mapping[tuple[str, str], Traces], params: Mapping[str, Any]
                   ) -> tuple[Rows, Mapping[tuple[str, str], Traces]]:
     """The study's rows and traces with ``SCHC-DYN`` (:func:`psmat.study.dynamic_rows`:
     fitted on the other volunteers, so it is computed after every session, never cached per
     session); each session's new row follows its own rows."""
     from ._dynamic import dynamic_rows
 
-    dyn_rows, dyn_traces = dynamic_rows(rows, traces)
+    dyn_rows, dyn_traces = dynamic_rows(rows, traces, preprocess=params["preprocess"],
+                                        descriptors=params["descriptors"])
     by_key = {(r["subject"], r["trial"]): r for r in dyn_rows}
     out: Rows = []
     for i, r in enumerate(rows):
@@ -252,7 +262,7 @@ class _MergedTraces(Mapping[tuple[str, str], Traces]):
 
 
 def _write_outputs(results: Path, rows: Rows, traces: Mapping[tuple[str, str], Traces], problems: list[str],
-                   version: str, label: str | None = None) -> dict[str, Path]:
+                   version: str, label: str | None = None, preprocessing: str | None = None) -> dict[str, Path]:
     """:func:`~psmat.study._results.write_outputs` (summary, figures, report), skipped when its
     inputs (metrics.csv, the problems, the traces files, the label) are those of the outputs on
     disk and those outputs are unchanged."""
@@ -262,8 +272,9 @@ def _write_outputs(results: Path, rows: Rows, traces: Mapping[tuple[str, str], T
 
     digest = hashlib.sha256(canonical_json({
         "psmat": version, "metrics": file_sha256(results / "metrics.csv"), "problems": problems, "label": label,
+        "preprocessing": preprocessing,
         "traces": sorted([*k, traces.path(k).name] for k in traces)}).encode()).hexdigest()
-    return write_outputs(results, rows, traces, problems, digest, label)
+    return write_outputs(results, rows, traces, problems, digest, label, preprocessing)
 
 
 def _cell(v: Any) -> str:
@@ -284,6 +295,9 @@ def _checked_params(params: dict[str, Any] | None) -> dict[str, Any]:
     bad = [v for v in p["variants"] if v not in KNOWN_VARIANTS]
     if bad or not p["variants"]:
         raise ValueError(f"unknown variant(s) {bad or '(none given)'}; known: {', '.join(KNOWN_VARIANTS)}")
+    for name in ("preprocess", "descriptors"):
+        if p[name] not in PRESETS:
+            raise ValueError(f"{name} must be one of {', '.join(map(str, PRESETS))}, got {p[name]!r}")
     try:
         return json.loads(canonical_json(p))
     except ValueError as exc:

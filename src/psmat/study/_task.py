@@ -9,6 +9,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from ._plain import Expect
+from ._row_metrics import columns
 from ._trial import COLUMNS, Rows, Traces, process_trial
 
 __all__ = ["SessionTask", "run_task", "status_rows", "error_rows"]
@@ -33,7 +34,8 @@ class SessionTask:
     @property
     def expect(self) -> Expect:
         """What this session's result must be (checked when it is read back or received)."""
-        return Expect(self.stem, self.subject, self.trial, tuple(self.params["variants"]))
+        return Expect(self.stem, self.subject, self.trial, tuple(self.params["variants"]),
+                      columns(COLUMNS, self.params))
 
 
 def run_task(task: SessionTask) -> tuple[str, Rows, Traces]:
@@ -45,8 +47,8 @@ def run_task(task: SessionTask) -> tuple[str, Rows, Traces]:
 
 def status_rows(t: SessionTask, status: str) -> Rows:
     """A row per variant (and FP) of ``t`` with no numbers and this status."""
-    return [{**dict.fromkeys(COLUMNS, math.nan), "subject": t.subject, "trial": t.trial, "variant": v,
-             "status": status} for v in ("FP", *t.params["variants"])]
+    return [{**dict.fromkeys(columns(COLUMNS, t.params), math.nan), "subject": t.subject, "trial": t.trial,
+             "variant": v, "ispgr": "", "status": status} for v in ("FP", *t.params["variants"])]
 
 
 def error_rows(t: SessionTask, exc: BaseException) -> Rows:

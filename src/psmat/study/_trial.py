@@ -1,6 +1,8 @@
 """One session of a balance study (thesis §3.2, docs/spec.md §7, §9): the mat through the one chain
 (:func:`psmat.process.process_loaded`: its device clock, each frame stepped with its own period,
-its stored circuit), every variant, aligned with the force platform, sway metrics and Eu per variant.
+its stored circuit), every variant, aligned with the force platform, sway metrics and Eu per variant; the sway metrics of every row
+after one preprocessing (``params["preprocess"]``), the 72 descriptors on request
+(``params["descriptors"]``) and the ISPGR acquisition check (:mod:`psmat.study` (``_row_metrics.py``)).
 
 :func:`process_trial` takes plain arguments and returns plain rows (and, with ``traces=True``,
 the aligned CoP traces for the figures), so a worker process or a Dask worker runs it as is; it
@@ -16,9 +18,10 @@ from typing import Any
 
 import numpy as np
 
-from ..balance import VARIANTS, align, eu, sway, variant_traces
+from ..balance import VARIANTS, align, eu, variant_traces
 from ..sensor import MPICreep
 from ..units import n_from_kg
+from ._row_metrics import columns, descriptor_values, ispgr, sway_metrics
 
 __all__ = ["METRICS", "COLUMNS", "process_trial", "DEFAULT_PARAMS", "Rows", "Traces"]
 
@@ -26,7 +29,7 @@ METRICS = ("sd_ml_cm", "sd_ap_cm", "range_ml_cm", "range_ap_cm", "path_cm", "vel
            "mean_freq_hz")
 COLUMNS = ("subject", "trial", "variant") + METRICS + ("eu_cm", "eu_ml_cm", "eu_ap_cm", "lag_s", "r_align",
                                                         "factor", "frames", "frames_missing", "frames_unconverged",
-                                                        "status")
+                                                        "duration_s", "rate_hz", "ispgr", "status")
 DEFAULT_PARAMS: dict[str, Any] = {
     "variants": list(VARIANTS),
     "method": "newton",  # IECM
@@ -36,6 +39,10 @@ DEFAULT_PARAMS: dict[str, Any] = {
     "max_lag_s": None,
     "align_on": "PROP",
     "sensor": None,  # MPICreep parameters (dict); None: the thesis' Table 2.11
+    # the sway metrics of every row (FP and variants) after psmat.balance.preprocess with this preset
+    # (SWARII to 25 Hz, 4th-order 10 Hz Butterworth forward-backward); None: on the raw traces
+    "preprocess": "quijoux2021",
+    "descriptors": None,  # "quijoux2021": the 72 descriptors (psmat.balance.descriptors) as extra columns
 }
 
 
@@ -44,9 +51,10 @@ Rows = list[dict[str, Any]]
 Traces = dict[str, np.ndarray]
 
 
-def _row(subject: str, trial: str, variant: str, status: str, **values: Any) -> dict[str, Any]:
-    row = {c: np.nan for c in COLUMNS}
-    row.update(subject=subject, trial=trial, variant=variant, status=status, **values)
+def _row(p: dict[str, Any], subject: str, trial: str, variant: str, status: str, **values: Any) -> dict[str, Any]:
+    row: dict[str, Any] = {c: np.nan for c in columns(COLUMNS, p)}
+    row.update(subject=subject, trial=trial, variant=variant, status=status, ispgr="")
+    row.update(values)
     return row
 
 
@@ -56,10 +64,13 @@ def _fill(t: np.ndarray, c: np.ndarray) -> np.ndarray:
     return np.column_stack([np.interp(t, t[ok], c[ok, k]) for k in range(2)])
 
 
-def _metrics(t: np.ndarray, c: np.ndarray, fs: float, t_ref: np.ndarray | None, c_ref: np.ndarray | None
-             ) -> dict[str, float]:
-    """Sway metrics of c, and Eu against c_ref at the same times (both mean-removed)."""
-    out = sway(c, fs).as_dict()
+def _metrics(t: np.ndarray, c: np.ndarray, fs: float, t_ref: np.ndarray | None, c_ref: np.ndarray | None,
+             p: dict[str, Any]) -> dict[str, float]:
+    """Sway metrics of c (after ``p["preprocess"]``), its descriptors when ``p["descriptors"]`` asks,
+    and Eu against c_ref at the same times (both mean-removed, unfiltered: thesis eq. 3.1)."""
+    out = sway_metrics(t, c, fs, p["preprocess"])
+    if p["descriptors"] is not None:
+        out.update(descriptor_values(t, c, p["descriptors"]))
     if t_ref is not None and c_ref is not None:
         ref = np.column_stack([np.interp(t, t_ref, c_ref[:, k]) for k in range(2)])
         a, b = c - c.mean(axis=0), ref - ref.mean(axis=0)
@@ -114,7 +125,15 @@ def process_trial(session: str | os.PathLike[str], forceplate: str | os.PathLike
     Returns
     -------
     rows : list of dict
-        Keys :data:`COLUMNS`; NaN where a value could not be computed.
+        Keys :data:`COLUMNS` (then the descriptors' names when ``params["descriptors"]`` names a
+        preset); NaN where a value could not be computed. The sway metrics are those of the trace
+        after ``params["preprocess"]`` (the platform's and every variant's alike), the descriptors
+        (8×8 variants: the mean over the four choices, like the other metrics) those of the
+        same aligned window, Eu on the unfiltered traces at the mat's frame times.
+        ``duration_s`` is the analysed window (s), ``rate_hz`` the source's sample rate (the
+        platform's for FP, the mat's frame rate for a variant), ``ispgr`` ``"ok"`` or why the
+        recording misses the ISPGR recommendation (at least 25 s at 50 Hz; "" on a row
+        without numbers).
     traces : dict
         Only with ``traces=True`` (see above).
     """
@@ -126,7 +145,7 @@ def process_trial(session: str | os.PathLike[str], forceplate: str | os.PathLike
                         p, names, None if calibration is None else Path(calibration), found)
     except Exception as exc:  # noqa: BLE001 - one bad session must not stop a study
         status = f"error: {type(exc).__name__}: {exc}".replace("\n", " ")
-        rows, found = [_row(subject, trial, v, status) for v in ("FP",) + names], {}
+        rows, found = [_row(p, subject, trial, v, status) for v in ("FP",) + names], {}
     return (rows, found) if traces else rows
 
 
@@ -160,14 +179,16 @@ def _process(session: Path, forceplate: Path | None, subject: str, trial: str, w
                             names=tuple(n for n in names if weight_n is not None or not n.startswith("SCHC")))
     base = {"frames": s.n_frames, "frames_missing": missing, "frames_unconverged": unconverged}
     if forceplate is None:
-        rows = [_row(subject, trial, "FP", "no force-platform file", **base)]
+        mat_window = {"duration_s": float(t[-1] - t[0]), "rate_hz": fs, "ispgr": ispgr(float(t[-1] - t[0]), fs)}
+        rows = [_row(p, subject, trial, "FP", "no force-platform file", **base)]
         for v in names:
             if v not in traces:
-                rows.append(_row(subject, trial, v, "no body weight", **base))
+                rows.append(_row(p, subject, trial, v, "no body weight", **base, **mat_window))
                 continue
-            m = np.mean([list(sway(_fill(t, c), fs).as_dict().values()) for c in traces[v].cop_cm], axis=0)
-            rows.append(_row(subject, trial, v, "no force-platform file: no Eu, no lag", **base,
-                             **dict(zip(METRICS, m))))
+            per_choice = [_metrics(t, _fill(t, c), fs, None, None, p) for c in traces[v].cop_cm]
+            mean = {k: float(np.mean([d[k] for d in per_choice])) for k in per_choice[0]}
+            rows.append(_row(p, subject, trial, v, "no force-platform file: no Eu, no lag", **base, **mat_window,
+                             **mean))
         return rows
     fp = _forceplate(forceplate, load_forceplate_csv)
     t_fp, c_fp = fp.t, fp.cop_cm
@@ -183,20 +204,23 @@ def _process(session: Path, forceplate: Path | None, subject: str, trial: str, w
     in_fp = (t_fp >= lo) & (t_fp <= hi)
     if in_mat.sum() < 8 or in_fp.sum() < 8:
         raise ValueError("mat and platform overlap by fewer than 8 samples after alignment")
-    common = {**base, "lag_s": a.lag_s, "r_align": a.r}
-    rows = [_row(subject, trial, "FP", "ok", **common, **_metrics(t_fp[in_fp], c_fp[in_fp], fs_fp, None, None),
-                 eu_cm=0.0, eu_ml_cm=0.0, eu_ap_cm=0.0)]
+    common = {**base, "lag_s": a.lag_s, "r_align": a.r, "duration_s": float(hi - lo)}
+    rows = [_row(p, subject, trial, "FP", "ok", **common, rate_hz=fs_fp, ispgr=ispgr(hi - lo, fs_fp),
+                 **_metrics(t_fp[in_fp], c_fp[in_fp], fs_fp, None, None, p), eu_cm=0.0, eu_ml_cm=0.0, eu_ap_cm=0.0)]
+    mat_window = {"rate_hz": fs, "ispgr": ispgr(hi - lo, fs)}
     tm = t[in_mat] + a.lag_s
     aligned: Traces = {"t_s": tm, "FP": np.column_stack([np.interp(tm, t_fp, c_fp[:, k]) for k in range(2)])}
     for v in names:
         if v not in traces:
-            rows.append(_row(subject, trial, v, "no body weight: subject missing from subjects.csv", **common))
+            rows.append(_row(p, subject, trial, v, "no body weight: subject missing from subjects.csv", **common,
+                             **mat_window))
             continue
         filled = [_fill(tm, c[in_mat]) for c in traces[v].cop_cm]
-        per_choice = [_metrics(tm, c, fs, t_fp, c_fp) for c in filled]
+        per_choice = [_metrics(tm, c, fs, t_fp, c_fp, p) for c in filled]
         mean = {k: float(np.mean([d[k] for d in per_choice])) for k in per_choice[0]}
         f = traces[v].factor
-        rows.append(_row(subject, trial, v, "ok", **common, **mean, factor=float(np.mean(f)) if f is not None else np.nan))
+        rows.append(_row(p, subject, trial, v, "ok", **common, **mat_window, **mean,
+                         factor=float(np.mean(f)) if f is not None else np.nan))
         aligned[v] = filled[0]
     found.update(aligned)
     return rows

@@ -65,6 +65,18 @@ Sessions, memory and determinism
     volunteer, so a volunteer is the same whatever the number of volunteers; the same seed
     gives byte-identical files except the HDF5 sessions' creation time.
 
+Romberg (``romberg=True``, ``psmat study simulate --romberg``)
+    A fourth trial per volunteer, ``romberg``, after the three: two feet, eyes open then eyes
+    closed, each ``duration_s`` long, in one mat session (``2·duration_s``) and one platform
+    file. Its sway is an eyes-open BDS trial (``Vision`` Open, ``Surface`` Firm in the
+    ``trials.tsv`` beside the files) then an eyes-closed one of the same BDS subject and surface,
+    both drawn per volunteer from its own stream (so the three trials are the same with or
+    without it); the feet stay where they stood, and the sway passes from one to the other over
+    :data:`BLEND_S`. The session holds the markers ``eyes open`` (at its first frame) and ``eyes
+    closed`` (at the switch), each at the host time its frame (the first, the first eyes-closed
+    one) arrived, as an operator's clicks would be. ``truth/sessions/<stem>_romberg.json`` names both BDS trials
+    and the switch (platform clock, host clock, frame index).
+
 ``DIR/truth/`` (see its README.txt): ``study.json``; per volunteer ``volunteers/Vnn.json``
 (person, mat, box, calibration found) and ``Vnn.npz`` (``gain`` and ``r_mux_ohm`` per cell);
 per session ``sessions/<stem>.json`` (source, timing, lags) and ``<stem>.npz``
@@ -77,6 +89,7 @@ a few frames), which an alignment of the two CoPs includes.
 
 from __future__ import annotations
 
+import csv
 import datetime as _dt
 import math
 import os
@@ -91,7 +104,8 @@ from ..io import bds_files, load_bds
 from ..twin import MatPhysics
 from ..twin.field import mat_centre_cm
 from ..units import n_from_kg
-from ._balance_trials import PLATFORM_RATE_HZ, TRIALS, Source, plan_trajectory, platform_table, record_session
+from ._balance_trials import (PLATFORM_RATE_HZ, TRIALS, Source, Trajectory, plan_trajectory, platform_table,
+                              record_session)
 from ._draws import Box, Person, draw_person
 from ._lab import NOISE_V, PITCH_CM, equip, new_root, write_subjects
 from ._truth import save_npz_stable, truth_json
@@ -103,6 +117,8 @@ HOST_EPOCH = _dt.datetime(2024, 5, 6, 9, 0, tzinfo=_dt.timezone.utc)
 REST_S = (30.0, 120.0)
 #: The platform starts up to this long before the mat (s); and stops up to this long after it.
 PLATFORM_MARGIN_S = 3.0
+#: The Romberg trial's sway passes from the eyes-open source to the eyes-closed one over this long (s).
+BLEND_S = 0.5
 _TRUTH_README = """\
 This folder holds what the simulator knows and a lab does not: each volunteer's true sensor
 parameters, cell gains, R_mux and clock; each session's true lag, timing and CoP trajectory.
@@ -143,6 +159,31 @@ def _sources(bds_paths: Sequence[str | os.PathLike[str]] | None) -> list[Path]:
     return files
 
 
+def _romberg_pairs(files: Sequence[Path]) -> list[tuple[tuple[str, str], list[int], list[int]]]:
+    """Per BDS subject (folder, ``Subject``) with both: the indices into ``files`` of its firm-surface
+    eyes-open and eyes-closed trials (from the ``trials.tsv`` beside the files)."""
+    rows: dict[tuple[Path, str], dict[str, str]] = {}
+    for parent in sorted({f.parent for f in files}):
+        tsv = parent / "trials.tsv"
+        if tsv.is_file():
+            with open(tsv, newline="", encoding="utf-8") as fh:
+                for row in csv.DictReader(fh, delimiter="\t"):
+                    rows[(parent, (row.get("Trial") or "").strip())] = row
+    found: dict[tuple[str, str], tuple[list[int], list[int]]] = {}
+    for i, f in enumerate(files):
+        row = rows.get((f.parent, Path(f.name.removesuffix(".xz")).stem))
+        if row is None or (row.get("Surface") or "").strip().lower() != "firm":
+            continue
+        vision = (row.get("Vision") or "").strip().lower()
+        if vision in ("open", "closed"):
+            found.setdefault((str(f.parent), (row.get("Subject") or "").strip()), ([], []))[vision == "closed"].append(i)
+    pairs = [(key, eo, ec) for key, (eo, ec) in sorted(found.items()) if eo and ec]
+    if not pairs:
+        raise ValueError("romberg needs an eyes-open and an eyes-closed BDS trial of one subject on a firm surface "
+                         "(Vision, Surface in the trials.tsv beside the files); none among the sources")
+    return pairs
+
+
 def _check(volunteers: Any, duration_s: Any, seed: Any, rate_hz: Any, shape: Any
            ) -> tuple[int, float, int, float, tuple[int, int]]:
     """The checked arguments of :func:`simulate_study` (one-line ValueErrors)."""
@@ -177,7 +218,7 @@ def _rest(mat: MatPhysics, seconds: float) -> None:
 
 def simulate_study(root: str | os.PathLike[str], *, volunteers: int, duration_s: float, seed: int,
                    rate_hz: float = 100.0, bds_paths: Sequence[str | os.PathLike[str]] | None = None,
-                   shape: tuple[int, int] = (16, 16), progress: bool = False) -> Path:
+                   shape: tuple[int, int] = (16, 16), progress: bool = False, romberg: bool = False) -> Path:
     """Write a simulated balance study to ``root`` (see the module docstring for every choice).
 
     Parameters
@@ -198,6 +239,9 @@ def simulate_study(root: str | os.PathLike[str], *, volunteers: int, duration_s:
         Cells of the mat (2 cm pitch), at least (16, 16).
     progress : bool
         A progress bar over sessions.
+    romberg : bool
+        Add a fourth trial per volunteer, ``romberg`` (eyes open then closed, each ``duration_s``;
+        see the module docstring). The three trials stay the same, file for file.
 
     Returns
     -------
@@ -218,32 +262,48 @@ def simulate_study(root: str | os.PathLike[str], *, volunteers: int, duration_s:
     files = _sources(bds_paths)
     width = max(2, len(str(n_vol)))
     ids = [f"V{i + 1:0{width}d}" for i in range(n_vol)]
-    streams = [child.spawn(5) for child in np.random.SeedSequence(seed_).spawn(n_vol)]  # V_i's whatever n_vol
+    streams = [child.spawn(6) for child in np.random.SeedSequence(seed_).spawn(n_vol)]  # V_i's whatever n_vol
     people = [draw_person(np.random.default_rng(s[0])) for s in streams]
     picks = []
     for s in streams:
         rng = np.random.default_rng(s[1])
         picks.append(rng.choice(len(files), size=3, replace=len(files) < 3).tolist())
-    cache = {i: _load(files[i]) for i in sorted({i for p in picks for i in p})}
+    rombergs: list[tuple[int, int, str] | None] = [None] * n_vol
+    if romberg:
+        pairs = _romberg_pairs(files)
+        for v, s in enumerate(streams):  # the sixth stream: the three trials draw nothing more with it
+            rng = np.random.default_rng(s[5])
+            key, eo, ec = pairs[int(rng.integers(len(pairs)))]
+            rombergs[v] = (eo[int(rng.integers(len(eo)))], ec[int(rng.integers(len(ec)))], key[1])
+    used = {i for p in picks for i in p} | {i for r in rombergs if r is not None for i in r[:2]}
+    cache = {i: _load(files[i]) for i in sorted(used)}
     for sub in ("sessions", "forceplate", "calibration", "truth/volunteers", "truth/sessions"):
         (out / sub).mkdir(parents=True, exist_ok=True)
     write_subjects(out, ids, people)
     frames = int(round(secs * rate))
-    with tqdm(total=3 * n_vol, unit="session", desc="simulating", disable=not progress) as bar:
-        for i, (vid, person, s, pick) in enumerate(zip(ids, people, streams, picks)):
-            _volunteer(out, i, vid, person, s, [cache[j] for j in pick], frames, rate, (R, C), seed_, bar)
+    per = 4 if romberg else 3
+    with tqdm(total=per * n_vol, unit="session", desc="simulating", disable=not progress) as bar:
+        for i, (vid, person, s, pick, rb) in enumerate(zip(ids, people, streams, picks, rombergs)):
+            pair = None if rb is None else (cache[rb[0]], cache[rb[1]], rb[2])
+            _volunteer(out, i, vid, person, s, [cache[j] for j in pick], frames, rate, (R, C), seed_, bar, pair)
     study = {"seed": seed_, "volunteers": n_vol, "seconds": secs, "rate_hz": rate, "frames": frames,
              "shape": [R, C], "pitch_cm": PITCH_CM, "platform_rate_hz": PLATFORM_RATE_HZ, "noise_v": NOISE_V,
              "trials": list(TRIALS), "sources": [f.name.removesuffix(".xz") for f in files], "subjects": ids,
              "boxes": "one per volunteer", "simulator": "psmat.synth.simulate_study"}
+    if romberg:
+        study["trials"] = [*TRIALS, "romberg"]
+        study["romberg"] = {"seconds_each": secs, "blend_s": BLEND_S, "volunteers": {
+            vid: {"eyes_open": cache[r[0]].name, "eyes_closed": cache[r[1]].name, "bds_subject": r[2]}
+            for vid, r in zip(ids, rombergs) if r is not None}}
     (out / "truth" / "study.json").write_text(truth_json(study), encoding="utf-8")
     (out / "truth" / "README.txt").write_text(_TRUTH_README, encoding="utf-8")
     return out
 
 
 def _volunteer(out: Path, index: int, vid: str, person: Person, streams: list[np.random.SeedSequence],
-               sources: list[Source], frames: int, rate: float, shape: tuple[int, int], seed: int, bar: Any) -> None:
-    """Draw the volunteer's mat and box, calibrate the box, record the three trials."""
+               sources: list[Source], frames: int, rate: float, shape: tuple[int, int], seed: int, bar: Any,
+               romberg: tuple[Source, Source, str] | None = None) -> None:
+    """Draw the volunteer's mat and box, calibrate the box, record the three trials (and the Romberg one)."""
     rng_box = np.random.default_rng(streams[3])
     day = HOST_EPOCH + _dt.timedelta(days=index // 8, minutes=45 * (index % 8))
     kit = equip(out, f"SIM{seed}-{vid}", np.random.default_rng(streams[2]), rng_box, shape, rate,
@@ -289,6 +349,60 @@ def _volunteer(out: Path, index: int, vid: str, person: Person, streams: list[np
         mat_end_prev = platform_start + lead + frames * period_true
         platform_start += fp_end + float(rng.uniform(*REST_S))
         bar.update(1)
+    if romberg is None:
+        return
+    # the Romberg trial: the same draws as a trial above, in the same order, from the same stream, after them
+    eo_src, ec_src, bds_subject = romberg
+    early = min(1.0, 0.1 * seconds)
+    lead = float(rng.uniform(-early, PLATFORM_MARGIN_S))
+    switch = lead + frames * period_true  # platform time of the first eyes-closed frame
+    mat_end = lead + (2 * frames - 1) * period_true
+    fp_end = max(mat_end + float(rng.uniform(-early, PLATFORM_MARGIN_S)), 1.0)
+    weight = n_from_kg(person.weight_kg)
+    eo = plan_trajectory("romberg", eo_src, (min(0.0, lead), switch + BLEND_S), weight, shape, PITCH_CM, foot, rng)
+    ec = plan_trajectory("romberg", ec_src, (switch, max(fp_end, mat_end)), weight, shape, PITCH_CM, foot, rng,
+                         position_cm=np.asarray(eo.info["position_cm"]))
+    traj = _join(eo, ec, switch)
+    stem = f"{vid}_romberg"
+    n_fp = int(math.floor(fp_end * PLATFORM_RATE_HZ + 1e-9)) + 1
+    (out / "forceplate" / f"{stem}.csv").write_text(platform_table(traj, n_fp, origin), encoding="utf-8")
+    mat_start = platform_start + lead
+    assert first_mat_start is not None  # the three trials came first
+    _rest(mat, mat_start - mat_end_prev)
+    ticks = int(round((mat_start - first_mat_start) / (1.0 + box.clock_error) * 1e6))
+    d0 = (box.counter_start_us + ticks) % (1 << 32)
+    host_start = host0 + platform_start
+    traj.info["romberg"] = {"eyes_open": eo_src.name, "eyes_closed": ec_src.name, "bds_subject": bds_subject,
+                            "surface": "Firm", "switch_platform_s": switch,
+                            "switch_frame": frames, "seconds_each": seconds, "blend_s": BLEND_S}
+    st = record_session(out / "sessions" / f"{stem}.h5", traj, mat, trial="romberg", lead_s=lead, frames=2 * frames,
+                        rate_hz=rate, clock_error=box.clock_error, device_start_us=d0, host_start_s=host_start,
+                        loss_rate=box.loss_rate, pitch_cm=PITCH_CM, foot=foot, device=kit.device, profile=kit.profile,
+                        calibration=kit.calibration.to_dict(),
+                        metadata={"subject": vid, "trial": "romberg", "simulated": True,
+                                  "operator": "psmat.synth.simulate_study"},
+                        rng=rng, events=[(0, "eyes open"), (frames, "eyes closed")])
+    traj.info["romberg"]["switch_host_s"] = float(st.t_host_s[frames])  # the "eyes closed" marker
+    _session_truth(out, stem, traj, st, 2 * frames, rate, box, d0, host_start, n_fp, fp_end, lead)
+    bar.update(1)
+
+
+def _join(eo: Trajectory, ec: Trajectory, switch: float) -> Trajectory:
+    """The eyes-open trajectory up to ``switch`` (platform clock, s), the eyes-closed one from it, passing
+    linearly from the first to the second over :data:`BLEND_S` (both on the one grid of the source's rate)."""
+    a, b = eo.t < switch, ec.t >= switch
+    t = np.concatenate([eo.t[a], ec.t[b]])
+    if t.size > 2 and not np.allclose(np.diff(t), t[1] - t[0], rtol=1e-6, atol=0.0):
+        raise ValueError("the eyes-open and eyes-closed sources of the Romberg trial have different rates")
+    w = np.clip((ec.t[b] - switch) / BLEND_S, 0.0, 1.0)[:, None]
+    cop_eo, fz_eo = eo.at(ec.t[b])
+    cop = np.concatenate([eo.cop_cm[a], (1.0 - w) * cop_eo + w * ec.cop_cm[b]])
+    fz = np.concatenate([eo.fz_n[a], (1.0 - w[:, 0]) * fz_eo + w[:, 0] * ec.fz_n[b]])
+    info = {"trial": "romberg", "stance": "two", "source": f"{eo.info['source']} then {ec.info['source']}",
+            "position_cm": eo.info["position_cm"], "rotation": None,
+            "sway_scale": min(eo.info["sway_scale"], ec.info["sway_scale"]), "sway_scale_wanted": 1.0,
+            "eyes_open_part": eo.info, "eyes_closed_part": ec.info}
+    return Trajectory(t, cop, fz, info)
 
 
 def _session_truth(out: Path, stem: str, traj: Any, st: Any, frames: int, rate: float, box: Box, d0: int,

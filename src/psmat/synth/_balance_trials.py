@@ -12,6 +12,7 @@ stamped by the box's µs counter ``d0 + k·T``, so in the convention of
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -34,7 +35,8 @@ __all__ = ["PLATFORM_RATE_HZ", "TRIALS", "STANCE", "Source", "Trajectory", "plan
 PLATFORM_RATE_HZ = 100.0
 #: Trials of thesis §3.2.1, in the order performed, and the feet on the mat in each.
 TRIALS = ("right-leg", "left-leg", "rotation")
-STANCE = {"right-leg": "right", "left-leg": "left", "rotation": "two"}
+#: ("romberg", two feet, eyes open then closed, is the optional fourth trial of ``--romberg``.)
+STANCE = {"right-leg": "right", "left-leg": "left", "rotation": "two", "romberg": "two"}
 #: Single-leg sway against the two-legged BDS trials: about twice as large with eyes open
 #: (double- to single-leg stance, J. Biomech. 2020, "Transition from double-leg to single-leg
 #: stance in the assessment of postural stability"), capped by the foot's reach.
@@ -142,13 +144,15 @@ def _rotation(t: NDArray[np.float64], fs: float, t_on: float, rng: np.random.Gen
 
 
 def plan_trajectory(trial: str, src: Source, span: tuple[float, float], weight_n: float, shape: tuple[int, int],
-                    pitch_cm: float, foot: dict[str, float], rng: np.random.Generator) -> Trajectory:
+                    pitch_cm: float, foot: dict[str, float], rng: np.random.Generator,
+                    position_cm: NDArray[np.float64] | None = None) -> Trajectory:
     """The true trajectory of ``trial`` over the platform-clock ``span`` (s), drawn from ``src``.
 
     The source is cut at a random start, played back and forth if it is too short, its mean
     removed (its sway around the feet's nominal CoP, placed within :data:`PLACEMENT_CM` of the
     mat centre), scaled for a single-leg trial, plus trunk circles for ``"rotation"``; its
-    force scaled to the body weight.
+    force scaled to the body weight. ``position_cm`` (mat coordinates, cm) places the feet where
+    an earlier part of the same stance left them instead of drawing a place (no draw then).
     """
     fs = src.rate_hz
     lo = math.floor(span[0] * fs) - 1
@@ -161,7 +165,10 @@ def plan_trajectory(trial: str, src: Source, span: tuple[float, float], weight_n
     disp -= disp.mean(axis=0)
     fz = src.fz_n[idx] * (weight_n / float(np.mean(src.fz_n[idx])))
     stance = STANCE[trial]
-    position = mat_centre_cm(shape, pitch_cm) + rng.uniform(-PLACEMENT_CM, PLACEMENT_CM, 2)
+    if position_cm is None:
+        position = mat_centre_cm(shape, pitch_cm) + rng.uniform(-PLACEMENT_CM, PLACEMENT_CM, 2)
+    else:
+        position = np.asarray(position_cm, dtype=np.float64)
     groups, nominal, _ = stance_groups(stance, shape, pitch_cm, tuple(position), **foot)
     info: dict[str, Any] = {"trial": trial, "stance": stance, "source": src.name,
                             "source_start_s": float(src.t[i0] - src.t[0]), "looped": looped,
@@ -171,7 +178,7 @@ def plan_trajectory(trial: str, src: Source, span: tuple[float, float], weight_n
         disp = disp + circle
         wanted = 1.0
     else:
-        wanted = SINGLE_LEG_SCALE
+        wanted = SINGLE_LEG_SCALE if stance != "two" else 1.0
     k = _scale_within_reach(groups, nominal, position, disp, wanted, MIN_FRACTION)
     info.update(sway_scale=k, sway_scale_wanted=wanted)
     return Trajectory(t, position + k * disp, fz, info)
@@ -205,8 +212,8 @@ class SessionTruth:
 def record_session(path: Path, traj: Trajectory, mat: MatPhysics, *, trial: str, lead_s: float, frames: int,
                    rate_hz: float, clock_error: float, device_start_us: int, host_start_s: float, loss_rate: float,
                    pitch_cm: float, foot: dict[str, float], device: dict[str, Any], calibration: dict[str, Any],
-                   metadata: dict[str, Any], rng: np.random.Generator, profile: dict[str, Any] | None = None
-                   ) -> SessionTruth:
+                   metadata: dict[str, Any], rng: np.random.Generator, profile: dict[str, Any] | None = None,
+                   events: Sequence[tuple[int, str]] = ()) -> SessionTruth:
     """Simulate and write one mat session (:class:`psmat.io.SessionWriter`) in chunks of :data:`CHUNK` frames.
 
     Frame ``k`` happens at platform time ``lead_s + k·T·(1 + clock_error)`` (``T = 1/rate_hz``);
@@ -214,6 +221,8 @@ def record_session(path: Path, traj: Trajectory, mat: MatPhysics, *, trial: str,
     plus that instant plus a USB latency (1 ms + exponential 1 ms, never backwards). A frame
     is lost on the wire with probability ``loss_rate`` and kept as the reader keeps a frame that
     failed its check: counts 0, ``valid`` False, no sequence number or device time (-1).
+    ``events``: markers (frame index, label), each written at the host time of that frame's arrival
+    (an operator's click as the frame comes, on the session's host clock).
     """
     period = 1.0 / rate_hz
     period_true = period * (1.0 + clock_error)
@@ -240,6 +249,8 @@ def record_session(path: Path, traj: Trajectory, mat: MatPhysics, *, trial: str,
                                     min_fraction=MIN_FRACTION, **foot)
             write_mat_chunk(w, mat, scene, slice(a, b), host, lost, k, device_us, tally)
             cop[a:b], force[a:b] = scene.cop_true_cm, fz
+        for k_ev, label in events:
+            w.add_event(float(host[k_ev]), label)
         w.set_counters(bad_frames=int(lost.sum()))
     return SessionTruth(t_platform, host, cop, force, ~lost, tally.pressure_sum_psi / frames, tally.clipped_frames,
                         tally.saturated_fraction(frames), tally.force_on_mat_min)

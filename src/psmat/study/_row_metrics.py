@@ -1,0 +1,90 @@
+"""What a study row holds about one trace (docs/spec.md §9): its sway metrics after the study's one
+preprocessing, its optional 72 descriptors, and its ISPGR acquisition check.
+
+* :func:`sway_metrics` — :func:`psmat.balance.sway` of the trace after ``params["preprocess"]``
+  (:func:`psmat.balance.preprocess`: preset ``quijoux2021`` = SWARII to 25 Hz, 4th-order 10 Hz
+  Butterworth forward-backward), the same for the platform and every mat variant; ``None``: the
+  raw trace at its own rate.
+* :func:`descriptor_values` — :func:`psmat.balance.descriptors` with ``params["descriptors"]`` as
+  the preset; every value NaN when the trace is too short for them.
+* :func:`ispgr` — the ISPGR recommendation (Scoppa et al. 2013): at least 25 s at at least 50 Hz.
+* :func:`columns` — the columns of a study's rows for a parameter dict.
+"""
+
+from __future__ import annotations
+
+import functools
+import math
+from collections.abc import Mapping
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ..balance import descriptors, preprocess, sway
+
+__all__ = ["ISPGR_MIN_S", "ISPGR_MIN_HZ", "ispgr", "sway_metrics", "descriptor_values", "descriptor_columns",
+           "columns", "preprocessing_sentence"]
+
+#: ISPGR (Scoppa et al. 2013): shortest recording (s) and lowest sample rate (Hz)
+ISPGR_MIN_S = 25.0
+ISPGR_MIN_HZ = 50.0
+#: a rate this close below 50 Hz still meets it (a device clock's drift: 49.999 Hz is a 50 Hz mat)
+ISPGR_RATE_RTOL = 1e-3
+
+
+def ispgr(duration_s: float, rate_hz: float) -> str:
+    """``"ok"`` or why a recording of ``duration_s`` (s) at ``rate_hz`` (Hz) misses the ISPGR
+    recommendation, e.g. ``"short: 20.0 s < 25 s; rate 40 Hz < 50 Hz"`` (a rate within 0.1 % below
+    50 Hz, a device clock's drift, meets it)."""
+    why = []
+    if not duration_s >= ISPGR_MIN_S:
+        why.append(f"short: {duration_s:.1f} s < {ISPGR_MIN_S:g} s")
+    if not rate_hz >= ISPGR_MIN_HZ * (1.0 - ISPGR_RATE_RTOL):
+        why.append(f"rate {rate_hz:.6g} Hz < {ISPGR_MIN_HZ:g} Hz")
+    return "; ".join(why) or "ok"
+
+
+def sway_metrics(t_s: NDArray[np.float64], cop_cm: NDArray[np.float64], fs_hz: float,
+                 preset: str | None) -> dict[str, float]:
+    """:func:`psmat.balance.sway` of ``cop_cm`` (N, 2) cm at times ``t_s`` (s): after
+    :func:`psmat.balance.preprocess` with ``preset``, or raw at ``fs_hz`` (Hz) when it is None."""
+    if preset is None:
+        return sway(cop_cm, fs_hz).as_dict()
+    t, ml, ap = preprocess(t_s, cop_cm[:, 0], cop_cm[:, 1], preset)
+    return sway(np.column_stack((ml, ap)), 1.0 / float(np.median(np.diff(t)))).as_dict()
+
+
+@functools.cache
+def descriptor_columns(preset: str = "quijoux2021") -> tuple[str, ...]:
+    """The names of the descriptors (the paper's, in :func:`psmat.balance.descriptors`' order)."""
+    rng = np.random.default_rng(0)
+    t = np.arange(0.0, 60.0, 0.04)
+    walk = np.cumsum(rng.standard_normal((t.size, 2)), axis=0) * 0.02
+    return tuple(descriptors(t, walk[:, 0], walk[:, 1], preset=preset))
+
+
+def descriptor_values(t_s: NDArray[np.float64], cop_cm: NDArray[np.float64], preset: str) -> dict[str, float]:
+    """The descriptors of ``cop_cm`` (N, 2) cm at ``t_s`` (s); all NaN when the trace is too short
+    or too still for them (documented in docs/spec.md §9, not an error of the row)."""
+    try:
+        return {k: float(v) for k, v in descriptors(t_s, cop_cm[:, 0], cop_cm[:, 1], preset=preset).items()}
+    except ValueError:
+        return dict.fromkeys(descriptor_columns(preset), math.nan)
+
+
+def columns(base: tuple[str, ...], params: Mapping[str, Any]) -> tuple[str, ...]:
+    """``base`` (:data:`psmat.study.COLUMNS`) plus the descriptor columns when ``params`` asks for them."""
+    preset = params.get("descriptors")
+    return base if preset is None else base + descriptor_columns(preset)
+
+
+def preprocessing_sentence(preset: str | None) -> str:
+    """One sentence for the report: the preprocessing the sway metrics were computed after."""
+    if preset is None:
+        return ("Sway metrics are computed on the raw traces (no resampling, no filter), each at its own "
+                "sample rate; Eu on the aligned traces at the mat's frame times.")
+    return (f"Sway metrics of the platform and of every mat variant are computed after the same preprocessing "
+            f"(preset {preset}: SWARII resampling to 25 Hz with a 1/25 s window, then a 4th-order Butterworth "
+            "low-pass at 10 Hz run forward and backward); Eu (thesis eq. 3.1) is computed on the aligned, "
+            "unfiltered traces at the mat's frame times, as the thesis defines it.")
