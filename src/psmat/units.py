@@ -15,6 +15,24 @@ import numpy as np
 PSI_PA: float = 6894.757
 #: kPa per psi.
 PSI_KPA: float = PSI_PA / 1000.0
+#: kPa per mmHg (the conventional millimetre of mercury: 13 595.1 kg/m³ × 9.80665 m/s² × 1 mm =
+#: 133.322387415 Pa exactly; the torr, 101 325/760 Pa, is 1.4e-7 smaller).
+MMHG_KPA: float = 0.133322387415
+#: kPa per N/cm² (1 N/cm² = 10⁴ Pa).
+N_PER_CM2_KPA: float = 10.0
+#: kPa per unit, by the names other mats' software writes (lower case, spaces removed): the pressure
+#: units :func:`kpa_per_unit` knows.
+PRESSURE_UNITS_KPA: dict[str, float] = {
+    "kpa": 1.0, "pa": 1e-3, "mpa": 1e3, "mmhg": MMHG_KPA, "psi": PSI_KPA,
+    "n/cm2": N_PER_CM2_KPA, "n/cm^2": N_PER_CM2_KPA, "n/cm²": N_PER_CM2_KPA, "ncm2": N_PER_CM2_KPA,
+}
+#: cm per unit of length, by name (lower case): the lengths :func:`cm_per_unit` knows.
+LENGTH_UNITS_CM: dict[str, float] = {
+    "mm": 0.1, "millimeter": 0.1, "millimeters": 0.1, "millimetre": 0.1, "millimetres": 0.1,
+    "cm": 1.0, "centimeter": 1.0, "centimeters": 1.0, "centimetre": 1.0, "centimetres": 1.0,
+    "m": 100.0, "meter": 100.0, "meters": 100.0, "metre": 100.0, "metres": 100.0,
+    "in": 2.54, "inch": 2.54, "inches": 2.54,
+}
 #: Standard gravity, m/s² (CGPM 1901): N per kg of body mass.
 STANDARD_GRAVITY_M_S2: float = 9.80665
 
@@ -39,3 +57,25 @@ def n_from_kg(mass_kg: ArrayOrFloat) -> ArrayOrFloat:
 def force_n(pressure_kpa: ArrayOrFloat, area_cm2: ArrayOrFloat) -> ArrayOrFloat:
     """Force in N of a pressure in kPa on an area in cm² (1 kPa·cm² = 0.1 N)."""
     return pressure_kpa * area_cm2 * 0.1
+
+
+def kpa_per_unit(unit: str) -> float:
+    """kPa per one ``unit`` of pressure (``"kPa"``, ``"mmHg"``, ``"PSI"``, ``"N/cm2"``, ``"Pa"``, ``"MPa"``).
+
+    Case and spaces are ignored. Raises ValueError (one line naming the known units) for any other.
+    """
+    key = "".join(str(unit).split()).lower()
+    if key not in PRESSURE_UNITS_KPA:
+        raise ValueError(f"unknown pressure unit {unit!r} (known: kPa, Pa, MPa, mmHg, PSI, N/cm2)")
+    return PRESSURE_UNITS_KPA[key]
+
+
+def cm_per_unit(unit: str) -> float:
+    """cm per one ``unit`` of length (``"mm"``, ``"cm"``, ``"m"``, ``"in"`` and their spelled-out names).
+
+    Case is ignored. Raises ValueError (one line) for any other.
+    """
+    key = str(unit).strip().lower()
+    if key not in LENGTH_UNITS_CM:
+        raise ValueError(f"unknown length unit {unit!r} (known: mm, cm, m, in)")
+    return LENGTH_UNITS_CM[key]

@@ -6,6 +6,9 @@
   counts, pressure, CoP or events as CSV, Parquet or MATLAB files.
 * the spine IMUs' text logs (the thesis' format): :func:`load_imu_log`, :func:`write_imu_log`
   (private module ``_imu_log``).
+* other mats' pressure files (Tekscan ASCII export, XSENSOR CSV export, a generic CSV of one
+  frame a line) as sessions of kind ``"pressure"``: :func:`import_pressure`,
+  :func:`read_pressure_file` (private modules ``_import*``).
 * force-platform centre-of-pressure files (generic CSV and the BDS public data set):
   :func:`load_forceplate_csv`, :func:`load_bds`, :func:`bds_trial`, ... (private module
   ``_forceplate``).
@@ -23,6 +26,8 @@ from ._forceplate import (
     load_bds,
     load_forceplate_csv,
 )
+from ._import import (IMPORT_FORMATS, ImportedFrames, ImportFormatError, detect_format, import_pressure,
+                      read_pressure_file)
 from ._imu_log import ImuLog, load_imu_log, write_imu_log
 from .session import (
     COUNTER_NAMES,
@@ -49,6 +54,12 @@ from .session import (
 )
 
 __all__ = [
+    "IMPORT_FORMATS",
+    "ImportedFrames",
+    "ImportFormatError",
+    "detect_format",
+    "import_pressure",
+    "read_pressure_file",
     "ImuLog",
     "load_imu_log",
     "write_imu_log",

@@ -32,13 +32,15 @@ class Profile:
     name, description : str
         Short name (the file's stem for a shipped profile) and one line for people.
     kind : str
-        ``"psm"`` (a mat), ``"imu"`` or ``"daq"``.
+        ``"psm"`` (a mat), ``"imu"``, ``"daq"`` or ``"pressure"`` (another maker's mat whose
+        frames were imported in kPa: a geometry, no circuit).
     protocol : str
-        ``"v1"``, ``"v2"`` or ``"csv"`` (psm), ``"v1"``/``"v2"`` (imu), ``"daq-text"`` (daq).
+        ``"v1"``, ``"v2"`` or ``"csv"`` (psm), ``"v1"``/``"v2"`` (imu), ``"daq-text"`` (daq),
+        ``"import"`` (pressure).
     rate_hz : float
         Nominal frame rate (Hz).
     baudrate : int
-        Serial line speed (bit/s; ignored by a USB CDC link).
+        Serial line speed (bit/s; ignored by a USB CDC link); 0 for an imported mat (none).
     shape : tuple of int
         Frame shape: (R, C) for a mat, (5, 3) an IMU box, (10,) the DAQ.
     pitch_cm : float or None
@@ -151,6 +153,8 @@ class Profile:
         """The TOML layout, without ``source``."""
         d: dict[str, Any] = {"name": self.name, "description": self.description, "kind": self.kind,
                              "protocol": self.protocol, "rate_hz": self.rate_hz, "baudrate": self.baudrate}
+        if self.kind == "pressure" and not self.baudrate:
+            del d["baudrate"]  # an imported mat has no serial line
         if self.geometry is not None:
             d["geometry"] = self.geometry.to_dict()
         else:

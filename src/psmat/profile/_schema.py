@@ -15,9 +15,10 @@ from ._geometry import AXES, Geometry
 
 __all__ = ["KINDS", "PROTOCOLS", "parse"]
 
-#: Device kinds and the protocols each may speak.
-KINDS = ("psm", "imu", "daq")
-PROTOCOLS = {"psm": ("v1", "v2", "csv"), "imu": ("v1", "v2"), "daq": ("daq-text",)}
+#: Device kinds and the protocols each may speak. ``pressure``: another maker's mat whose frames were
+#: imported from its software's export (``psmat import``): a geometry, no wire protocol, no circuit.
+KINDS = ("psm", "imu", "daq", "pressure")
+PROTOCOLS = {"psm": ("v1", "v2", "csv"), "imu": ("v1", "v2"), "daq": ("daq-text",), "pressure": ("import",)}
 #: The frame shape of the devices whose shape is fixed by their kind.
 FIXED_SHAPES = {"imu": (5, 3), "daq": (10,)}
 
@@ -154,14 +155,16 @@ def parse(data: dict[str, Any], where: str) -> dict[str, Any]:
     out: dict[str, Any] = {
         "name": name, "description": c.text("description"), "kind": kind,
         "protocol": c.text("protocol", choices=PROTOCOLS[kind]),
-        "rate_hz": c.number("rate_hz", unit=" (Hz)"), "baudrate": c.integer("baudrate"),
+        "rate_hz": c.number("rate_hz", unit=" (Hz)"),
+        # an imported mat has no serial line: its baudrate is optional, 0 when absent
+        "baudrate": c.integer("baudrate", required=kind != "pressure") or 0,
     }
     geo, wire, circuit = c.table_of("geometry"), c.table_of("wire"), c.table_of("circuit")
-    if kind == "psm":
+    if kind in ("psm", "pressure"):
         if "shape" in data:
-            c.fail("shape", "a psm profile gives its shape in [geometry]")
+            c.fail("shape", f"a {kind} profile gives its shape in [geometry]")
         if geo is None:
-            c.fail("geometry", "missing: a psm profile needs [geometry] (shape, pitch_cm)")
+            c.fail("geometry", f"missing: a {kind} profile needs [geometry] (shape, pitch_cm)")
         assert geo is not None
         g = _geometry(where, geo)
         out.update(shape=g.shape, pitch_cm=g.pitch_cm, geometry=g)
@@ -175,13 +178,14 @@ def parse(data: dict[str, Any], where: str) -> dict[str, Any]:
         out.update(shape=fixed, pitch_cm=None, geometry=None)
     if wire is not None:
         if kind != "psm":
-            c.fail("wire", f"a {kind} profile has no [wire] (rows and columns are a mat's)")
+            c.fail("wire", f"a {kind} profile has no [wire] (the wire order of a mat psmat reads)")
         w = _Checker(where, wire, "wire.", _WIRE)
         out.update(row_order=_order(w, "row_order", out["shape"][0], "rows"),
                    col_order=_order(w, "col_order", out["shape"][1], "columns"))
-    if kind == "imu":
+    if kind in ("imu", "pressure"):
         if circuit is not None:
-            c.fail("circuit", "an imu profile has no [circuit] (it sends angles, not ADC counts)")
+            c.fail("circuit", f"a {kind} profile has no [circuit] (it gives "
+                              f"{'angles' if kind == 'imu' else 'pressure'}, not ADC counts)")
     else:
         if circuit is None:
             c.fail("circuit", f"missing: a {kind} profile needs [circuit] ({', '.join(_CIRCUIT)})")

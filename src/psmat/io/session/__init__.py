@@ -65,6 +65,8 @@ dataset             shape               dtype      unit     content
 ``/counts``         (T, R, C) psm       uint16     count    raw ADC counts of the mat, row-major cells
                     (T, 10) daq                             material-DAQ 10-bit counts, one column per sensor
 ``/angles``         (T, 5, 3) imu       float32    deg      Euler angles (heading, roll, pitch) per IMU
+``/pressure``       (T, R, C) pressure  float32    kPa      another mat's frames imported from its maker's
+                                                            export (:func:`psmat.io.import_pressure`)
 ``/samples``        (T, N) lsl          float64    (below)  another program's Lab Streaming Layer stream
                                                             (a force platform, EEG): N channels, each in
                                                             the unit the device dict's ``channel_units``
@@ -119,6 +121,15 @@ has ``format_version`` 3, so that a psmat that knows only version 2 refuses it i
 loading the first device and silently leaving the others out; a one-device file stays
 version 2.
 
+Imported pressure (kind ``pressure``, ``psmat import``). A session made from another maker's mat
+(a Tekscan ASCII export, an XSENSOR CSV export, a generic CSV) holds that software's pressure in
+kPa as its frames (``/pressure``, float32; :attr:`Session.frames`, also named ``counts`` as for
+every kind), with the same per-frame datasets, checksums, journal and loader as a recording:
+``host_time_s`` is the frame's time from the first frame (s, from the file), ``valid`` 1, ``seq``
+and ``device_time_us`` -1. ``/profile`` is a profile of kind ``pressure`` (protocol ``import``, the
+geometry: shape and pitch; no circuit); ``/metadata`` holds ``source_format``, ``source_file``,
+``source_unit`` and the sensel size ``sensel_width_cm``, ``sensel_height_cm``.
+
 Events (markers: ``SessionWriter.add_event(host_time_s, label)``, loaded sorted by time as
 ``Session.events``, a list of (host time s, label)). The group ``/events`` (attribute
 ``n_events`` = E) holds plain numbers only, as every dataset of a session does:
@@ -141,8 +152,8 @@ An older psmat ignores the group (and loads the file without its events); neithe
 nor ``/profile`` changes ``format_version``.
 
 Attributes of ``/`` (the root group): ``format`` = ``"psmat-session"``, ``format_version``
-(int: 2, or 3 with ``/streams``), ``kind`` (``"psm"``, ``"imu"``, ``"daq"`` or ``"lsl"``), ``frame_shape``
-(int array), ``frame_dataset`` (``"counts"``, ``"angles"`` or ``"samples"``), ``created_utc`` (ISO 8601),
+(int: 2, or 3 with ``/streams``), ``kind`` (``"psm"``, ``"imu"``, ``"daq"``, ``"lsl"`` or ``"pressure"``), ``frame_shape``
+(int array), ``frame_dataset`` (``"counts"``, ``"angles"``, ``"samples"`` or ``"pressure"``), ``created_utc`` (ISO 8601),
 ``psmat_version``, ``complete`` (1), ``n_frames``, ``closed_utc``; after
 :func:`repair_session` also ``repaired_utc`` and ``repair_notes``.
 

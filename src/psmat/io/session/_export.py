@@ -26,6 +26,8 @@ def _cell_names(kind: str, shape: tuple[int, ...]) -> list[str]:
     if kind == "lsl":
         return [f"ch{k}" for k in range(shape[0])]
     r, c = shape
+    if kind == "pressure":  # imported frames in kPa, not counts
+        return [f"c_{i}_{p}_kpa" for i in range(r) for p in range(c)]
     return [f"c_{i}_{p}" for i in range(r) for p in range(c)]
 
 

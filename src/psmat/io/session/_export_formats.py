@@ -114,9 +114,13 @@ def table(s: Session, what: str) -> Table:
         return t
     t.add("time_s", "s", np.asarray(s.host_time_s, np.float64), "time")
     t.add("valid", "1", np.asarray(s.valid, bool), "valid")
+    if what == "counts" and s.kind == "pressure":
+        raise ValueError(f"{s.path}: an imported pressure session has no counts; export --what pressure")
     if what == "counts":
         unit, suffix = ("deg", "deg") if s.kind == "imu" else ("count", "count")
         t.cells(cell_names(s.kind, s.frame_shape, suffix), unit, s.counts, "angles" if s.kind == "imu" else "counts")
+    elif what == "pressure" and s.kind == "pressure":  # imported frames: the kPa are the frames themselves
+        t.cells(cell_names("psm", s.frame_shape, "kpa"), "kPa", s.frames, "pressure")
     elif what == "pressure":
         if s.kind != "psm":
             raise ValueError(f"{s.path}: a {s.kind} session has no pressure (mats only)")

@@ -53,6 +53,9 @@ KINDS: dict[str, KindSpec] = {
     # another program's Lab Streaming Layer stream (a force platform, EEG): any numbers, each
     # channel in the unit its device dict names (``channel_units``)
     "lsl": KindSpec("samples", np.dtype("<f8"), "as device channel_units", "time, channel"),
+    # another mat's pressure frames imported from its own software's export (psmat.io.import_pressure):
+    # kPa as that software computed them, no raw counts behind them
+    "pressure": KindSpec("pressure", np.dtype("<f4"), "kPa", "time, row, column"),
 }
 # per-frame datasets: dtype, unit, description, fill value of a frame whose chunk is damaged
 PER_FRAME_SPEC: dict[str, tuple[str, str, str, Any]] = {
@@ -69,8 +72,8 @@ class SessionFormatError(ValueError):
 
 # names a stream may not take: the datasets and groups of a session (a stream's name is
 # also part of its journal's and its CSV's file name)
-RESERVED_NAMES = frozenset({"counts", "angles", "samples", *PER_FRAME, "counters", "products", "device", "calibration",
-                            "metadata", "profile", "events", "streams", "journal", "partial", CRC_NAME})
+RESERVED_NAMES = frozenset({"counts", "angles", "samples", "pressure", *PER_FRAME, "counters", "products", "device",
+                            "calibration", "metadata", "profile", "events", "streams", "journal", "partial", CRC_NAME})
 
 
 def check_stream_name(name: Any) -> str:
@@ -150,8 +153,8 @@ def frame_shape_of(kind: str, shape: int | tuple[int, ...]) -> tuple[int, ...]:
     if kind not in KINDS:
         raise ValueError(f"kind must be one of {sorted(KINDS)}, got {kind!r}")
     fshape = (int(shape),) if isinstance(shape, (int, np.integer)) else tuple(int(x) for x in shape)
-    if kind == "psm" and len(fshape) != 2:
-        raise ValueError(f"a psm frame shape is (R, C), got {fshape}")
+    if kind in ("psm", "pressure") and len(fshape) != 2:
+        raise ValueError(f"a {kind} frame shape is (R, C), got {fshape}")
     if kind == "imu" and (len(fshape) != 2 or fshape[1] != 3):
         raise ValueError(f"an imu frame shape is (n_sensors, 3), got {fshape}")
     if kind == "daq" and len(fshape) != 1:
@@ -186,7 +189,10 @@ class Session:
     counts : ndarray
         The raw frames, time first: ``(T, R, C)`` uint16 ADC counts (``kind="psm"``),
         ``(T, 5, 3)`` float32 Euler angles in degrees (``"imu"``), ``(T, 10)`` uint16
-        counts (``"daq"``). Also available as :attr:`frames`.
+        counts (``"daq"``), ``(T, N)`` float64 samples (``"lsl"``), ``(T, R, C)`` float32
+        pressure in kPa imported from another mat's software (``"pressure"``: the name
+        ``counts`` is kept for every kind, though these are not counts). Also available as
+        :attr:`frames`, the name to use for a kind that is not counts.
     host_time_s, valid : ndarray
         ``(T,)`` float64 host receive times (s; NaN where a damaged chunk lost them) and
         bool validity (False for a frame the device flagged or the file lost to damage).

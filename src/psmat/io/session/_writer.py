@@ -274,7 +274,9 @@ class SessionWriter(StreamWriter):
     shape : tuple of int
         Frame shape: ``(R, C)`` for ``kind="psm"``, ``(5, 3)`` for ``"imu"`` (sensors ×
         heading/roll/pitch), ``(10,)`` (or ``10``) for ``"daq"``, ``(N,)`` for ``"lsl"`` (N
-        channels of a Lab Streaming Layer stream, float64, usually a stream: :meth:`add_stream`).
+        channels of a Lab Streaming Layer stream, float64, usually a stream: :meth:`add_stream`),
+        ``(R, C)`` for ``"pressure"`` (another mat's frames in kPa, float32:
+        :func:`psmat.io.import_pressure`).
     device : dict
         Device description (serial, r_o, v_ref, bits, fw, protocol, rate, …; e.g. the
         parsed IDENTIFY reply). ``shape`` and ``kind`` are added if missing.
@@ -285,7 +287,7 @@ class SessionWriter(StreamWriter):
     profile : dict or object with ``to_dict()``, optional
         The device profile the recording was made with (``psmat.Profile.to_dict()``),
         stored as ``/profile`` and loaded as :attr:`Session.profile`.
-    kind : {"psm", "imu", "daq", "lsl"}
+    kind : {"psm", "imu", "daq", "lsl", "pressure"}
     chunk_frames : int
         Frames per HDF5 chunk along time: the unit that carries one checksum, so the most
         frames one damaged byte of the finished file can cost.
