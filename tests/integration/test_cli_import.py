@@ -1,5 +1,5 @@
 """``psmat import`` end to end (docs/spec.md §6): a file in a maker's layout, written here by hand,
-becomes a session that loads, exports and reports like any other; a bad file is one line, exit 2."""
+becomes a session that loads, exports and reports like any other; a bad file is one line, exit status 1."""
 
 from __future__ import annotations
 
@@ -56,7 +56,7 @@ def test_default_output_beside_the_file_and_no_overwrite(tmp_path: Path, capsys)
     assert main(["import", str(src)]) == 0
     assert (tmp_path / "t.h5").is_file()
     capsys.readouterr()
-    assert main(["import", str(src)]) == 2
+    assert main(["import", str(src)]) == 1
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "exists" in err
     assert main(["import", str(src), "--overwrite"]) == 0
@@ -65,7 +65,7 @@ def test_default_output_beside_the_file_and_no_overwrite(tmp_path: Path, capsys)
 def test_generic_csv_needs_its_shape_and_takes_a_rate(tmp_path: Path, capsys) -> None:
     f = tmp_path / "g.csv"
     f.write_text("\n".join(",".join(f"{v:g}" for v in row.ravel()) for row in values()) + "\n")
-    assert main(["import", str(f), "-o", str(tmp_path / "g.h5")]) == 2
+    assert main(["import", str(f), "-o", str(tmp_path / "g.h5")]) == 1
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "--shape" in err
     assert main(["import", str(f), "-o", str(tmp_path / "g.h5"), "--shape", "4x5", "--pitch-cm", "1.5",
@@ -82,7 +82,7 @@ def test_a_bad_file_is_one_line_exit_2(tmp_path: Path, capsys) -> None:
     src = tekscan(tmp_path / "bad.asf", values())
     text = src.read_text().replace("0,0,0,0,150", "0,0,0,150", 1)
     src.write_text(text)
-    assert main(["import", str(src), "-o", str(tmp_path / "bad.h5")]) == 2
+    assert main(["import", str(src), "-o", str(tmp_path / "bad.h5")]) == 1
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "bad.asf:" in err and "COLS says 5" in err
     assert not (tmp_path / "bad.h5").exists()

@@ -6,7 +6,9 @@
 * :func:`eu` — the thesis' distance between two CoP traces (eq. 3.1);
 * :func:`sway` — the posturography metrics of a trace (:class:`Sway`);
 * :func:`descriptors` — the 72 posturography descriptors of Quijoux et al. (2021), preset
-  ``quijoux2021`` (SWARII to 25 Hz, 10 Hz zero-phase low-pass), keyed by the paper's names;
+  ``quijoux2021`` (SWARII to 25 Hz, 10 Hz zero-phase low-pass), keyed by the paper's names, and
+  the unit of each (:func:`descriptor_unit`);
+* :func:`ispgr` — the ISPGR acquisition recommendation (at least 25 s, at least 50 Hz);
 * :func:`preprocess` — a trace through that preset's resampling and low-pass, not centred (the
   study's one preprocessing for mat and platform);
 * :func:`conditions` — the conditions a session's markers cut a trial into (:class:`Condition`),
@@ -27,18 +29,20 @@ below are the package's API.
 from ._align import Alignment, align, pearson_at_lag, resample_standardised, search_lag
 from ._cop import cell_centres_cm, cop
 from ._conditions import Condition, conditions, load_events_csv, romberg, romberg_role
+from ._descriptor_units import descriptor_unit
 from ._descriptors import descriptors
 from ._emulate import Subgrid, subgrid_cops, subgrids
 from ._equilibrate import Equilibration, equilibrate
 from ._eu import eu
+from ._ispgr import ISPGR_MIN_HZ, ISPGR_MIN_S, ispgr
 from ._preprocess import preprocess
 from ._scale import mean_force_n, scale_factor
 from ._sway import Sway, mean_frequency, prediction_ellipse_area, sway
 from ._variants import (BASE_VARIANTS, EXTRA_VARIANTS, KNOWN_VARIANTS, VARIANTS, VariantName, VariantTrace, describe,
                         legend_label, variant_traces)
 
-__all__ = ["cop", "cell_centres_cm", "eu", "sway", "Sway", "descriptors", "preprocess", "prediction_ellipse_area",
-           "mean_frequency",
+__all__ = ["cop", "cell_centres_cm", "eu", "sway", "Sway", "descriptors", "descriptor_unit", "ispgr", "ISPGR_MIN_S", "ISPGR_MIN_HZ", "preprocess",
+           "prediction_ellipse_area", "mean_frequency",
            "align", "Alignment", "search_lag", "pearson_at_lag", "resample_standardised", "scale_factor",
            "mean_force_n", "equilibrate", "Equilibration", "Subgrid", "subgrids", "subgrid_cops", "BASE_VARIANTS",
            "VARIANTS", "EXTRA_VARIANTS", "KNOWN_VARIANTS", "VariantName", "describe", "legend_label", "VariantTrace",

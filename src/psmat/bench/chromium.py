@@ -31,32 +31,12 @@ from pathlib import Path
 from types import TracebackType
 from typing import Any
 
+from .._browser import CANDIDATES, find_chromium
+
 __all__ = ["Chromium", "ChromiumError", "find_chromium", "CANDIDATES"]
-
-#: executables tried, in order, by :func:`find_chromium` (after ``$PSMAT_CHROMIUM``)
-CANDIDATES = ("chromium", "chromium-browser", "google-chrome", "google-chrome-stable", "chrome")
-
 
 class ChromiumError(RuntimeError):
     """Chromium could not be started or driven, or a script threw in the page."""
-
-
-def find_chromium() -> str | None:
-    """The Chromium executable: ``$PSMAT_CHROMIUM`` when set, else the first of :data:`CANDIDATES` on PATH.
-
-    Returns
-    -------
-    str or None
-        Its path; None when there is none.
-    """
-    env = os.environ.get("PSMAT_CHROMIUM")
-    if env:
-        return shutil.which(env) or (env if os.access(env, os.X_OK) else None)
-    for name in CANDIDATES:
-        found = shutil.which(name)
-        if found:
-            return found
-    return None
 
 
 class Chromium:

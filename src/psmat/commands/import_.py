@@ -6,7 +6,7 @@ writes a session of kind ``pressure``: the frames in kPa as the maker's software
 their times, the sensel pitch as the session's geometry, and where they came from in its
 metadata. A generic CSV needs ``--shape RxC --pitch-cm P`` and ``--rate-hz F`` (or a first
 column of times in s). ``--unit`` gives the pressure unit when the file names none (kPa, mmHg,
-PSI, N/cm2). A bad file is one line naming it and the line, exit status 2.
+PSI, N/cm2). A bad file is one line naming it and the line, exit status 1.
 """
 
 from __future__ import annotations
@@ -54,7 +54,7 @@ def run(args: argparse.Namespace) -> int:
 
     def fail(msg: object) -> int:
         print(f"psmat import: {' '.join(str(msg).split())}", file=sys.stderr)
-        return 2
+        return 1
 
     opts = {"unit": args.unit}
     if args.fmt in ("auto", "csv"):

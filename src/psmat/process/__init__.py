@@ -16,6 +16,10 @@ removed, docs/spec.md §3) → g ─ :meth:`MPICreep.inverse` (hysteresis and cr
   pressure (kPa) and CoP beside the raw counts with the parameters that made them
   (docs/spec.md §6); a balance study (:func:`psmat.study.process_trial`) and the posture study
   run it on the sessions they load.
+* :func:`session_pressure` is a session's pressure images in kPa whatever made them (a mat's
+  session through :func:`process_loaded`, an imported ``"pressure"`` session as stored), with one
+  line saying how (:class:`PressureRecord`); :func:`session_pressure_calibration` is the mat's
+  pressure calibration the chain uses for a session.
 
 Readings the chain cannot use are handled one way everywhere, never turned into silent
 infinities:
@@ -36,7 +40,9 @@ infinities:
 from ..units import PSI_KPA
 from ._chain import Processed, Processor, open_floor, process_counts
 from ._clock import SessionClock, session_clock
-from ._session import process_loaded, process_session, session_circuit, session_pressure
+from ._pressure import PressureRecord, session_pressure
+from ._session import process_loaded, process_session, session_circuit, session_pressure_calibration
 
 __all__ = ["Processed", "Processor", "process_counts", "process_loaded", "process_session", "session_circuit",
-           "session_pressure", "session_clock", "SessionClock", "open_floor", "PSI_KPA"]
+           "session_pressure", "session_pressure_calibration", "PressureRecord", "session_clock", "SessionClock",
+           "open_floor", "PSI_KPA"]

@@ -35,7 +35,7 @@ from ..sensor import MPICreep
 from ._chain import Processed, Processor
 from ._clock import session_clock
 
-__all__ = ["process_loaded", "process_session", "session_circuit"]
+__all__ = ["process_loaded", "process_session", "session_circuit", "session_pressure_calibration"]
 
 #: keys of a stored ``Circuit.as_dict()`` and the Circuit arguments they are
 _CIRCUIT_KEYS = {"r_o_ohm": "r_o", "r_mux_ohm": "r_mux", "r_adc_ohm": "r_adc", "v_ref_volt": "v_ref", "bits": "bits",
@@ -73,8 +73,8 @@ def _resolve(session: Any, circuit: Circuit | None,
     return found.calibrated(cal), f"{source}, R_adc and R_mux from {os.path.basename(calibration)}"
 
 
-def session_pressure(session: Any, calibration: str | os.PathLike[str] | None = None
-                     ) -> tuple[PressureCalibration | None, str]:
+def session_pressure_calibration(session: Any, calibration: str | os.PathLike[str] | None = None
+                                 ) -> tuple[PressureCalibration | None, str]:
     """The mat's pressure calibration for a session (module docstring) and where it came from, in words."""
     if calibration is not None:
         part = Calibration.load(calibration).mat_calibration
@@ -139,7 +139,7 @@ def process_loaded(session: Any, *, circuit: Circuit | None = None,
         The session's circuit, in the order of :func:`session_circuit`: the stored
         calibration first, ``circuit`` only for a session without one, then a calibration
         file's R_adc and R_mux. The pressure calibration: the file's, else the stored one
-        (:func:`session_pressure`).
+        (:func:`session_pressure_calibration`).
     sensor : MPICreep, optional
         Sensor model for compensation; default the pressure calibration's, else the thesis' (Table 2.11).
     g_rest : float
@@ -173,7 +173,7 @@ def process_loaded(session: Any, *, circuit: Circuit | None = None,
         raise ValueError(f"{session.n_frames} frame(s); at least 2 are needed for a frame period")
     clock = session_clock(session)
     cir, source = _resolve(session, circuit, calibration)
-    pressure, pressure_from = session_pressure(session, calibration)
+    pressure, pressure_from = session_pressure_calibration(session, calibration)
     geo, geo_params = _session_geometry(session, pitch_cm, geometry)
     with Processor(session.frame_shape, circuit=cir, sensor=sensor, g_rest=g_rest, geometry=geo, method=method,
                    threads=threads, mat_calibration=pressure) as proc:

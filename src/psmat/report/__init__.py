@@ -1,0 +1,22 @@
+"""A report of recorded sessions as one self-contained HTML page (and a PDF on request).
+
+* :func:`write_report` — sessions (:class:`ReportItem`: a session file, optionally a force-platform
+  CSV and a label) → one HTML file: what was recorded, pressure images (kPa), the CoP (cm), sway
+  metrics and the 72 descriptors with units, the ISPGR flag, regions, conditions and Romberg
+  quotients from the session's markers, the platform comparison (alignment, Eu), the processing
+  parameters, the psmat version and the date (:class:`ReportResult`);
+* :data:`DEFAULT_PARAMS` — its options (the units of the descriptors are
+  :func:`psmat.balance.descriptor_unit`, the ISPGR check :func:`psmat.balance.ispgr`);
+* :func:`write_pdf` — an HTML file printed to PDF by headless Chromium or WeasyPrint
+  (:class:`PdfUnavailable` when neither is here).
+
+It reads sessions only through the processing layers (:mod:`psmat.process`, :mod:`psmat.balance`,
+:mod:`psmat.regions`, :mod:`psmat.io`) and never a study. ``psmat report`` is its command.
+Each lives in a private module of this package; the names below are the package's API.
+"""
+
+from ._item import DEFAULT_PARAMS, ReportItem
+from ._pdf import PdfUnavailable, write_pdf
+from ._write import ReportResult, write_report
+
+__all__ = ["write_report", "ReportItem", "ReportResult", "DEFAULT_PARAMS", "write_pdf", "PdfUnavailable"]
