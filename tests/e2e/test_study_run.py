@@ -86,7 +86,7 @@ def test_metrics_csv_has_a_row_per_subject_trial_variant_and_a_rerun_reuses_ever
     direct = process_trial(root / "sessions" / "V02_left-leg.h5", root / "forceplate" / "V02_left-leg.csv", "V02",
                            "left-leg", weight, calibration=_box(root, "V02_left-leg"))
     for mine, want in zip(_by_session(root / "results" / "metrics.csv")[("V02", "left-leg")], direct):
-        for c in COLUMNS[3:-2]:  # the numbers (ispgr and status are text)
+        for c in COLUMNS[4:-2]:  # the numbers (subject, trial, variant, condition, ispgr and status are text)
             assert (float(mine[c]) if mine[c] else np.nan) == pytest.approx(want[c], rel=0, abs=0, nan_ok=True), c
     # summary, figures and report beside it (psmat.study.write_results)
     assert {"summary", "pairwise", "report", "sigma_bars", "cop_traces_right-leg"} <= set(report.outputs)

@@ -280,7 +280,7 @@ def test_a_result_is_decoded_without_pickle_and_checked(tmp_path) -> None:
     from psmat.study import Expect, decode_result, encode_result
 
     expect = Expect("V01_right-leg", "V01", "right-leg", ("PROP",))
-    rows = [{"subject": "V01", "trial": "right-leg", "variant": v, "status": "ok", "ispgr": "ok"}
+    rows = [{"subject": "V01", "trial": "right-leg", "variant": v, "condition": "", "status": "ok", "ispgr": "ok"}
             for v in ("FP", "PROP")]
     from psmat.study import COLUMNS
 

@@ -17,7 +17,7 @@ SUBJECTS = ("V01", "V02", "V03", "V04")
 
 def _row(subject: str, trial: str, variant: str, **values: float) -> dict:
     row = {c: NAN for c in COLUMNS}
-    row.update(subject=subject, trial=trial, variant=variant, status="ok", **values)
+    row.update(subject=subject, trial=trial, variant=variant, condition="", status="ok", **values)
     return row
 
 

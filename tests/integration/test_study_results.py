@@ -41,7 +41,7 @@ SUBJECTS = ("V01", "V02", "V03", "V04")
 
 def _row(subject: str, trial: str, variant: str, status: str = "ok", **values: float) -> dict:
     row = {c: NAN for c in COLUMNS}
-    row.update(subject=subject, trial=trial, variant=variant, status=status, **values)
+    row.update(subject=subject, trial=trial, variant=variant, condition="", status=status, **values)
     return row
 
 

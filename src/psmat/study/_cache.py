@@ -59,7 +59,7 @@ from ._trial import Rows, Traces
 __all__ = ["SCHEMA", "file_sha256", "result_key", "canonical_json", "entry_digest", "SessionStore", "Stored",
            "Lookup", "TraceFiles", "study_lock", "normalise_rows", "write_text_atomic"]
 
-SCHEMA = "psmat-study-session/2"
+SCHEMA = "psmat-study-session/3"  # 3: rows per condition (column condition)
 #: the fields of an entry (see the module docstring)
 FIELDS = frozenset({"schema", "key", "inputs", "rows", "traces", "traces_sha256", "digest"})
 

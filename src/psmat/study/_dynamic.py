@@ -45,6 +45,7 @@ from numpy.typing import NDArray
 from scipy import linalg, optimize, signal
 
 from ..balance import eu
+from ._conditions import condition_of
 from ._row_metrics import descriptor_values, sway_metrics
 from ._trial import COLUMNS
 
@@ -182,7 +183,7 @@ def _row(base_row: Mapping[str, Any], variant: str, status: str, **values: Any) 
     row.update({c: base_row[c] for c in ("subject", "trial", "lag_s", "r_align", "factor", "frames",
                                          "frames_missing", "frames_unconverged", "duration_s", "rate_hz", "ispgr")
                 if c in base_row})
-    row.update(variant=variant, status=status, **values)
+    row.update(variant=variant, condition="", status=status, **values)
     return row
 
 
@@ -244,6 +245,8 @@ def dynamic_rows(rows: Sequence[Mapping[str, Any]], traces: Mapping[Key, Mapping
     name = f"{base}-DYN"
     by_key: dict[Key, dict[str, Mapping[str, Any]]] = {}
     for r in rows:
+        if condition_of(r):  # a condition's rows (docs/spec.md §7): the whole trial's only
+            continue
         by_key.setdefault((str(r["subject"]), str(r["trial"])), {})[str(r["variant"])] = r
     out: dict[Key, dict[str, Any]] = {}
     usable: dict[Key, _Series] = {}

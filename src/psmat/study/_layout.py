@@ -8,6 +8,9 @@ DIR/sessions/*.h5         mat sessions; metadata holds subject and trial (a reco
                           ``psmat repair`` finishes it)
 DIR/forceplate/*.csv      force-platform CoP, same stem as the session it belongs to
 DIR/calibration/*.json    optional, per box serial number
+DIR/events/*.csv          optional, same stem as the session: an experimenter's log of markers
+                          (time_s,label on the session's host clock, psmat.balance.load_events_csv)
+                          used instead of the session's own markers to cut its trial into conditions
 DIR/results/              written by ``psmat study run``
 DIR/truth/                simulated studies only; never read here
 ```
@@ -54,6 +57,8 @@ class StudyItem:
     #: the recording was not closed (only its journal is there): why, and the psmat repair command
     #: that finishes it (:func:`psmat.io.session.unfinished_reason`); such a session is not processed
     not_closed: str | None = None
+    #: ``events/<stem>.csv`` when the study has one (its markers replace the session's)
+    events: Path | None = None
 
     @property
     def ok(self) -> bool:
@@ -211,10 +216,14 @@ def find_study(root: str | os.PathLike[str]) -> StudyLayout:
         problems.append(f"{sub_csv} not found: no body weights")
     plates = {p.stem: p for p in sorted((root / "forceplate").glob("*")) if p.suffix.lower() in (".csv", ".tsv", ".txt")}
     cal = {p.stem: p for p in sorted((root / "calibration").glob("*.json"))}
+    logs = {p.stem: p for p in sorted((root / "events").glob("*")) if p.suffix.lower() == ".csv"}
     items = []
     for s in sorted({*sessions.glob("*.h5"), *journal_only(sessions)}):  # journal-only: never skipped silently
         subject, trial, problem, simulated, not_closed = _session_meta(s)
-        item = StudyItem(s.stem, s, plates.get(s.stem), subject, trial, simulated=simulated, not_closed=not_closed)
+        item = StudyItem(s.stem, s, plates.get(s.stem), subject, trial, simulated=simulated, not_closed=not_closed,
+                         events=logs.get(s.stem))
+        if item.events is not None and (bad := events_problem(item.events)):
+            item.problems.append(bad)
         if not_closed:
             item.problems.append(not_closed)
         if problem:
@@ -236,6 +245,19 @@ def find_study(root: str | os.PathLike[str]) -> StudyLayout:
     told = {refused[i.subject] for i in items if i.subject in refused}  # said by their sessions, not twice
     problems = [p for p in problems if p not in told]
     return StudyLayout(root, subjects, items, cal, problems, refused)
+
+
+def events_problem(path: Path) -> str | None:
+    """Why an events file cannot be used (one line: :func:`psmat.balance.load_events_csv`'s), or None."""
+    from ..balance import load_events_csv
+
+    try:
+        load_events_csv(path)
+    except UnicodeDecodeError as exc:
+        return f"events file not used, no conditions: {path} is not UTF-8 text (offset {exc.start})"
+    except (ValueError, OSError) as exc:
+        return f"events file not used, no conditions: {' '.join(str(exc).split())}"
+    return None
 
 
 def describe(layout: StudyLayout) -> dict[str, Any]:

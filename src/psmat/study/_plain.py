@@ -6,8 +6,9 @@ here unpickles: JSON (NaN and infinities refused), NumPy ``.npz`` read with
 ``allow_pickle=False``. Every check raises :class:`ValueError` with one line saying what failed.
 
 * :func:`check_rows`: a session's rows are one per variant, ``FP`` first then the variants asked
-  for, in that order, of the session's subject and trial, text where :data:`COLUMNS` holds text
-  and numbers (or null) elsewhere;
+  for, in that order, of the session's subject and trial, for the whole trial (``condition`` "")
+  and then the same for each of its conditions (a label each, none twice), text where
+  :data:`COLUMNS` holds text and numbers (or null) elsewhere;
 * :func:`check_traces`: ``t_s`` of shape (N,), each other trace (N, 2), float64,
   named after FP or a variant asked for;
 * :func:`encode_result` / :func:`decode_result`: (stem, rows, traces) as one ``.npz`` byte
@@ -32,7 +33,7 @@ __all__ = ["Expect", "TEXT_COLUMNS", "parse_json", "plain_rows", "check_rows", "
            "encode_result", "decode_result", "first_line"]
 
 #: the columns that hold text; every other column holds a number or nothing (null / NaN)
-TEXT_COLUMNS = frozenset({"subject", "trial", "variant", "ispgr", "status"})
+TEXT_COLUMNS = frozenset({"subject", "trial", "variant", "condition", "ispgr", "status"})
 _RESULT = "__result__"
 _BASE = frozenset(COLUMNS)
 
@@ -86,7 +87,9 @@ def check_rows(value: Any, expect: Expect) -> Rows:
     ValueError
         Not a non-empty list of objects with exactly the columns ``expect.columns``; a text
         column not text or a number column not a number (booleans and non-finite numbers
-        refused); another subject or trial; variants other than ``FP`` then ``expect.variants``.
+        refused); another subject or trial; variants other than ``FP`` then ``expect.variants``
+        for the whole trial (first) and for each condition after it (one label per group of
+        rows, no label twice).
     """
     if not isinstance(value, list) or not value:
         raise ValueError("no rows (a session has one row per variant)")
@@ -110,9 +113,18 @@ def check_rows(value: Any, expect: Expect) -> Rows:
         out.append(row)
     if any((r["subject"], r["trial"]) != (expect.subject, expect.trial) for r in out):
         raise ValueError(f"rows of another session (expected subject {expect.subject!r}, trial {expect.trial!r})")
-    variants = [r["variant"] for r in out]
-    if variants != ["FP", *expect.variants]:
-        raise ValueError(f"rows for variants {variants}, expected {['FP', *expect.variants]}")
+    n = len(expect.variants) + 1
+    groups = [out[i:i + n] for i in range(0, len(out), n)]
+    labels = []
+    for group in groups:
+        variants = [r["variant"] for r in group]
+        if variants != ["FP", *expect.variants]:
+            raise ValueError(f"rows for variants {variants}, expected {['FP', *expect.variants]}")
+        label = group[0]["condition"]
+        if any(r["condition"] != label for r in group) or (label == "") != (not labels) or label in labels:
+            raise ValueError("the whole trial's rows (condition \"\") first, then one group of rows per condition, "
+                             "each label once")
+        labels.append(label)
     return out
 
 

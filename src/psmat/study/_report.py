@@ -15,6 +15,7 @@ import numpy as np
 
 from ..balance import describe
 from . import thesis_tables as thesis
+from ._romberg import romberg_section
 from ._summary import StudyRows
 
 __all__ = ["render_report"]
@@ -216,7 +217,7 @@ def _eu_gain(summary: Sequence[Mapping[str, Any]], trials: Sequence[str]) -> lis
 
 def render_report(study: StudyRows, summary: Sequence[Mapping[str, Any]], pairwise: Sequence[Mapping[str, Any]],
                   figures: Mapping[str, str], problems: Sequence[str] = (), label: str | None = None,
-                  preprocessing: str | None = None) -> str:
+                  preprocessing: str | None = None, romberg: Sequence[Mapping[str, Any]] = ()) -> str:
     """The Markdown report.
 
     Parameters
@@ -232,9 +233,11 @@ def render_report(study: StudyRows, summary: Sequence[Mapping[str, Any]], pairwi
         What the numbers are (e.g. ``"simulation"``), in the title.
     preprocessing : str, optional
         One sentence: the preprocessing the sway metrics were computed after (with its parameters).
+    romberg : rows of :func:`psmat.study._romberg.romberg_rows`
+        The Romberg quotients; a short section after the summary when there are any.
     """
     title = "Balance study results" + (f" ({label})" if label else "")
-    out = _summary(summary)
+    out = _summary(summary) + romberg_section(romberg, label)
     out += ["## Beside the thesis", "",
             "The thesis' numbers come from two experiments with real volunteers: "
             f"{thesis.FIRST}; {thesis.SECOND}. The Seating Mat is a commercial mat that is not reproduced here. "

@@ -19,7 +19,9 @@ from typing import Any
 from .._atomic import write_text_atomic
 from . import _figures as fig
 from ._cache import file_sha256
+from ._conditions import condition_of
 from ._report import render_report
+from ._romberg import ROMBERG_COLUMNS, romberg_rows
 from ._summary import PAIRWISE_COLUMNS, SUMMARY_COLUMNS, index_rows, pairwise_rows, summary_rows, table_text
 
 __all__ = ["write_results", "write_outputs"]
@@ -49,7 +51,9 @@ def write_results(results_dir: str | os.PathLike[str], rows: Iterable[Mapping[st
         ``DIR/results`` (created if needed).
     rows : iterable of mapping
         The rows of ``metrics.csv`` (:data:`psmat.study.COLUMNS`; values as numbers or as
-        CSV text). Rows whose ``status`` is not ``"ok"`` are counted, not used.
+        CSV text). Rows whose ``status`` is not ``"ok"`` are counted, not used. The summary,
+        the comparisons and the figures use the whole-trial rows (``condition`` "" or absent);
+        the conditions' rows give ``romberg.csv`` (:mod:`psmat.study` (``_romberg.py``)).
     traces : mapping, optional
         ``(subject, trial) -> {"t_s": (N,) s, "FP": (N, 2) cm, "<variant>": (N, 2) cm}`` (M-L,
         A-P) for the CoP figures; a trial without traces gets no trace figure.
@@ -63,7 +67,8 @@ def write_results(results_dir: str | os.PathLike[str], rows: Iterable[Mapping[st
     Returns
     -------
     dict
-        ``{"summary": path, "pairwise": path, "report": path, "<figure name>": path, ...}``;
+        ``{"summary": path, "pairwise": path, "report": path, "<figure name>": path, ...}``
+        (and ``"romberg"`` when a trial has an eyes-open and an eyes-closed condition);
         figure names ``sigma_bars``, ``eu_bars``, ``bland_altman_ml``, ``bland_altman_ap`` and
         ``cop_traces_<trial>``.
 
@@ -75,12 +80,18 @@ def write_results(results_dir: str | os.PathLike[str], rows: Iterable[Mapping[st
     out_dir = Path(results_dir)
     figures_dir = out_dir / "figures"
     figures_dir.mkdir(parents=True, exist_ok=True)
-    study = index_rows(rows)
+    rows = list(rows)
+    study = index_rows(r for r in rows if not condition_of(r))
     summary, pairwise = summary_rows(study), pairwise_rows(study)
+    quotients = romberg_rows(rows)
     written: dict[str, Path] = {
         "summary": _write_text(out_dir / "summary.csv", table_text(summary, SUMMARY_COLUMNS)),
         "pairwise": _write_text(out_dir / "pairwise.csv", table_text(pairwise, PAIRWISE_COLUMNS)),
     }
+    if quotients:
+        written["romberg"] = _write_text(out_dir / "romberg.csv", table_text(quotients, ROMBERG_COLUMNS))
+    else:
+        (out_dir / "romberg.csv").unlink(missing_ok=True)  # not one left from an earlier run
     figures: dict[str, Path] = {}
     if study.trials:
         figures["sigma_bars"] = fig.sigma_bars(summary, figures_dir / "sigma_bars.png", label)
@@ -93,7 +104,7 @@ def write_results(results_dir: str | os.PathLike[str], rows: Iterable[Mapping[st
         for metric, name in (("sd_ml_cm", "bland_altman_ml"), ("sd_ap_cm", "bland_altman_ap")):
             figures[name] = fig.bland_altman_plot(study, summary, metric, figures_dir / f"{name}.png", label)
     relative = {name: path.relative_to(out_dir).as_posix() for name, path in figures.items()}
-    report = render_report(study, summary, pairwise, relative, problems, label, preprocessing)
+    report = render_report(study, summary, pairwise, relative, problems, label, preprocessing, quotients)
     written["report"] = _write_text(out_dir / "report.md", report)
     return {**written, **figures}
 

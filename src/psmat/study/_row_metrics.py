@@ -1,5 +1,5 @@
 """What a study row holds about one trace (docs/spec.md §9): its sway metrics after the study's one
-preprocessing, its optional 72 descriptors, and its ISPGR acquisition check.
+preprocessing, and its optional 72 descriptors (the ISPGR check of each row is :func:`psmat.balance.ispgr`).
 
 * :func:`sway_metrics` — :func:`psmat.balance.sway` of the trace after ``params["preprocess"]``
   (:func:`psmat.balance.preprocess`: preset ``quijoux2021`` = SWARII to 25 Hz, 4th-order 10 Hz
@@ -7,7 +7,6 @@ preprocessing, its optional 72 descriptors, and its ISPGR acquisition check.
   raw trace at its own rate.
 * :func:`descriptor_values` — :func:`psmat.balance.descriptors` with ``params["descriptors"]`` as
   the preset; every value NaN when the trace is too short for them.
-* :func:`ispgr` — the ISPGR recommendation (Scoppa et al. 2013): at least 25 s at at least 50 Hz.
 * :func:`columns` — the columns of a study's rows for a parameter dict.
 """
 
@@ -23,26 +22,7 @@ from numpy.typing import NDArray
 
 from ..balance import descriptors, preprocess, sway
 
-__all__ = ["ISPGR_MIN_S", "ISPGR_MIN_HZ", "ispgr", "sway_metrics", "descriptor_values", "descriptor_columns",
-           "columns", "preprocessing_sentence"]
-
-#: ISPGR (Scoppa et al. 2013): shortest recording (s) and lowest sample rate (Hz)
-ISPGR_MIN_S = 25.0
-ISPGR_MIN_HZ = 50.0
-#: a rate this close below 50 Hz still meets it (a device clock's drift: 49.999 Hz is a 50 Hz mat)
-ISPGR_RATE_RTOL = 1e-3
-
-
-def ispgr(duration_s: float, rate_hz: float) -> str:
-    """``"ok"`` or why a recording of ``duration_s`` (s) at ``rate_hz`` (Hz) misses the ISPGR
-    recommendation, e.g. ``"short: 20.0 s < 25 s; rate 40 Hz < 50 Hz"`` (a rate within 0.1 % below
-    50 Hz, a device clock's drift, meets it)."""
-    why = []
-    if not duration_s >= ISPGR_MIN_S:
-        why.append(f"short: {duration_s:.1f} s < {ISPGR_MIN_S:g} s")
-    if not rate_hz >= ISPGR_MIN_HZ * (1.0 - ISPGR_RATE_RTOL):
-        why.append(f"rate {rate_hz:.6g} Hz < {ISPGR_MIN_HZ:g} Hz")
-    return "; ".join(why) or "ok"
+__all__ = ["sway_metrics", "descriptor_values", "descriptor_columns", "columns", "preprocessing_sentence"]
 
 
 def sway_metrics(t_s: NDArray[np.float64], cop_cm: NDArray[np.float64], fs_hz: float,

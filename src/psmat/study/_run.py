@@ -230,12 +230,13 @@ def _with_dynamic(rows: Rows, traces: Mapping[tuple[str, str], Traces], params: 
 
     dyn_rows, dyn_traces = dynamic_rows(rows, traces, preprocess=params["preprocess"],
                                         descriptors=params["descriptors"])
-    by_key = {(r["subject"], r["trial"]): r for r in dyn_rows}
+    by_key = {(r["subject"], r["trial"]): {**r, "condition": ""} for r in dyn_rows}
     out: Rows = []
     for i, r in enumerate(rows):
         out.append(r)
         key = (r["subject"], r["trial"])
-        last = i + 1 == len(rows) or (rows[i + 1]["subject"], rows[i + 1]["trial"]) != key
+        last = (i + 1 == len(rows) or (rows[i + 1]["subject"], rows[i + 1]["trial"]) != key
+                or (r["condition"] == "" and rows[i + 1]["condition"] != ""))  # after the whole-trial rows
         if last and key in by_key:
             out.append(by_key.pop(key))
     out += list(by_key.values())
@@ -346,10 +347,23 @@ def _task(item: StudyItem, layout: StudyLayout, params: dict[str, Any], version:
               "weight_kg": weight, "session_sha256": _sha(item.session),
               "journal_sha256": _sha(jpath) if jpath.is_file() else None,
               "forceplate_sha256": _sha(item.forceplate), "calibration": None if cal is None else cal.name,
-              "calibration_sha256": _sha(cal)}
+              "calibration_sha256": _sha(cal), "events_sha256": _sha(item.events)}
     return SessionTask(item.stem, str(item.session), None if item.forceplate is None else str(item.forceplate),
                        subject, trial, weight, None if cal is None else str(cal), params, result_key(inputs), inputs,
-                       notes)
+                       notes, _events(item.events))
+
+
+def _events(path: Path | None) -> tuple[tuple[float, str], ...] | None:
+    """The markers of a study's events file (None: none, the session's own are used); a file that
+    cannot be read gives no markers (:func:`psmat.study.find_study` lists its problem)."""
+    from ..balance import load_events_csv
+
+    if path is None:
+        return None
+    try:
+        return tuple(load_events_csv(path))
+    except (ValueError, OSError):
+        return ()
 
 
 def _with_notes(rows: Rows, notes: tuple[str, ...]) -> Rows:

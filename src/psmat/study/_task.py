@@ -30,6 +30,8 @@ class SessionTask:
     key: str
     inputs: dict[str, Any]
     notes: tuple[str, ...] = ()
+    #: markers (host time s, label) from the study's ``events/<stem>.csv``; None: the session's own
+    events: tuple[tuple[float, str], ...] | None = None
 
     @property
     def expect(self) -> Expect:
@@ -41,14 +43,15 @@ class SessionTask:
 def run_task(task: SessionTask) -> tuple[str, Rows, Traces]:
     """Process one session (in whichever process runs it): (stem, rows, traces)."""
     rows, traces = process_trial(task.session, task.forceplate, task.subject, task.trial, task.weight_kg,
-                                 task.params, calibration=task.calibration, traces=True)
+                                 task.params, calibration=task.calibration, traces=True,
+                                 events=task.events)
     return task.stem, rows, traces
 
 
 def status_rows(t: SessionTask, status: str) -> Rows:
     """A row per variant (and FP) of ``t`` with no numbers and this status."""
     return [{**dict.fromkeys(columns(COLUMNS, t.params), math.nan), "subject": t.subject, "trial": t.trial,
-             "variant": v, "ispgr": "", "status": status} for v in ("FP", *t.params["variants"])]
+             "variant": v, "condition": "", "ispgr": "", "status": status} for v in ("FP", *t.params["variants"])]
 
 
 def error_rows(t: SessionTask, exc: BaseException) -> Rows:

@@ -13,21 +13,25 @@ from __future__ import annotations
 
 import os
 import warnings
+from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from ..balance import VARIANTS, align, eu, variant_traces
+from ..balance import VARIANTS, align, eu, ispgr, variant_traces
+from ._conditions import MIN_SAMPLES, condition_spans, frame_clock, inside
 from ..sensor import MPICreep
 from ..units import n_from_kg
-from ._row_metrics import columns, descriptor_values, ispgr, sway_metrics
+from ._row_metrics import columns, descriptor_values, sway_metrics
 
 __all__ = ["METRICS", "COLUMNS", "process_trial", "DEFAULT_PARAMS", "Rows", "Traces"]
 
 METRICS = ("sd_ml_cm", "sd_ap_cm", "range_ml_cm", "range_ap_cm", "path_cm", "velocity_cm_s", "area95_cm2",
            "mean_freq_hz")
-COLUMNS = ("subject", "trial", "variant") + METRICS + ("eu_cm", "eu_ml_cm", "eu_ap_cm", "lag_s", "r_align",
+#: ``condition``: "" for the whole trial, else the label of one condition of it (docs/spec.md §7 "Events,
+#: conditions, Romberg"; an unmarked stretch before the first marker is "unmarked")
+COLUMNS = ("subject", "trial", "variant", "condition") + METRICS + ("eu_cm", "eu_ml_cm", "eu_ap_cm", "lag_s", "r_align",
                                                         "factor", "frames", "frames_missing", "frames_unconverged",
                                                         "duration_s", "rate_hz", "ispgr", "status")
 DEFAULT_PARAMS: dict[str, Any] = {
@@ -53,7 +57,7 @@ Traces = dict[str, np.ndarray]
 
 def _row(p: dict[str, Any], subject: str, trial: str, variant: str, status: str, **values: Any) -> dict[str, Any]:
     row: dict[str, Any] = {c: np.nan for c in columns(COLUMNS, p)}
-    row.update(subject=subject, trial=trial, variant=variant, status=status, ispgr="")
+    row.update(subject=subject, trial=trial, variant=variant, condition="", status=status, ispgr="")
     row.update(values)
     return row
 
@@ -98,7 +102,8 @@ def _forceplate(path: Path, load: Any) -> Any:
 def process_trial(session: str | os.PathLike[str], forceplate: str | os.PathLike[str] | None, subject: str,
                   trial: str, weight_kg: float | None, params: dict[str, Any] | None = None, *,
                   calibration: str | os.PathLike[str] | None = None,
-                  traces: bool = False) -> Rows | tuple[Rows, Traces]:
+                  traces: bool = False,
+                  events: Sequence[tuple[float, str]] | None = None) -> Rows | tuple[Rows, Traces]:
     """Rows (one for FP and one per variant) of a session; ``status`` says what went wrong, if anything.
 
     Parameters
@@ -121,6 +126,12 @@ def process_trial(session: str | os.PathLike[str], forceplate: str | os.PathLike
         the platform's clock (s), ``FP`` the platform's CoP interpolated at those times, and each
         computed variant's CoP there (the first of the four choices for the 8×8 ones), cm,
         absolute (not mean-removed). Empty when there is no platform file or the session failed.
+    events : sequence of (float, str), optional
+        Markers (host time of ``Session.host_time_s`` in s, label) that cut the trial into
+        conditions (:func:`psmat.balance.conditions`), e.g. from an experimenter's log
+        (:func:`psmat.balance.load_events_csv`); None: the session's own markers. They are
+        brought to the frame clock (interpolated over the frames' host times) and then to the
+        platform's with the alignment lag.
 
     Returns
     -------
@@ -133,7 +144,11 @@ def process_trial(session: str | os.PathLike[str], forceplate: str | os.PathLike
         ``duration_s`` is the analysed window (s), ``rate_hz`` the source's sample rate (the
         platform's for FP, the mat's frame rate for a variant), ``ispgr`` ``"ok"`` or why the
         recording misses the ISPGR recommendation (at least 25 s at 50 Hz; "" on a row
-        without numbers).
+        without numbers). ``condition`` is "" on the whole trial's rows (``FP`` then the
+        variants, first); then each condition of the aligned window (in time order) has the same
+        rows, labelled, with the same metrics on its part of the window (``duration_s`` and
+        ``ispgr`` its own); a condition of fewer than 8 samples, or too short for the
+        preprocessing, has a status saying so instead of numbers.
     traces : dict
         Only with ``traces=True`` (see above).
     """
@@ -142,7 +157,8 @@ def process_trial(session: str | os.PathLike[str], forceplate: str | os.PathLike
     found: Traces = {}
     try:
         rows = _process(Path(session), None if forceplate is None else Path(forceplate), subject, trial, weight_kg,
-                        p, names, None if calibration is None else Path(calibration), found)
+                        p, names, None if calibration is None else Path(calibration), found,
+                        None if events is None else list(events))
     except Exception as exc:  # noqa: BLE001 - one bad session must not stop a study
         status = f"error: {type(exc).__name__}: {exc}".replace("\n", " ")
         rows, found = [_row(p, subject, trial, v, status) for v in ("FP",) + names], {}
@@ -150,7 +166,8 @@ def process_trial(session: str | os.PathLike[str], forceplate: str | os.PathLike
 
 
 def _process(session: Path, forceplate: Path | None, subject: str, trial: str, weight_kg: float | None,
-             p: dict[str, Any], names: tuple[str, ...], calibration: Path | None, found: Traces) -> Rows:
+             p: dict[str, Any], names: tuple[str, ...], calibration: Path | None, found: Traces,
+             events: list[tuple[float, str]] | None) -> Rows:
     from ..io import load_forceplate_csv, load_session
     from ..process import process_loaded
     from ..profile import session_profile
@@ -178,17 +195,33 @@ def _process(session: Path, forceplate: Path | None, subject: str, trial: str, w
                             geometry=None if p["pitch_cm"] is not None else session_profile(s).geometry,
                             names=tuple(n for n in names if weight_n is not None or not n.startswith("SCHC")))
     base = {"frames": s.n_frames, "frames_missing": missing, "frames_unconverged": unconverged}
+    marks = list(s.events) if events is None else events
+    on_frames = frame_clock([m[0] for m in marks], s.host_time_s, t) if marks else np.empty(0)
     if forceplate is None:
         mat_window = {"duration_s": float(t[-1] - t[0]), "rate_hz": fs, "ispgr": ispgr(float(t[-1] - t[0]), fs)}
         rows = [_row(p, subject, trial, "FP", "no force-platform file", **base)]
+        filled: dict[str, list[np.ndarray]] = {}
         for v in names:
             if v not in traces:
                 rows.append(_row(p, subject, trial, v, "no body weight", **base, **mat_window))
                 continue
-            per_choice = [_metrics(t, _fill(t, c), fs, None, None, p) for c in traces[v].cop_cm]
-            mean = {k: float(np.mean([d[k] for d in per_choice])) for k in per_choice[0]}
+            filled[v] = [_fill(t, c) for c in traces[v].cop_cm]
             rows.append(_row(p, subject, trial, v, "no force-platform file: no Eu, no lag", **base, **mat_window,
-                             **mean))
+                             **_mean([_metrics(t, c, fs, None, None, p) for c in filled[v]])))
+        spans = condition_spans([(x, m[1]) for x, m in zip(on_frames, marks)], float(t[0]), float(t[-1]))
+        for span in spans:
+            sel = inside(t, span, float(t[-1]))
+            cond = {**base, "condition": span.label, "duration_s": span.duration_s, "rate_hz": fs,
+                    "ispgr": ispgr(span.duration_s, fs)}
+            rows.append(_row(p, subject, trial, "FP", "no force-platform file", **base, condition=span.label))
+            for v in names:
+                if v not in filled:
+                    rows.append(_row(p, subject, trial, v, "no body weight", **cond))
+                    continue
+                status, values = _guarded(int(sel.sum()), lambda v=v: _mean(
+                    [_metrics(t[sel], c[sel], fs, None, None, p) for c in filled[v]]))
+                rows.append(_row(p, subject, trial, v, "no force-platform file: no Eu, no lag" if status == "ok"
+                                 else status, **cond, **values))
         return rows
     fp = _forceplate(forceplate, load_forceplate_csv)
     t_fp, c_fp = fp.t, fp.cop_cm
@@ -209,18 +242,52 @@ def _process(session: Path, forceplate: Path | None, subject: str, trial: str, w
                  **_metrics(t_fp[in_fp], c_fp[in_fp], fs_fp, None, None, p), eu_cm=0.0, eu_ml_cm=0.0, eu_ap_cm=0.0)]
     mat_window = {"rate_hz": fs, "ispgr": ispgr(hi - lo, fs)}
     tm = t[in_mat] + a.lag_s
+    filled_by: dict[str, list[np.ndarray]] = {}
     aligned: Traces = {"t_s": tm, "FP": np.column_stack([np.interp(tm, t_fp, c_fp[:, k]) for k in range(2)])}
     for v in names:
         if v not in traces:
             rows.append(_row(p, subject, trial, v, "no body weight: subject missing from subjects.csv", **common,
                              **mat_window))
             continue
-        filled = [_fill(tm, c[in_mat]) for c in traces[v].cop_cm]
-        per_choice = [_metrics(tm, c, fs, t_fp, c_fp, p) for c in filled]
-        mean = {k: float(np.mean([d[k] for d in per_choice])) for k in per_choice[0]}
+        filled = filled_by[v] = [_fill(tm, c[in_mat]) for c in traces[v].cop_cm]
+        mean = _mean([_metrics(tm, c, fs, t_fp, c_fp, p) for c in filled])
         f = traces[v].factor
         rows.append(_row(p, subject, trial, v, "ok", **common, **mat_window, **mean,
                          factor=float(np.mean(f)) if f is not None else np.nan))
         aligned[v] = filled[0]
     found.update(aligned)
+    spans = condition_spans([(x + a.lag_s, m[1]) for x, m in zip(on_frames, marks)], lo, hi)
+    for span in spans:
+        sel_fp, sel = in_fp & inside(t_fp, span, hi), inside(tm, span, hi)
+        cond = {**common, "condition": span.label, "duration_s": span.duration_s}
+        status, values = _guarded(int(sel_fp.sum()), lambda: _metrics(t_fp[sel_fp], c_fp[sel_fp], fs_fp, None, None,
+                                                                     p))
+        zero = {"eu_cm": 0.0, "eu_ml_cm": 0.0, "eu_ap_cm": 0.0} if status == "ok" else {}
+        rows.append(_row(p, subject, trial, "FP", status, **cond, rate_hz=fs_fp, ispgr=ispgr(span.duration_s, fs_fp),
+                         **values, **zero))
+        for v in names:
+            window = {**cond, "rate_hz": fs, "ispgr": ispgr(span.duration_s, fs)}
+            if v not in traces:
+                rows.append(_row(p, subject, trial, v, "no body weight: subject missing from subjects.csv", **window))
+                continue
+            status, values = _guarded(int(sel.sum()), lambda v=v: _mean(
+                [_metrics(tm[sel], c[sel], fs, t_fp, c_fp, p) for c in filled_by[v]]))
+            f = traces[v].factor
+            rows.append(_row(p, subject, trial, v, status, **window, **values,
+                             factor=float(np.mean(f)) if f is not None else np.nan))
     return rows
+
+
+def _mean(per_choice: list[dict[str, float]]) -> dict[str, float]:
+    """The mean of each value over the choices of a variant (one choice: its values)."""
+    return {k: float(np.mean([d[k] for d in per_choice])) for k in per_choice[0]}
+
+
+def _guarded(n: int, compute: Callable[[], dict[str, float]]) -> tuple[str, dict[str, float]]:
+    """(status, values) of a condition of ``n`` samples: its values, or a status saying it is too short."""
+    if n < MIN_SAMPLES:
+        return f"condition too short: {n} samples < {MIN_SAMPLES}", {}
+    try:
+        return "ok", compute()
+    except ValueError as exc:
+        return f"condition too short for the preprocessing ({' '.join(str(exc).split())})", {}
