@@ -1,7 +1,8 @@
 """``psmat study``: a balance study folder (docs/spec.md §6 layout) in batch.
 
 ``psmat study run DIR`` processes every session into ``DIR/results/`` (metrics.csv, summary,
-figures, report), resuming where an earlier run stopped; ``--scheduler tcp://HOST:8786`` (or
+figures, report; ``--reports`` adds one HTML page per subject), resuming where an earlier run
+stopped; ``--scheduler tcp://HOST:8786`` (or
 ``--scheduler-file``, with ``--tls-*`` for TLS) runs the sessions on a Dask distributed cluster
 (``pip install 'psmat[cluster]'``; the folder must be on a filesystem the workers share; the
 cluster must be trusted, its workers run arbitrary code by design: :mod:`psmat.study` (``_cluster.py``)).
@@ -63,6 +64,11 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     r.add_argument("--descriptors", choices=("quijoux2021",), default=None,
                    help="add the 72 posturography descriptors of Quijoux et al. (2021) (preset quijoux2021) to "
                         "every row of metrics.csv, on the same aligned window")
+    r.add_argument("--reports", action="store_true",
+                   help="also write one self-contained HTML report per subject, DIR/results/reports/<subject>.html "
+                        "(psmat report of its sessions with their platform and events files), linked from "
+                        "report.md; off by default because it processes every session a second time; a report "
+                        "whose inputs are unchanged is not written again")
     r.add_argument("--quiet", action="store_true", help="no progress bar")
     s = sub.add_parser("simulate", help="write a simulated balance study into DIR",
                        description="Write a simulated balance study (docs/spec.md §7): three trials per volunteer "
@@ -105,7 +111,8 @@ def _run(args: argparse.Namespace) -> int:
 
         tls = security(args.tls_ca_file, args.tls_cert, args.tls_key, args.require_encryption)
         report = run_study(args.dir, workers=args.workers, scheduler=args.scheduler, params=params,
-                           progress=not args.quiet, scheduler_file=args.scheduler_file, security=tls)
+                           progress=not args.quiet, scheduler_file=args.scheduler_file, security=tls,
+                           reports=args.reports)
     except (OSError, ValueError, ImportError, RuntimeError) as exc:
         print(f"psmat study run: {_line(exc)}", file=sys.stderr)
         return 1

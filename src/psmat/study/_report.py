@@ -215,9 +215,28 @@ def _eu_gain(summary: Sequence[Mapping[str, Any]], trials: Sequence[str]) -> lis
             f"(thesis {thesis.EU_GAIN_SECTION}); ours: {', '.join(ours) or '—'}.", ""]
 
 
+def _subject_reports(reports: Mapping[str, str]) -> list[str]:
+    """The section linking each subject's HTML page (none without pages)."""
+    if not reports:
+        return []
+    return (["## Per-subject reports", "",
+             "One self-contained HTML page per subject (`psmat study run --reports`): its sessions' pressure "
+             "images, CoP, sway metrics and descriptors, regions, conditions and the platform comparison.", ""]
+            + [f"- [{_cell(s).replace('[', chr(92) + '[').replace(']', chr(92) + ']')}]({_link(path)})"
+               for s, path in sorted(reports.items())] + [""])
+
+
+def _link(path: str) -> str:
+    """A relative path as a Markdown link target (spaces and parentheses escaped)."""
+    from urllib.parse import quote
+
+    return quote(path, safe="/-_.~")
+
+
 def render_report(study: StudyRows, summary: Sequence[Mapping[str, Any]], pairwise: Sequence[Mapping[str, Any]],
                   figures: Mapping[str, str], problems: Sequence[str] = (), label: str | None = None,
-                  preprocessing: str | None = None, romberg: Sequence[Mapping[str, Any]] = ()) -> str:
+                  preprocessing: str | None = None, romberg: Sequence[Mapping[str, Any]] = (),
+                  reports: Mapping[str, str] | None = None) -> str:
     """The Markdown report.
 
     Parameters
@@ -235,9 +254,12 @@ def render_report(study: StudyRows, summary: Sequence[Mapping[str, Any]], pairwi
         One sentence: the preprocessing the sway metrics were computed after (with its parameters).
     romberg : rows of :func:`psmat.study._romberg.romberg_rows`
         The Romberg quotients; a short section after the summary when there are any.
+    reports : mapping, optional
+        Subject -> the path of its HTML page relative to the report (``psmat study run --reports``):
+        a section "Per-subject reports" linking each, after the summary; none: no section.
     """
     title = "Balance study results" + (f" ({label})" if label else "")
-    out = _summary(summary) + romberg_section(romberg, label)
+    out = _summary(summary) + romberg_section(romberg, label) + _subject_reports(reports or {})
     out += ["## Beside the thesis", "",
             "The thesis' numbers come from two experiments with real volunteers: "
             f"{thesis.FIRST}; {thesis.SECOND}. The Seating Mat is a commercial mat that is not reproduced here. "

@@ -42,7 +42,8 @@ def _slug(name: str) -> str:
 
 def write_results(results_dir: str | os.PathLike[str], rows: Iterable[Mapping[str, Any]],
                   traces: Mapping[tuple[str, str], Mapping[str, Any]] | None = None, problems: Sequence[str] = (),
-                  label: str | None = None, preprocessing: str | None = None) -> dict[str, Path]:
+                  label: str | None = None, preprocessing: str | None = None,
+                  reports: Mapping[str, str] | None = None) -> dict[str, Path]:
     """Write the summary, the pairwise comparisons, the figures and the report of a study.
 
     Parameters
@@ -63,6 +64,9 @@ def write_results(results_dir: str | os.PathLike[str], rows: Iterable[Mapping[st
         What the numbers are (e.g. ``"simulation"``), shown in the titles and the report.
     preprocessing : str, optional
         One sentence for the report: the preprocessing behind the sway metrics.
+    reports : mapping, optional
+        Subject -> its HTML page's path relative to ``results_dir`` (``psmat study run --reports``),
+        linked from the report's section "Per-subject reports"; none: no such section.
 
     Returns
     -------
@@ -104,7 +108,7 @@ def write_results(results_dir: str | os.PathLike[str], rows: Iterable[Mapping[st
         for metric, name in (("sd_ml_cm", "bland_altman_ml"), ("sd_ap_cm", "bland_altman_ap")):
             figures[name] = fig.bland_altman_plot(study, summary, metric, figures_dir / f"{name}.png", label)
     relative = {name: path.relative_to(out_dir).as_posix() for name, path in figures.items()}
-    report = render_report(study, summary, pairwise, relative, problems, label, preprocessing, quotients)
+    report = render_report(study, summary, pairwise, relative, problems, label, preprocessing, quotients, reports)
     written["report"] = _write_text(out_dir / "report.md", report)
     return {**written, **figures}
 
@@ -136,7 +140,7 @@ def _reusable(results: Path, index: Path, digest: str) -> tuple[dict[str, Path] 
 
 def write_outputs(results: Path, rows: Iterable[Mapping[str, Any]], traces: Mapping[tuple[str, str], Any],
                   problems: list[str], inputs_digest: str, label: str | None = None,
-                  preprocessing: str | None = None) -> dict[str, Path]:
+                  preprocessing: str | None = None, reports: Mapping[str, str] | None = None) -> dict[str, Path]:
     """:func:`write_results`, skipped when ``results/.outputs.json`` proves that the outputs on
     disk are those of ``inputs_digest`` (see the module docstring).
 
@@ -144,7 +148,7 @@ def write_outputs(results: Path, rows: Iterable[Mapping[str, Any]], traces: Mapp
     ----------
     results : Path
         ``DIR/results``.
-    rows, traces, label, preprocessing
+    rows, traces, label, preprocessing, reports
         As for :func:`write_results` (the caller's digest covers them).
     problems : list of str
         As for :func:`write_results`; a line is appended when outputs on disk were found
@@ -160,7 +164,8 @@ def write_outputs(results: Path, rows: Iterable[Mapping[str, Any]], traces: Mapp
     if why is not None:
         problems.append(f"{index.name} not used ({' '.join(why.split())}); summary, figures and report rewritten")
         inputs_digest = hashlib.sha256((inputs_digest + "\n" + problems[-1]).encode()).hexdigest()
-    outputs = write_results(results, rows, traces, problems, label=label, preprocessing=preprocessing)
+    outputs = write_results(results, rows, traces, problems, label=label, preprocessing=preprocessing,
+                            reports=reports)
     top = results.resolve()
     entries = {name: {"path": Path(p).resolve().relative_to(top).as_posix(), "sha256": file_sha256(Path(p))}
                for name, p in outputs.items()}

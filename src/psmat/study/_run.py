@@ -25,6 +25,10 @@ thesis) corrects each session's SCHC trace by a model fitted on the other volunt
 computed for the study as a whole, never cached per session. A study whose sessions all say in
 their metadata that a simulator wrote them is labelled "simulation" in its figures and report.
 
+**Per-subject reports** (``reports=True``, opt-in: every session is processed a second time):
+one HTML page per subject under ``results/reports/``, tasks of the same pool as the sessions,
+resumable by their own keys (:mod:`psmat.study` (``_reports.py``)), linked from ``report.md``.
+
 **Stored results are proven, not trusted** (:mod:`psmat.study` (``_cache.py``)): an entry under
 ``results/sessions`` whose digest, rows, traces file or paths do not check out is recomputed,
 and the run says so among its problems.
@@ -40,6 +44,7 @@ psmat installed.
 
 from __future__ import annotations
 
+import contextlib
 import csv
 import io
 import math
@@ -53,6 +58,7 @@ from ..balance import KNOWN_VARIANTS
 from ._cache import SessionStore, Stored, TraceFiles, canonical_json, file_sha256, normalise_rows, result_key, \
     study_lock, write_text_atomic
 from ._layout import StudyItem, StudyLayout, find_study
+from ._reports import REPORTS_DIR, ReportIndex, ReportTask, report_tasks, run_report
 from ._row_metrics import preprocessing_sentence
 from ._task import SessionTask, run_task, status_rows
 from ._trial import COLUMNS, DEFAULT_PARAMS, Rows, Traces
@@ -78,6 +84,10 @@ class RunReport:
     problems: list[str]
     metrics: Path
     outputs: dict[str, Path] = field(default_factory=dict)
+    #: the per-subject pages up to date after this run, by subject (listed in report.md)
+    reports: dict[str, Path] = field(default_factory=dict)
+    #: with ``reports=True``: pages (written, reused, failed); None without
+    report_counts: tuple[int, int, int] | None = None
 
     @property
     def results(self) -> Path:
@@ -89,12 +99,17 @@ class RunReport:
         below = sorted({p.parent.name for p in files if p.parent != self.metrics.parent})
         lines = [f"{self.sessions} sessions: {self.computed} computed, {self.reused} reused, {self.failed} failed",
                  f"results in {self.results}: {', '.join(top + [f'{d}/' for d in below])}"]
+        if self.report_counts is not None:
+            w, r, f = self.report_counts
+            lines.append(f"{w + r + f} subject reports in {self.results / REPORTS_DIR}: {w} written, {r} reused, "
+                         f"{f} failed")
         return "\n".join(lines + [f"problem: {p}" for p in self.problems])
 
 
 def run_study(root: str | os.PathLike[str], *, workers: int | None = None, scheduler: str | None = None,
               params: dict[str, Any] | None = None, progress: bool = True,
-              scheduler_file: str | os.PathLike[str] | None = None, security: Any = None) -> RunReport:
+              scheduler_file: str | os.PathLike[str] | None = None, security: Any = None,
+              reports: bool = False) -> RunReport:
     """Process every session of the study folder ``root`` into ``root/results/``.
 
     Parameters
@@ -115,6 +130,13 @@ def run_study(root: str | os.PathLike[str], *, workers: int | None = None, sched
         The scheduler's file (``dask scheduler --scheduler-file``) instead of ``scheduler``.
     security : distributed.Security, optional
         TLS credentials for the cluster (:func:`psmat.study.security`).
+    reports : bool
+        Also write one HTML page per subject, ``results/reports/<subject>.html``
+        (:func:`psmat.report.write_report` of its sessions; :mod:`psmat.study` (``_reports.py``)),
+        as tasks in the same worker pool as the sessions (with a cluster: in processes of this
+        machine, after the cluster's sessions), a page whose inputs are unchanged not written
+        again. Opt-in: each session is processed a second time. Without it, pages already there
+        are left alone and ``report.md`` links those still up to date.
 
     Returns
     -------
@@ -178,8 +200,31 @@ def run_study(root: str | os.PathLike[str], *, workers: int | None = None, sched
         failed: set[str] = set(unclosed)
         done.update(unclosed)
         todo = [t for stem, t in tasks.items() if stem not in done]
-        with tqdm(total=len(tasks), initial=reused, unit="session", desc="sessions", disable=not progress) as bar:
-            for stem, rows, traces in _execute(todo, workers, cluster):
+        order = sorted(tasks, key=lambda s: _order(tasks[s]))
+        pages = report_tasks(layout, tasks, order, set(tasks) - set(unclosed), __version__)
+        index = ReportIndex(layout.results / REPORTS_DIR)
+        pages_todo: list[ReportTask] = []
+        if reports:
+            index.folder.mkdir(parents=True, exist_ok=True)
+            if n := index.remove_temporaries():
+                problems.append(f"removed {n} incomplete temporary file(s) an interrupted run left in {index.folder}")
+            pages_todo = [r for r in pages if not index.current(r)]
+        page_failed: list[str] = []
+        by_subject = {r.subject: r for r in pages}
+        with contextlib.ExitStack() as bars:
+            bar = bars.enter_context(tqdm(total=len(tasks), initial=reused, unit="session", desc="sessions",
+                                          disable=not progress))
+            rbar = bars.enter_context(tqdm(total=len(pages), initial=len(pages) - len(pages_todo), unit="report",
+                                           desc="reports", disable=not (progress and reports)))
+            for kind, result in _execute(todo, workers, cluster, pages_todo):
+                if kind == "report":
+                    subject, why = result
+                    index.record(by_subject[subject], why is None)
+                    if why is not None:
+                        page_failed.append(f"report of {subject} not written: {why}")
+                    rbar.update(1)
+                    continue
+                stem, rows, traces = result
                 t = tasks[stem]
                 rows = _with_notes(rows, t.notes)
                 if all(r["status"].startswith("error:") for r in rows):
@@ -188,7 +233,9 @@ def run_study(root: str | os.PathLike[str], *, workers: int | None = None, sched
                 else:
                     done[stem] = store.save(stem, t.key, t.inputs, rows, traces)
                 bar.update(1)
-        order = sorted(tasks, key=lambda s: _order(tasks[s]))
+        listed = {r.subject: Path(r.out) for r in pages if index.current(r)}
+        if reports:  # a note only where its page stands (a failed page is its own line)
+            problems += sorted(page_failed) + [r.note for r in pages if r.note and r.subject in listed]
         keep = _first_of_each(order, tasks, problems)
         rows = [r for stem in keep for r in done[stem].rows]
         problems += _session_problems(layout.items, order, done, failed)
@@ -198,10 +245,13 @@ def run_study(root: str | os.PathLike[str], *, workers: int | None = None, sched
             rows, traces = _with_dynamic(rows, traces, p)
         metrics = layout.results / "metrics.csv"
         write_metrics(metrics, rows)
+        links = {s: path.relative_to(layout.results).as_posix() for s, path in listed.items()}
         outputs = _write_outputs(layout.results, rows, traces, problems, __version__,
-                                 "simulation" if layout.simulated else None, preprocessing_sentence(p["preprocess"]))
+                                 "simulation" if layout.simulated else None, preprocessing_sentence(p["preprocess"]),
+                                 links)
+    counts = (len(pages_todo) - len(page_failed), len(pages) - len(pages_todo), len(page_failed)) if reports else None
     return RunReport(layout.root, len(tasks), len(tasks) - reused - len(failed), reused, len(failed), problems,
-                     metrics, outputs)
+                     metrics, outputs, listed, counts)
 
 
 def write_metrics(path: Path, rows: Sequence[dict[str, Any]]) -> None:
@@ -263,19 +313,20 @@ class _MergedTraces(Mapping[tuple[str, str], Traces]):
 
 
 def _write_outputs(results: Path, rows: Rows, traces: Mapping[tuple[str, str], Traces], problems: list[str],
-                   version: str, label: str | None = None, preprocessing: str | None = None) -> dict[str, Path]:
+                   version: str, label: str | None = None, preprocessing: str | None = None,
+                   reports: Mapping[str, str] | None = None) -> dict[str, Path]:
     """:func:`~psmat.study._results.write_outputs` (summary, figures, report), skipped when its
-    inputs (metrics.csv, the problems, the traces files, the label) are those of the outputs on
-    disk and those outputs are unchanged."""
+    inputs (metrics.csv, the problems, the traces files, the label, the subject reports linked)
+    are those of the outputs on disk and those outputs are unchanged."""
     import hashlib
 
     from ._results import write_outputs  # matplotlib: imported when a study is run, not with psmat
 
     digest = hashlib.sha256(canonical_json({
         "psmat": version, "metrics": file_sha256(results / "metrics.csv"), "problems": problems, "label": label,
-        "preprocessing": preprocessing,
+        "preprocessing": preprocessing, "reports": dict(reports or {}),
         "traces": sorted([*k, traces.path(k).name] for k in traces)}).encode()).hexdigest()
-    return write_outputs(results, rows, traces, problems, digest, label, preprocessing)
+    return write_outputs(results, rows, traces, problems, digest, label, preprocessing, reports)
 
 
 def _cell(v: Any) -> str:
@@ -414,17 +465,27 @@ def _unclosed(items: Sequence[StudyItem], tasks: Mapping[str, SessionTask]) -> d
             for i in items if i.not_closed}
 
 
-def _execute(todo: list[SessionTask], workers: int | None, cluster: Any
-             ) -> Iterator[tuple[str, Rows, Traces]]:
-    """(stem, rows, traces) of each task, in the order they finish (``cluster``: a
-    :class:`psmat.study.Cluster`, or None for this machine)."""
-    if not todo:
-        return
-    if cluster is not None:
-        from ._cluster import on_cluster
-
-        yield from on_cluster(todo, cluster)
-        return
+def _execute(todo: list[SessionTask], workers: int | None, cluster: Any, pages: Sequence[ReportTask] = ()
+             ) -> Iterator[tuple[str, Any]]:
+    """``("session", (stem, rows, traces))`` of each session task and ``("report", (subject, why
+    not or None))`` of each page, in the order they finish, in one pool of this machine's
+    processes (``cluster``: a :class:`psmat.study.Cluster` runs the sessions; the pages then run
+    here, after them: they write into the study folder, which this machine has, and their
+    results are no rows the cluster's plain-data channel carries)."""
     from .._parallel import map_unordered  # workers that end with this process, even after kill -9
 
-    yield from map_unordered(run_task, todo, workers)
+    if cluster is not None:
+        if todo:
+            from ._cluster import on_cluster
+
+            yield from (("session", r) for r in on_cluster(todo, cluster))
+        yield from map_unordered(_work, list(pages), workers)
+        return
+    yield from map_unordered(_work, [*todo, *pages], workers)
+
+
+def _work(task: SessionTask | ReportTask) -> tuple[str, Any]:
+    """One task of the pool, a session or a subject's page, its result tagged by its kind."""
+    if isinstance(task, ReportTask):
+        return "report", run_report(task)
+    return "session", run_task(task)
