@@ -3,7 +3,9 @@ checked: no test asserts a time; what it runs and compares is)."""
 
 from __future__ import annotations
 
-from psmat.bench.study import format_report, run
+import json
+
+from psmat.bench.study import format_report, main, run
 from psmat.study import DEFAULT_PARAMS
 
 
@@ -16,7 +18,20 @@ def test_the_benchmark_runs_both_ways_and_the_rerun_reuses_every_session(tmp_pat
     assert r["baseline_rows"] == 3 * (1 + len(DEFAULT_PARAMS["variants"]))
     text = format_report(r)
     assert "600 frames" in text and "multiprocessing.Pool" in text and "extrapolated" in text
+    # each stage from the run's own results/timings.csv, and the serial part beside the run
+    assert {"discover", "sessions", "after_sessions", "figures", "report"} <= set(r["stages"])
+    assert r["stages"]["sessions"]["cpu_s"] > 0 and r["resume_stages"]["sessions"]["cpu_s"] == 0
+    assert text.count("serial part (all but the session tasks)") == 2 and "after the sessions" in text
     # a second benchmark run reuses the simulated study in --dir instead of simulating again
     again = run(volunteers=1, seconds=4.0, rate_hz=50.0, workers=1, seed=3, study_dir=str(tmp_path / "study"),
                 baseline=False)
     assert again["simulate_s"] is None and "baseline_s" not in again
+
+
+def test_quick_runs_a_tiny_study_and_writes_its_stages(tmp_path, capsys) -> None:
+    out = tmp_path / "bench.json"
+    assert main(["--quick", "--no-baseline", "--json", str(out)]) == 0
+    r = json.loads(out.read_text(encoding="utf-8"))
+    assert (r["volunteers"], r["seconds"], r["rate_hz"], r["workers"], r["sessions"]) == (1, 4.0, 50.0, 1, 3)
+    assert r["psmat_report"]["computed"] == 3 and "baseline_s" not in r
+    assert "serial part" in capsys.readouterr().out

@@ -1,7 +1,7 @@
 """Balance-study benchmark (docs/spec.md §10, thesis-size study): ``python -m psmat.bench study``.
 
 ``python -m psmat.bench study [--volunteers 42] [--seconds 60] [--rate 100] [--workers 2]
-[--dir PATH] [--seed K] [--no-baseline] [--json PATH]``
+[--dir PATH] [--seed K] [--no-baseline] [--json PATH] [--quick]``
 
 What is measured
 ----------------
@@ -17,6 +17,12 @@ volunteer through mats the processing does not know; docs/spec.md §7) of the th
 * **resume** — the same call again: every session is found finished (the cost of the cache).
 * **baseline** — the thesis' approach: a plain ``multiprocessing.Pool(workers)`` mapping the
   same per-session function over the sessions, nothing written, in the same run.
+
+**Where the time goes**: the run's own ``results/timings.csv`` (docs/spec.md §12) gives each
+stage — before the sessions (finding the files, the keys), the session tasks, after the
+sessions (SCHC-DYN, metrics.csv, summary, figures), the report — and the serial part, everything
+but the session tasks, with its share of the run; a serial part that grows with the study
+bounds what more cores can gain. ``--quick`` runs a tiny study (1 volunteer, 4 s at 50 Hz).
 
 The simulation itself is timed apart and is not part of the docs/spec.md §10 figure (≤ 10 min end to
 end on 2 cores). ``--dir`` keeps the simulated study between runs (it is reused when it
@@ -88,10 +94,12 @@ def run(volunteers: int = 42, seconds: float = 60.0, rate_hz: float = 100.0, wor
         t0 = time.perf_counter()
         report = run_study(root, workers=workers, progress=True)
         out["psmat_s"] = time.perf_counter() - t0
+        out["stages"] = stage_times(root / "results" / "timings.csv")
         out["psmat_report"] = {"computed": report.computed, "reused": report.reused, "failed": report.failed}
         t0 = time.perf_counter()
         again = run_study(root, workers=workers, progress=False)
         out["resume_s"] = time.perf_counter() - t0
+        out["resume_stages"] = stage_times(root / "results" / "timings.csv")
         out["resume_computed"] = again.computed
 
         if baseline:
@@ -109,6 +117,33 @@ def run(volunteers: int = 42, seconds: float = 60.0, rate_hz: float = 100.0, wor
             shutil.rmtree(tmp, ignore_errors=True)
 
 
+def stage_times(path: Path) -> dict[str, dict[str, float]]:
+    """The stages of a run's ``timings.csv``: ``{stage: {"wall_s": s, "cpu_s": s}}``."""
+    import csv
+
+    with path.open(newline="", encoding="utf-8") as f:
+        return {r["stage"]: {"wall_s": float(r["wall_s"]), "cpu_s": float(r["cpu_s"])} for r in csv.DictReader(f)}
+
+
+#: the bench's lines: (label, the stages of timings.csv it sums)
+STAGE_LINES = (("before the sessions (files, keys)", ("discover", "keys")),
+               ("sessions (tasks in the workers)", ("sessions",)),
+               ("after the sessions (DYN, tables, figures)", ("reports", "after_sessions", "figures")),
+               ("report (report.md)", ("report",)))
+
+
+def stage_lines(r: dict[str, Any], key: str, total_s: float) -> list[str]:
+    """Each stage's wall time of one run, and its serial part (all but the sessions) and share."""
+    st = r[key]
+    lines = [f"  {label:<42}{sum(st[s]['wall_s'] for s in names):>10.2f}" for label, names in STAGE_LINES]
+    serial = max(0.0, total_s - st["sessions"]["wall_s"])
+    lines.append(f"  {'serial part (all but the session tasks)':<42}{serial:>10.2f}"
+                 f"{100 * serial / total_s if total_s > 0 else 0.0:>10.1f} %")
+    if st["sessions"]["cpu_s"] > 0:
+        lines.append(f"  {'sessions: CPU summed over the workers':<42}{st['sessions']['cpu_s']:>10.2f}")
+    return lines
+
+
 def format_report(r: dict[str, Any]) -> str:
     """The benchmark's figures as a plain-text table."""
     frames = r["frames"]
@@ -122,7 +157,9 @@ def format_report(r: dict[str, Any]) -> str:
     lines += [
         f"{'run':<44}{'time (s)':>10}{'frames/s':>11}",
         f"{'psmat study run (all variants, results written)':<44}{r['psmat_s']:>10.1f}{frames / r['psmat_s']:>11.0f}",
+        *stage_lines(r, "stages", r["psmat_s"]),
         f"{'psmat study run again (every session reused)':<44}{r['resume_s']:>10.2f}{'':>11}",
+        *stage_lines(r, "resume_stages", r["resume_s"]),
     ]
     if "baseline_s" in r:
         lines.append(f"{'baseline: multiprocessing.Pool over sessions':<44}{r['baseline_s']:>10.1f}"
@@ -149,11 +186,15 @@ def build_parser(prog: str = "python -m psmat.bench study") -> argparse.Argument
     p.add_argument("--no-baseline", action="store_true", help="skip the multiprocessing.Pool baseline")
     p.add_argument("--json", metavar="PATH", default=None, help="also write the figures to this JSON file")
     p.add_argument("--overwrite", action="store_true", help="replace an existing --json file")
+    p.add_argument("--quick", action="store_true",
+                   help="a tiny study: 1 volunteer, 4 s at 50 Hz, 1 worker (overrides those options)")
     return p
 
 
 def main(argv: list[str] | None = None, prog: str = "python -m psmat.bench study") -> int:
     a = build_parser(prog).parse_args(argv)
+    if a.quick:
+        a.volunteers, a.seconds, a.rate, a.workers = 1, 4.0, 50.0, 1
     if a.volunteers < 1 or a.seconds <= 0 or a.rate <= 0 or a.workers < 1:
         print(f"{prog}: --volunteers, --seconds, --rate and --workers must be positive",
               file=sys.stderr)

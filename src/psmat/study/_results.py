@@ -23,6 +23,7 @@ from ._conditions import condition_of
 from ._report import render_report
 from ._romberg import ROMBERG_COLUMNS, romberg_rows
 from ._summary import PAIRWISE_COLUMNS, SUMMARY_COLUMNS, index_rows, pairwise_rows, summary_rows, table_text
+from ._timings import Stopwatch
 
 __all__ = ["write_results", "write_outputs"]
 
@@ -43,7 +44,7 @@ def _slug(name: str) -> str:
 def write_results(results_dir: str | os.PathLike[str], rows: Iterable[Mapping[str, Any]],
                   traces: Mapping[tuple[str, str], Mapping[str, Any]] | None = None, problems: Sequence[str] = (),
                   label: str | None = None, preprocessing: str | None = None,
-                  reports: Mapping[str, str] | None = None) -> dict[str, Path]:
+                  reports: Mapping[str, str] | None = None, clock: Stopwatch | None = None) -> dict[str, Path]:
     """Write the summary, the pairwise comparisons, the figures and the report of a study.
 
     Parameters
@@ -67,6 +68,8 @@ def write_results(results_dir: str | os.PathLike[str], rows: Iterable[Mapping[st
     reports : mapping, optional
         Subject -> its HTML page's path relative to ``results_dir`` (``psmat study run --reports``),
         linked from the report's section "Per-subject reports"; none: no such section.
+    clock : psmat.study._timings.Stopwatch, optional
+        Where the time of the tables (stage ``after_sessions``), the figures and the report go.
 
     Returns
     -------
@@ -81,6 +84,8 @@ def write_results(results_dir: str | os.PathLike[str], rows: Iterable[Mapping[st
     ValueError
         A row without subject, trial, variant or status, or two rows for one subject × trial × variant.
     """
+    clock = clock or Stopwatch()
+    clock.begin("after_sessions")
     out_dir = Path(results_dir)
     figures_dir = out_dir / "figures"
     figures_dir.mkdir(parents=True, exist_ok=True)
@@ -96,6 +101,8 @@ def write_results(results_dir: str | os.PathLike[str], rows: Iterable[Mapping[st
         written["romberg"] = _write_text(out_dir / "romberg.csv", table_text(quotients, ROMBERG_COLUMNS))
     else:
         (out_dir / "romberg.csv").unlink(missing_ok=True)  # not one left from an earlier run
+    clock.end("after_sessions")
+    clock.begin("figures")
     figures: dict[str, Path] = {}
     if study.trials:
         figures["sigma_bars"] = fig.sigma_bars(summary, figures_dir / "sigma_bars.png", label)
@@ -107,9 +114,14 @@ def write_results(results_dir: str | os.PathLike[str], rows: Iterable[Mapping[st
                 figures[name] = path
         for metric, name in (("sd_ml_cm", "bland_altman_ml"), ("sd_ap_cm", "bland_altman_ap")):
             figures[name] = fig.bland_altman_plot(study, summary, metric, figures_dir / f"{name}.png", label)
+    clock.end("figures")
+    clock.count("figures", len(figures), 0)
+    clock.begin("report")
     relative = {name: path.relative_to(out_dir).as_posix() for name, path in figures.items()}
     report = render_report(study, summary, pairwise, relative, problems, label, preprocessing, quotients, reports)
     written["report"] = _write_text(out_dir / "report.md", report)
+    clock.end("report")
+    clock.count("report", 1, 0)
     return {**written, **figures}
 
 
@@ -140,7 +152,8 @@ def _reusable(results: Path, index: Path, digest: str) -> tuple[dict[str, Path] 
 
 def write_outputs(results: Path, rows: Iterable[Mapping[str, Any]], traces: Mapping[tuple[str, str], Any],
                   problems: list[str], inputs_digest: str, label: str | None = None,
-                  preprocessing: str | None = None, reports: Mapping[str, str] | None = None) -> dict[str, Path]:
+                  preprocessing: str | None = None, reports: Mapping[str, str] | None = None,
+                  clock: Stopwatch | None = None) -> dict[str, Path]:
     """:func:`write_results`, skipped when ``results/.outputs.json`` proves that the outputs on
     disk are those of ``inputs_digest`` (see the module docstring).
 
@@ -156,16 +169,24 @@ def write_outputs(results: Path, rows: Iterable[Mapping[str, Any]], traces: Mapp
     inputs_digest : str
         A digest of everything the outputs are made from (the caller's: metrics.csv, the
         problems, the traces files, the label, the psmat version).
+    clock : psmat.study._timings.Stopwatch, optional
+        As for :func:`write_results`; the check of the index counts as ``after_sessions``, and
+        outputs reused count as such (``results/timings.csv`` is never one of the outputs).
     """
+    clock = clock or Stopwatch()
     index = results / ".outputs.json"
-    done, why = _reusable(results, index, inputs_digest)
+    with clock.stage("after_sessions"):
+        done, why = _reusable(results, index, inputs_digest)
     if done is not None:
+        figures = [n for n in done if n not in ("summary", "pairwise", "romberg", "report")]
+        clock.count("figures", 0, len(figures))
+        clock.count("report", 0, int("report" in done))
         return done
     if why is not None:
         problems.append(f"{index.name} not used ({' '.join(why.split())}); summary, figures and report rewritten")
         inputs_digest = hashlib.sha256((inputs_digest + "\n" + problems[-1]).encode()).hexdigest()
     outputs = write_results(results, rows, traces, problems, label=label, preprocessing=preprocessing,
-                            reports=reports)
+                            reports=reports, clock=clock)
     top = results.resolve()
     entries = {name: {"path": Path(p).resolve().relative_to(top).as_posix(), "sha256": file_sha256(Path(p))}
                for name, p in outputs.items()}

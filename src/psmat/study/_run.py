@@ -18,7 +18,10 @@ was not closed (its journal alone, :mod:`psmat.io.session`), which is not proces
 its rows' status says which ``psmat repair`` command finishes it. ``metrics.csv`` is
 written after the sessions, then :func:`psmat.study.write_results` (summary, figures,
 report) — skipped when ``metrics.csv``, the problems and the traces are those it last wrote
-from (``results/.outputs.json``). One run per study at a time (``results/.lock``).
+from (``results/.outputs.json``); ``metrics.csv`` itself is not rewritten when its bytes are the
+same. One run per study at a time (``results/.lock``). Every run writes where its time went,
+``results/timings.csv`` and ``results/session_timings.csv`` (:mod:`psmat.study` (``_timings.py``)),
+which no key or digest reads.
 
 **Across volunteers.** After the sessions, ``SCHC-DYN`` (:mod:`psmat.study` (``_dynamic.py``), beyond the
 thesis) corrects each session's SCHC trace by a model fitted on the other volunteers, so it is
@@ -61,6 +64,7 @@ from ._layout import StudyItem, StudyLayout, find_study
 from ._reports import REPORTS_DIR, ReportIndex, ReportTask, report_tasks, run_report
 from ._row_metrics import preprocessing_sentence
 from ._task import SessionTask, run_task, status_rows
+from ._timings import PoolClock, Stopwatch, TaskTime, timed
 from ._trial import COLUMNS, DEFAULT_PARAMS, Rows, Traces
 
 __all__ = ["RunReport", "run_study", "write_metrics", "TRIALS"]
@@ -175,8 +179,11 @@ def run_study(root: str | os.PathLike[str], *, workers: int | None = None, sched
         cluster = Cluster(scheduler, None if scheduler_file is None else os.fspath(scheduler_file), security)
     if workers is not None and (isinstance(workers, bool) or not isinstance(workers, int) or workers < 1):
         raise ValueError(f"workers must be an integer >= 1, got {workers!r}")
-    layout = find_study(root)
+    clock = Stopwatch()
+    with clock.stage("discover"):
+        layout = find_study(root)
     with study_lock(layout.results):
+        clock.begin("keys")
         store = SessionStore(layout.results / "sessions")
         problems = list(layout.problems)
         if n := store.remove_temporaries():
@@ -200,6 +207,7 @@ def run_study(root: str | os.PathLike[str], *, workers: int | None = None, sched
         failed: set[str] = set(unclosed)
         done.update(unclosed)
         todo = [t for stem, t in tasks.items() if stem not in done]
+        todo_stems = [t.stem for t in todo]
         order = sorted(tasks, key=lambda s: _order(tasks[s]))
         pages = report_tasks(layout, tasks, order, set(tasks) - set(unclosed), __version__)
         index = ReportIndex(layout.results / REPORTS_DIR)
@@ -211,12 +219,15 @@ def run_study(root: str | os.PathLike[str], *, workers: int | None = None, sched
             pages_todo = [r for r in pages if not index.current(r)]
         page_failed: list[str] = []
         by_subject = {r.subject: r for r in pages}
+        clock.end("keys")
+        pool = PoolClock(clock)
         with contextlib.ExitStack() as bars:
             bar = bars.enter_context(tqdm(total=len(tasks), initial=reused, unit="session", desc="sessions",
                                           disable=not progress))
             rbar = bars.enter_context(tqdm(total=len(pages), initial=len(pages) - len(pages_todo), unit="report",
                                            desc="reports", disable=not (progress and reports)))
-            for kind, result in _execute(todo, workers, cluster, pages_todo):
+            for kind, result, took in _execute(todo, workers, cluster, pages_todo):
+                pool.add(kind, took)
                 if kind == "report":
                     subject, why = result
                     index.record(by_subject[subject], why is None)
@@ -232,7 +243,10 @@ def run_study(root: str | os.PathLike[str], *, workers: int | None = None, sched
                     done[stem] = Stored(normalise_rows(rows), None)
                 else:
                     done[stem] = store.save(stem, t.key, t.inputs, rows, traces)
+                clock.session(t.subject, t.trial, stem, "failed" if stem in failed else "computed", took)
                 bar.update(1)
+        pool.stop()
+        clock.begin("after_sessions")
         listed = {r.subject: Path(r.out) for r in pages if index.current(r)}
         if reports:  # a note only where its page stands (a failed page is its own line)
             problems += sorted(page_failed) + [r.note for r in pages if r.note and r.subject in listed]
@@ -246,9 +260,16 @@ def run_study(root: str | os.PathLike[str], *, workers: int | None = None, sched
         metrics = layout.results / "metrics.csv"
         write_metrics(metrics, rows)
         links = {s: path.relative_to(layout.results).as_posix() for s, path in listed.items()}
+        clock.end("after_sessions")
         outputs = _write_outputs(layout.results, rows, traces, problems, __version__,
                                  "simulation" if layout.simulated else None, preprocessing_sentence(p["preprocess"]),
-                                 links)
+                                 links, clock)
+        for stem in set(tasks) - set(todo_stems):
+            clock.session(tasks[stem].subject, tasks[stem].trial, stem, "not closed" if stem in unclosed else "reused")
+        clock.count("sessions", len(tasks) - reused - len(failed), reused)
+        if reports:
+            clock.count("reports", len(pages_todo) - len(page_failed), len(pages) - len(pages_todo))
+        clock.write(layout.results)
     counts = (len(pages_todo) - len(page_failed), len(pages) - len(pages_todo), len(page_failed)) if reports else None
     return RunReport(layout.root, len(tasks), len(tasks) - reused - len(failed), reused, len(failed), problems,
                      metrics, outputs, listed, counts)
@@ -257,7 +278,8 @@ def run_study(root: str | os.PathLike[str], *, workers: int | None = None, sched
 def write_metrics(path: Path, rows: Sequence[dict[str, Any]]) -> None:
     """``metrics.csv`` (docs/spec.md §9): the columns of :data:`COLUMNS` then any further ones the
     rows hold (the descriptors, when asked for), floats as ``repr`` (exact, so a rerun is
-    byte-identical), NaN or a missing value as an empty field; written atomically."""
+    byte-identical), NaN or a missing value as an empty field; written atomically, and not at
+    all when the file already holds these bytes (a rerun leaves it untouched, its mtime too)."""
     cols, seen = list(COLUMNS), set(COLUMNS)
     for r in rows:
         new = [c for c in r if c not in seen]
@@ -268,7 +290,11 @@ def write_metrics(path: Path, rows: Sequence[dict[str, Any]]) -> None:
     w.writerow(cols)
     for r in rows:
         w.writerow([_cell(r.get(c, math.nan)) for c in cols])
-    write_text_atomic(path, buf.getvalue())
+    text = buf.getvalue()
+    with contextlib.suppress(OSError, UnicodeDecodeError):
+        if path.is_file() and path.read_bytes() == text.encode("utf-8"):
+            return
+    write_text_atomic(path, text)
 
 
 def _with_dynamic(rows: Rows, traces: Mapping[tuple[str, str], Traces], params: Mapping[str, Any]
@@ -314,7 +340,7 @@ class _MergedTraces(Mapping[tuple[str, str], Traces]):
 
 def _write_outputs(results: Path, rows: Rows, traces: Mapping[tuple[str, str], Traces], problems: list[str],
                    version: str, label: str | None = None, preprocessing: str | None = None,
-                   reports: Mapping[str, str] | None = None) -> dict[str, Path]:
+                   reports: Mapping[str, str] | None = None, clock: Stopwatch | None = None) -> dict[str, Path]:
     """:func:`~psmat.study._results.write_outputs` (summary, figures, report), skipped when its
     inputs (metrics.csv, the problems, the traces files, the label, the subject reports linked)
     are those of the outputs on disk and those outputs are unchanged."""
@@ -322,11 +348,15 @@ def _write_outputs(results: Path, rows: Rows, traces: Mapping[tuple[str, str], T
 
     from ._results import write_outputs  # matplotlib: imported when a study is run, not with psmat
 
+    if clock is not None:
+        clock.begin("after_sessions")
     digest = hashlib.sha256(canonical_json({
         "psmat": version, "metrics": file_sha256(results / "metrics.csv"), "problems": problems, "label": label,
         "preprocessing": preprocessing, "reports": dict(reports or {}),
         "traces": sorted([*k, traces.path(k).name] for k in traces)}).encode()).hexdigest()
-    return write_outputs(results, rows, traces, problems, digest, label, preprocessing, reports)
+    if clock is not None:
+        clock.end("after_sessions")
+    return write_outputs(results, rows, traces, problems, digest, label, preprocessing, reports, clock)
 
 
 def _cell(v: Any) -> str:
@@ -466,9 +496,10 @@ def _unclosed(items: Sequence[StudyItem], tasks: Mapping[str, SessionTask]) -> d
 
 
 def _execute(todo: list[SessionTask], workers: int | None, cluster: Any, pages: Sequence[ReportTask] = ()
-             ) -> Iterator[tuple[str, Any]]:
-    """``("session", (stem, rows, traces))`` of each session task and ``("report", (subject, why
-    not or None))`` of each page, in the order they finish, in one pool of this machine's
+             ) -> Iterator[tuple[str, Any, TaskTime | None]]:
+    """``("session", (stem, rows, traces), time)`` of each session task and ``("report", (subject,
+    why not or None), time)`` of each page, in the order they finish, with the task's time in
+    its worker (None from a cluster), in one pool of this machine's
     processes (``cluster``: a :class:`psmat.study.Cluster` runs the sessions; the pages then run
     here, after them: they write into the study folder, which this machine has, and their
     results are no rows the cluster's plain-data channel carries)."""
@@ -478,14 +509,15 @@ def _execute(todo: list[SessionTask], workers: int | None, cluster: Any, pages: 
         if todo:
             from ._cluster import on_cluster
 
-            yield from (("session", r) for r in on_cluster(todo, cluster))
+            yield from (("session", r, None) for r in on_cluster(todo, cluster))
         yield from map_unordered(_work, list(pages), workers)
         return
     yield from map_unordered(_work, [*todo, *pages], workers)
 
 
-def _work(task: SessionTask | ReportTask) -> tuple[str, Any]:
-    """One task of the pool, a session or a subject's page, its result tagged by its kind."""
+def _work(task: SessionTask | ReportTask) -> tuple[str, Any, TaskTime]:
+    """One task of the pool, a session or a subject's page: its kind, its result and its time in
+    the worker (:file:`results/session_timings.csv`)."""
     if isinstance(task, ReportTask):
-        return "report", run_report(task)
-    return "session", run_task(task)
+        return ("report", *timed(run_report, task))
+    return ("session", *timed(run_task, task))

@@ -1,0 +1,90 @@
+"""``results/timings.csv`` and ``results/session_timings.csv`` of ``psmat study run`` on a small
+simulated study (docs/spec.md §12): every stage, each session computed then reused, and a rerun
+that rewrites only the timings (no assertion on how long anything takes)."""
+
+from __future__ import annotations
+
+import csv
+import os
+from pathlib import Path
+
+import pytest
+
+from psmat.study import run_study
+from psmat.synth import simulate_study
+
+STAGES = ["discover", "keys", "sessions", "reports", "after_sessions", "figures", "report"]
+
+
+def _read(path: Path) -> list[dict[str, str]]:
+    with path.open(newline="", encoding="utf-8") as f:
+        return list(csv.DictReader(f))
+
+
+def _outputs(results: Path) -> dict[str, tuple[bytes, int]]:
+    """metrics.csv, report.md, the other tables and every figure: (bytes, mtime ns)."""
+    files = [results / n for n in ("metrics.csv", "report.md", "summary.csv", "pairwise.csv", ".outputs.json")]
+    files += sorted((results / "figures").glob("*.png"))
+    return {p.name: (p.read_bytes(), p.stat().st_mtime_ns) for p in files}
+
+
+@pytest.fixture(scope="module")
+def study(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    root = tmp_path_factory.mktemp("timings") / "study"
+    simulate_study(root, volunteers=2, duration_s=4.0, seed=5, rate_hz=50.0)
+    return root
+
+
+def test_a_run_writes_its_stages_and_one_line_per_session_and_a_rerun_reuses_everything(study: Path) -> None:
+    first = run_study(study, workers=2, progress=False)
+    results = study / "results"
+    sessions = sorted(p.stem for p in (study / "sessions").glob("*.h5"))
+    assert first.computed == len(sessions) == 6
+
+    stages = _read(results / "timings.csv")
+    assert [r["stage"] for r in stages] == STAGES
+    assert list(stages[0]) == ["stage", "wall_s", "cpu_s", "computed", "reused"]
+    for r in stages:
+        assert float(r["wall_s"]) >= 0 and float(r["cpu_s"]) >= 0, r
+    by = {r["stage"]: r for r in stages}
+    assert (by["sessions"]["computed"], by["sessions"]["reused"]) == ("6", "0")
+    assert float(by["sessions"]["cpu_s"]) > 0  # six sessions processed in the workers took CPU time
+    assert (by["report"]["computed"], by["report"]["reused"]) == ("1", "0")
+    figures = sorted((results / "figures").glob("*.png"))
+    assert (by["figures"]["computed"], by["figures"]["reused"]) == (str(len(figures)), "0")
+    assert by["reports"]["computed"] == ""  # no --reports: no pages
+
+    per = _read(results / "session_timings.csv")
+    assert list(per[0]) == ["subject", "trial", "stem", "result", "start_s", "wall_s", "cpu_s", "pid"]
+    assert sorted(r["stem"] for r in per) == sessions
+    assert {r["result"] for r in per} == {"computed"}
+    for r in per:
+        assert float(r["start_s"]) >= 0 and float(r["wall_s"]) > 0 and float(r["cpu_s"]) >= 0
+        assert int(r["pid"]) != os.getpid()  # two workers: each session ran in a worker process
+        assert r["stem"] == f"{r['subject']}_{r['trial']}"
+
+    before = _outputs(results)
+    again = run_study(study, workers=2, progress=False)
+    assert (again.computed, again.reused) == (0, 6)
+    assert _outputs(results) == before  # byte-identical and not written again (mtime unchanged)
+
+    by = {r["stage"]: r for r in _read(results / "timings.csv")}
+    assert list(by) == STAGES
+    assert (by["sessions"]["computed"], by["sessions"]["reused"]) == ("0", "6")
+    assert float(by["sessions"]["cpu_s"]) == 0  # no task ran
+    assert (by["report"]["computed"], by["report"]["reused"]) == ("0", "1")
+    assert (by["figures"]["computed"], by["figures"]["reused"]) == ("0", str(len(figures)))
+    per = _read(results / "session_timings.csv")
+    assert sorted(r["stem"] for r in per) == sessions
+    assert all(r["result"] == "reused" and r["wall_s"] == r["cpu_s"] == r["pid"] == "" for r in per)
+
+
+def test_with_one_worker_the_sessions_run_in_this_process(tmp_path: Path, study: Path) -> None:
+    root = tmp_path / "copy"
+    simulate_study(root, volunteers=1, duration_s=4.0, seed=6, rate_hz=50.0)
+    run_study(root, workers=1, progress=False, reports=True)
+    per = _read(root / "results" / "session_timings.csv")
+    assert len(per) == 3 and {int(r["pid"]) for r in per} == {os.getpid()}
+    by = {r["stage"]: r for r in _read(root / "results" / "timings.csv")}
+    assert (by["reports"]["computed"], by["reports"]["reused"]) == ("1", "0")  # one subject, one page
+    assert float(by["reports"]["cpu_s"]) > 0
