@@ -19,7 +19,7 @@ import pytest
 
 from psmat import Calibration, Circuit, iecm
 from psmat.io import SessionWriter, load_session
-from psmat.process import process_loaded, process_session, session_circuit, session_clock
+from psmat.process import Processor, process_loaded, process_session, session_circuit, session_clock
 from psmat.sensor import MPICreep
 
 SHAPE = (6, 6)
@@ -190,3 +190,28 @@ def test_a_session_without_calibration_is_read_through_its_profiles_circuit(tmp_
     np.testing.assert_allclose(out.G[0], G, rtol=0.05)
     wrong = Circuit().conductance(frames[0])  # the 12-bit 3.3 V default would be far off
     assert np.nanmax(np.abs(wrong / G - 1)) > 0.5
+
+
+def test_one_batch_gives_the_numbers_of_the_stream_frame_by_frame(counts, tmp_path) -> None:
+    # process_loaded solves the recording in one iecm.solve(threads=1) batch; the live path pushes
+    # frames one at a time through the one-worker stream: the same warm starts, so the same numbers
+    keep = np.ones(T, bool)
+    keep[DROPPED] = False
+    s = load_session(_write(tmp_path / "s.h5", counts, keep, placeholders=True))
+    out = process_loaded(s, pitch_cm=2.0)
+    periods = session_clock(s).periods_s
+    with Processor(SHAPE, circuit=session_circuit(s), pitch_cm=2.0) as proc:
+        pushed = [proc.push(s.counts[k:k + 1], periods[k:k + 1], valid=s.valid[k:k + 1]) for k in range(T)]
+    for name in ("G", "g", "pressure_kpa"):
+        np.testing.assert_array_equal(getattr(out, name), np.concatenate([getattr(p, name) for p in pushed]))
+    # the CoP of one frame and of many add up in another order: round-off only
+    np.testing.assert_allclose(out.cop_cm, np.concatenate([p.cop_cm for p in pushed]), rtol=0, atol=1e-12)
+    info = [p.solve_info for p in pushed if p.solve_info is not None]
+    np.testing.assert_array_equal(out.solve_info.iterations, np.concatenate([i.iterations for i in info]))
+    np.testing.assert_array_equal(out.solve_info.status, np.concatenate([i.status for i in info]))
+    # without the sensor model: the same G and g, no pressure, and the parameters say so
+    bare = process_loaded(s, pitch_cm=2.0, pressure=False)
+    np.testing.assert_array_equal(bare.g, out.g)
+    np.testing.assert_array_equal(bare.cop_raw_cm, out.cop_raw_cm)
+    assert np.all(np.isnan(bare.pressure_kpa)) and np.all(np.isnan(bare.cop_cm))
+    assert bare.params["pressure"].startswith("not computed")

@@ -15,7 +15,8 @@
   :func:`load_events_csv`, :func:`romberg_role` and :func:`romberg` (the quotient eyes closed / open);
 * :func:`align` — the time alignment of the mat with a force platform (:class:`Alignment`),
   built on :func:`search_lag`, psmat's one cross-correlation search;
-* :func:`scale_factor` — the SCHC factor of eq. 3.3;
+* :func:`scale_factor` — the SCHC factor of eq. 3.3; :func:`scale_factors` — the full mat's and
+  its emulated 8×8 mats' at once;
 * :func:`equilibrate` — a per-cell gain map learned from a standing trial (beyond the thesis:
   the SCHC-EQ variant);
 * :func:`subgrids` — the emulated coarser mat (thesis §3.2.1, the 8×8 variants);
@@ -36,14 +37,14 @@ from ._equilibrate import Equilibration, equilibrate
 from ._eu import eu
 from ._ispgr import ISPGR_MIN_HZ, ISPGR_MIN_S, ispgr
 from ._preprocess import preprocess
-from ._scale import mean_force_n, scale_factor
+from ._scale import mean_force_n, scale_factor, scale_factors
 from ._sway import Sway, mean_frequency, prediction_ellipse_area, sway
 from ._variants import (BASE_VARIANTS, EXTRA_VARIANTS, KNOWN_VARIANTS, VARIANTS, VariantName, VariantTrace, describe,
                         legend_label, variant_traces)
 
 __all__ = ["cop", "cell_centres_cm", "eu", "sway", "Sway", "descriptors", "descriptor_unit", "ispgr", "ISPGR_MIN_S", "ISPGR_MIN_HZ", "preprocess",
            "prediction_ellipse_area", "mean_frequency",
-           "align", "Alignment", "search_lag", "pearson_at_lag", "resample_standardised", "scale_factor",
+           "align", "Alignment", "search_lag", "pearson_at_lag", "resample_standardised", "scale_factor", "scale_factors",
            "mean_force_n", "equilibrate", "Equilibration", "Subgrid", "subgrids", "subgrid_cops", "BASE_VARIANTS",
            "VARIANTS", "EXTRA_VARIANTS", "KNOWN_VARIANTS", "VariantName", "describe", "legend_label", "VariantTrace",
            "variant_traces", "Condition", "conditions", "load_events_csv", "romberg_role", "romberg"]

@@ -98,21 +98,46 @@ def swarii(t_s: ArrayLike, x: ArrayLike, rate_hz: float = RATE_HZ,
     hi = np.searchsorted(t, grid + half, side="left")    # one past the last with t < τ + w/2
     out = np.empty((n_out,) + v.shape[1:])
     filled = hi > lo
-    for k in np.flatnonzero(filled):
-        a, b = lo[k], hi[k]
-        if b - a == 1:
-            out[k] = v[a]
-            continue
-        ts = t[a:b]
-        cuts = np.concatenate(([max(t0, grid[k] - half)], 0.5 * (ts[1:] + ts[:-1]), [min(t1, grid[k] + half)]))
-        w = np.diff(cuts)
-        out[k] = np.tensordot(w, v[a:b], axes=1) / w.sum()
+    _window_means(t, v.reshape(t.size, -1), np.maximum(grid - half, t0), np.minimum(grid + half, t1), lo, hi,
+                  out.reshape(n_out, -1))
     if not filled.all():
         known = np.flatnonzero(filled)
         cols = out.reshape(n_out, -1)
         for j in range(cols.shape[1]):
             cols[:, j] = np.interp(grid, grid[known], cols[known, j])
     return grid, out
+
+
+def _window_means(t: NDArray[np.float64], v: NDArray[np.float64], left: NDArray[np.float64],
+                  right: NDArray[np.float64], lo: NDArray[np.intp], hi: NDArray[np.intp],
+                  out: NDArray[np.float64]) -> None:
+    """SWARII's weighted means into ``out`` (M, k) for the windows ``[left, right]`` (M,) (s) holding
+    the samples ``lo[k]:hi[k]`` of ``t`` (N,) (s), ``v`` (N, k); rows of empty windows untouched.
+
+    Array code over blocks of windows: each window's samples padded to the longest window of the
+    block, each weighted by its cell between the cuts (the window's ends and the midpoints of
+    consecutive samples).
+    """
+    mid = 0.5 * (t[1:] + t[:-1])  # mid[i]: the cut between samples i and i + 1
+    count = hi - lo
+    lone = np.flatnonzero(count == 1)
+    out[lone] = v[lo[lone]]  # a lone sample gives its own value
+    many = np.flatnonzero(count > 1)
+    if many.size == 0:
+        return
+    width = int(count[many].max())
+    step = max(1, (1 << 20) // (width * v.shape[1]))  # windows per block: ~8 MB of padded samples
+    j = np.arange(width)
+    for s in range(0, many.size, step):
+        rows = many[s:s + step]
+        a, b = lo[rows, None], hi[rows, None]
+        idx = a + j  # (m, width) sample indices, valid below b
+        inside = idx < b
+        idx = np.where(inside, idx, a)
+        cut_lo = np.where(j == 0, left[rows, None], mid[np.maximum(idx - 1, 0)])
+        cut_hi = np.where(idx == b - 1, right[rows, None], mid[np.minimum(idx, mid.size - 1)])
+        w = np.where(inside, cut_hi - cut_lo, 0.0)
+        out[rows] = np.einsum("mj,mjk->mk", w, v[idx]) / w.sum(axis=1)[:, None]
 
 
 def lowpass(x: ArrayLike, fs_hz: float, cutoff_hz: float = CUTOFF_HZ, order: int = ORDER) -> NDArray[np.float64]:

@@ -27,7 +27,7 @@ from ..profile import default_geometry
 from ..sensor import MPICreep, frame_periods, steps_over_gaps
 from ..units import PSI_PA
 
-__all__ = ["scale_factor", "mean_force_n"]
+__all__ = ["scale_factor", "mean_force_n", "scale_factors"]
 
 
 def trial_cells(g: ArrayLike) -> np.ndarray:
@@ -108,49 +108,129 @@ def scale_factor(g: ArrayLike, dt: float | ArrayLike, weight_n: float, sensor: M
         When no ``f`` in ``bracket`` reaches the weight (e.g. too few loaded cells: the
         inverse model saturates at ``p_max``), with the force reached at the bracket's ends.
     """
-    cells = trial_cells(g)
-    periods = frame_periods(dt, cells.shape[0])
-    w = _checks.positive("weight_n", weight_n)
-    area = _cell_area(cell_area_cm2)
-    lo, hi = _checks.pair("bracket", bracket, labels="low, high")
-    rtol = _checks.positive("rtol", rtol)
-    if not 0 < lo < hi:
-        raise ValueError(f"bracket must satisfy 0 < low < high, got {bracket!r}")
-    sensor = sensor or MPICreep.thesis()
-    if not np.any(np.all(np.isfinite(cells), axis=1)):
-        raise ValueError("g has no complete frame: nothing to scale")
-    loaded = np.nanmax(cells, axis=0) > 0  # cells that never conduct add M(0) = 0 at any f
-    cells = cells[:, loaded]
-    if cells.shape[1] == 0:
-        raise ValueError("g is zero everywhere: no f can carry the weight")
+    return _Search(g, dt, weight_n, sensor, cell_area_cm2, bracket, rtol, mean_over).solve()
 
-    usable, steps = usable_steps(cells, periods)  # once: every evaluation of the root reuses them
-    cells = cells[usable]
-    in_mean = None
-    if mean_over is not None:
-        chosen = np.asarray(mean_over, dtype=bool)
-        if chosen.shape != usable.shape:
-            raise ValueError(f"mean_over must be one flag per frame {usable.shape}, got shape {chosen.shape}")
-        in_mean = chosen[usable]
-        if not in_mean.any():
-            raise ValueError("mean_over leaves no complete frame in the mean")
 
-    def excess(f: float) -> float:
-        return _mean_force(cells, steps, f, sensor, area, in_mean) - w
+class _Search:
+    """One trial's eq. 3.3, checked and reduced to its loaded cells and complete frames (:func:`scale_factor`)."""
 
-    def log_ratio(u: float) -> float:
-        with np.errstate(divide="ignore"):
-            return float(np.log((excess(float(np.exp(u))) + w) / w))
+    def __init__(self, g: ArrayLike, dt: float | ArrayLike, weight_n: float, sensor: MPICreep | None,
+                 cell_area_cm2: float | None, bracket: tuple[float, float], rtol: float,
+                 mean_over: ArrayLike | None) -> None:
+        cells = trial_cells(g)
+        periods = frame_periods(dt, cells.shape[0])
+        self.w = _checks.positive("weight_n", weight_n)
+        self.area = _cell_area(cell_area_cm2)
+        self.lo, self.hi = _checks.pair("bracket", bracket, labels="low, high")
+        self.rtol = _checks.positive("rtol", rtol)
+        if not 0 < self.lo < self.hi:
+            raise ValueError(f"bracket must satisfy 0 < low < high, got {bracket!r}")
+        self.sensor = sensor or MPICreep.thesis()
+        if not np.any(np.all(np.isfinite(cells), axis=1)):
+            raise ValueError("g has no complete frame: nothing to scale")
+        self.loaded = np.nanmax(cells, axis=0) > 0  # cells that never conduct add M(0) = 0 at any f
+        cells = cells[:, self.loaded]
+        if cells.shape[1] == 0:
+            raise ValueError("g is zero everywhere: no f can carry the weight")
+        # once: every evaluation of the root reuses them
+        self.usable, self.steps = usable_steps(cells, periods)
+        self.cells = cells[self.usable]
+        self.in_mean = None
+        if mean_over is not None:
+            chosen = np.asarray(mean_over, dtype=bool)
+            if chosen.shape != self.usable.shape:
+                raise ValueError(f"mean_over must be one flag per frame {self.usable.shape}, got shape {chosen.shape}")
+            self.in_mean = chosen[self.usable]
+            if not self.in_mean.any():
+                raise ValueError("mean_over leaves no complete frame in the mean")
+        # the secant's two starting points, log f; ``run`` at them is what the search evaluates first
+        self.start = [float(np.log(np.clip(f, self.lo, self.hi))) for f in (1.0, 0.5)]
 
-    start = [float(np.log(np.clip(f, lo, hi))) for f in (1.0, 0.5)]
-    u = _secant(log_ratio, start[0], start[1], (np.log(lo), np.log(hi)), rtol) if start[0] != start[1] else None
-    if u is not None:
-        return float(np.exp(u))
-    e_lo, e_hi = excess(lo), excess(hi)
-    if e_lo > 0 or e_hi < 0:
-        raise ValueError(f"the weight {w:g} N cannot be reached with f in [{lo:g}, {hi:g}]: the mean force is "
-                         f"{e_lo + w:.4g} N at f = {lo:g} and {e_hi + w:.4g} N at f = {hi:g}")
-    return float(optimize.brentq(excess, lo, hi, xtol=rtol * lo, rtol=max(rtol, 4 * np.finfo(float).eps)))
+    def start_f(self) -> list[float]:
+        """The factors of the secant's two starting evaluations, exactly as :meth:`solve` evaluates them."""
+        return [float(np.exp(u)) for u in self.start]
+
+    def run(self, f: float) -> np.ndarray:
+        """The sensor model at ``f·g`` over the trial's complete frames: pressures (U, n loaded cells), psi."""
+        return self.sensor.inverse(f * self.cells, self.steps)
+
+    def force_n(self, pressure_psi: np.ndarray) -> float:
+        """The mean force (N) of one :meth:`run`'s pressures: left side of eq. 3.3 (as :func:`_mean_force`)."""
+        force = pressure_psi.sum(axis=1)
+        return float(np.mean(force if self.in_mean is None else force[self.in_mean]) * PSI_PA * self.area * 1e-4)
+
+    def solve(self, known: dict[float, float] | None = None) -> float:
+        """``f`` (the root of eq. 3.3); ``known`` maps a factor to its mean force (N) already computed
+        (e.g. by :meth:`force_n` of a :meth:`run` shared with another search), so it is not run again."""
+        known = known or {}
+        w, lo, hi, rtol = self.w, self.lo, self.hi, self.rtol
+
+        def excess(f: float) -> float:
+            return (known[f] if f in known else self.force_n(self.run(f))) - w
+
+        def log_ratio(u: float) -> float:
+            with np.errstate(divide="ignore"):
+                return float(np.log((excess(float(np.exp(u))) + w) / w))
+
+        start = self.start
+        u = _secant(log_ratio, start[0], start[1], (np.log(lo), np.log(hi)), rtol) if start[0] != start[1] else None
+        if u is not None:
+            return float(np.exp(u))
+        e_lo, e_hi = excess(lo), excess(hi)
+        if e_lo > 0 or e_hi < 0:
+            raise ValueError(f"the weight {w:g} N cannot be reached with f in [{lo:g}, {hi:g}]: the mean force is "
+                             f"{e_lo + w:.4g} N at f = {lo:g} and {e_hi + w:.4g} N at f = {hi:g}")
+        return float(optimize.brentq(excess, lo, hi, xtol=rtol * lo, rtol=max(rtol, 4 * np.finfo(float).eps)))
+
+
+def scale_factors(g: ArrayLike, dt: float | ArrayLike, weight_n: float, sensor: MPICreep | None = None,
+                  cell_area_cm2: float | None = None, *, factor: int = 2,
+                  full: bool = True) -> tuple[float | None, dict[tuple[int, int], float]]:
+    """Eq. 3.3 for the full mat and for each emulated coarser mat (:func:`psmat.balance.subgrids`) at once.
+
+    The same ``f`` as :func:`scale_factor` on ``g`` and on each sub-grid ``g[:, r0::factor,
+    c0::factor]`` (cell area ``factor²·A``), with the defaults of its other parameters; the sensor
+    model acts cell by cell, so the full mat's two starting runs (``f`` = 1 and 0.5) give each
+    sub-grid's starting forces as sums of their columns, and the sub-grid searches only run the
+    sensor model from their third evaluation on. Where the sub-grid's complete frames are not
+    the full mat's (a frame missing on some cells only), its search runs on its own.
+
+    Parameters
+    ----------
+    g, dt, weight_n, sensor, cell_area_cm2
+        As :func:`scale_factor` (``cell_area_cm2``: the full mat's cell area, cm²).
+    factor : int
+        Rows and columns of the full mat per row and column of the coarser one.
+    full : bool
+        Also solve the full mat's ``f`` (else the first value returned is None).
+
+    Returns
+    -------
+    (float or None, dict)
+        The full mat's ``f``, and ``{(r0, c0): f}`` of each sub-grid, in the order of
+        :func:`psmat.balance.subgrids`.
+    """
+    cells = _checks.real_array(g, "g", unit="S", allow_nan=True)
+    if cells.ndim != 3:
+        raise ValueError(f"g must be a trial of frames (T, R, C) in S, got shape {cells.shape}")
+    k = _checks.positive_int("factor", factor)
+    search = _Search(cells, dt, weight_n, sensor, cell_area_cm2, (1e-3, 1e3), 1e-10, None)
+    starts = search.start_f()
+    runs = [search.run(f) for f in starts]
+    f_full = search.solve({f: search.force_n(r) for f, r in zip(starts, runs)}) if full else None
+    R, C = cells.shape[1:]
+    where = np.flatnonzero(search.loaded)  # flat cell index of each loaded column of the runs
+    out: dict[tuple[int, int], float] = {}
+    for r0 in range(k):
+        for c0 in range(k):
+            sub = _Search(cells[:, r0::k, c0::k], dt, weight_n, search.sensor, search.area * (k * k), (1e-3, 1e3),
+                          1e-10, None)
+            mine = ((where // C) % k == r0) & ((where % C) % k == c0)  # loaded cells of this sub-grid, in order
+            if not np.array_equal(sub.usable, search.usable) or int(mine.sum()) != sub.cells.shape[1]:
+                out[(r0, c0)] = sub.solve()
+                continue
+            out[(r0, c0)] = sub.solve({f: sub.force_n(r[:, mine]) for f, r in zip(starts, runs)})
+    return f_full, out
 
 
 def _secant(h, u0: float, u1: float, bounds: tuple[float, float], tol: float, max_iter: int = 30) -> float | None:

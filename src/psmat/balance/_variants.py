@@ -34,7 +34,7 @@ from ..sensor import MPICreep, inverse_over_gaps
 from ._cop import _geometry, cop
 from ._emulate import subgrids
 from ._equilibrate import equilibrate
-from ._scale import scale_factor
+from ._scale import scale_factor, scale_factors
 
 __all__ = ["BASE_VARIANTS", "VARIANTS", "EXTRA_VARIANTS", "KNOWN_VARIANTS", "VariantName", "describe",
            "legend_label", "VariantTrace", "variant_traces"]
@@ -171,30 +171,54 @@ def variant_traces(G: ArrayLike, g: ArrayLike, periods: float | ArrayLike, *, we
     sensor = sensor or MPICreep.thesis()
     geo = _geometry(G.shape[-2:], pitch_cm, geometry)
     cell_area = geo.cell_area_cm2 if cell_area_cm2 is None else float(cell_area_cm2)
+    # Work shared between variants, each computed once when first needed. The sensor model acts
+    # cell by cell, so a sub-grid's CHC is the slice of the full mat's where their complete frames
+    # agree (each frame complete or missing as a whole, as the chain gives them); the SCHC
+    # searches share their starting runs (:func:`scale_factors`).
+    chc: NDArray[np.float64] | None = None
+    whole = _whole_frames(g)
+    schc: tuple[float | None, dict[tuple[int, int], float]] | None = None
     out: dict[str, VariantTrace] = {}
     for name in names:
         base, coarse = name.removesuffix("-8x8"), name.endswith("-8x8")
         if coarse:
-            choices = [(s.images, geo.subgrid(s.rows0, s.cols0, _FACTOR))
+            choices = [(s.images, geo.subgrid(s.rows0, s.cols0, _FACTOR), (s.rows0, s.cols0))
                        for s in subgrids(G if base == "PROP-C" else g, geo.pitch_cm, _FACTOR)]
             area = cell_area * _FACTOR**2  # each kept cell stands for the cells skipped around it
         else:
-            choices = [(G if base == "PROP-C" else g, geo)]
+            choices = [(G if base == "PROP-C" else g, geo, None)]
             area = cell_area
         cops, factors = [], []
-        for img, where in choices:
+        for img, where, sub in choices:
             if base in ("PROP", "PROP-C"):
                 p = img
             elif base == "CHC":
-                p = inverse_over_gaps(sensor, img, periods)
+                if sub is not None and not whole:
+                    p = inverse_over_gaps(sensor, img, periods)
+                else:
+                    if chc is None:
+                        chc = inverse_over_gaps(sensor, g, periods)
+                    # contiguous, as a run of its own gives it: the CoP then sums in the same order
+                    p = chc if sub is None else np.ascontiguousarray(chc[:, sub[0]::_FACTOR, sub[1]::_FACTOR])
             elif base == "SCHC-EQ":
                 eq = equilibrate(img, periods, float(weight_n), sensor=sensor, cell_area_cm2=area)
                 factors.append(eq.factor)
                 p = inverse_over_gaps(sensor, eq.apply(img), periods)
             else:
-                f = scale_factor(img, periods, float(weight_n), sensor, area)
+                if schc is None:
+                    schc = scale_factors(g, periods, float(weight_n), sensor, cell_area, factor=_FACTOR,
+                                         full="SCHC" in names)
+                f = schc[1][sub] if sub is not None else schc[0]
+                if f is None:  # not in the shared searches
+                    f = scale_factor(img, periods, float(weight_n), sensor, area)
                 factors.append(f)
                 p = inverse_over_gaps(sensor, f * img, periods)
             cops.append(cop(p, geometry=where))
         out[name] = VariantTrace(name, np.stack(cops), np.array(factors) if factors else None)
     return out
+
+
+def _whole_frames(g: NDArray[np.float64]) -> bool:
+    """Every frame of ``g`` (T, R, C) complete or missing as a whole (all NaN): the chain's frames."""
+    finite = np.isfinite(g.reshape(g.shape[0], -1))
+    return bool(np.all(finite.all(axis=1) | ~finite.any(axis=1)))

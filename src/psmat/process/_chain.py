@@ -93,6 +93,16 @@ class Processor:
         into contiguous runs solved in parallel, the first run warm-started from the previous
         push; faster on a long recording, the numbers then depend on the split (each frame
         within the solver's tolerance).
+    stream : bool
+        ``threads=1`` only. True (default): the one worker above, for frames that arrive in
+        chunks (live). False: each push is one ``iecm.solve(threads=1)`` batch in this thread,
+        warm-started from the previous push's last solution (not its preconditioner): for a
+        whole recording in one push (:func:`process_loaded`) the same numbers as the worker
+        without its per-frame hand-off.
+    pressure : bool
+        True (default): the sensor model runs on g and gives pressure and CoP. False: the chain
+        stops at g, ``pressure_kpa`` and ``cop_cm`` are NaN (for a caller that runs its own
+        recipes on g, e.g. :func:`psmat.balance.variant_traces`); ``cop_raw_cm`` is computed.
 
     Notes
     -----
@@ -102,7 +112,7 @@ class Processor:
     def __init__(self, shape: tuple[int, int], *, circuit: Circuit | None = None, sensor: MPICreep | None = None,
                  g_rest: float = 0.0, pitch_cm: float | None = None, method: str | None = "newton",
                  threads: int | None = 1, mat_calibration: PressureCalibration | None = None,
-                 geometry: Geometry | None = None) -> None:
+                 geometry: Geometry | None = None, stream: bool = True, pressure: bool = True) -> None:
         self.shape = _checks.shape2(shape)
         if min(self.shape) < 2:
             raise ValueError(f"shape must be (R, C) with R, C >= 2, got {shape}")
@@ -126,9 +136,11 @@ class Processor:
         self.geometry = geometry_for(self.shape, pitch_cm=pitch_cm, geometry=geometry)
         self.pitch_cm = self.geometry.pitch_cm
         self.method = method
+        self.stream = bool(stream)
+        self.pressure = bool(pressure)
         self.floor = open_floor(self.circuit)
         self._stream: iecm.Stream | None = None  # threads == 1: the worker keeps warm start and preconditioner
-        self._g_last: NDArray[np.float64] | None = None  # threads != 1: the previous push's last solution
+        self._g_last: NDArray[np.float64] | None = None  # batch pushes: the previous push's last solution
         self._state = self.sensor.rest_state(self.shape)
         self._since = 0.0  # time since the previous usable frame not yet stepped by the sensor model, s
         self._params = {"circuit": self.circuit.as_dict(), "sensor": self.sensor.params, "g_rest_s": self.g_rest,
@@ -136,6 +148,8 @@ class Processor:
                         "iecm_method": method, "open_policy": "smallest resolvable G",
                         "missing_policy": "NaN; the sensor model steps over the gap",
                         "pressure_calibration": describe_pressure(mat_calibration)}
+        if not self.pressure:
+            self._params["pressure"] = "not computed: the chain stops at g"
 
     def push(self, counts: ArrayLike, dt: float | ArrayLike, valid: ArrayLike | None = None, *,
              progress: bool | None = None) -> Processed:
@@ -177,18 +191,20 @@ class Processor:
         info = None
         if self.method is not None and usable.any():
             g[usable], info = self._iecm(G[usable], progress)
+        if self.method is not None and usable.any() and self.pressure:
             u = np.maximum(g[usable] - self.g_rest, 0.0)
             if self.mat_calibration is not None:
                 u = self.mat_calibration.effective(u)
             pressure[usable] = self.sensor.inverse(u, steps, self._state) * PSI_KPA
         params = {"dt_s": float(dt) if np.ndim(dt) == 0 else periods.tolist(), **self._params,
                   "frames_missing": int((~usable).sum())}
-        return Processed(G=G, g=g, pressure_kpa=pressure, cop_cm=cop(pressure, geometry=self.geometry),
+        cop_p = cop(pressure, geometry=self.geometry) if self.pressure else np.full((T, 2), np.nan)
+        return Processed(G=G, g=g, pressure_kpa=pressure, cop_cm=cop_p,
                          cop_raw_cm=cop(G, geometry=self.geometry), usable=usable, params=params, solve_info=info)
 
     def _iecm(self, G: NDArray[np.float64], progress: bool | None) -> tuple[NDArray[np.float64], iecm.SolveInfo]:
         """Crosstalk removal of the usable frames (S), warm-started across pushes."""
-        if self.threads == 1:
+        if self.threads == 1 and self.stream:
             return self._iecm_in_order(G, progress)
         g0 = None
         if self._g_last is not None:

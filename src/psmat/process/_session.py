@@ -124,7 +124,7 @@ def process_loaded(session: Any, *, circuit: Circuit | None = None,
                    calibration: str | os.PathLike[str] | None = None, sensor: MPICreep | None = None,
                    g_rest: float = 0.0, pitch_cm: float | None = None, method: str | None = "newton",
                    threads: int | None = 1, progress: bool | None = None,
-                   geometry: Geometry | None = None) -> Processed:
+                   geometry: Geometry | None = None, pressure: bool = True) -> Processed:
     """Run the chain on a loaded mat session: counts → G → g → pressure (kPa) → CoP.
 
     Each frame is stepped with its own period (:func:`session_clock`: the device clock when the
@@ -151,9 +151,15 @@ def process_loaded(session: Any, *, circuit: Circuit | None = None,
         (:func:`psmat.profile.session_profile`: the stored one, else one built from the device
         record), as ``params["geometry"]``, ``["profile"]`` and ``["geometry_from"]`` record.
     method, threads
-        As :class:`Processor`: ``threads=1`` (default) solves the frames in order on one worker.
+        As :class:`Processor`: ``threads=1`` (default) solves the frames in order, each
+        warm-started from the previous one, in one ``iecm.solve(threads=1)`` batch (the numbers
+        of :class:`Processor`'s one-worker stream: the recording is one push).
     progress : bool, optional
         IECM progress bar (default: on for >= 2000 frames when writing to a terminal).
+    pressure : bool
+        True (default): the sensor model gives pressure and CoP. False: stop at g, skipping the
+        sensor model; ``pressure_kpa`` and ``cop_cm`` are NaN (for a caller that runs its own
+        recipes on G and g, as the balance study does with :func:`psmat.balance.variant_traces`).
 
     Returns
     -------
@@ -173,10 +179,10 @@ def process_loaded(session: Any, *, circuit: Circuit | None = None,
         raise ValueError(f"{session.n_frames} frame(s); at least 2 are needed for a frame period")
     clock = session_clock(session)
     cir, source = _resolve(session, circuit, calibration)
-    pressure, pressure_from = session_pressure_calibration(session, calibration)
+    mat_cal, pressure_from = session_pressure_calibration(session, calibration)
     geo, geo_params = _session_geometry(session, pitch_cm, geometry)
     with Processor(session.frame_shape, circuit=cir, sensor=sensor, g_rest=g_rest, geometry=geo, method=method,
-                   threads=threads, mat_calibration=pressure) as proc:
+                   threads=threads, mat_calibration=mat_cal, stream=False, pressure=pressure) as proc:
         out = proc.push(session.counts, clock.periods_s, valid=session.valid, progress=progress)
     del out.params["dt_s"]  # one per frame: the session's own time columns hold them
     out.params.update(frame_clock=f"{clock.source}: each frame stepped with its own period",

@@ -181,7 +181,7 @@ def _process(session: Path, forceplate: Path | None, subject: str, trial: str, w
     with warnings.catch_warnings():  # counted in the rows, not warned once per session per worker
         warnings.filterwarnings("ignore", message=r"IECM \(", category=RuntimeWarning)
         out = process_loaded(s, calibration=calibration, sensor=sensor, pitch_cm=p["pitch_cm"], method=p["method"],
-                             threads=1, progress=False)
+                             threads=1, progress=False, pressure=False)  # the variants run their own recipes on g
     assert out.clock is not None
     # the device clock when the box stamps its frames (v2): a lost frame's -1 is a gap in it, not a
     # reason to fall back to the host clock; the same periods stepped the sensor model

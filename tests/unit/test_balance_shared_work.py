@@ -1,0 +1,69 @@
+"""Work the variants share (psmat.balance.variant_traces, scale_factors): each shared result
+equals the separate computation it replaces, on a moving load with creep and a missing frame."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from psmat import twin
+from psmat.balance import cop, scale_factor, scale_factors, subgrids, variant_traces
+from psmat.profile import geometry_for
+from psmat.sensor import MPICreep, inverse_over_gaps
+
+
+def _cop8(pressure, s):
+    """CoP (cm) of a choice's own pressure run, placed where its cells are on the 2 cm mat."""
+    return cop(pressure, geometry=geometry_for((16, 16), pitch_cm=2.0).subgrid(s.rows0, s.cols0, 2))
+
+
+@pytest.fixture(scope="module")
+def trial():
+    scene = twin.quiet_standing(4.0, 50.0, seed=5)  # psi on the 16x16, 2 cm mat, the load moving
+    p = np.minimum(scene.pressure_psi, 32.0)
+    sensor = MPICreep.thesis()
+    g = sensor.direct(p, 0.02) / 0.6 + 1e-12  # a mat more conductive than the model; IECM's floor everywhere
+    g[37] = np.nan  # a frame lost on the wire: missing as a whole, as the chain gives it
+    periods = np.full(g.shape[0], 0.02)
+    periods[::7] = 0.03  # an irregular clock
+    weight = 0.9 * float(np.nanmean(np.nansum(p, axis=(1, 2)))) * 6894.757 * 4e-4  # N, not exactly 1/0.6
+    return g, periods, weight, sensor
+
+
+def test_the_chc_of_a_subgrid_is_the_slice_of_the_full_mat(trial) -> None:
+    g, periods, _, sensor = trial
+    full = inverse_over_gaps(sensor, g, periods)
+    for s in subgrids(g, 2.0):
+        alone = inverse_over_gaps(sensor, s.images, periods)  # the model run on the 64 cells only
+        np.testing.assert_array_equal(full[:, s.rows0::2, s.cols0::2], alone)
+    v = variant_traces(g, g, periods, weight_n=None, sensor=sensor, pitch_cm=2.0, names=("CHC-8x8",))
+    by_hand = [_cop8(inverse_over_gaps(sensor, s.images, periods), s) for s in subgrids(g, 2.0)]
+    np.testing.assert_array_equal(v["CHC-8x8"].cop_cm, np.stack(by_hand))
+
+
+def test_shared_scale_factors_are_the_separate_searches(trial) -> None:
+    g, periods, weight, sensor = trial
+    f_full, f_sub = scale_factors(g, periods, weight, sensor, 4.0)
+    assert f_full == pytest.approx(scale_factor(g, periods, weight, sensor, 4.0), rel=1e-9, abs=0)
+    assert list(f_sub) == [(s.rows0, s.cols0) for s in subgrids(g)]
+    for s in subgrids(g):
+        alone = scale_factor(s.images, periods, weight, sensor, 16.0)  # each kept cell stands for 4
+        assert f_sub[(s.rows0, s.cols0)] == pytest.approx(alone, rel=1e-9, abs=0)
+    # the four choices see different loads: a test that could not tell them apart would prove nothing
+    assert len({round(f, 6) for f in f_sub.values()}) > 1
+    assert scale_factors(g, periods, weight, sensor, 4.0, full=False)[0] is None
+
+
+def test_a_frame_missing_on_some_cells_only_falls_back_to_separate_runs(trial) -> None:
+    g, periods, weight, sensor = trial
+    h = g.copy()
+    h[50, 0, 0] = np.nan  # missing for the (0, 0) choice and the full mat, complete for the other three
+    _, f_sub = scale_factors(h, periods, weight, sensor, 4.0)
+    for s in subgrids(h):
+        assert f_sub[(s.rows0, s.cols0)] == pytest.approx(scale_factor(s.images, periods, weight, sensor, 16.0),
+                                                           rel=1e-9, abs=0)
+    v = variant_traces(h, h, periods, weight_n=weight, sensor=sensor, pitch_cm=2.0, names=("CHC-8x8", "SCHC-8x8"))
+    s11 = next(s for s in subgrids(h, 2.0) if (s.rows0, s.cols0) == (1, 1))
+    np.testing.assert_array_equal(v["CHC-8x8"].cop_cm[3],
+                                  _cop8(inverse_over_gaps(sensor, s11.images, periods), s11))
+    assert np.all(np.isfinite(v["CHC-8x8"].cop_cm[3, 50]))  # the choice that lost nothing keeps the frame
