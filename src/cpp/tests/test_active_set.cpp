@@ -7,6 +7,7 @@
 
 #include "psmat/iecm/free_block_solver.hpp"
 #include "psmat/iecm/cholesky.hpp"
+#include "psmat/iecm/cholesky_avx2.hpp"
 #include "psmat/iecm/jacobian.hpp"
 #include "psmat/iecm/solve.hpp"
 #include "support.hpp"
@@ -144,6 +145,39 @@ TEST_CASE("cholesky_in_place: L L^T = A across block edges and both sweeps; fals
   Eigen::MatrixXf B = Eigen::MatrixXf::Identity(40, 40);
   B(25, 25) = -1.0f;
   CHECK_FALSE(psmat::iecm::cholesky_in_place(B));
+}
+
+TEST_CASE("cholesky_in_place: the AVX2 kernel and the portable one, in a corner of a larger matrix") {
+  // the free block lives in the corner of a bigger buffer (FreeBlockSolver): a leading dimension
+  // above m; both sweeps of both builds against Eigen's LLT in double, the rest untouched
+  CAPTURE(psmat::iecm::cholesky_avx2_built());
+  CAPTURE(psmat::iecm::cpu_has_avx2_fma());
+  for (Index m : {17, 130, 401, 700}) {
+    CAPTURE(m);
+    const Eigen::MatrixXd X = Eigen::MatrixXd::NullaryExpr(
+        m, m, [m](Index i, Index j) { return std::cos(0.7 * double(i * m + j) + 0.3); });
+    const Eigen::MatrixXf A = (X * X.transpose() / double(m) +
+                               Eigen::MatrixXd::Identity(m, m)).cast<float>();
+    const Eigen::MatrixXd Lref = A.cast<double>().llt().matrixL();
+    for (int kernel = 0; kernel < 2; ++kernel) {
+      CAPTURE(kernel);
+      Eigen::MatrixXf big = Eigen::MatrixXf::Constant(m + 5, m + 5, 7.0f);
+      big.topLeftCorner(m, m) = A;
+      const bool ok = kernel == 0 ? psmat::iecm::cholesky_in_place(big.topLeftCorner(m, m))
+                                  : psmat::iecm::cholesky_in_place_portable(big.topLeftCorner(m, m));
+      REQUIRE(ok);
+      const Eigen::MatrixXd Lf =
+          big.topLeftCorner(m, m).triangularView<Eigen::Lower>().toDenseMatrix().cast<double>();
+      CHECK((Lf - Lref).norm() <= 1e-5 * Lref.norm());
+      CHECK(big.bottomRows(5).isConstant(7.0f));
+      CHECK(big.rightCols(5).isConstant(7.0f));
+    }
+  }
+  if (psmat::iecm::cholesky_avx2_built() && psmat::iecm::cpu_has_avx2_fma()) {
+    Eigen::MatrixXf B = Eigen::MatrixXf::Identity(450, 450);
+    B(420, 420) = -1.0f;  // indefinite in the right-looking sweep's last blocks
+    CHECK_FALSE(psmat::iecm::cholesky_in_place_avx2(B.data(), B.rows(), B.outerStride()));
+  }
 }
 
 TEST_CASE("cholesky_rank1_update: the factor of A + w w^T, in a corner of a larger matrix") {

@@ -1,0 +1,16 @@
+// AVX2 + FMA build of the Cholesky sweep (cholesky_avx2.hpp). This unit alone is compiled with
+// -mavx2 -mfma (src/cpp/CMakeLists.txt); its Eigen is renamed so that none of its template
+// instances share a symbol with those of the baseline units (the linker would otherwise keep
+// one copy of each, of either instruction set).
+#define Eigen psmat_eigen_avx2
+#include "psmat/iecm/cholesky_sweep.hpp"
+#include "psmat/iecm/cholesky_avx2.hpp"
+
+namespace psmat::iecm {
+
+bool cholesky_in_place_avx2(float* a, std::ptrdiff_t m, std::ptrdiff_t ld) {
+  Eigen::Map<Eigen::MatrixXf, 0, Eigen::OuterStride<>> A(a, m, m, Eigen::OuterStride<>(ld));
+  return cholesky_sweep(A);
+}
+
+}  // namespace psmat::iecm
