@@ -199,6 +199,11 @@ def test_processes_and_a_dask_cluster_give_the_same_bytes(study, tmp_path) -> No
         report = run_study(dask, scheduler=c.scheduler_address, progress=False)
     assert (report.computed, report.reused) == (4, 0)
     assert (dask / "results" / "metrics.csv").read_bytes() == metrics
+    # the figures too: drawn as tasks of the loky pool, or in this process after the cluster's sessions
+    figures = sorted(p.name for p in (two / "results" / "figures").glob("*.png"))
+    assert figures and figures == sorted(p.name for p in (dask / "results" / "figures").glob("*.png"))
+    for name in figures:
+        assert (dask / "results" / "figures" / name).read_bytes() == (two / "results" / "figures" / name).read_bytes()
     for name in ("V01_right-leg", "V02_left-leg"):
         mine, ref = (json.loads((d / "results" / "sessions" / f"{name}.json").read_text()) for d in (dask, root))
         assert mine["key"] == ref["key"]  # the key is made of contents, not of where the folder lies

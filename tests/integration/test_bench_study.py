@@ -5,7 +5,9 @@ from __future__ import annotations
 
 import json
 
-from psmat.bench.study import format_report, main, run
+import pytest
+
+from psmat.bench.study import format_report, main, parallel_fraction, run
 from psmat.study import DEFAULT_PARAMS
 
 
@@ -22,6 +24,7 @@ def test_the_benchmark_runs_both_ways_and_the_rerun_reuses_every_session(tmp_pat
     assert {"discover", "sessions", "after_sessions", "figures", "report"} <= set(r["stages"])
     assert r["stages"]["sessions"]["cpu_s"] > 0 and r["resume_stages"]["sessions"]["cpu_s"] == 0
     assert text.count("serial part (all but the session tasks)") == 2 and "after the sessions" in text
+    assert text.count("parallel fraction") == 1  # the first run only: the rerun has no session work
     # a second benchmark run reuses the simulated study in --dir instead of simulating again
     again = run(volunteers=1, seconds=4.0, rate_hz=50.0, workers=1, seed=3, study_dir=str(tmp_path / "study"),
                 baseline=False)
@@ -35,3 +38,10 @@ def test_quick_runs_a_tiny_study_and_writes_its_stages(tmp_path, capsys) -> None
     assert (r["volunteers"], r["seconds"], r["rate_hz"], r["workers"], r["sessions"]) == (1, 4.0, 50.0, 1, 3)
     assert r["psmat_report"]["computed"] == 3 and "baseline_s" not in r
     assert "serial part" in capsys.readouterr().out
+
+
+def test_the_parallel_fraction_by_hand() -> None:
+    # 80 CPU s of session work and a 10 s serial part: one core would take 90 s, 80 of them parallel
+    assert parallel_fraction(80.0, 10.0) == pytest.approx(80.0 / 90.0)
+    assert parallel_fraction(80.0, 0.0) == pytest.approx(1.0)  # nothing serial
+    assert parallel_fraction(0.0, 5.0) is None  # no session work: nothing to estimate

@@ -13,7 +13,7 @@ import math
 import os
 from collections.abc import Mapping, Sequence
 from pathlib import Path
-from typing import Any
+from typing import Any, BinaryIO
 
 import numpy as np
 
@@ -22,7 +22,7 @@ from ._figure_layout import arrange
 from ._summary import REFERENCE, SIGMAS, StudyRows
 
 __all__ = ["TRACE_VARIANTS", "sigma_bars", "eu_bars", "median_session", "ranking_variant", "trace_variants", "cop_traces",
-           "bland_altman_plot"]
+           "draw_cop_traces", "bland_altman_plot"]
 
 #: Variants drawn against FP in the trace figures when present (thesis Figs. 3.6, 3.7).
 TRACE_VARIANTS = ("PROP", "SCHC", "SCHC-8x8")
@@ -46,7 +46,7 @@ def _title(text: str, label: str | None) -> str:
     return f"{text} ({label})" if label else text
 
 
-def _finish(fig: Any, ax: Any, title: str, key: Any, path: str | os.PathLike[str]) -> Path:
+def _finish(fig: Any, ax: Any, title: str, key: Any, path: str | os.PathLike[str] | BinaryIO) -> Any:
     """Title ``fig``, place its panels, title and ``key`` (:func:`arrange`) and save it to ``path``."""
     suptitle = fig.suptitle(title)
     # twice: the tick locators pick their ticks for the panel size the first pass sets, and the
@@ -56,9 +56,14 @@ def _finish(fig: Any, ax: Any, title: str, key: Any, path: str | os.PathLike[str
     return _save(fig, path)
 
 
-def _save(fig: Any, path: str | os.PathLike[str]) -> Path:
+def _save(fig: Any, path: str | os.PathLike[str] | BinaryIO) -> Any:
+    """Save ``fig`` as PNG to ``path`` (whole or not at all), or into a binary file object
+    (the same bytes: :mod:`psmat.study` (``_figure_tasks.py``) draws in workers this way)."""
     from .._atomic import replacing
 
+    if not isinstance(path, (str, os.PathLike)):
+        fig.savefig(path, format="png", dpi=DPI, metadata={"Software": None})
+        return path
     path = Path(path)
     with replacing(path) as tmp:  # whole or not at all
         fig.savefig(tmp, dpi=DPI, metadata={"Software": None})
@@ -101,14 +106,15 @@ def _bars(ax: Any, rows: Sequence[Mapping[str, Any]], mean: str, sd: str, colour
     ax.set_xticks(x, names, rotation=45, ha="right")
 
 
-def sigma_bars(summary: Sequence[Mapping[str, Any]], path: str | os.PathLike[str], label: str | None = None) -> Path:
+def sigma_bars(summary: Sequence[Mapping[str, Any]], path: str | os.PathLike[str] | BinaryIO,
+               label: str | None = None) -> Path:
     """Mean σ_ML and σ_AP per variant and trial, FP included (Figs. 3.2, 3.4).
 
     Parameters
     ----------
     summary : rows of :func:`psmat.study.summary_rows`
-    path : path-like
-        PNG to write.
+    path : path-like or binary file
+        PNG to write (a file object: the PNG's bytes written into it).
     label : str, optional
         Shown in the title (e.g. ``"simulation"``).
 
@@ -131,7 +137,8 @@ def sigma_bars(summary: Sequence[Mapping[str, Any]], path: str | os.PathLike[str
                                    label), key, path)
 
 
-def eu_bars(summary: Sequence[Mapping[str, Any]], path: str | os.PathLike[str], label: str | None = None) -> Path:
+def eu_bars(summary: Sequence[Mapping[str, Any]], path: str | os.PathLike[str] | BinaryIO,
+            label: str | None = None) -> Path:
     """Mean Eu (eq. 3.1) against FP per variant and trial (Figs. 3.3, 3.5); error bars SD (cm)."""
     trials, colours = _order(summary, "trial"), _colours(_order(summary, "variant"))
     fig, ax = _figure(1, len(trials), (3.6 * len(trials), 3.6))
@@ -182,11 +189,19 @@ def cop_traces(study: StudyRows, traces: Mapping[tuple[str, str], Mapping[str, A
     subject = median_session(study, trial, traces)
     if subject is None:
         return None
-    drawn, rank = trace_variants(study), ranking_variant(study)
-    tr = traces[(subject, trial)]
+    return draw_cop_traces(traces[(subject, trial)], subject, trial, trace_variants(study), ranking_variant(study),
+                           study.variants, path, label)
+
+
+def draw_cop_traces(tr: Mapping[str, Any], subject: str, trial: str, drawn: Sequence[str], rank: str | None,
+                    variants: Sequence[str], path: str | os.PathLike[str] | BinaryIO, label: str | None = None) -> Any:
+    """The figure of :func:`cop_traces` from the one session it draws: ``tr`` its traces
+    (``t_s`` s, ``FP`` and the variants (N, 2) cm), ``drawn`` the variants drawn against FP,
+    ``rank`` the variant whose Eu chose the session, ``variants`` the study's (for the colours)."""
+    drawn = tuple(drawn)
     t = np.asarray(tr["t_s"], np.float64)
     t = t - t[0]
-    colours = _colours(study.variants)
+    colours = _colours(variants)
     fig, ax = _figure(2, 1, (10.0, 6.0))
     for name in (REFERENCE,) + drawn:
         if name not in tr:
@@ -205,7 +220,7 @@ def cop_traces(study: StudyRows, traces: Mapping[tuple[str, str], Mapping[str, A
 
 
 def bland_altman_plot(study: StudyRows, summary: Sequence[Mapping[str, Any]], metric: str,
-                      path: str | os.PathLike[str], label: str | None = None) -> Path:
+                      path: str | os.PathLike[str] | BinaryIO, label: str | None = None) -> Path:
     """Bland–Altman of σ along one axis: σ_variant − σ_FP against their mean, one panel per
     trial (rows) and compared variant (columns), with the bias and 95 % limits of ``summary``.
 

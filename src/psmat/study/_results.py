@@ -12,20 +12,23 @@ from __future__ import annotations
 import hashlib
 import json
 import os
-from collections.abc import Iterable, Mapping, Sequence
+from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
 from .._atomic import write_text_atomic
-from . import _figures as fig
 from ._cache import file_sha256
 from ._conditions import condition_of
 from ._report import render_report
 from ._romberg import ROMBERG_COLUMNS, romberg_rows
 from ._summary import PAIRWISE_COLUMNS, SUMMARY_COLUMNS, index_rows, pairwise_rows, summary_rows, table_text
-from ._timings import Stopwatch
+from ._figure_tasks import FigureIndex, FigureTask, draw_figure, figure_tasks
+from ._timings import Stopwatch, TaskTime, timed
 
-__all__ = ["write_results", "write_outputs"]
+__all__ = ["write_results", "write_outputs", "DrawFigures"]
+
+#: what runs figure tasks: the tasks in, ``(name, PNG bytes, the task's time or None)`` out, in any order
+DrawFigures = Callable[[list[FigureTask]], Iterable[tuple[str, bytes, "TaskTime | None"]]]
 
 _INDEX = "psmat-study-outputs/2"  # the format of results/.outputs.json
 
@@ -36,15 +39,31 @@ def _write_text(path: Path, text: str) -> Path:
     return path
 
 
-def _slug(name: str) -> str:
-    """A file-name-safe form of a trial name."""
-    return "".join(c if c.isalnum() or c in "-_" else "_" for c in name)
+def _draw_here(tasks: list[FigureTask]) -> Iterator[tuple[str, bytes, TaskTime | None]]:
+    """Figure tasks one after the other in this process."""
+    for t in tasks:
+        (name, data), took = timed(draw_figure, t)
+        yield name, data, took
+
+
+def _write_bytes(path: Path, data: bytes) -> None:
+    """``data`` into ``path`` whole or not at all, unless the file already holds these bytes."""
+    from .._atomic import replacing
+
+    try:
+        if path.read_bytes() == data:
+            return
+    except OSError:
+        pass
+    with replacing(path) as tmp:
+        tmp.write_bytes(data)
 
 
 def write_results(results_dir: str | os.PathLike[str], rows: Iterable[Mapping[str, Any]],
                   traces: Mapping[tuple[str, str], Mapping[str, Any]] | None = None, problems: Sequence[str] = (),
                   label: str | None = None, preprocessing: str | None = None,
-                  reports: Mapping[str, str] | None = None, clock: Stopwatch | None = None) -> dict[str, Path]:
+                  reports: Mapping[str, str] | None = None, clock: Stopwatch | None = None,
+                  draw: DrawFigures | None = None) -> dict[str, Path]:
     """Write the summary, the pairwise comparisons, the figures and the report of a study.
 
     Parameters
@@ -70,6 +89,12 @@ def write_results(results_dir: str | os.PathLike[str], rows: Iterable[Mapping[st
         linked from the report's section "Per-subject reports"; none: no such section.
     clock : psmat.study._timings.Stopwatch, optional
         Where the time of the tables (stage ``after_sessions``), the figures and the report go.
+    draw : callable, optional
+        Runs figure tasks (:mod:`psmat.study` (``_figure_tasks.py``)): given a list of them,
+        yields ``(name, PNG bytes, TaskTime or None)`` for each, in any order — the study
+        runner's worker pool; default: one after the other in this process. A figure whose
+        key and bytes ``results/figures/.keys.json`` records is not drawn again, and a file
+        that already holds the bytes drawn is not rewritten.
 
     Returns
     -------
@@ -103,19 +128,25 @@ def write_results(results_dir: str | os.PathLike[str], rows: Iterable[Mapping[st
         (out_dir / "romberg.csv").unlink(missing_ok=True)  # not one left from an earlier run
     clock.end("after_sessions")
     clock.begin("figures")
-    figures: dict[str, Path] = {}
-    if study.trials:
-        figures["sigma_bars"] = fig.sigma_bars(summary, figures_dir / "sigma_bars.png", label)
-        figures["eu_bars"] = fig.eu_bars(summary, figures_dir / "eu_bars.png", label)
-        for trial in study.trials:
-            name = f"cop_traces_{_slug(trial)}"
-            path = fig.cop_traces(study, traces or {}, trial, figures_dir / f"{name}.png", label)
-            if path is not None:
-                figures[name] = path
-        for metric, name in (("sd_ml_cm", "bland_altman_ml"), ("sd_ap_cm", "bland_altman_ap")):
-            figures[name] = fig.bland_altman_plot(study, summary, metric, figures_dir / f"{name}.png", label)
+    from .. import __version__
+
+    tasks = figure_tasks(figures_dir, [r for r in rows if not condition_of(r)], study, summary, traces or {}, label,
+                         __version__)
+    index = FigureIndex(figures_dir)
+    todo = [t for t in tasks if not index.current(t)]
+    by_name = {t.name: t for t in todo}
+    cpu = 0.0
+    for name, data, took in (draw or _draw_here)(todo):
+        t = by_name[name]
+        _write_bytes(Path(t.path), data)
+        index.record(t, data)
+        cpu += 0.0 if took is None else took.cpu_s
+    if todo:
+        index.save()
+    figures: dict[str, Path] = {t.name: Path(t.path) for t in tasks}
     clock.end("figures")
-    clock.count("figures", len(figures), 0)
+    clock.stages["figures"].cpu_s += cpu  # the workers' CPU time drawing them
+    clock.count("figures", len(todo), len(tasks) - len(todo))
     clock.begin("report")
     relative = {name: path.relative_to(out_dir).as_posix() for name, path in figures.items()}
     report = render_report(study, summary, pairwise, relative, problems, label, preprocessing, quotients, reports)
@@ -153,7 +184,7 @@ def _reusable(results: Path, index: Path, digest: str) -> tuple[dict[str, Path] 
 def write_outputs(results: Path, rows: Iterable[Mapping[str, Any]], traces: Mapping[tuple[str, str], Any],
                   problems: list[str], inputs_digest: str, label: str | None = None,
                   preprocessing: str | None = None, reports: Mapping[str, str] | None = None,
-                  clock: Stopwatch | None = None) -> dict[str, Path]:
+                  clock: Stopwatch | None = None, draw: DrawFigures | None = None) -> dict[str, Path]:
     """:func:`write_results`, skipped when ``results/.outputs.json`` proves that the outputs on
     disk are those of ``inputs_digest`` (see the module docstring).
 
@@ -169,6 +200,8 @@ def write_outputs(results: Path, rows: Iterable[Mapping[str, Any]], traces: Mapp
     inputs_digest : str
         A digest of everything the outputs are made from (the caller's: metrics.csv, the
         problems, the traces files, the label, the psmat version).
+    draw : callable, optional
+        As for :func:`write_results`: what runs the figure tasks.
     clock : psmat.study._timings.Stopwatch, optional
         As for :func:`write_results`; the check of the index counts as ``after_sessions``, and
         outputs reused count as such (``results/timings.csv`` is never one of the outputs).
@@ -186,7 +219,7 @@ def write_outputs(results: Path, rows: Iterable[Mapping[str, Any]], traces: Mapp
         problems.append(f"{index.name} not used ({' '.join(why.split())}); summary, figures and report rewritten")
         inputs_digest = hashlib.sha256((inputs_digest + "\n" + problems[-1]).encode()).hexdigest()
     outputs = write_results(results, rows, traces, problems, label=label, preprocessing=preprocessing,
-                            reports=reports, clock=clock)
+                            reports=reports, clock=clock, draw=draw)
     top = results.resolve()
     entries = {name: {"path": Path(p).resolve().relative_to(top).as_posix(), "sha256": file_sha256(Path(p))}
                for name, p in outputs.items()}

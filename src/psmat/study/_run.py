@@ -25,7 +25,9 @@ which no key or digest reads.
 
 **Across volunteers.** After the sessions, ``SCHC-DYN`` (:mod:`psmat.study` (``_dynamic.py``), beyond the
 thesis) corrects each session's SCHC trace by a model fitted on the other volunteers, so it is
-computed for the study as a whole, never cached per session. A study whose sessions all say in
+computed for the study as a whole, never cached per session. The figures are tasks of the
+same worker pool as the sessions, one per figure, each redrawn only when what it draws changed
+(:mod:`psmat.study` (``_figure_tasks.py``)). A study whose sessions all say in
 their metadata that a simulator wrote them is labelled "simulation" in its figures and report.
 
 **Per-subject reports** (``reports=True``, opt-in: every session is processed a second time):
@@ -55,17 +57,21 @@ import os
 from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from ..balance import KNOWN_VARIANTS
 from ._cache import SessionStore, Stored, TraceFiles, canonical_json, file_sha256, normalise_rows, result_key, \
     study_lock, write_text_atomic
+from ._figure_tasks import FigureTask, draw_figure
 from ._layout import StudyItem, StudyLayout, find_study
 from ._reports import REPORTS_DIR, ReportIndex, ReportTask, report_tasks, run_report
 from ._row_metrics import preprocessing_sentence
 from ._task import SessionTask, run_task, status_rows
 from ._timings import PoolClock, Stopwatch, TaskTime, timed
 from ._trial import COLUMNS, DEFAULT_PARAMS, Rows, Traces
+
+if TYPE_CHECKING:  # pragma: no cover
+    from ._results import DrawFigures
 
 __all__ = ["RunReport", "run_study", "write_metrics", "TRIALS"]
 
@@ -263,7 +269,8 @@ def run_study(root: str | os.PathLike[str], *, workers: int | None = None, sched
         clock.end("after_sessions")
         outputs = _write_outputs(layout.results, rows, traces, problems, __version__,
                                  "simulation" if layout.simulated else None, preprocessing_sentence(p["preprocess"]),
-                                 links, clock)
+                                 links, clock, _pool_drawer(workers) if cluster is None and (todo or pages_todo)
+                                 else None)
         for stem in set(tasks) - set(todo_stems):
             clock.session(tasks[stem].subject, tasks[stem].trial, stem, "not closed" if stem in unclosed else "reused")
         clock.count("sessions", len(tasks) - reused - len(failed), reused)
@@ -340,10 +347,12 @@ class _MergedTraces(Mapping[tuple[str, str], Traces]):
 
 def _write_outputs(results: Path, rows: Rows, traces: Mapping[tuple[str, str], Traces], problems: list[str],
                    version: str, label: str | None = None, preprocessing: str | None = None,
-                   reports: Mapping[str, str] | None = None, clock: Stopwatch | None = None) -> dict[str, Path]:
+                   reports: Mapping[str, str] | None = None, clock: Stopwatch | None = None,
+                   draw: DrawFigures | None = None) -> dict[str, Path]:
     """:func:`~psmat.study._results.write_outputs` (summary, figures, report), skipped when its
     inputs (metrics.csv, the problems, the traces files, the label, the subject reports linked)
-    are those of the outputs on disk and those outputs are unchanged."""
+    are those of the outputs on disk and those outputs are unchanged; ``draw`` runs the figure
+    tasks (:func:`_pool_drawer`)."""
     import hashlib
 
     from ._results import write_outputs  # matplotlib: imported when a study is run, not with psmat
@@ -356,7 +365,7 @@ def _write_outputs(results: Path, rows: Rows, traces: Mapping[tuple[str, str], T
         "traces": sorted([*k, traces.path(k).name] for k in traces)}).encode()).hexdigest()
     if clock is not None:
         clock.end("after_sessions")
-    return write_outputs(results, rows, traces, problems, digest, label, preprocessing, reports, clock)
+    return write_outputs(results, rows, traces, problems, digest, label, preprocessing, reports, clock, draw)
 
 
 def _cell(v: Any) -> str:
@@ -515,9 +524,27 @@ def _execute(todo: list[SessionTask], workers: int | None, cluster: Any, pages: 
     yield from map_unordered(_work, [*todo, *pages], workers)
 
 
-def _work(task: SessionTask | ReportTask) -> tuple[str, Any, TaskTime]:
-    """One task of the pool, a session or a subject's page: its kind, its result and its time in
-    the worker (:file:`results/session_timings.csv`)."""
+def _pool_drawer(workers: int | None) -> DrawFigures:
+    """What runs the figure tasks: the same pool of this machine's processes as the sessions
+    (joblib's loky executor is kept between the two maps, so its workers, already started and
+    with their imports done, draw the figures). Used only when the sessions or pages of this
+    run started that pool: otherwise (every session reused, or a cluster ran them) the figures
+    to redraw are drawn in this process, as starting a pool and its imports costs about what
+    drawing a study's few figures does."""
+    from .._parallel import map_unordered
+
+    def draw(tasks: list[FigureTask]) -> Iterator[tuple[str, bytes, TaskTime | None]]:
+        for _, (name, data), took in map_unordered(_work, tasks, workers):
+            yield name, data, took
+
+    return draw
+
+
+def _work(task: SessionTask | ReportTask | FigureTask) -> tuple[str, Any, TaskTime]:
+    """One task of the pool, a session, a subject's page or a figure: its kind, its result and
+    its time in the worker (:file:`results/session_timings.csv`)."""
     if isinstance(task, ReportTask):
         return ("report", *timed(run_report, task))
+    if isinstance(task, FigureTask):
+        return ("figure", *timed(draw_figure, task))
     return ("session", *timed(run_task, task))
