@@ -281,6 +281,21 @@ def test_the_report_of_an_imported_session_gives_the_hand_values(imported, tmp_p
     assert "simulation:" not in text
 
 
+def test_a_marker_before_the_first_frame_names_the_condition_running_at_it(imported, tmp_path) -> None:
+    # "eyes open" pressed 2 s before the recording began, "eyes closed" 5 s into it (of 10 s at 50 Hz):
+    # the first 5 s are eyes open (250 frames), not unmarked, and a Romberg quotient exists
+    out = write_report(tmp_path / "early.html", [ReportItem(imported, events=[(-2.0, "eyes open"), (5.0, "eyes closed")],
+                                                            events_from_start=True)], params={"preset": None})
+    page = _parse(Path(out).read_text(encoding="utf-8"))
+    cond = _tables(page, "condition")[0]
+    header, rows = cond[0], {r[0]: r for r in cond[1:]}
+    assert list(rows) == ["eyes open", "eyes closed"]
+    assert float(rows["eyes open"][header.index("start (s)")]) == 0.0
+    assert float(rows["eyes open"][header.index("duration (s)")]) == pytest.approx(5.0, abs=1e-9)
+    assert rows["eyes open"][header.index("frames")] == str(int(5.0 * RATE_HZ))
+    assert "romberg_velocity_cm_s" in _table(page, "quotient")
+
+
 def test_ispgr_and_descriptor_units_by_hand() -> None:
     assert ispgr(30.0, 50.0) == "ok"
     assert ispgr(20.0, 40.0) == "short: 20.0 s < 25 s; rate 40 Hz < 50 Hz"

@@ -60,6 +60,9 @@ def test_events_csv_comma_and_semicolon(tmp_path: Path) -> None:
     b = tmp_path / "b.csv"
     b.write_text("\ufeffTime;Label\n1;EO\n2.5;\"EC; then\"\n", encoding="utf-8")
     assert load_events_csv(b) == [(1.0, "EO"), (2.5, "EC; then")]
+    c = tmp_path / "c.csv"  # a European spreadsheet's export: semicolons, decimal commas, Windows line ends
+    c.write_bytes("\ufefftime_s;label\r\n0,5;eyes open\r\n30,25;eyes closed\r\n".encode("utf-8"))
+    assert load_events_csv(c) == [(0.5, "eyes open"), (30.25, "eyes closed")]
 
 
 @pytest.mark.parametrize("text, message", [

@@ -161,6 +161,20 @@ def test_generic_csv_bad_line_and_missing_options(tmp_path: Path) -> None:
         read_pressure_file(f, "csv", shape=(1, 3), pitch_cm=1.0, rate_hz=10.0)
 
 
+def test_generic_csv_european_decimal_comma_and_an_empty_value(tmp_path: Path) -> None:
+    # a semicolon-separated CSV with decimal commas, BOM and Windows line ends: 1x2 frames of 0.5/1.25 kPa, ...
+    f = tmp_path / "eu.csv"
+    f.write_bytes("\ufeffr0c0;r0c1\r\n0,5;1,25\r\n2,5;3,75;\r\n".encode("utf-8"))
+    r = read_pressure_file(f, "csv", shape=(1, 2), pitch_cm=1.0, rate_hz=10.0)
+    np.testing.assert_array_equal(r.pressure_kpa, np.array([[[0.5, 1.25]], [[2.5, 3.75]]], np.float32))
+    # read as 1x4 the decimal commas must not become separators (it was 4 silent wrong values a line)
+    with pytest.raises(ImportFormatError, match=r"eu\.csv:2: 2 values, expected 4"):
+        read_pressure_file(f, "csv", shape=(1, 4), pitch_cm=1.0, rate_hz=10.0)
+    f.write_text("1,,2,3\n4,5,6\n")  # a missing value must not shift the cells
+    with pytest.raises(ImportFormatError, match=r"eu\.csv:1: value 2 is empty"):
+        read_pressure_file(f, "csv", shape=(1, 3), pitch_cm=1.0, rate_hz=10.0)
+
+
 def test_a_damaged_imported_session_is_caught_by_its_checksums(tmp_path: Path) -> None:
     out = import_pressure(tekscan_file(tmp_path / "t.asf"), tmp_path / "t.h5")
     with h5py.File(out, "r") as f:

@@ -102,7 +102,8 @@ def conditions(events: Iterable[tuple[float, str]], t0_s: float, t1_s: float) ->
 
 
 def load_events_csv(path: str | os.PathLike[str]) -> list[tuple[float, str]]:
-    """Markers from a CSV file: header ``time_s,label`` (or ``time,label``), comma or semicolon separated.
+    """Markers from a CSV file: header ``time_s,label`` (or ``time,label``), comma or semicolon separated
+    (with semicolons, a time may have a decimal comma: ``12,5;eyes closed``).
 
     Parameters
     ----------
@@ -139,8 +140,8 @@ def load_events_csv(path: str | os.PathLike[str]) -> list[tuple[float, str]]:
             continue
         if len(row) != 2:
             raise ValueError(f"{p}: line {n}: expected 2 fields (time_s, label), got {len(row)}")
-        try:
-            t = float(row[0])
+        try:  # a semicolon-separated file may write a decimal comma (0,5 s)
+            t = float(row[0].replace(",", ".") if delim == ";" else row[0])
         except ValueError:
             raise ValueError(f"{p}: line {n}: time {row[0]!r} is not a number of seconds") from None
         if not math.isfinite(t):

@@ -1,7 +1,10 @@
 """A generic CSV of pressure frames, one frame a line: a reader (docs/spec.md §6).
 
 Each non-empty line is one frame: ``R·C`` numbers, the cells row by row (row 0's ``C`` cells,
-then row 1's, ...), separated by commas, semicolons, tabs or spaces. The caller gives the shape
+then row 1's, ...), separated by commas, semicolons, tabs or spaces (one separator a line: the
+first of ``;``, ``,``, tab found, else spaces). A line separated by semicolons may write its
+decimals with a comma (the European CSV: ``0,5;1,25``). An empty value (``1,,2``) is an error,
+never skipped (it would shift the cells). The caller gives the shape
 (``R``, ``C``), the pitch (cm) and either the frame rate (Hz: frame ``k`` at ``k / rate`` s) or a
 first column of times: then each line holds ``1 + R·C`` numbers, the first the frame's time (s).
 One header line (any line whose first field is not a number, e.g. ``time_s,r00c00_kpa,...``) is
@@ -11,7 +14,6 @@ Lines starting with ``#`` are comments.
 
 from __future__ import annotations
 
-import re
 from pathlib import Path
 
 import numpy as np
@@ -21,7 +23,23 @@ from ._import_common import ImportedFrames, ImportFormatError, number
 
 __all__ = ["read_csv_frames"]
 
-_SEP = re.compile(r"[,;\t ]+")
+
+
+def _fields(s: str, where: str) -> list[str]:
+    """A stripped line's values: split on its separator, a decimal comma read as a point after ``;``."""
+    if ";" in s:
+        fields = [f.strip().replace(",", ".") for f in s.split(";")]
+    elif "," in s:
+        fields = [f.strip() for f in s.split(",")]
+    elif "\t" in s:
+        fields = [f.strip() for f in s.split("\t")]
+    else:
+        return s.split()
+    if len(fields) > 1 and not fields[-1]:
+        fields.pop()  # a trailing separator
+    if "" in fields:
+        raise ImportFormatError(f"{where}: value {fields.index('') + 1} is empty")
+    return fields
 
 
 def read_csv_frames(path: str | Path, *, shape: tuple[int, int] | None = None, pitch_cm: float | None = None,
@@ -69,7 +87,7 @@ def read_csv_frames(path: str | Path, *, shape: tuple[int, int] | None = None, p
         s = line.strip()
         if not s or s.startswith("#"):
             continue
-        fields = [f for f in _SEP.split(s) if f]
+        fields = _fields(s, f"{p}:{ln}")
         try:
             float(fields[0])
         except ValueError:

@@ -16,7 +16,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from ..balance import conditions, cop, descriptors, ispgr, preprocess, romberg, romberg_role, sway
+from ..balance import Condition, conditions, cop, descriptors, ispgr, preprocess, romberg, romberg_role, sway
 from ..io import load_session
 from ..process import PressureRecord, session_pressure
 from ..profile import session_profile
@@ -152,7 +152,13 @@ def _conditions(item: ReportItem, s: Any, rec: PressureRecord, c: NDArray[np.flo
     host = np.asarray(s.host_time_s, np.float64)
     if not events:
         return [], f"no markers ({where}: none): the whole session is one condition", {}, ""
-    found = conditions(events, float(host[0]), float(host[-1]))
+    # a marker before the first frame still names the condition running at it (as the study's
+    # condition_spans do): cut on the span of frames and markers, then keep the frames' part
+    lo, hi = float(host[0]), float(host[-1])
+    times = [float(t) for t, _ in events]
+    found = [Condition(c.label, max(c.start_s, lo), min(c.stop_s, hi))
+             for c in conditions(events, min(lo, *times), max(hi, *times))]
+    found = [c for c in found if c.stop_s > c.start_s]
     rows = []
     for k, cond in enumerate(found):
         last = k == len(found) - 1
