@@ -3,7 +3,7 @@
 * A simulated 30 s standing session (``psmat.synth.simulate_study``, 50 Hz) with its force-platform
   file and markers "eyes open" at 0 s and "eyes closed" at 15 s: the page holds the version, units,
   its figures inline and no outside address; the lag it reports is the simulator's truth; the
-  conditions last what the session's host clock says; it renders in headless Chromium with no error
+  conditions last what the session's frame clock says; it renders in headless Chromium with no error
   and every image decoded; ``--pdf`` prints a PDF.
 * An imported pressure session (``psmat.io.import_pressure``, a generic CSV written here) with two
   loaded cells whose pressures swing in antiphase: the CoP's ranges, the feet's force, peak and
@@ -308,6 +308,8 @@ def test_ispgr_and_descriptor_units_by_hand() -> None:
     assert units["principal_sway_direction_ML_AND_AP"] == "deg" and units["LFS_ML_AND_AP"] == "1/cm"
     assert units["mean_distance_peak_Sway_Density"] == "cm" and units["mean_peak_Sway_Density"] == "s"
     assert units["total_power_Power_Spectrum_Density_AP"] == "cm²"
+    # √(rms² + var(velocity)) adds cm² to (cm/s)²: its unit says so rather than claim cm
+    assert units["phase_plane_parameter_ML"] == units["phase_plane_parameter_AP"] == "√(cm² + (cm/s)²)"
 
 
 # -- bad input -----------------------------------------------------------------------------------
@@ -316,6 +318,8 @@ def test_ispgr_and_descriptor_units_by_hand() -> None:
 @pytest.mark.parametrize("extra, words", [
     (["--platform", "a.csv", "--platform", "b.csv"], "--platform given 2 time(s) for 1 session(s)"),
     (["--events", "missing.csv"], "no such file"),
+    (["--threshold-kpa", "-1"], "--threshold-kpa: must be a finite number >= 0"),
+    (["--threshold-kpa", "nan"], "--threshold-kpa: must be a finite number >= 0"),
 ])
 def test_bad_input_is_one_line_and_status_1(study, capsys, extra, words) -> None:
     status = main(["report", str(study / "sessions" / "V01_left-leg.h5"), *extra, "-o", "x.html"])
@@ -351,3 +355,12 @@ def test_two_sessions_make_one_page_and_no_pdf_engine_is_one_line(study, tmp_pat
         assert not (tmp_path / "two.pdf").exists()
     else:
         assert result.pdf == tmp_path / "two.pdf" and result.pdf_note == "PDF by WeasyPrint"
+
+
+def test_the_ispgr_sentence_states_the_limits_it_checked(imported, tmp_path) -> None:
+    # 10 s at 50 Hz checked against 5 s and 40 Hz: ok, and the page says which limits it used
+    out = write_report(tmp_path / "limits.html", [imported],
+                       params={"preset": None, "ispgr_min_duration_s": 5.0, "ispgr_min_rate_hz": 40.0})
+    text = Path(out).read_text(encoding="utf-8")
+    assert "at least 5 s, at least 40 Hz): <b>ok</b>" in text
+    assert "at least 25 s" not in text

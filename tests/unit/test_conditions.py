@@ -8,9 +8,11 @@ from __future__ import annotations
 import math
 from pathlib import Path
 
+import numpy as np
 import pytest
 
-from psmat.balance import Condition, conditions, load_events_csv, romberg, romberg_role
+from psmat.balance import (UNMARKED, Condition, condition_spans, conditions, frame_clock, inside, load_events_csv,
+                           romberg, romberg_role)
 
 
 def test_each_marker_starts_a_condition_until_the_next_or_the_end() -> None:
@@ -102,3 +104,31 @@ def test_romberg_quotient_is_closed_over_open_for_shared_numbers() -> None:
     assert out["romberg_velocity_cm_s"] == 1.5 and out["romberg_area95_cm2"] == 2.5
     assert math.isnan(out["romberg_path_cm"]) and math.isnan(out["romberg_sd_ml_cm"])
     assert math.isnan(romberg({"a": 1.0}, {"a": math.nan})["romberg_a"])
+
+
+def test_frame_clock_interpolates_extends_and_lets_a_burst_stand_by_its_newest_frame() -> None:
+    # frames 0.1 s apart on the frame clock; host times 2 s later, the third and fourth arriving together
+    t = np.array([0.0, 0.1, 0.2, 0.3, 0.4])
+    host = np.array([2.0, 2.1, 2.3, 2.3, 2.4])
+    got = frame_clock([2.05, 2.3, 2.35, 1.0, 3.4], host, t)
+    # 2.05: halfway frames 0-1; 2.3: the burst's newest (0.3); 2.35: halfway (2.3, 0.3)-(2.4, 0.4);
+    # outside: the slope of the first and last points, (0.4 - 0.0) / (2.4 - 2.0) = 1
+    np.testing.assert_allclose(got, [0.05, 0.3, 0.35, -1.0, 1.4])
+    with pytest.raises(ValueError, match="fewer than two frames"):
+        frame_clock([1.0], np.array([np.nan, 1.0]), np.array([0.0, 1.0]))
+
+
+def test_condition_spans_start_at_the_window_and_make_labels_unique() -> None:
+    events = [(-3.0, "EO"), (4.0, "EC"), (6.0, "EO"), (8.0, "end")]
+    assert condition_spans(events, 0.0, 10.0) == [Condition("EO", 0.0, 4.0), Condition("EC", 4.0, 6.0),
+                                                  Condition("EO (2)", 6.0, 8.0)]
+    assert condition_spans([(2.0, "a")], 0.0, 5.0) == [Condition(UNMARKED, 0.0, 2.0), Condition("a", 2.0, 5.0)]
+    assert condition_spans([(7.0, "after")], 0.0, 5.0) == []  # only an unmarked stretch: no condition
+    assert condition_spans([], 0.0, 5.0) == []
+
+
+def test_inside_shares_no_sample_between_spans_and_keeps_the_last() -> None:
+    t = np.arange(11.0)  # 0 ... 10 s
+    a, b = condition_spans([(0.0, "a"), (4.0, "b")], 0.0, 10.0)
+    ia, ib = inside(t, a, 10.0), inside(t, b, 10.0)
+    assert ia.sum() == 4 and ib.sum() == 7 and not np.any(ia & ib) and np.all(ia | ib)

@@ -10,9 +10,11 @@
   the unit of each (:func:`descriptor_unit`);
 * :func:`ispgr` — the ISPGR acquisition recommendation (at least 25 s, at least 50 Hz);
 * :func:`preprocess` — a trace through that preset's resampling and low-pass, not centred (the
-  study's one preprocessing for mat and platform);
+  study's one preprocessing for mat and platform); :func:`describe_preset` says it in words;
 * :func:`conditions` — the conditions a session's markers cut a trial into (:class:`Condition`),
   :func:`load_events_csv`, :func:`romberg_role` and :func:`romberg` (the quotient eyes closed / open);
+  :func:`frame_clock` (markers from the host clock to the frame clock), :func:`condition_spans`
+  (the conditions inside an analysed window) and :func:`inside` (the samples of one);
 * :func:`align` — the time alignment of the mat with a force platform (:class:`Alignment`),
   built on :func:`search_lag`, psmat's one cross-correlation search;
 * :func:`scale_factor` — the SCHC factor of eq. 3.3; :func:`scale_factors` — the full mat's and
@@ -29,14 +31,15 @@ below are the package's API.
 
 from ._align import Alignment, align, pearson_at_lag, resample_standardised, search_lag
 from ._cop import cell_centres_cm, cop
-from ._conditions import Condition, conditions, load_events_csv, romberg, romberg_role
+from ._conditions import (UNMARKED, Condition, condition_spans, conditions, frame_clock, inside, load_events_csv,
+                          romberg, romberg_role)
 from ._descriptor_units import descriptor_unit
 from ._descriptors import descriptors
 from ._emulate import Subgrid, subgrid_cops, subgrids
 from ._equilibrate import Equilibration, equilibrate
 from ._eu import eu
 from ._ispgr import ISPGR_MIN_HZ, ISPGR_MIN_S, ispgr
-from ._preprocess import preprocess
+from ._preprocess import describe_preset, preprocess
 from ._scale import mean_force_n, scale_factor, scale_factors
 from ._sway import Sway, mean_frequency, prediction_ellipse_area, sway
 from ._variants import (BASE_VARIANTS, EXTRA_VARIANTS, KNOWN_VARIANTS, VARIANTS, VariantName, VariantTrace, describe,
@@ -47,4 +50,5 @@ __all__ = ["cop", "cell_centres_cm", "eu", "sway", "Sway", "descriptors", "descr
            "align", "Alignment", "search_lag", "pearson_at_lag", "resample_standardised", "scale_factor", "scale_factors",
            "mean_force_n", "equilibrate", "Equilibration", "Subgrid", "subgrids", "subgrid_cops", "BASE_VARIANTS",
            "VARIANTS", "EXTRA_VARIANTS", "KNOWN_VARIANTS", "VariantName", "describe", "legend_label", "VariantTrace",
-           "variant_traces", "Condition", "conditions", "load_events_csv", "romberg_role", "romberg"]
+           "variant_traces", "Condition", "conditions", "load_events_csv", "romberg_role", "romberg", "frame_clock",
+           "condition_spans", "inside", "UNMARKED", "describe_preset"]

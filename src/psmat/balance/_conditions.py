@@ -6,6 +6,13 @@ next marker or the end; a marker labelled ``end``, ``stop`` or ``off`` ends the 
 without starting another. :func:`load_events_csv` reads the same markers from a CSV file (an
 experimenter's log). :func:`romberg_role` tells eyes-open from eyes-closed labels and
 :func:`romberg` divides the metrics of the two: the Romberg quotient, eyes closed / eyes open.
+
+Markers are stamped on the host clock (``Session.host_time_s``), but a trial is analysed on its
+frame clock (the chain's ``clock.t_s``, or ``psmat.process.session_pressure(...).t_s``):
+:func:`frame_clock` carries host times to it, :func:`condition_spans` cuts an analysed window of
+that clock into its conditions (each with a unique label), and :func:`inside` picks the samples
+of one. The study and the report both go this way, so the same frames fall in a condition
+whatever bursts the host's arrival times come in.
 """
 
 from __future__ import annotations
@@ -14,16 +21,22 @@ import csv
 import math
 import os
 import re
-from collections.abc import Iterable, Mapping
+from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
 from numbers import Real
 from pathlib import Path
 from typing import Literal
 
-__all__ = ["Condition", "conditions", "load_events_csv", "romberg_role", "romberg"]
+import numpy as np
+from numpy.typing import NDArray
+
+__all__ = ["Condition", "conditions", "load_events_csv", "romberg_role", "romberg", "frame_clock",
+           "condition_spans", "inside", "UNMARKED"]
 
 #: labels (case-insensitive) that end the current condition without starting one
 END_LABELS = frozenset({"end", "stop", "off"})
+#: the label :func:`condition_spans` gives the stretch before the first marker ("" is the whole trial)
+UNMARKED = "unmarked"
 _EO = frozenset({"eyes open", "eo", "open"})
 _EC = frozenset({"eyes closed", "ec", "closed"})
 
@@ -99,6 +112,95 @@ def conditions(events: Iterable[tuple[float, str]], t0_s: float, t1_s: float) ->
     if label is not None and t1 > start:
         out.append(Condition(label, start, t1))
     return out
+
+
+def frame_clock(host_s: Sequence[float] | NDArray[np.float64], frame_host_s: NDArray[np.float64],
+                frame_t_s: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Host-clock times (s) on the frame clock (s).
+
+    Parameters
+    ----------
+    host_s : (E,) float
+        Times on the session's host clock (s), e.g. its markers'.
+    frame_host_s, frame_t_s : (N,) float
+        Each frame's host arrival time (``Session.host_time_s``, s) and its time on the clock the
+        trial is analysed on (the chain's ``clock.t_s``, s); non-finite pairs are ignored.
+
+    Returns
+    -------
+    (E,) float
+        Linear interpolation over the frames (arrival times that step back are held, so the
+        mapping never decreases); of frames that arrived at one host time (a burst), the last —
+        the newest the host had then — stands for them, so a marker stamped at a burst's arrival
+        falls on that burst's last frame; before the first or after the last of these points,
+        the line through the first and last (their mean slope).
+
+    Raises
+    ------
+    ValueError
+        Fewer than two frames with finite times on both clocks, or clocks of different lengths (one line).
+    """
+    h, t = np.asarray(frame_host_s, np.float64), np.asarray(frame_t_s, np.float64)
+    if h.shape != t.shape:
+        raise ValueError(f"{h.size} host times for {t.size} frame times")
+    ok = np.isfinite(h) & np.isfinite(t)
+    if ok.sum() < 2:
+        raise ValueError("fewer than two frames with a host time: events cannot be placed")
+    h, t = np.maximum.accumulate(h[ok]), t[ok]  # arrival times never step back for np.interp
+    last = np.r_[h[1:] > h[:-1], True]  # frames arriving together (a burst): the newest stands for them
+    h, t = h[last], t[last]
+    x = np.asarray(host_s, np.float64)
+    y = np.interp(x, h, t)
+    slope = (t[-1] - t[0]) / (h[-1] - h[0]) if h[-1] > h[0] else 1.0
+    y = np.where(x < h[0], t[0] + (x - h[0]) * slope, y)
+    return np.where(x > h[-1], t[-1] + (x - h[-1]) * slope, y)
+
+
+def condition_spans(events: Sequence[tuple[float, str]], lo_s: float, hi_s: float) -> list[Condition]:
+    """The conditions of ``events`` inside an analysed window ``[lo_s, hi_s]`` (s).
+
+    Parameters
+    ----------
+    events : sequence of (float, str)
+        Markers already on the window's clock (s; :func:`frame_clock`) and their labels.
+    lo_s, hi_s : float
+        The window (s), ``lo_s <= hi_s``.
+
+    Returns
+    -------
+    list of Condition
+        :func:`conditions` of the markers cut to the window: one that began before ``lo_s`` (a
+        marker before the window) starts there, one that goes on after ``hi_s`` stops there,
+        none of zero length is kept. The stretch before the first marker is labelled
+        :data:`UNMARKED`; a label used again gets `` (2)``, `` (3)``… from its second use on.
+        No events, or only an unmarked stretch, is no condition (the whole window says it all).
+
+    Raises
+    ------
+    ValueError
+        As :func:`conditions` (one line).
+    """
+    if not events:
+        return []
+    times = [_time(f"event {i}'s time", t) for i, (t, _) in enumerate(events)]
+    lo, hi = _time("lo_s", lo_s), _time("hi_s", hi_s)
+    spans: list[Condition] = []
+    seen: dict[str, int] = {}
+    for c in conditions(events, min(lo, *times), max(hi, *times)):
+        a, b = max(c.start_s, lo), min(c.stop_s, hi)
+        if not b > a:
+            continue
+        label = c.label.strip() or UNMARKED
+        seen[label] = seen.get(label, 0) + 1
+        spans.append(Condition(label if seen[label] == 1 else f"{label} ({seen[label]})", a, b))
+    return [] if all(s.label == UNMARKED for s in spans) else spans
+
+
+def inside(t_s: NDArray[np.float64], span: Condition, hi_s: float) -> NDArray[np.bool_]:
+    """Which samples at ``t_s`` (s) lie in ``span``: ``[start_s, stop_s)``, the stop included when it
+    is the window's end ``hi_s`` (s), so consecutive spans share no sample and miss none."""
+    t = np.asarray(t_s, np.float64)
+    return (t >= span.start_s) & ((t < span.stop_s) | ((span.stop_s >= hi_s) & (t <= span.stop_s)))
 
 
 def load_events_csv(path: str | os.PathLike[str]) -> list[tuple[float, str]]:

@@ -2,7 +2,11 @@
 
 from __future__ import annotations
 
-__all__ = ["descriptor_unit"]
+__all__ = ["descriptor_unit", "PHASE_PLANE_UNIT"]
+
+#: the phase-plane parameter adds a variance of positions (cm²) to one of velocities ((cm/s)²) as
+#: numbers, as Quijoux et al. (2021) do: its square root has no unit of its own, so it says what it is
+PHASE_PLANE_UNIT = "√(cm² + (cm/s)²)"
 
 # (prefix of the descriptor's name, unit), first match wins: the longer prefixes first
 _DESCRIPTOR_UNITS: tuple[tuple[str, str], ...] = (
@@ -12,7 +16,7 @@ _DESCRIPTOR_UNITS: tuple[tuple[str, str], ...] = (
     ("range_ratio_", "1"), ("range_", "cm"), ("planar_deviation_", "cm"),
     ("coefficient_sway_direction_", "1"), ("confidence_ellipse_area_", "cm²"),
     ("principal_sway_direction_", "deg"),
-    ("mean_velocity_", "cm/s"), ("sway_area_per_second_", "cm²/s"), ("phase_plane_parameter_", "cm"),
+    ("mean_velocity_", "cm/s"), ("sway_area_per_second_", "cm²/s"), ("phase_plane_parameter_", PHASE_PLANE_UNIT),
     ("LFS_", "1/cm"), ("fractal_dimension_", "1"), ("zero_crossing_SPD_", "count"), ("peak_velocity_", "cm/s"),
     ("mean_frequency_", "Hz"), ("total_power_", "cm²"), ("energy_content_", "cm²"), ("frequency_quotient_", "1"),
     ("power_frequency_", "Hz"), ("frequency_mode_", "Hz"), ("centroid_frequency_", "Hz"),

@@ -17,7 +17,8 @@ from scipy import signal
 
 from .. import _checks
 
-__all__ = ["Prepared", "prepare", "preprocess", "swarii", "lowpass", "RATE_HZ", "WINDOW_S", "CUTOFF_HZ", "ORDER"]
+__all__ = ["Prepared", "prepare", "preprocess", "describe_preset", "swarii", "lowpass", "RATE_HZ", "WINDOW_S",
+           "CUTOFF_HZ", "ORDER", "PRESETS"]
 
 #: The preset's resampling rate (Hz) and SWARII window (s).
 RATE_HZ = 25.0
@@ -25,6 +26,8 @@ WINDOW_S = 1.0 / 25.0
 #: The preset's low-pass: cutoff (Hz) and Butterworth order.
 CUTOFF_HZ = 10.0
 ORDER = 4
+#: The presets :func:`preprocess` knows (None: no preset).
+PRESETS = ("quijoux2021",)
 #: Uniform times (no preset): every step within this fraction of the mean step.
 _UNIFORM_RTOL = 0.01
 
@@ -153,6 +156,46 @@ def lowpass(x: ArrayLike, fs_hz: float, cutoff_hz: float = CUTOFF_HZ, order: int
         raise ValueError(f"the trace has {v.shape[0]} samples at {fs_hz:g} Hz; the {cutoff_hz:g} Hz low-pass "
                          f"needs at least {need} ({need / fs_hz:g} s)")
     return signal.filtfilt(b, a, v, axis=0)
+
+
+def _fraction_s(x: float) -> str:
+    """A time (s) as ``1/n s`` when it is the inverse of a whole number, else as ``x s``."""
+    n = round(1.0 / x)
+    return f"1/{n} s" if n > 0 and abs(1.0 / n - x) <= 1e-12 * x else f"{x:g} s"
+
+
+def _ordinal(n: int) -> str:
+    """``4`` → ``"4th"``, ``2`` → ``"2nd"``."""
+    return f"{n}{'th' if 10 <= n % 100 <= 20 else {1: 'st', 2: 'nd', 3: 'rd'}.get(n % 10, 'th')}"
+
+
+def describe_preset(preset: str | None) -> str:
+    """What :func:`preprocess` does to a trace with ``preset``, in words built from its constants.
+
+    Parameters
+    ----------
+    preset : {"quijoux2021", None}
+        The preset.
+
+    Returns
+    -------
+    str
+        A clause without a final stop, e.g. for ``"quijoux2021"`` "preset quijoux2021: SWARII
+        resampling to 25 Hz (window 1/25 s), then a 4th-order Butterworth low-pass at 10 Hz run
+        forward and backward (zero phase)"; for None, "no preprocessing: the trace as recorded
+        (no resampling, no filter)".
+
+    Raises
+    ------
+    ValueError
+        An unknown preset (one line).
+    """
+    if preset is None:
+        return "no preprocessing: the trace as recorded (no resampling, no filter)"
+    if preset not in PRESETS:
+        raise ValueError(f"preset must be one of {', '.join(PRESETS)} or None, got {preset!r}")
+    return (f"preset {preset}: SWARII resampling to {RATE_HZ:g} Hz (window {_fraction_s(WINDOW_S)}), then a "
+            f"{_ordinal(ORDER)}-order Butterworth low-pass at {CUTOFF_HZ:g} Hz run forward and backward (zero phase)")
 
 
 def _uniform_rate_hz(t: NDArray[np.float64]) -> float:

@@ -20,6 +20,8 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from . import _args
+
 NAME = "report"
 HELP = "write one self-contained HTML report (figures, metrics, descriptors, regions, platform) of sessions"
 
@@ -38,7 +40,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--subject", default=None, help="a line under the title: who was measured")
     p.add_argument("--preset", choices=("quijoux2021", "none"), default="quijoux2021",
                    help="preprocessing of every CoP trace before its metrics")
-    p.add_argument("--threshold-kpa", type=float, default=5.0, help="a cell is loaded above this pressure (kPa)")
+    p.add_argument("--threshold-kpa", type=_args.nonnegative, default=5.0,
+                   help="a cell is loaded above this pressure (kPa, a finite number >= 0)")
     p.add_argument("--calibration", metavar="FILE", default=None,
                    help="a psmat calibrate file (JSON) of the box the mat sessions were recorded with")
     p.add_argument("--pdf", action="store_true", help="also print the report to OUT.pdf")

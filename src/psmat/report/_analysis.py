@@ -5,6 +5,10 @@ Every CoP trace goes through one preprocessing before its sway metrics (``params
 backward), the mat's and the platform's alike; the 72 descriptors apply the same preset
 themselves (:func:`psmat.balance.descriptors`). Missing frames (NaN CoP) are filled by linear
 interpolation in time first.
+
+The conditions the markers cut a session into are on its frame clock (``session_pressure(...).t_s``),
+the markers brought there from the host clock by :func:`psmat.balance.frame_clock` and cut by
+:func:`psmat.balance.condition_spans`, as in a study: the same frames, the same durations.
 """
 
 from __future__ import annotations
@@ -16,7 +20,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from ..balance import Condition, conditions, cop, descriptors, ispgr, preprocess, romberg, romberg_role, sway
+from ..balance import (ISPGR_MIN_HZ, ISPGR_MIN_S, condition_spans, cop, describe_preset, descriptors, frame_clock,
+                       inside, ispgr, preprocess, romberg, romberg_role, sway)
 from ..io import load_session
 from ..process import PressureRecord, session_pressure
 from ..profile import session_profile
@@ -29,12 +34,13 @@ __all__ = ["SessionAnalysis", "ConditionRow", "analyse", "preprocessing_line", "
 
 @dataclass
 class ConditionRow:
-    """One condition of a session cut by its markers (:func:`psmat.balance.conditions`)."""
+    """One condition of a session cut by its markers (:func:`psmat.balance.condition_spans`), on the
+    frame clock (``session_pressure(...).t_s``), as the study's."""
 
     label: str
     role: str  # "EO", "EC" or "" (romberg_role)
-    start_s: float  # from the session's first frame, s
-    duration_s: float
+    start_s: float  # from the session's first frame, s, frame clock
+    duration_s: float  # s, frame clock
     frames: int
     ispgr: str
     metrics: dict[str, float] = field(default_factory=dict)
@@ -68,16 +74,17 @@ class SessionAnalysis:
     romberg_note: str
     platform: PlatformResult | None
     platform_note: str
-    starts_s: list[float] = field(default_factory=list)  # condition starts from the first frame, s (figure)
+    starts_s: list[float] = field(default_factory=list)  # condition starts from the first frame, s, frame clock (figure)
+    ispgr_min_duration_s: float = ISPGR_MIN_S  # the ISPGR check's limits used (s, Hz)
+    ispgr_min_rate_hz: float = ISPGR_MIN_HZ
 
 
 def preprocessing_line(preset: str | None) -> str:
     """One sentence: the preprocessing every CoP trace of the report went through."""
     if preset is None:
-        return "none: metrics on the traces as recorded (missing frames interpolated linearly)"
-    return (f"{preset}: missing frames interpolated linearly, then SWARII resampling to 25 Hz (window 1/25 s) "
-            "and a 4th-order Butterworth low-pass at 10 Hz run forward and backward (zero phase); the same for "
-            "the mat and the platform (psmat.balance.preprocess)")
+        return f"{describe_preset(None)}, missing frames interpolated linearly"
+    return (f"missing frames interpolated linearly, then {describe_preset(preset)}; the same for the mat and the "
+            "platform (psmat.balance.preprocess)")
 
 
 def filled(t_s: NDArray[np.float64], c: NDArray[np.float64]) -> NDArray[np.float64]:
@@ -148,30 +155,28 @@ def _events(item: ReportItem, s: Any) -> tuple[list[tuple[float, str]], str]:
 
 def _conditions(item: ReportItem, s: Any, rec: PressureRecord, c: NDArray[np.float64],
                 p: dict[str, Any]) -> tuple[list[ConditionRow], str, dict[str, float], str]:
+    """The conditions on the frame clock ``rec.t_s``: the markers brought there from the host clock
+    (:func:`psmat.balance.frame_clock`), cut to the recording (:func:`psmat.balance.condition_spans`),
+    their frames picked by :func:`psmat.balance.inside` — as the study does."""
     events, where = _events(item, s)
-    host = np.asarray(s.host_time_s, np.float64)
     if not events:
         return [], f"no markers ({where}: none): the whole session is one condition", {}, ""
-    # a marker before the first frame still names the condition running at it (as the study's
-    # condition_spans do): cut on the span of frames and markers, then keep the frames' part
-    lo, hi = float(host[0]), float(host[-1])
-    times = [float(t) for t, _ in events]
-    found = [Condition(c.label, max(c.start_s, lo), min(c.stop_s, hi))
-             for c in conditions(events, min(lo, *times), max(hi, *times))]
-    found = [c for c in found if c.stop_s > c.start_s]
+    t = rec.t_s
+    on_frames = frame_clock([e[0] for e in events], s.host_time_s, t)
+    found = condition_spans([(float(x), e[1]) for x, e in zip(on_frames, events)], float(t[0]), float(t[-1]))
+    if not found:
+        return [], f"no condition inside the recording ({where}): the whole session is one condition", {}, ""
     rows = []
-    for k, cond in enumerate(found):
-        last = k == len(found) - 1
-        idx = (host >= cond.start_s) & ((host <= cond.stop_s) if last else (host < cond.stop_s))
-        row = ConditionRow(label=cond.label or "(unmarked)", role=romberg_role(cond.label) or "",
-                           start_s=cond.start_s - float(host[0]), duration_s=cond.stop_s - cond.start_s,
-                           frames=int(idx.sum()), ispgr="")
+    for cond in found:
+        idx = inside(t, cond, float(t[-1]))
+        row = ConditionRow(label=cond.label, role=romberg_role(cond.label) or "", start_s=cond.start_s - float(t[0]),
+                           duration_s=cond.duration_s, frames=int(idx.sum()), ispgr="")
         if row.frames >= 2:
-            t = rec.t_s[idx]
-            rate = 1.0 / float(np.median(np.diff(t)))  # as the session's: the median frame period
+            tc = t[idx]
+            rate = 1.0 / float(np.median(np.diff(tc)))  # as the session's: the median frame period
             row.ispgr = ispgr(row.duration_s, rate, p["ispgr_min_duration_s"], p["ispgr_min_rate_hz"])
             try:
-                row.metrics = sway_after(t, filled(t, c[idx]), p["preset"])
+                row.metrics = sway_after(tc, filled(tc, c[idx]), p["preset"])
             except ValueError as exc:
                 row.note = f"no metrics: {exc}"
         else:
@@ -232,5 +237,6 @@ def analyse(item: ReportItem, p: dict[str, Any]) -> SessionAnalysis:
         descriptors_note=desc_note, regions=regions, regions_kind=regions_kind, regions_note=regions_note,
         conditions=rows, conditions_note=cond_note, romberg=rom, romberg_note=rom_note, platform=plat,
         platform_note=plat_note, starts_s=[r.start_s for r in rows] if rows else [],
+        ispgr_min_duration_s=p["ispgr_min_duration_s"], ispgr_min_rate_hz=p["ispgr_min_rate_hz"],
     )
 

@@ -60,7 +60,8 @@ def pressure_images_png(mean_kpa: NDArray[np.float64], peak_kpa: NDArray[np.floa
 
 
 def cop_png(t_s: NDArray[np.float64], cop_cm: NDArray[np.float64], starts_s: Sequence[float] = ()) -> str:
-    """The CoP: stabilogram (A-P against M-L) and both coordinates against time, cm; condition starts dashed."""
+    """The CoP: stabilogram (A-P against M-L) and both coordinates against time, cm; condition starts
+    dashed, ``starts_s`` in s from the first frame on the clock of ``t_s`` (the frame clock)."""
     fig = _figure(7.6, 3.2)
     left, right = fig.subplots(1, 2, width_ratios=(1, 1.6))
     left.plot(cop_cm[:, 0], cop_cm[:, 1], lw=0.6)

@@ -128,7 +128,8 @@ def session_section(a: SessionAnalysis, index: int) -> str:
                    "(no person stood on a mat).</p>")
     out.append("<h3>What was recorded</h3>")
     out.append(_table(["", "value"], a.recorded))
-    out.append(f"<p>ISPGR (Scoppa et al. 2013: at least 25 s, at least 50 Hz): <b>{_e(a.ispgr)}</b> "
+    out.append(f"<p>ISPGR (Scoppa et al. 2013; checked here: at least {a.ispgr_min_duration_s:g} s, at least "
+               f"{a.ispgr_min_rate_hz:g} Hz): <b>{_e(a.ispgr)}</b> "
                f"({a.duration_s:.2f} s at {a.rate_hz:.2f} Hz).</p>")
     out.append("<h3>Pressure</h3>")
     out.append(_note(f"Over the {int(rec.usable.sum())} usable frames; {rec.source}."))

@@ -7,7 +7,9 @@ preprocessing, and its optional 72 descriptors (the ISPGR check of each row is :
   raw trace at its own rate.
 * :func:`descriptor_values` — :func:`psmat.balance.descriptors` with ``params["descriptors"]`` as
   the preset; every value NaN when the trace is too short for them.
-* :func:`columns` — the columns of a study's rows for a parameter dict.
+* :func:`columns` — the columns of a study's rows for a parameter dict;
+* :func:`preprocessing_sentence` — the study report's sentence on it (the preset in
+  :func:`psmat.balance.describe_preset`'s words).
 """
 
 from __future__ import annotations
@@ -20,7 +22,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from ..balance import descriptors, preprocess, sway
+from ..balance import describe_preset, descriptors, preprocess, sway
 
 __all__ = ["sway_metrics", "descriptor_values", "descriptor_columns", "columns", "preprocessing_sentence"]
 
@@ -62,9 +64,8 @@ def columns(base: tuple[str, ...], params: Mapping[str, Any]) -> tuple[str, ...]
 def preprocessing_sentence(preset: str | None) -> str:
     """One sentence for the report: the preprocessing the sway metrics were computed after."""
     if preset is None:
-        return ("Sway metrics are computed on the raw traces (no resampling, no filter), each at its own "
-                "sample rate; Eu on the aligned traces at the mat's frame times.")
+        return (f"Sway metrics are computed with {describe_preset(None)}, each trace at its own sample rate; "
+                "Eu on the aligned traces at the mat's frame times.")
     return (f"Sway metrics of the platform and of every mat variant are computed after the same preprocessing "
-            f"(preset {preset}: SWARII resampling to 25 Hz with a 1/25 s window, then a 4th-order Butterworth "
-            "low-pass at 10 Hz run forward and backward); Eu (thesis eq. 3.1) is computed on the aligned, "
+            f"({describe_preset(preset)}); Eu (thesis eq. 3.1) is computed on the aligned, "
             "unfiltered traces at the mat's frame times, as the thesis defines it.")

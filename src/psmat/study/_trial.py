@@ -19,8 +19,8 @@ from typing import Any
 
 import numpy as np
 
-from ..balance import VARIANTS, align, eu, ispgr, variant_traces
-from ._conditions import MIN_SAMPLES, condition_spans, frame_clock, inside
+from ..balance import VARIANTS, align, condition_spans, eu, frame_clock, inside, ispgr, variant_traces
+from ._conditions import MIN_SAMPLES
 from ..sensor import MPICreep
 from ..units import n_from_kg
 from ._row_metrics import columns, descriptor_values, sway_metrics
