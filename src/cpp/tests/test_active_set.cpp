@@ -180,6 +180,30 @@ TEST_CASE("cholesky_in_place: the AVX2 kernel and the portable one, in a corner 
   }
 }
 
+TEST_CASE("cholesky_solve_in_place: (L L^T)^-1 b, both builds, the factor in a corner") {
+  // the preconditioner's two triangular solves against a dense double solve with A itself
+  for (Index m : {1, 9, 140, 333}) {
+    CAPTURE(m);
+    const Eigen::MatrixXd X = Eigen::MatrixXd::NullaryExpr(
+        m, m, [m](Index i, Index j) { return std::cos(0.5 * double(i * m + j) + 0.1); });
+    const Eigen::MatrixXd A = X * X.transpose() / double(m) + Eigen::MatrixXd::Identity(m, m);
+    const VectorXd b = random_normal(m, 77);
+    const VectorXd ref = A.ldlt().solve(b);
+    Eigen::MatrixXf big = Eigen::MatrixXf::Constant(m + 4, m + 4, 1e30f);  // the rest: never read
+    big.topLeftCorner(m, m) = A.cast<float>();
+    REQUIRE(psmat::iecm::cholesky_in_place(big.topLeftCorner(m, m)));
+    for (int kernel = 0; kernel < 2; ++kernel) {
+      CAPTURE(kernel);
+      Eigen::VectorXf x = b.cast<float>();
+      if (kernel == 0)
+        psmat::iecm::cholesky_solve_in_place(big.topLeftCorner(m, m), x);
+      else
+        psmat::iecm::cholesky_solve_in_place_portable(big.topLeftCorner(m, m), x);
+      CHECK((x.cast<double>() - ref).norm() <= 1e-5 * ref.norm());
+    }
+  }
+}
+
 TEST_CASE("cholesky_rank1_update: the factor of A + w w^T, in a corner of a larger matrix") {
   for (Index m : {1, 2, 17, 150}) {
     CAPTURE(m);

@@ -285,3 +285,39 @@ TEST_CASE("forward: disconnected or invalid networks are reported as false") {
     CHECK(max_rel_err(G, brute_force_forward(s, g)) < 1e-11);
   }
 }
+
+TEST_CASE("NodalInverse: M is the inverse of the grounded Laplacian, at a floor-to-load range") {
+  // M by blocks (Schur complement of the column nodes, laplacian.hpp) against an LU inverse of the
+  // whole grounded Laplacian (eq. 2.7, row 0 dropped) in long double, with rows and columns of
+  // cells at the bounded solvers' floor (1e-12 S) beside loaded ones (1e-4...1e-2 S), as on noisy
+  // frames. The ground row stays loaded: a network tied to ground only through floor cells has a
+  // condition number ~1e10 and loses ~1e-8 to round-off in any double inverse.
+  const Shape shapes[] = {{1, 4}, {4, 1}, {2, 2}, {3, 5}, {7, 2}, {16, 16}, {9, 20}};
+  unsigned seed = 40;
+  for (const Shape& s : shapes) {
+    CAPTURE(s.rows);
+    CAPTURE(s.cols);
+    for (int floor = 0; floor < 2; ++floor) {
+      CAPTURE(floor);
+      VectorXd g = random_g(s, seed++);
+      if (floor == 1)
+        for (Index a = 0; a < g.size(); ++a)
+          if (a >= s.cols && ((a / s.cols) % 3 == 1 || (a % s.cols) % 4 == 2 || a % 5 == 0))
+            g[a] = 1e-12;
+      Eigen::MatrixXd L;
+      REQUIRE(psmat::iecm::cell_laplacian(s, g, L));
+      const Index n = s.nodes();
+      using MatrixXld = Eigen::Matrix<long double, Eigen::Dynamic, Eigen::Dynamic>;
+      const MatrixXld Lld = L.bottomRightCorner(n - 1, n - 1).cast<long double>();
+      const Eigen::MatrixXd inner = MatrixXld(Lld.fullPivLu().inverse()).cast<double>();
+      NodalInverse net(s);
+      REQUIRE(net.compute(g));
+      const Eigen::MatrixXd& M = net.M();
+      CHECK(M.row(0).cwiseAbs().maxCoeff() == 0.0);  // the ground node
+      CHECK(M.col(0).cwiseAbs().maxCoeff() == 0.0);
+      const Eigen::MatrixXd d = M.bottomRightCorner(n - 1, n - 1) - inner;
+      CHECK(d.cwiseAbs().maxCoeff() <= 1e-12 * inner.cwiseAbs().maxCoeff());
+      CHECK((M - M.transpose()).cwiseAbs().maxCoeff() <= 1e-14 * M.cwiseAbs().maxCoeff());
+    }
+  }
+}

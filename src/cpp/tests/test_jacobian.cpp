@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "psmat/iecm/cholesky_avx2.hpp"
 #include "psmat/iecm/jacobian.hpp"
 #include "support.hpp"
 
@@ -231,5 +232,37 @@ TEST_CASE("hadamard_product: matrix-free (T∘T) v equals D_G^-1 S D_G^-1 v") {
     VectorXd out(s.cells());
     psmat::iecm::hadamard_product(net, g, out, work);
     CHECK(max_rel_err(out, G.cwiseInverse()) < 1e-10);
+  }
+}
+
+TEST_CASE("hadamard_product: the AVX2 kernel and the portable one, zero entries skipped") {
+  // both builds of the kernel (hadamard_kernel.hpp) against the dense T∘T of scaled_hadamard,
+  // on shapes whose node count is and is not a multiple of the kernel's strip of 16 rows, with
+  // v zero on a third of the cells (the bound cells of the active-set method)
+  CAPTURE(psmat::iecm::cholesky_avx2_built());
+  CAPTURE(psmat::iecm::cpu_has_avx2_fma());
+  HadamardWork work;
+  unsigned seed = 900;
+  for (Shape s : {Shape{1, 5}, Shape{5, 1}, Shape{3, 5}, Shape{16, 16}, Shape{17, 9}, Shape{24, 40}}) {
+    CAPTURE(s.rows);
+    CAPTURE(s.cols);
+    const VectorXd g = random_g(s, seed++);
+    NodalInverse net(s);
+    VectorXd G(s.cells());
+    REQUIRE(psmat::iecm::forward(g, net, G));
+    MatrixXd S;
+    psmat::iecm::scaled_hadamard(net, G, S, false);
+    const MatrixXd TT = G.cwiseInverse().asDiagonal() * S * G.cwiseInverse().asDiagonal();
+    VectorXd v = random_normal(s.cells(), seed++);
+    for (Index a = 0; a < v.size(); a += 3) v[a] = 0.0;
+    const VectorXd ref = TT * v;
+    VectorXd out1(s.cells()), out2(s.cells());
+    psmat::iecm::hadamard_product(net, v, out1, work);
+    psmat::iecm::hadamard_product_portable(net, v, out2, work);
+    CHECK((out1 - ref).cwiseAbs().maxCoeff() < 1e-10 * ref.cwiseAbs().maxCoeff());
+    CHECK((out2 - ref).cwiseAbs().maxCoeff() < 1e-10 * ref.cwiseAbs().maxCoeff());
+    v.setZero();  // nothing to sum: exactly 0
+    psmat::iecm::hadamard_product(net, v, out1, work);
+    CHECK(out1.cwiseAbs().maxCoeff() == 0.0);
   }
 }

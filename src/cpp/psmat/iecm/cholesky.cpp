@@ -19,6 +19,7 @@ bool cpu_has_avx2_fma() {
 bool cholesky_avx2_built() { return false; }
 bool cpu_has_avx2_fma() { return false; }
 bool cholesky_in_place_avx2(float*, std::ptrdiff_t, std::ptrdiff_t) { return false; }
+void cholesky_solve_in_place_avx2(const float*, std::ptrdiff_t, std::ptrdiff_t, float*) {}
 #endif
 
 bool cholesky_in_place_portable(Eigen::Ref<Eigen::MatrixXf> A) { return cholesky_sweep(A); }
@@ -31,6 +32,18 @@ bool cholesky_in_place(Eigen::Ref<Eigen::MatrixXf> A) {
   if (cholesky_avx2_built() && cpu_has_avx2_fma())
     return cholesky_in_place_avx2(A.data(), A.rows(), A.outerStride());
   return cholesky_sweep(A);
+}
+
+void cholesky_solve_in_place_portable(const Eigen::Ref<const Eigen::MatrixXf>& L,
+                                      Eigen::Ref<Eigen::VectorXf> x) {
+  cholesky_solve_sweep(L.data(), L.rows(), L.outerStride(), x.data());
+}
+
+void cholesky_solve_in_place(const Eigen::Ref<const Eigen::MatrixXf>& L, Eigen::Ref<Eigen::VectorXf> x) {
+  if (cholesky_avx2_built() && cpu_has_avx2_fma())
+    cholesky_solve_in_place_avx2(L.data(), L.rows(), L.outerStride(), x.data());
+  else
+    cholesky_solve_sweep(L.data(), L.rows(), L.outerStride(), x.data());
 }
 
 // One plane rotation per column j zeroes w[j] against L[j, j] (Eigen's Givens rotation, public

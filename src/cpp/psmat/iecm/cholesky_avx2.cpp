@@ -13,4 +13,8 @@ bool cholesky_in_place_avx2(float* a, std::ptrdiff_t m, std::ptrdiff_t ld) {
   return cholesky_sweep(A);
 }
 
+void cholesky_solve_in_place_avx2(const float* l, std::ptrdiff_t m, std::ptrdiff_t ld, float* x) {
+  cholesky_solve_sweep(l, m, ld, x);
+}
+
 }  // namespace psmat::iecm

@@ -15,5 +15,8 @@ bool cpu_has_avx2_fma();
 // cholesky_in_place on the m x m column-major matrix at a (leading dimension ld). Only where
 // cholesky_avx2_built() and cpu_has_avx2_fma().
 bool cholesky_in_place_avx2(float* a, std::ptrdiff_t m, std::ptrdiff_t ld);
+// cholesky_solve_in_place (cholesky.hpp) with the factor at l (m x m, leading dimension ld), x of
+// length m. Same condition.
+void cholesky_solve_in_place_avx2(const float* l, std::ptrdiff_t m, std::ptrdiff_t ld, float* x);
 
 }  // namespace psmat::iecm

@@ -9,7 +9,10 @@
 // faster there, the right-looking sweep of 32 columns at ~1 300 rows (64x64). Measured (float,
 // one core, microseconds; Eigen LLT / left-looking 16 / right-looking 32): m = 100 21.5 / 14.0 /
 // 20.5; 130 33.6 / 22.5 / 32.1; 160 42.3 / 26.7 / 35.5; 300 209 / 157 / 174; 1 300 7 827 /
-// 9 275 / 6 850.
+// 9 275 / 6 850. Since then: the triangular solve of each block's panel folded into the unblocked
+// kernel's column pass (diagonal_block on the tall panel), and blocks of 8 in the left-looking
+// sweep; the noisy bench streams (one core, per frame) 16x16 268 -> 262 us (blocks of 8 instead
+// of 16), 32x32 2.62 -> 2.50 ms (the panel pass in the right-looking sweep), 64x64 unchanged.
 #pragma once
 #include <Eigen/Dense>
 #include <algorithm>
@@ -19,11 +22,14 @@ namespace psmat::iecm {
 namespace {
 
 // Unblocked (column by column) Cholesky of a diagonal block of the sweeps below: the kernel that
-// Eigen's LLT runs on its diagonal blocks, written with the public API.
+// Eigen's LLT runs on its diagonal blocks, written with the public API. A may be a tall panel
+// (rows >= cols): its top square is the diagonal block, and the rows below come out as the
+// panel's part of L (the triangular solve against the diagonal block's factor, done column by
+// column with the same matrix-vector products).
 inline bool diagonal_block(Eigen::Ref<Eigen::MatrixXf> A) {
-  const Eigen::Index b = A.rows();
+  const Eigen::Index b = A.cols(), rows = A.rows();
   for (Eigen::Index k = 0; k < b; ++k) {
-    const Eigen::Index rest = b - k - 1;
+    const Eigen::Index rest = rows - k - 1;
     float x = A(k, k);
     if (k > 0) x -= A.row(k).head(k).squaredNorm();
     if (!(x > 0.0f)) return false;  // not positive (or NaN): not SPD
@@ -42,30 +48,36 @@ inline bool diagonal_block(Eigen::Ref<Eigen::MatrixXf> A) {
 inline bool cholesky_sweep(Eigen::Ref<Eigen::MatrixXf> A) {
   const Eigen::Index m = A.rows();
   if (m <= 400) {
-    constexpr Eigen::Index bs = 16;
+    constexpr Eigen::Index bs = 8;
     for (Eigen::Index k = 0; k < m; k += bs) {
       const Eigen::Index b = std::min(bs, m - k), rest = m - k - b;
       if (k > 0)  // A[k:, k:k+b] -= L[k:, :k] L[k:k+b, :k]^T
         A.block(k, k, m - k, b).noalias() -=
             A.block(k, 0, m - k, k) * A.block(k, 0, b, k).transpose();
-      if (!diagonal_block(A.block(k, k, b, b))) return false;
-      if (rest > 0)
-        A.block(k, k, b, b).triangularView<Eigen::Lower>().transpose().solveInPlace<Eigen::OnTheRight>(
-            A.block(k + b, k, rest, b));
+      // the diagonal block and the panel below it in one column-by-column pass: Eigen's
+      // triangular solve on the right costs more than the arithmetic on panels this narrow
+      if (!diagonal_block(A.block(k, k, b + rest, b))) return false;
     }
     return true;
   }
   constexpr Eigen::Index bs = 32;
   for (Eigen::Index k = 0; k < m; k += bs) {
     const Eigen::Index b = std::min(bs, m - k), rest = m - k - b;
-    if (!diagonal_block(A.block(k, k, b, b))) return false;
-    if (rest > 0) {
-      auto A21 = A.block(k + b, k, rest, b);
-      A.block(k, k, b, b).triangularView<Eigen::Lower>().transpose().solveInPlace<Eigen::OnTheRight>(A21);
-      A.block(k + b, k + b, rest, rest).selfadjointView<Eigen::Lower>().rankUpdate(A21, -1.0f);
-    }
+    if (!diagonal_block(A.block(k, k, b + rest, b))) return false;  // block and panel, as above
+    if (rest > 0)
+      A.block(k + b, k + b, rest, rest).selfadjointView<Eigen::Lower>().rankUpdate(
+          A.block(k + b, k, rest, b), -1.0f);
   }
   return true;
+}
+
+// x <- (L L^T)^-1 x with the lower factor L (m x m, column-major, leading dimension ld): the
+// two triangular solves of a preconditioner application.
+inline void cholesky_solve_sweep(const float* l, Eigen::Index m, Eigen::Index ld, float* x) {
+  const Eigen::Map<const Eigen::MatrixXf, 0, Eigen::OuterStride<>> L(l, m, m, Eigen::OuterStride<>(ld));
+  Eigen::Map<Eigen::VectorXf> v(x, m);
+  L.triangularView<Eigen::Lower>().solveInPlace(v);
+  L.triangularView<Eigen::Lower>().transpose().solveInPlace(v);
 }
 
 }  // namespace

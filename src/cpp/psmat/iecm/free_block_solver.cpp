@@ -111,9 +111,7 @@ void FreeBlockSolver::precondition(const Eigen::VectorXd& r, Eigen::VectorXd& z)
     const Index c = cells_[static_cast<size_t>(k)];
     tmp_[k] = c >= 0 ? static_cast<float>(r[c]) : 0.0f;
   }
-  const auto L = L_.topLeftCorner(used_, used_);
-  L.triangularView<Eigen::Lower>().solveInPlace(tmp_);
-  L.triangularView<Eigen::Lower>().transpose().solveInPlace(tmp_);
+  cholesky_solve_in_place(L_.topLeftCorner(used_, used_), tmp_);
   z = i_mask_.cwiseProduct(r);  // I \ P: the unit diagonal of S
   for (Index k = 0; k < used_; ++k) {
     const Index c = cells_[static_cast<size_t>(k)];

@@ -1,5 +1,9 @@
 #include "psmat/iecm/jacobian.hpp"
 
+#include "psmat/iecm/cholesky_avx2.hpp"
+#include "psmat/iecm/hadamard_avx2.hpp"
+#include "psmat/iecm/hadamard_kernel.hpp"
+
 namespace psmat::iecm {
 
 namespace {
@@ -108,26 +112,30 @@ void scaled_hadamard_column(const NodalInverse& net, const ConstVecRef& G,
   }
 }
 
+#if !(defined(PSMAT_AVX2_KERNELS) && (defined(__GNUC__) || defined(__clang__)))
+void hadamard_kernel_avx2(const double*, std::ptrdiff_t, std::ptrdiff_t, const double*, double*,
+                          double*, double*) {}  // never called: cholesky_avx2_built() is false
+#endif
+
+void hadamard_product_portable(const NodalInverse& net, const ConstVecRef& v, VecRef out,
+                               HadamardWork& work) {
+  const Index R = net.shape().rows, C = net.shape().cols, n = net.shape().nodes();
+  work.P.resize(n, n);
+  work.kdiag.resize(n + R);
+  hadamard_kernel(net.M().data(), R, C, v.data(), out.data(), work.P.data(), work.kdiag.data());
+}
+
 void hadamard_product(const NodalInverse& net, const ConstVecRef& v, VecRef out,
                       HadamardWork& work) {
+  if (!(cholesky_avx2_built() && cpu_has_avx2_fma())) {
+    hadamard_product_portable(net, v, out, work);
+    return;
+  }
   const Index R = net.shape().rows, C = net.shape().cols, n = net.shape().nodes();
-  const Eigen::MatrixXd& M = net.M();
-  const Eigen::Map<const RowMatrixXd> V(v.data(), R, C);
-  // P = L_v M, row by row of the Laplacian: row node i has degree sum_p v[i,p] and
-  // neighbours R+p; column node R+p has degree sum_i v[i,p] and neighbours i.
   work.P.resize(n, n);
-  work.P.topRows(R).noalias() = V.rowwise().sum().asDiagonal() * M.topRows(R);
-  work.P.topRows(R).noalias() -= V * M.bottomRows(C);
-  work.P.bottomRows(C).noalias() = V.colwise().sum().transpose().asDiagonal() * M.bottomRows(C);
-  work.P.bottomRows(C).noalias() -= V.transpose() * M.topRows(R);
-  // K = M P: its diagonal and the row-column block.
-  work.Krc.resize(R, C);
-  work.Krc.noalias() = M.topRows(R) * work.P.rightCols(C);
-  // diag(K)[k] = sum_m M[k,m] P[m,k] = column sums of M∘P (M is symmetric)
-  work.kdiag = (M.array() * work.P.array()).colwise().sum().transpose();
-  for (Index i = 0; i < R; ++i)
-    for (Index p = 0; p < C; ++p)
-      out[i * C + p] = work.kdiag[i] + work.kdiag[R + p] - 2.0 * work.Krc(i, p);
+  work.kdiag.resize(n + R);
+  hadamard_kernel_avx2(net.M().data(), R, C, v.data(), out.data(), work.P.data(),
+                       work.kdiag.data());
 }
 
 }  // namespace psmat::iecm

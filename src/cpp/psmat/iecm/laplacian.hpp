@@ -24,7 +24,14 @@ class NodalInverse {
  public:
   explicit NodalInverse(Shape shape);
 
-  // Builds Cmat from g (length R*C, row-major), factorises it (Cholesky) and forms M.
+  // Forms M = Cmat^-1 from g (length R*C, row-major), by blocks: with the ground row dropped,
+  // Cmat = [Dr -B; -B^T Dc] (Dr, Dc diagonal: the line degrees; B the cells of rows 1..R-1), so
+  // with E = Dr^-1 B and the Schur complement Sc = Dc - B^T E (C x C, Cholesky):
+  //   Mcc = Sc^-1,   Mrc = E Mcc,   Mrr = Dr^-1 + Mrc E^T
+  // (the elimination Cholesky would do on Cmat, rows first, without forming the (n-1)^2 factor
+  // and its inverse: at 16x16 about a quarter of the arithmetic; measured with callgrind on the
+  // 16x16 noisy bench stream, 5.4 evaluations a frame: 2.3 times fewer instructions here, the
+  // frame ~20 % faster).
   // Returns false when the network is not one connected piece (a row or column with no
   // conducting cell, or two blocks with no cell between them), when g has negative or
   // non-finite entries, or when Cmat is numerically not positive definite; M is then unusable.
@@ -44,10 +51,12 @@ class NodalInverse {
 
  private:
   Shape shape_;
-  Eigen::MatrixXd lap_;   // n x n cell Laplacian; Cmat is its lower-right (n-1) x (n-1) block
-  Eigen::LLT<Eigen::MatrixXd> llt_;
   Eigen::MatrixXd m_;     // n x n
-  RowMatrixXd w_;         // (n-1) x (n-1) workspace: inverse of the Cholesky factor of Cmat
+  Eigen::VectorXd rdeg_;  // degrees of rows 1..R-1 (Dr)
+  Eigen::MatrixXd E_;     // x C: Dr^-1 B
+  Eigen::MatrixXd sc_;    // C x C: the Schur complement Sc
+  Eigen::LLT<Eigen::MatrixXd> llt_;  // of Sc
+  RowMatrixXd w_;         // C x C workspace: inverse of the Cholesky factor of Sc
   std::vector<Index> parent_;  // union-find workspace of the connectivity check
 };
 

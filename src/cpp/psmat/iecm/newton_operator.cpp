@@ -29,8 +29,7 @@ bool NewtonOperator::factor(const NodalInverse& net, const Eigen::VectorXd& G) {
 
 void NewtonOperator::precondition(const Eigen::VectorXd& r, Eigen::VectorXd& z) {
   tmp_ = r.cast<float>();
-  Sf_.triangularView<Eigen::Lower>().solveInPlace(tmp_);
-  Sf_.triangularView<Eigen::Lower>().transpose().solveInPlace(tmp_);
+  cholesky_solve_in_place(Sf_, tmp_);
   z = tmp_.cast<double>();
 }
 

@@ -27,7 +27,9 @@
 // CPU time on one core; iterations / forward evaluations / factorisations per frame):
 //   16x16 (1000 frames)  plain PDAS 12.2 / 20.7 / 10.3, 864 frames/s;  QPs 4.3 / 5.4 / 6.8, 1416
 //   32x32 (100 frames)   plain PDAS 17.9 / 39.4 / 15.6, 84 frames/s;   QPs 4.0 / 5.0 / 7.9, 162
-// (The rates with everything below: 16x16 ~2100, 32x32 ~270, 64x64 ~17 frames/s.)
+// (The rates with everything below: 16x16 ~2100, 32x32 ~270, 64x64 ~17 frames/s; with the
+// kernels of hadamard_kernel.hpp, laplacian.hpp's block inverse and the AVX2 sweeps of
+// cholesky_sweep.hpp, one core of the shared machine: 16x16 ~3900, 32x32 ~400, 64x64 ~20.)
 // Tried and not kept: a Levenberg term mu = |phi|^2 on the QP's diagonal (the plain PDAS step
 // needed one; the QP is strictly convex without it): 16x16 946 instead of 1416 frames/s, 32x32
 // 106 / 162 (more PCG steps on factors of another mu). Capping the inner iterations at 2-4
@@ -89,6 +91,10 @@ constexpr Index kUpdateMax = 128;
 // bench frames, CPU time on one core, frames/s, 16x16 / 32x32 / 64x64): never 1798 / 238 /
 // 17.6; above 1e-1 1900 / 252 / -; 1e-2 1954 / 268 / 17.7; 1e-3 1949 / 256 / 17.0; 1e-5 1935.
 constexpr double kRefactorAbove = 1e-2;
+// The four re-measured with the faster product and forward model (hadamard_kernel.hpp,
+// laplacian.hpp; 16x16 noisy bench stream, one core, 254 us a frame as set): kRefactorAbove 1e-1
+// 255 us (4.6 factorisations, 16.1 PCG steps), 1 268; kUpdateShare 0.2 269 (3.7
+// factorisations: the updates cost more than they save), 0.3 306; kFreeCap 0.05 251, 0.2 268.
 }  // namespace
 
 SolveReport solve_active_set(Solver& s, const ConstVecRef& G_exp, VecRef g) {
@@ -135,17 +141,18 @@ SolveReport solve_active_set(Solver& s, const ConstVecRef& G_exp, VecRef g) {
     FreeBlockSolver& fs = s.free_block;
     bool factor_here = false;  // the stored factor is of S at this point
     for (int inner = 0;; ++inner) {
-      free_cells.clear();
-      yA.setZero();
+      // I and y_A = lo on the bound set, without branches on the (noise-drawn) pattern of I
+      free_cells.resize(static_cast<size_t>(n));
+      size_t n_free = 0;
       bool moved = false;  // bound-set cells not at the bound yet
       for (Index c = 0; c < n; ++c) {
-        if (is_free[static_cast<size_t>(c)]) {
-          free_cells.push_back(c);
-        } else if (lo[c] != 0.0) {
-          yA[c] = lo[c];
-          moved = true;
-        }
+        const bool f = is_free[static_cast<size_t>(c)];
+        free_cells[n_free] = c;
+        n_free += f;
+        yA[c] = f ? 0.0 : lo[c];
+        moved |= yA[c] != 0.0;
       }
+      free_cells.resize(n_free);
       y = yA;
       // S y_A: unchanged within a QP while the same cells of lo != 0 are bound
       if (moved && !(inner > 0 && yA == yA_prev)) s.op.apply(s.net, s.Gm, yA, SyA);
@@ -194,9 +201,13 @@ SolveReport solve_active_set(Solver& s, const ConstVecRef& G_exp, VecRef g) {
       // kFreeCap * |I| (>= 8) cells freed per step: those of the most negative lambda (the
       // rest wait for the next step)
       Sy += qc;  // lambda
-      lam_bound.clear();
-      for (Index c = 0; c < n; ++c)
-        if (!is_free[static_cast<size_t>(c)] && Sy[c] < 0.0) lam_bound.push_back(Sy[c]);
+      lam_bound.resize(static_cast<size_t>(n));
+      size_t n_neg = 0;
+      for (Index c = 0; c < n; ++c) {
+        lam_bound[n_neg] = Sy[c];
+        n_neg += !is_free[static_cast<size_t>(c)] & (Sy[c] < 0.0);
+      }
+      lam_bound.resize(n_neg);
       double cut = 0.0;
       const size_t cap = std::max<size_t>(8, static_cast<size_t>(kFreeCap * free_cells.size()));
       if (lam_bound.size() > cap) {
@@ -207,11 +218,10 @@ SolveReport solve_active_set(Solver& s, const ConstVecRef& G_exp, VecRef g) {
       int changed = 0;
       for (Index c = 0; c < n; ++c) {
         const size_t k = static_cast<size_t>(c);
-        const bool f = is_free[k] ? y[c] > lo[c] : Sy[c] < cut;
-        if (f != static_cast<bool>(is_free[k])) {
-          is_free[k] = f;
-          ++changed;
-        }
+        const bool stays = y[c] > lo[c], joins = Sy[c] < cut, was = is_free[k];
+        const bool f = (was & stays) | (!was & joins);
+        changed += f != was;
+        is_free[k] = f;
       }
       if (changed == 0) break;
     }
