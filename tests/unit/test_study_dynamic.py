@@ -209,3 +209,55 @@ def test_fir_from_summed_normal_equations_equals_the_stacked_ridge_least_squares
         A = np.vstack([X, lam * np.eye(X.shape[1])])
         ref = linalg.lstsq(A, np.concatenate([np.concatenate([y[:, k] for y in ys]), np.zeros(X.shape[1])]))[0]
         assert fir.coef[k] == pytest.approx(ref, rel=1e-8, abs=1e-10 * np.abs(ref).max())
+
+
+def test_session_stats_are_the_lag_window_normal_equations_of_the_session_alone(study) -> None:
+    # formed by hand: the mean-removed traces on the session's own grid (here its own samples,
+    # 50 Hz), the lag matrix written out column by column (edge-padded), then W'W and W'y
+    from psmat.study import session_stats
+
+    rows, traces = study
+    tr = traces[("V02", "right-leg")]
+    got = session_stats(tr)
+    half = 5  # ±0.1 s at 50 Hz
+    assert float(got["rate_hz"]) == pytest.approx(FS, rel=1e-12)
+    for k in range(2):
+        x, y = _centred(tr["SCHC"])[:, k], _centred(tr["FP"])[:, k]
+        W = np.column_stack([np.pad(x, half, mode="edge")[j:j + len(x)] for j in range(2 * half + 1)])
+        assert got["gram"][k] == pytest.approx(W.T @ W, rel=1e-9)
+        assert got["rhs"][k] == pytest.approx(W.T @ y, rel=1e-9, abs=1e-9 * np.abs(W.T @ y).max())
+    assert session_stats({"t_s": tr["t_s"], "FP": tr["FP"]}) == {}  # no SCHC trace: nothing to form
+
+
+def test_stats_formed_beforehand_give_the_same_rows_bit_for_bit(study) -> None:
+    from psmat.study import session_stats
+
+    rows, traces = study
+    plain, plain_tr = dynamic_rows(rows, traces)
+    given, given_tr = dynamic_rows(rows, traces, stats={k: session_stats(t) for k, t in traces.items()})
+    assert _same_nan(given, plain) and all(r["status"] == "ok" for r in given)
+    for key in plain_tr:
+        assert np.array_equal(given_tr[key]["SCHC-DYN"], plain_tr[key]["SCHC-DYN"])
+
+
+def _same_nan(a: list[dict], b: list[dict]) -> bool:
+    """Rows equal value for value, bit for bit (NaN where both hold NaN)."""
+    def same(u, v) -> bool:
+        return (isinstance(u, float) and isinstance(v, float) and np.isnan(u) and np.isnan(v)) or u == v
+
+    return len(a) == len(b) and all(r.keys() == s.keys() and all(same(r[c], s[c]) for c in r) for r, s in zip(a, b))
+
+
+def test_stats_are_used_only_at_the_fitting_rate(study) -> None:
+    # statistics that are not the session's: used (the rows change) when they claim the fitting
+    # rate, ignored (the rows are those without them) when they claim another rate
+    from psmat.study import session_stats
+
+    rows, traces = study
+    plain, _ = dynamic_rows(rows, traces)
+    wrong = {k: {**session_stats(t), "rhs": -session_stats(t)["rhs"]} for k, t in traces.items()}
+    flipped, _ = dynamic_rows(rows, traces, stats=wrong)
+    assert all(f["eu_cm"] > p["eu_cm"] for f, p in zip(flipped, plain))  # a sign-flipped correction
+    elsewhere = {k: {**v, "rate_hz": np.array(2 * FS)} for k, v in wrong.items()}
+    ignored, _ = dynamic_rows(rows, traces, stats=elsewhere)
+    assert _same_nan(ignored, plain)

@@ -3,7 +3,9 @@ written atomically.
 
 ``DIR/results/sessions/<stem>.json`` holds one session's rows and the inputs they were made
 from; its traces (:func:`psmat.study.process_trial` with ``traces=True``) are
-``<stem>.<key16>.npz`` beside it. Both are plain files (JSON, NumPy ``.npz``) that any tool
+``<stem>.<key16>.npz`` beside it, with the session's statistics for the work after the sessions
+(arrays named ``stats:<name>``, :func:`psmat.study.session_stats`; :class:`TraceFiles` keeps
+them apart from the traces). Both are plain files (JSON, NumPy ``.npz``) that any tool
 reads. A result is reused only when its stored key equals the key of the current inputs:
 
 ``key = sha256(canonical JSON of {schema, psmat version, the whole parameter dict, the stem,
@@ -53,13 +55,13 @@ import numpy as np
 
 from .._atomic import TMP_PREFIX, open_atomic, write_text_atomic
 from .._filelock import LockHeld, exclusive_lock
-from ._plain import TEXT_COLUMNS, Expect, check_rows, digest, first_line, parse_json, plain_rows
+from ._plain import STATS_PREFIX, TEXT_COLUMNS, Expect, check_rows, digest, first_line, parse_json, plain_rows
 from ._trial import Rows, Traces
 
 __all__ = ["SCHEMA", "file_sha256", "result_key", "canonical_json", "entry_digest", "SessionStore", "Stored",
            "Lookup", "TraceFiles", "study_lock", "normalise_rows", "write_text_atomic"]
 
-SCHEMA = "psmat-study-session/3"  # 3: rows per condition (column condition)
+SCHEMA = "psmat-study-session/4"  # 3: rows per condition (column condition); 4: stats:* arrays in the traces
 #: the fields of an entry (see the module docstring)
 FIELDS = frozenset({"schema", "key", "inputs", "rows", "traces", "traces_sha256", "digest"})
 
@@ -234,7 +236,12 @@ class TraceFiles(Mapping[tuple[str, str], Traces]):
 
     def __getitem__(self, key: tuple[str, str]) -> Traces:
         with np.load(self._files[key]) as z:
-            return {k: z[k] for k in z.files}
+            return {k: z[k] for k in z.files if not k.startswith(STATS_PREFIX)}
+
+    def stats(self, key: tuple[str, str]) -> dict[str, np.ndarray]:
+        """The session's ``stats:<name>`` arrays stored with its traces, as ``{name: array}``."""
+        with np.load(self._files[key]) as z:
+            return {k[len(STATS_PREFIX):]: z[k] for k in z.files if k.startswith(STATS_PREFIX)}
 
     def path(self, key: tuple[str, str]) -> Path:
         """The ``.npz`` file of ``key``."""

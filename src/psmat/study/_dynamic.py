@@ -49,7 +49,7 @@ from ._conditions import condition_of
 from ._row_metrics import descriptor_values, sway_metrics
 from ._trial import COLUMNS
 
-__all__ = ["MODELS", "Correction", "fit_correction", "dynamic_rows"]
+__all__ = ["MODELS", "Correction", "fit_correction", "dynamic_rows", "session_stats"]
 
 MODELS = ("gain", "fir", "tf")
 Key = tuple[str, str]  # (subject, trial)
@@ -178,6 +178,45 @@ def _series(trace: Mapping[str, Any] | None, base: str) -> _Series | str:
     return _Series(t, fp, _at(t, t, mat))
 
 
+def _rate(t: NDArray[np.float64]) -> float:
+    """A trace's rate (Hz): the inverse of its median sampling interval."""
+    return 1.0 / np.median(np.diff(t))
+
+
+def session_stats(trace: Mapping[str, Any] | None, *, base: str = "SCHC", fir_half_s: float = 0.1
+                  ) -> dict[str, NDArray[np.float64]]:
+    """What the FIR fit of :func:`dynamic_rows` needs from one session alone, formed where the
+    session is processed (its task) so that only the sums and solves remain after the sessions.
+
+    The session's trace resampled at its own rate (``rate_hz``), mean-removed, and per axis
+    ``(WᵀW, Wᵀy)`` (:func:`_fir_stats`): ``{"rate_hz": () Hz, "gram": (2, 2L+1, 2L+1) cm²,
+    "rhs": (2, 2L+1) cm²}``, or ``{}`` when the trace is not usable (:func:`_series`).
+    :func:`dynamic_rows` uses them only where the study's fitting rate is exactly this rate (the
+    same numbers as forming them there), and forms them itself otherwise.
+    """
+    s = _series(trace, base)
+    if isinstance(s, str):
+        return {}
+    fs = float(_rate(s.t))
+    s.resample(fs)
+    half = _fir_half(fir_half_s, fs)
+    st = [_fir_stats(s.x[:, a], s.y[:, a], half) for a in range(2)]
+    return {"rate_hz": np.array(fs), "gram": np.stack([g for g, _ in st]), "rhs": np.stack([r for _, r in st])}
+
+
+def _given_stats(given: Mapping[str, Any] | None, fs: float, half: int
+                 ) -> list[tuple[NDArray[np.float64], NDArray[np.float64]]] | None:
+    """:func:`session_stats`'s output as :func:`_fir_stats` pairs if formed at rate ``fs`` with
+    ``half``, else None."""
+    if not given or "rate_hz" not in given or float(given["rate_hz"]) != fs:
+        return None
+    gram, rhs = np.asarray(given["gram"], np.float64), np.asarray(given["rhs"], np.float64)
+    k = 2 * half + 1
+    if gram.shape != (2, k, k) or rhs.shape != (2, k):
+        return None
+    return [(gram[a], rhs[a]) for a in range(2)]
+
+
 def _row(base_row: Mapping[str, Any], variant: str, status: str, **values: Any) -> dict[str, Any]:
     row = {c: np.nan for c in (*COLUMNS, *base_row)}
     row.update({c: base_row[c] for c in ("subject", "trial", "lag_s", "r_align", "factor", "frames",
@@ -197,7 +236,8 @@ def _fold_of(subjects: Sequence[str], folds: int | None) -> dict[str, int]:
 def dynamic_rows(rows: Sequence[Mapping[str, Any]], traces: Mapping[Key, Mapping[str, Any]], *, base: str = "SCHC",
                  folds: int | None = None, model: str = "fir", by_trial: bool = True, rate_hz: float | None = None,
                  fir_half_s: float = 0.1, ridge: float = 1e-3, preprocess: str | None = None,
-                 descriptors: str | None = None) -> tuple[list[dict[str, Any]], dict[Key, dict[str, NDArray[np.float64]]]]:
+                 descriptors: str | None = None, stats: Mapping[Key, Mapping[str, Any]] | None = None
+                 ) -> tuple[list[dict[str, Any]], dict[Key, dict[str, NDArray[np.float64]]]]:
     """Rows and traces of the variant ``<base>-DYN``: each session's base trace corrected by a
     model fitted on the other folds' volunteers.
 
@@ -223,6 +263,10 @@ def dynamic_rows(rows: Sequence[Mapping[str, Any]], traces: Mapping[Key, Mapping
     preprocess, descriptors : str or None
         As the study's parameters of these names (:data:`psmat.study.DEFAULT_PARAMS`): the sway
         metrics after that preprocessing, the descriptors of that preset as extra values.
+    stats : mapping, optional
+        ``{(subject, trial): session_stats(trace)}`` formed beforehand (in the session tasks);
+        a session's are used where they were formed at the fitting rate with this
+        ``fir_half_s`` (the same numbers), and formed here otherwise.
 
     Returns
     -------
@@ -264,15 +308,15 @@ def dynamic_rows(rows: Sequence[Mapping[str, Any]], traces: Mapping[Key, Mapping
         else:
             usable[key] = s
     if usable:
-        fs = float(rate_hz) if rate_hz is not None else float(np.median([1.0 / np.median(np.diff(s.t))
-                                                                          for s in usable.values()]))
+        fs = float(rate_hz) if rate_hz is not None else float(np.median([_rate(s.t) for s in usable.values()]))
         for s in usable.values():
             s.resample(fs)
     fold = _fold_of({k[0] for k in usable}, folds)
     fits: dict[tuple[int, str | None], Correction | None] = {}  # one fit per held-out fold (and trial type)
     half = _fir_half(fir_half_s, fs) if usable else 1
-    stats = ({k: [_fir_stats(v.x[:, a], v.y[:, a], half) for a in range(2)] for k, v in usable.items()}
-             if model == "fir" else {})  # formed once, summed by every fold
+    given = stats or {}
+    fir = ({k: _given_stats(given.get(k), fs, half) or [_fir_stats(v.x[:, a], v.y[:, a], half) for a in range(2)]
+            for k, v in usable.items()} if model == "fir" else {})  # formed once, summed by every fold
     new_traces: dict[Key, dict[str, NDArray[np.float64]]] = {}
     for key, s in usable.items():
         subject, trial = key
@@ -282,8 +326,8 @@ def dynamic_rows(rows: Sequence[Mapping[str, Any]], traces: Mapping[Key, Mapping
             if not train:
                 fits[scope] = None
             elif model == "fir":
-                fits[scope] = Correction("fir", tuple(_fir_taps(sum(stats[k][a][0] for k in train),
-                                                                sum(stats[k][a][1] for k in train), ridge)
+                fits[scope] = Correction("fir", tuple(_fir_taps(sum(fir[k][a][0] for k in train),
+                                                                sum(fir[k][a][1] for k in train), ridge)
                                                       for a in range(2)), fs)
             else:
                 fits[scope] = fit_correction([usable[k].x for k in train], [usable[k].y for k in train], fs,

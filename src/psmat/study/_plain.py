@@ -10,7 +10,8 @@ here unpickles: JSON (NaN and infinities refused), NumPy ``.npz`` read with
   and then the same for each of its conditions (a label each, none twice), text where
   :data:`COLUMNS` holds text and numbers (or null) elsewhere;
 * :func:`check_traces`: ``t_s`` of shape (N,), each other trace (N, 2), float64,
-  named after FP or a variant asked for;
+  named after FP or a variant asked for; arrays named ``stats:<name>`` (:data:`STATS_PREFIX`) are
+  a session's statistics for the study-level work after the sessions (float64, at most 3-D);
 * :func:`encode_result` / :func:`decode_result`: (stem, rows, traces) as one ``.npz`` byte
   string (the rows as UTF-8 JSON in the array ``__result__``).
 """
@@ -29,7 +30,11 @@ import numpy as np
 
 from ._trial import COLUMNS, Rows, Traces
 
-__all__ = ["Expect", "TEXT_COLUMNS", "parse_json", "plain_rows", "check_rows", "check_traces", "digest",
+#: the prefix of the arrays stored with a session's traces that are no trace: statistics the work
+#: after the sessions needs from that session alone (:func:`psmat.study.session_stats`)
+STATS_PREFIX = "stats:"
+
+__all__ = ["STATS_PREFIX", "Expect", "TEXT_COLUMNS", "parse_json", "plain_rows", "check_rows", "check_traces", "digest",
            "encode_result", "decode_result", "first_line"]
 
 #: the columns that hold text; every other column holds a number or nothing (null / NaN)
@@ -131,7 +136,7 @@ def check_rows(value: Any, expect: Expect) -> Rows:
 def check_traces(traces: Mapping[str, Any], expect: Expect) -> Traces:
     """Traces → ``{name: float64 array}`` or ValueError (see the module docstring)."""
     allowed = {"t_s", "FP", *expect.variants}
-    unknown = sorted(set(traces) - allowed)
+    unknown = sorted(n for n in set(traces) - allowed if not n.startswith(STATS_PREFIX))
     if unknown:
         raise ValueError(f"traces named {unknown}, not FP or a variant asked for")
     out: Traces = {}
@@ -140,6 +145,11 @@ def check_traces(traces: Mapping[str, Any], expect: Expect) -> Traces:
         a = np.asarray(arr)
         if a.dtype != np.float64:
             raise ValueError(f"trace {name}: dtype {a.dtype}, expected float64")
+        if name.startswith(STATS_PREFIX):
+            if a.ndim > 3:
+                raise ValueError(f"statistics {name}: shape {a.shape}, expected at most 3 dimensions")
+            out[name] = a
+            continue
         shape = (a.shape[0],) if name == "t_s" else (a.shape[0], 2)
         if a.ndim == 0 or a.shape != shape or (n is not None and a.shape[0] != n):
             raise ValueError(f"trace {name}: shape {a.shape}, expected (N,) for t_s and (N, 2) for a CoP trace")

@@ -24,8 +24,10 @@ same. One run per study at a time (``results/.lock``). Every run writes where it
 which no key or digest reads.
 
 **Across volunteers.** After the sessions, ``SCHC-DYN`` (:mod:`psmat.study` (``_dynamic.py``), beyond the
-thesis) corrects each session's SCHC trace by a model fitted on the other volunteers, so it is
-computed for the study as a whole, never cached per session. The figures are tasks of the
+thesis) corrects each session's SCHC trace by a model fitted on the other volunteers, so its fits are
+computed for the study as a whole, never cached per session; what a fit needs from one session
+alone (:func:`psmat.study.session_stats`) is formed in that session's task and stored with its
+result, so a rerun does not form it again. The figures are tasks of the
 same worker pool as the sessions, one per figure, each redrawn only when what it draws changed
 (:mod:`psmat.study` (``_figure_tasks.py``)). A study whose sessions all say in
 their metadata that a simulator wrote them is labelled "simulation" in its figures and report.
@@ -308,11 +310,13 @@ def _with_dynamic(rows: Rows, traces: Mapping[tuple[str, str], Traces], params: 
                   ) -> tuple[Rows, Mapping[tuple[str, str], Traces]]:
     """The study's rows and traces with ``SCHC-DYN`` (:func:`psmat.study.dynamic_rows`:
     fitted on the other volunteers, so it is computed after every session, never cached per
-    session); each session's new row follows its own rows."""
+    session; each session's own part of the fit comes formed by its task, stored with its
+    traces); each session's new row follows its own rows."""
     from ._dynamic import dynamic_rows
 
+    stats = {k: traces.stats(k) for k in traces} if isinstance(traces, TraceFiles) else None
     dyn_rows, dyn_traces = dynamic_rows(rows, traces, preprocess=params["preprocess"],
-                                        descriptors=params["descriptors"])
+                                        descriptors=params["descriptors"], stats=stats)
     by_key = {(r["subject"], r["trial"]): {**r, "condition": ""} for r in dyn_rows}
     out: Rows = []
     for i, r in enumerate(rows):

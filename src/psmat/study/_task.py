@@ -8,7 +8,8 @@ import math
 from dataclasses import dataclass
 from typing import Any
 
-from ._plain import Expect
+from ._dynamic import session_stats
+from ._plain import STATS_PREFIX, Expect
 from ._row_metrics import columns
 from ._trial import COLUMNS, Rows, Traces, process_trial
 
@@ -41,10 +42,18 @@ class SessionTask:
 
 
 def run_task(task: SessionTask) -> tuple[str, Rows, Traces]:
-    """Process one session (in whichever process runs it): (stem, rows, traces)."""
+    """Process one session (in whichever process runs it): (stem, rows, traces).
+
+    With ``SCHC`` among the variants, the traces also hold ``stats:<name>`` arrays
+    (:data:`STATS_PREFIX`): the session's own part of the ``SCHC-DYN`` fit
+    (:func:`psmat.study.session_stats`), formed here so the study's work after the sessions is
+    the fits alone; they are stored with the session's result and reused by a rerun.
+    """
     rows, traces = process_trial(task.session, task.forceplate, task.subject, task.trial, task.weight_kg,
                                  task.params, calibration=task.calibration, traces=True,
                                  events=task.events)
+    if "SCHC" in task.params["variants"] and traces:
+        traces.update({STATS_PREFIX + k: v for k, v in session_stats(traces, base="SCHC").items()})
     return task.stem, rows, traces
 
 
