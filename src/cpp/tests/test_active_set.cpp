@@ -311,45 +311,164 @@ TEST_CASE("FreeBlockSolver::update: cells leave and join; PCG then solves the ne
   CHECK(k2 <= 3);
 }
 
-TEST_CASE("active_set: the Fischer-Burmeister solution on a noisy stream, bound set included") {
-  const Shape s{10, 10};
-  SolveOptions o_as, o_fb;
-  o_as.method = Method::ActiveSet;
-  o_fb.method = Method::BoundedNewton;
-  o_as.max_iter = o_fb.max_iter = 1000;
-  Solver as(s, o_as), fb(s, o_fb);
-  VectorXd g_as(s.cells()), g_fb(s.cells());
-  int bound_total = 0;
-  for (int t = 0; t < 12; ++t) {
-    CAPTURE(t);
-    const VectorXd G = noisy_frame(s, t, 2300);
-    const SolveReport r_as = as.solve(G, g_as, t > 0), r_fb = fb.solve(G, g_fb, t > 0);
-    REQUIRE(r_fb.converged());
-    CAPTURE(r_as.iterations);
-    CHECK(r_as.status == Status::Bounded);
-    CHECK(r_as.residual <= o_as.rtol);
-    CHECK(r_as.at_bound == r_fb.at_bound);
-    bound_total += r_as.at_bound;
-    const double floor = o_as.g_floor * (1.0 + 1e-9);
-    double diff2 = 0.0, ref2 = 0.0;  // over the free cells: |g_as - g_fb| / |g_fb| <= 1e-8
-    for (Index a = 0; a < s.cells(); ++a) {
-      CHECK((g_as[a] <= floor) == (g_fb[a] <= floor));
-      if (g_fb[a] > floor) {
-        CHECK(same_free_cell(g_as[a], g_fb[a], G[a], o_as.rtol));
-        diff2 += (g_as[a] - g_fb[a]) * (g_as[a] - g_fb[a]);
-        ref2 += g_fb[a] * g_fb[a];
-      }
-      if (g_fb[a] >= 1e-4) CHECK(std::abs(g_as[a] - g_fb[a]) <= 1e-8 * g_fb[a]);
-    }
-    CHECK(std::sqrt(diff2) <= 1e-8 * std::sqrt(ref2));
-    // complementarity checked directly: bound cells over-predict, free cells match G
-    const VectorXd Fg = F(s, g_as);
-    for (Index a = 0; a < s.cells(); ++a) {
-      if (g_as[a] <= floor) CHECK(Fg[a] >= G[a] * (1.0 - 1e-9));
-      else CHECK(std::abs(Fg[a] - G[a]) <= 1e-9 * G[a]);
+TEST_CASE("cholesky_partial_in_place: the leading factor and the Schur complement, both builds") {
+  // against the definitions in double: L11 L11^T = A11, L21 = A21 L11^-T, Z = A22 - L21 L21^T;
+  // sizes and leading widths across the 32-column blocks, the matrix in a corner
+  for (auto mc : {std::pair<Index, Index>{1, 1}, {40, 0}, {70, 33}, {130, 64}, {450, 401}}) {
+    const Index m = mc.first, c = mc.second, f = m - c;
+    CAPTURE(m);
+    CAPTURE(c);
+    const Eigen::MatrixXd X = Eigen::MatrixXd::NullaryExpr(
+        m, m, [m](Index i, Index j) { return std::sin(0.9 * double(i * m + j) + 0.4); });
+    const Eigen::MatrixXd A = X * X.transpose() / double(m) + Eigen::MatrixXd::Identity(m, m);
+    const Eigen::MatrixXd L11 = A.topLeftCorner(c, c).llt().matrixL();
+    const Eigen::MatrixXd L21 =
+        L11.triangularView<Eigen::Lower>().solve(A.bottomLeftCorner(f, c).transpose()).transpose();
+    const Eigen::MatrixXd Z = A.bottomRightCorner(f, f) - L21 * L21.transpose();
+    for (int kernel = 0; kernel < 2; ++kernel) {
+      CAPTURE(kernel);
+      Eigen::MatrixXf big = Eigen::MatrixXf::Constant(m + 3, m + 3, 7.0f);
+      big.topLeftCorner(m, m) = A.cast<float>();
+      auto corner = big.topLeftCorner(m, m);
+      REQUIRE((kernel == 0 ? psmat::iecm::cholesky_partial_in_place(corner, c)
+                           : psmat::iecm::cholesky_partial_in_place_portable(corner, c)));
+      const Eigen::MatrixXd Lf = corner.cast<double>();
+      const double tol = 1e-5 * A.norm();
+      CHECK((Eigen::MatrixXd(Lf.topLeftCorner(c, c).triangularView<Eigen::Lower>()) - L11).norm() <= tol);
+      CHECK((Lf.bottomLeftCorner(f, c) - L21).norm() <= tol);
+      CHECK((Eigen::MatrixXd(Lf.bottomRightCorner(f, f).triangularView<Eigen::Lower>()) -
+             Eigen::MatrixXd(Z.triangularView<Eigen::Lower>())).norm() <= tol);
+      CHECK(big.bottomRows(3).isConstant(7.0f));
     }
   }
-  CHECK(bound_total > 12 * 10);  // the noise puts background cells at the bound in every frame
+}
+
+TEST_CASE("lower_solve_matrix and gemm_subtract: L^-1 B, (L L^T)^-1 B, L^-T B and C - A B") {
+  const Index m = 90, k = 7;
+  const Eigen::MatrixXd X = Eigen::MatrixXd::NullaryExpr(
+      m, m, [](Index i, Index j) { return std::cos(0.3 * double(i * 90 + j) + 0.2); });
+  const Eigen::MatrixXd A = X * X.transpose() / double(m) + Eigen::MatrixXd::Identity(m, m);
+  const Eigen::MatrixXd L = A.llt().matrixL();
+  const Eigen::MatrixXd B = Eigen::MatrixXd::NullaryExpr(
+      m, k, [](Index i, Index j) { return std::sin(1.1 * double(i) + 0.7 * double(j)); });
+  const Eigen::MatrixXf Lf = L.cast<float>();
+  for (int mode = 0; mode < 3; ++mode)
+    for (Index cols : {k, Index(1)}) {
+      CAPTURE(mode);
+      CAPTURE(cols);
+      const Eigen::MatrixXd Bc = B.leftCols(cols);
+      const Eigen::MatrixXd ref = mode == 0   ? Eigen::MatrixXd(L.triangularView<Eigen::Lower>().solve(Bc))
+                                  : mode == 1 ? Eigen::MatrixXd(A.llt().solve(Bc))
+                                              : Eigen::MatrixXd(L.transpose().triangularView<Eigen::Upper>().solve(Bc));
+      Eigen::MatrixXf Bf = Bc.cast<float>();
+      psmat::iecm::lower_solve_matrix(Lf, Bf, mode);
+      CHECK((Bf.cast<double>() - ref).norm() <= 1e-5 * ref.norm());
+    }
+  const Eigen::MatrixXd P = B.topRows(k);  // k x k
+  Eigen::MatrixXf C = Eigen::MatrixXf::Ones(m, k);
+  psmat::iecm::gemm_subtract(C, B.cast<float>(), P.cast<float>());
+  const Eigen::MatrixXd Cref = Eigen::MatrixXd::Ones(m, k) - B * P;
+  CHECK((C.cast<double>() - Cref).norm() <= 1e-5 * Cref.norm());
+}
+
+TEST_CASE("FreeBlockSolver split: core and fringe; select with fringe cells out, new cells and core cells out") {
+  RandomNetwork x({7, 8}, 2400, 1e-6, 1e-2);
+  const Shape s = x.s;
+  const NodalInverse& net = x.net;
+  const VectorXd& G = x.G;
+  const MatrixXd S = dense_S(s, x.g);
+  const std::vector<Index> core = some_cells(s.cells(), 3, 0);    // 0, 3, 6, ...
+  const std::vector<Index> fringe = some_cells(s.cells(), 3, 1);  // 1, 4, 7, ...
+  FreeBlockSolver fs;
+  REQUIRE(fs.factor_split(net, G, core, fringe));
+  CHECK(fs.is_split());
+  NewtonOperator op(s);
+  const VectorXd b = random_normal(s.cells(), 2401);
+  // free sets: all of U; half the fringe; half the fringe and cells outside U (2, 5, 8, ...)
+  // joining; and then two, then five core cells out (the capacitance correction)
+  std::vector<std::vector<Index>> sets;
+  std::vector<Index> U = core;
+  U.insert(U.end(), fringe.begin(), fringe.end());
+  sets.push_back(U);
+  std::vector<Index> half = core;
+  for (size_t k = 0; k < fringe.size(); k += 2) half.push_back(fringe[k]);
+  sets.push_back(half);
+  std::vector<Index> joined = half;
+  for (Index c : {2, 5, 8, 29, 53}) joined.push_back(c);
+  sets.push_back(joined);
+  for (Index out : {2, 5}) {
+    std::vector<Index> fewer;
+    for (size_t k = 0; k < joined.size(); ++k)
+      if (!(k < core.size() && k % 3 == 1 && Index(k / 3) < out)) fewer.push_back(joined[k]);
+    sets.push_back(fewer);
+  }
+  for (size_t t = 0; t < sets.size(); ++t) {
+    CAPTURE(t);
+    const std::vector<Index>& I = sets[t];
+    REQUIRE(fs.select(net, G, I));
+    CHECK(fs.is_split());
+    const Index out = fs.core_outside(I);
+    CHECK(out == (t == 3 ? 2 : t == 4 ? 5 : 0));
+    CHECK(fs.changes(I) == out);  // P = I + the core cells out
+    VectorXd y, Sy;
+    const int k = fs.solve(op, net, G, I, b, y, Sy, 1e-10, 50);
+    CAPTURE(k);
+    CHECK(k >= 1);
+    CHECK(k <= 3);  // the preconditioner is S_II's (float round-off)
+    const VectorXd yI = dense_free_solve(S, I, b);
+    for (Index r = 0; r < Index(I.size()); ++r)
+      CHECK(y[I[size_t(r)]] == doctest::Approx(yI[r]).epsilon(1e-8).scale(1e-300));
+  }
+  // a plain factor ends the split
+  REQUIRE(fs.factor(net, G, core));
+  CHECK_FALSE(fs.is_split());
+  CHECK_FALSE(fs.select(net, G, core));
+}
+
+TEST_CASE("active_set: the Fischer-Burmeister solution on a noisy stream, bound set included") {
+  // 10x10; and 24x24, whose free blocks (~200-300 cells) take the split factor of
+  // FreeBlockSolver (solve_active_set.cpp, kSplitFrom)
+  for (const Shape s : {Shape{10, 10}, Shape{24, 24}}) {
+    CAPTURE(s.rows);
+    const int frames = s.rows == 10 ? 12 : 5;
+    SolveOptions o_as, o_fb;
+    o_as.method = Method::ActiveSet;
+    o_fb.method = Method::BoundedNewton;
+    o_as.max_iter = o_fb.max_iter = 1000;
+    Solver as(s, o_as), fb(s, o_fb);
+    VectorXd g_as(s.cells()), g_fb(s.cells());
+    int bound_total = 0;
+    for (int t = 0; t < frames; ++t) {
+      CAPTURE(t);
+      const VectorXd G = noisy_frame(s, t, 2300);
+      const SolveReport r_as = as.solve(G, g_as, t > 0), r_fb = fb.solve(G, g_fb, t > 0);
+      REQUIRE(r_fb.converged());
+      CAPTURE(r_as.iterations);
+      CHECK(r_as.status == Status::Bounded);
+      CHECK(r_as.residual <= o_as.rtol);
+      CHECK(r_as.at_bound == r_fb.at_bound);
+      bound_total += r_as.at_bound;
+      const double floor = o_as.g_floor * (1.0 + 1e-9);
+      double diff2 = 0.0, ref2 = 0.0;  // over the free cells: |g_as - g_fb| / |g_fb| <= 1e-8
+      for (Index a = 0; a < s.cells(); ++a) {
+        CHECK((g_as[a] <= floor) == (g_fb[a] <= floor));
+        if (g_fb[a] > floor) {
+          CHECK(same_free_cell(g_as[a], g_fb[a], G[a], o_as.rtol));
+          diff2 += (g_as[a] - g_fb[a]) * (g_as[a] - g_fb[a]);
+          ref2 += g_fb[a] * g_fb[a];
+        }
+        if (g_fb[a] >= 1e-4) CHECK(std::abs(g_as[a] - g_fb[a]) <= 1e-8 * g_fb[a]);
+      }
+      CHECK(std::sqrt(diff2) <= 1e-8 * std::sqrt(ref2));
+      // complementarity checked directly: bound cells over-predict, free cells match G
+      const VectorXd Fg = F(s, g_as);
+      for (Index a = 0; a < s.cells(); ++a) {
+        if (g_as[a] <= floor) CHECK(Fg[a] >= G[a] * (1.0 - 1e-9));
+        else CHECK(std::abs(Fg[a] - G[a]) <= 1e-9 * G[a]);
+      }
+    }
+    CHECK(bound_total > frames * 10);  // the noise puts background cells at the bound in every frame
+  }
 }
 
 TEST_CASE("active_set: cold start and a warm start from a point with no cell at the bound") {

@@ -19,6 +19,13 @@ bool cpu_has_avx2_fma() {
 bool cholesky_avx2_built() { return false; }
 bool cpu_has_avx2_fma() { return false; }
 bool cholesky_in_place_avx2(float*, std::ptrdiff_t, std::ptrdiff_t) { return false; }
+bool cholesky_partial_in_place_avx2(float*, std::ptrdiff_t, std::ptrdiff_t, std::ptrdiff_t) {
+  return false;
+}
+void lower_solve_matrix_avx2(const float*, std::ptrdiff_t, std::ptrdiff_t, float*, std::ptrdiff_t,
+                             std::ptrdiff_t, int) {}
+void gemm_subtract_avx2(float*, std::ptrdiff_t, std::ptrdiff_t, std::ptrdiff_t, const float*,
+                        std::ptrdiff_t, std::ptrdiff_t, const float*, std::ptrdiff_t) {}
 void cholesky_solve_in_place_avx2(const float*, std::ptrdiff_t, std::ptrdiff_t, float*) {}
 #endif
 
@@ -32,6 +39,36 @@ bool cholesky_in_place(Eigen::Ref<Eigen::MatrixXf> A) {
   if (cholesky_avx2_built() && cpu_has_avx2_fma())
     return cholesky_in_place_avx2(A.data(), A.rows(), A.outerStride());
   return cholesky_sweep(A);
+}
+
+bool cholesky_partial_in_place_portable(Eigen::Ref<Eigen::MatrixXf> A, Eigen::Index cols) {
+  return cholesky_sweep_partial(A, cols);
+}
+
+bool cholesky_partial_in_place(Eigen::Ref<Eigen::MatrixXf> A, Eigen::Index cols) {
+  if (cholesky_avx2_built() && cpu_has_avx2_fma())
+    return cholesky_partial_in_place_avx2(A.data(), A.rows(), A.outerStride(), cols);
+  return cholesky_sweep_partial(A, cols);
+}
+
+void lower_solve_matrix(const Eigen::Ref<const Eigen::MatrixXf>& L, Eigen::Ref<Eigen::MatrixXf> B,
+                        int mode) {
+  if (cholesky_avx2_built() && cpu_has_avx2_fma())
+    lower_solve_matrix_avx2(L.data(), L.rows(), L.outerStride(), B.data(), B.cols(),
+                            B.outerStride(), mode);
+  else
+    lower_solve_matrix_sweep(L.data(), L.rows(), L.outerStride(), B.data(), B.cols(),
+                             B.outerStride(), mode);
+}
+
+void gemm_subtract(Eigen::Ref<Eigen::MatrixXf> C, const Eigen::Ref<const Eigen::MatrixXf>& A,
+                   const Eigen::Ref<const Eigen::MatrixXf>& B) {
+  if (cholesky_avx2_built() && cpu_has_avx2_fma())
+    gemm_subtract_avx2(C.data(), C.rows(), C.cols(), C.outerStride(), A.data(), A.cols(),
+                       A.outerStride(), B.data(), B.outerStride());
+  else
+    gemm_subtract_sweep(C.data(), C.rows(), C.cols(), C.outerStride(), A.data(), A.cols(),
+                        A.outerStride(), B.data(), B.outerStride());
 }
 
 void cholesky_solve_in_place_portable(const Eigen::Ref<const Eigen::MatrixXf>& L,

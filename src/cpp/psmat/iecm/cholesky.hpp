@@ -13,6 +13,19 @@ bool cholesky_in_place(Eigen::Ref<Eigen::MatrixXf> A);
 // path in the C++ tests).
 bool cholesky_in_place_portable(Eigen::Ref<Eigen::MatrixXf> A);
 
+// The first `cols` columns of the factor of A (lower triangle in), and in the trailing block
+// A[cols:, cols:] the Schur complement of the leading cols x cols block (lower triangle). AVX2 +
+// FMA where the build and the CPU have them. False where the leading block is not SPD.
+bool cholesky_partial_in_place(Eigen::Ref<Eigen::MatrixXf> A, Eigen::Index cols);
+bool cholesky_partial_in_place_portable(Eigen::Ref<Eigen::MatrixXf> A, Eigen::Index cols);
+
+// B <- L^-1 B (mode 0), (L L^T)^-1 B (1) or L^-T B (2) for a lower factor L (lower triangle read);
+// and C -= A B. AVX2 + FMA where the build and the CPU have them (FreeBlockSolver::select).
+void lower_solve_matrix(const Eigen::Ref<const Eigen::MatrixXf>& L, Eigen::Ref<Eigen::MatrixXf> B,
+                        int mode);
+void gemm_subtract(Eigen::Ref<Eigen::MatrixXf> C, const Eigen::Ref<const Eigen::MatrixXf>& A,
+                   const Eigen::Ref<const Eigen::MatrixXf>& B);
+
 // x <- (L L^T)^-1 x for a factor L from cholesky_in_place (its lower triangle read): the two
 // triangular solves of a preconditioner, with AVX2 + FMA where the build and the CPU have them
 // (cholesky_avx2.hpp; the PCG steps of the 16x16 noisy frames spent ~13 % of their time here

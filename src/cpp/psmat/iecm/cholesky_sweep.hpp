@@ -71,6 +71,49 @@ inline bool cholesky_sweep(Eigen::Ref<Eigen::MatrixXf> A) {
   return true;
 }
 
+// The first `cols` columns of the right-looking sweep: L's first `cols` columns out (the leading
+// block's factor and the panel below it), and in the trailing block A[cols:, cols:] (lower
+// triangle) the Schur complement A22 - L21 L21^T of the leading block (FreeBlockSolver's split
+// factor, free_block_solver.hpp). False where the leading block is not numerically SPD.
+inline bool cholesky_sweep_partial(Eigen::Ref<Eigen::MatrixXf> A, Eigen::Index cols) {
+  const Eigen::Index m = A.rows();
+  constexpr Eigen::Index bs = 32;
+  for (Eigen::Index k = 0; k < cols; k += bs) {
+    const Eigen::Index b = std::min(bs, cols - k), rest = m - k - b;
+    if (!diagonal_block(A.block(k, k, b + rest, b))) return false;
+    if (rest > 0)
+      A.block(k + b, k + b, rest, rest).selfadjointView<Eigen::Lower>().rankUpdate(
+          A.block(k + b, k, rest, b), -1.0f);
+  }
+  return true;
+}
+
+// B <- L^-1 B (mode 0), (L L^T)^-1 B (mode 1) or L^-T B (mode 2) with the lower factor L (m x m,
+// leading dimension ld), B m x k (leading dimension ldb): FreeBlockSolver's split factor.
+inline void lower_solve_matrix_sweep(const float* l, Eigen::Index m, Eigen::Index ld, float* b,
+                                     Eigen::Index k, Eigen::Index ldb, int mode) {
+  const Eigen::Map<const Eigen::MatrixXf, 0, Eigen::OuterStride<>> L(l, m, m, Eigen::OuterStride<>(ld));
+  if (k == 1) {
+    Eigen::Map<Eigen::VectorXf> v(b, m);
+    if (mode != 2) L.triangularView<Eigen::Lower>().solveInPlace(v);
+    if (mode != 0) L.triangularView<Eigen::Lower>().transpose().solveInPlace(v);
+    return;
+  }
+  Eigen::Map<Eigen::MatrixXf, 0, Eigen::OuterStride<>> B(b, m, k, Eigen::OuterStride<>(ldb));
+  if (mode != 2) L.triangularView<Eigen::Lower>().solveInPlace(B);
+  if (mode != 0) L.triangularView<Eigen::Lower>().transpose().solveInPlace(B);
+}
+
+// C -= A B (C rows x cols, A rows x inner, B inner x cols; column-major, leading dimensions).
+inline void gemm_subtract_sweep(float* c, Eigen::Index rows, Eigen::Index cols, Eigen::Index ldc,
+                                const float* a, Eigen::Index inner, Eigen::Index lda,
+                                const float* b, Eigen::Index ldb) {
+  Eigen::Map<Eigen::MatrixXf, 0, Eigen::OuterStride<>> C(c, rows, cols, Eigen::OuterStride<>(ldc));
+  const Eigen::Map<const Eigen::MatrixXf, 0, Eigen::OuterStride<>> A(a, rows, inner, Eigen::OuterStride<>(lda));
+  const Eigen::Map<const Eigen::MatrixXf, 0, Eigen::OuterStride<>> B(b, inner, cols, Eigen::OuterStride<>(ldb));
+  C.noalias() -= A * B;
+}
+
 // x <- (L L^T)^-1 x with the lower factor L (m x m, column-major, leading dimension ld): the
 // two triangular solves of a preconditioner application.
 inline void cholesky_solve_sweep(const float* l, Eigen::Index m, Eigen::Index ld, float* x) {

@@ -18,6 +18,8 @@ Index FreeBlockSolver::changes(const std::vector<Index>& free_cells) const {
 bool FreeBlockSolver::factor(const NodalInverse& net, const Eigen::VectorXd& G,
                              const std::vector<Index>& free_cells) {
   valid_ = false;
+  split_ = false;
+  out_pos_.clear();
   const Index m = static_cast<Index>(free_cells.size()), n = G.size();
   cells_ = free_cells;
   used_ = m;
@@ -57,7 +59,7 @@ void FreeBlockSolver::remove_position(Index k) {
 
 bool FreeBlockSolver::update(const NodalInverse& net, const Eigen::VectorXd& G,
                              const std::vector<Index>& free_cells) {
-  if (!valid_) return false;
+  if (!valid_ || split_) return false;
   const Index n = G.size();
   mark_.assign(static_cast<size_t>(n), 0);
   Index joining = 0;
@@ -97,6 +99,174 @@ bool FreeBlockSolver::update(const NodalInverse& net, const Eigen::VectorXd& G,
   return true;
 }
 
+bool FreeBlockSolver::factor_split(const NodalInverse& net, const Eigen::VectorXd& G,
+                                   const std::vector<Index>& core,
+                                   const std::vector<Index>& fringe) {
+  valid_ = false;
+  split_ = false;
+  out_pos_.clear();
+  const Index nc = static_cast<Index>(core.size()), nf = static_cast<Index>(fringe.size());
+  const Index m = nc + nf, n = G.size();
+  cells_ = core;
+  cells_.insert(cells_.end(), fringe.begin(), fringe.end());
+  used_ = m;
+  holes_ = 0;
+  pos_.assign(static_cast<size_t>(n), -1);
+  for (Index k = 0; k < m; ++k) pos_[static_cast<size_t>(cells_[static_cast<size_t>(k)])] = k;
+  const Index room = std::min(n, m + std::max<Index>(16, m / 4));  // for cells that join
+  if (L_.rows() < room) L_.resize(room, room);
+  auto block = L_.topLeftCorner(m, m);
+  bool ok = false;
+  for (double shift = 0.0; shift <= 1e-2; shift = shift == 0.0 ? 1e-6 : shift * 100.0) {
+    scaled_hadamard_block<float>(net, G, cells_, block);
+    if (shift > 0) block.diagonal().array() += static_cast<float>(shift);
+    if (cholesky_partial_in_place(block, nc)) {
+      ok = true;
+      break;
+    }
+  }
+  if (!ok) return false;
+  nc_ = nc;
+  core_cells_ = core;
+  fringe_ = fringe;
+  fidx_.assign(static_cast<size_t>(n), -1);
+  for (Index j = 0; j < nf; ++j) fidx_[static_cast<size_t>(fringe[static_cast<size_t>(j)])] = j;
+  const Index froom = L_.rows() - nc;
+  W_.resize(froom, nc);
+  W_.topRows(nf) = L_.block(nc, 0, nf, nc);
+  if (Z_.rows() < froom) Z_.resize(froom, froom);
+  Z_.topLeftCorner(nf, nf).triangularView<Eigen::Lower>() = L_.block(nc, nc, nf, nf);
+  yc_col_.assign(static_cast<size_t>(nc), -1);
+  n_yc_ = 0;
+  if (Yc_.rows() != nc) Yc_.resize(nc, std::max<Index>(64, Yc_.cols()));
+  split_ = true;
+  valid_ = true;
+  return true;
+}
+
+Index FreeBlockSolver::core_outside(const std::vector<Index>& free_cells) const {
+  if (!is_split()) return 0;
+  Index in = 0;
+  for (Index c : free_cells) {
+    const Index k = pos_[static_cast<size_t>(c)];
+    in += k >= 0 && k < nc_;
+  }
+  return nc_ - in;
+}
+
+bool FreeBlockSolver::select(const NodalInverse& net, const Eigen::VectorXd& G,
+                             const std::vector<Index>& free_cells) {
+  if (!is_split()) return false;
+  const Index n = G.size();
+  mark_.assign(static_cast<size_t>(n), 0);
+  std::vector<Index> joining;
+  for (Index c : free_cells) {
+    const size_t k = static_cast<size_t>(c);
+    mark_[k] = 1;
+    const bool core = pos_[k] >= 0 && pos_[k] < nc_;
+    if (!core && fidx_[k] < 0) joining.push_back(c);
+  }
+  const Index nf0 = static_cast<Index>(fringe_.size()), kj = static_cast<Index>(joining.size());
+  if (kj > 0) {  // new fringe rows: W_J = (L_CC^-1 S_CJ)^T, Z_(F+J),J = S_(F+J),J - W W_J^T
+    if (nc_ + nf0 + kj > L_.rows()) {
+      valid_ = false;
+      return false;
+    }
+    for (Index c : joining) {
+      fidx_[static_cast<size_t>(c)] = static_cast<Index>(fringe_.size());
+      fringe_.push_back(c);
+    }
+    const Index nf = nf0 + kj;
+    Eigen::MatrixXf B(nc_, kj), Sz(nf, kj);
+    for (Index i = 0; i < kj; ++i) {
+      const Index c = joining[static_cast<size_t>(i)];
+      scaled_hadamard_column(net, G, core_cells_, c, B.col(i));
+      scaled_hadamard_column(net, G, fringe_, c, Sz.col(i));
+    }
+    lower_solve_matrix(L_.topLeftCorner(nc_, nc_), B, false);
+    W_.middleRows(nf0, kj) = B.transpose();
+    gemm_subtract(Sz, W_.topRows(nf), B);
+    for (Index i = 0; i < kj; ++i) {
+      const Index j = nf0 + i;
+      if (!(Sz(j, i) > 1e-6f)) {
+        valid_ = false;
+        return false;
+      }
+      Z_.row(j).head(j + 1) = Sz.col(i).head(j + 1).transpose();
+    }
+  }
+  // the active fringe J, Z_JJ and its factor
+  const Index nf = static_cast<Index>(fringe_.size());
+  active_.clear();
+  for (Index j = 0; j < nf; ++j)
+    if (mark_[static_cast<size_t>(fringe_[static_cast<size_t>(j)])]) active_.push_back(j);
+  const Index na = static_cast<Index>(active_.size());
+  if (Zs_.rows() < na) Zs_.resize(na, na);
+  for (Index q = 0; q < na; ++q)
+    for (Index r = q; r < na; ++r)
+      Zs_(r, q) = Z_(active_[static_cast<size_t>(r)], active_[static_cast<size_t>(q)]);
+  if (!cholesky_in_place(Zs_.topLeftCorner(na, na))) {
+    valid_ = false;
+    return false;
+  }
+  // the factor of S_PP, P = C + J, by blocks: [L_CC 0; W_J L_JJ] (precondition), W_J gathered
+  if (Wa_.rows() != na || Wa_.cols() != nc_) Wa_.resize(na, nc_);
+  for (Index r = 0; r < na; ++r) Wa_.row(r) = W_.row(active_[static_cast<size_t>(r)]);
+  used_ = nc_ + nf;
+  holes_ = nf - na;
+  cells_.resize(static_cast<size_t>(used_));
+  for (Index j = 0; j < nf; ++j) {
+    const Index p = nc_ + j, c = fringe_[static_cast<size_t>(j)];
+    const bool a = mark_[static_cast<size_t>(c)] != 0;
+    cells_[static_cast<size_t>(p)] = a ? c : -1;
+    pos_[static_cast<size_t>(c)] = a ? p : -1;
+  }
+  // core cells outside I: the capacitance correction (precondition)
+  out_pos_.clear();
+  for (Index k = 0; k < nc_; ++k)
+    if (!mark_[static_cast<size_t>(cells_[static_cast<size_t>(k)])]) out_pos_.push_back(k);
+  const Index ko = static_cast<Index>(out_pos_.size());
+  if (ko > 0) {
+    std::vector<Index> fresh;  // core positions without their L_CC^-1 e_o yet
+    for (Index k : out_pos_)
+      if (yc_col_[static_cast<size_t>(k)] < 0) fresh.push_back(k);
+    const Index kf = static_cast<Index>(fresh.size());
+    if (kf > 0) {
+      if (n_yc_ + kf > Yc_.cols()) {
+        Eigen::MatrixXf grown(nc_, std::max<Index>(2 * (n_yc_ + kf), 64));
+        grown.leftCols(n_yc_) = Yc_.leftCols(n_yc_);
+        Yc_.swap(grown);
+      }
+      auto E = Yc_.middleCols(n_yc_, kf);
+      E.setZero();
+      for (Index i = 0; i < kf; ++i) {
+        E(fresh[static_cast<size_t>(i)], i) = 1.0f;
+        yc_col_[static_cast<size_t>(fresh[static_cast<size_t>(i)])] = n_yc_ + i;
+      }
+      lower_solve_matrix(L_.topLeftCorner(nc_, nc_), E, 0);
+      n_yc_ += kf;
+    }
+    Y_.resize(nc_ + na, ko);  // rows: the core, then the active fringe
+    for (Index i = 0; i < ko; ++i)
+      Y_.col(i).head(nc_) = Yc_.col(yc_col_[static_cast<size_t>(out_pos_[static_cast<size_t>(i)])]);
+    // fringe rows: L_JJ^-1 (0 - W_J Y_C)
+    Y_.bottomRows(na).setZero();
+    gemm_subtract(Y_.bottomRows(na), Wa_, Y_.topRows(nc_));
+    lower_solve_matrix(Zs_.topLeftCorner(na, na), Y_.bottomRows(na), 0);
+    // K in double from the float Y: the projection I - Y K^-1 Y^T stays one (positive
+    // semidefinite) where K is ill-conditioned
+    const Eigen::MatrixXd Yd = Y_.cast<double>();
+    Eigen::MatrixXd K = Eigen::MatrixXd::Zero(ko, ko);
+    K.selfadjointView<Eigen::Lower>().rankUpdate(Yd.transpose());
+    K_.compute(K);
+    if (K_.info() != Eigen::Success) {
+      valid_ = false;
+      return false;
+    }
+  }
+  return true;
+}
+
 void FreeBlockSolver::apply(NewtonOperator& op, const NodalInverse& net, const Eigen::VectorXd& G,
                             const Eigen::VectorXd& v, Eigen::VectorXd& out) {
   x_ = v.cwiseProduct(i_mask_);
@@ -106,6 +276,35 @@ void FreeBlockSolver::apply(NewtonOperator& op, const NodalInverse& net, const E
 }
 
 void FreeBlockSolver::precondition(const Eigen::VectorXd& r, Eigen::VectorXd& z) {
+  if (split_) {  // by blocks (select): the core, then the active fringe J
+    const Index na = static_cast<Index>(active_.size());
+    tmp_.resize(nc_ + na);
+    for (Index k = 0; k < nc_; ++k) tmp_[k] = static_cast<float>(r[cells_[static_cast<size_t>(k)]]);
+    for (Index i = 0; i < na; ++i)
+      tmp_[nc_ + i] = static_cast<float>(r[fringe_[static_cast<size_t>(active_[static_cast<size_t>(i)])]]);
+    const auto Lc = L_.topLeftCorner(nc_, nc_);
+    const auto Lj = Zs_.topLeftCorner(na, na);
+    auto uc = tmp_.head(nc_);
+    auto uj = tmp_.tail(na);
+    lower_solve_matrix(Lc, uc, 0);
+    uj.noalias() -= Wa_ * uc;
+    lower_solve_matrix(Lj, uj, 0);
+    if (!out_pos_.empty()) {  // the capacitance correction (header)
+      mu_ = K_.solve((Y_.transpose() * tmp_).cast<double>());
+      tmp_.noalias() -= Y_ * mu_.cast<float>();
+    }
+    lower_solve_matrix(Lj, uj, 2);
+    uc.noalias() -= Wa_.transpose() * uj;
+    lower_solve_matrix(Lc, uc, 2);
+    // the core cells out: the identity rows of PCG's operator (their z is 0 up to round-off,
+    // which PCG could not correct)
+    for (Index k : out_pos_) tmp_[k] = static_cast<float>(r[cells_[static_cast<size_t>(k)]]);
+    z = i_mask_.cwiseProduct(r);
+    for (Index k = 0; k < nc_; ++k) z[cells_[static_cast<size_t>(k)]] = tmp_[k];
+    for (Index i = 0; i < na; ++i)
+      z[fringe_[static_cast<size_t>(active_[static_cast<size_t>(i)])]] = tmp_[nc_ + i];
+    return;
+  }
   tmp_.resize(used_);
   for (Index k = 0; k < used_; ++k) {
     const Index c = cells_[static_cast<size_t>(k)];

@@ -1,7 +1,8 @@
 // FreeBlockSolver: the linear algebra of the active-set method (the method itself:
 // solve_active_set.cpp), kept by a Solver across the iterations and frames of a stream: the
 // Cholesky factor of the free block of S, used as the preconditioner of the Krylov (PCG) solves
-// while the free set and the point move under it.
+// while the free set and the point move under it; for large blocks a split factor (core block
+// factorised, Schur complement of the fringe kept) that follows a changing free set cheaply.
 #pragma once
 #include <vector>
 
@@ -40,6 +41,27 @@ class FreeBlockSolver {
   // factor is then invalid and the caller refactorises.
   bool update(const NodalInverse& net, const Eigen::VectorXd& G,
               const std::vector<Index>& free_cells);
+  // The split factor: U = core then fringe (disjoint cells), S_UU at (net, G) factorised over the
+  // core only (cholesky_partial_in_place): L_CC, the panel W = L_FC and the Schur complement
+  //   Z = S_FF - W W^T
+  // are kept. The Schur complement of the core in S_(C+J) for any part J of the fringe is the
+  // principal submatrix Z_JJ, so a free set I = C + J costs the Cholesky of Z_JJ (select), not
+  // of all of S_II. False if the core block is not SPD (float32, after a small shift).
+  bool factor_split(const NodalInverse& net, const Eigen::VectorXd& G,
+                    const std::vector<Index>& core, const std::vector<Index>& fringe);
+  // Whether the stored factor is a split one (factor_split; factor() and update() end it).
+  bool is_split() const { return valid_ && split_; }
+  // Brings the split factor to I = free_cells: P = core + (fringe cells in I), the fringe first
+  // grown by the cells of I outside U (a new row of W by one triangular solve against L_CC, a new
+  // row of Z). Core cells outside I stay in P as identity rows of PCG's operator (solve()); the
+  // preconditioner is still S_II's on I, by a capacitance correction (out_pos_ below). In split
+  // mode only L_CC lives in L_; the preconditioner solves by blocks with W_J and L_JJ. False when
+  // the room is used up or a pivot is not positive: the factor is then invalid and the caller
+  // refactorises.
+  bool select(const NodalInverse& net, const Eigen::VectorXd& G,
+              const std::vector<Index>& free_cells);
+  // Core cells outside free_cells (they stay in P as identity rows of PCG's operator).
+  Index core_outside(const std::vector<Index>& free_cells) const;
   // Solves S_II y_I = b_I to ||residual|| <= tol ||b_I||; b and y have length R*C
   // (entries outside I: b ignored, y set to 0). Sy receives S y on every cell, summed from the
   // products PCG makes anyway (the active-set method reads its multipliers off it). Returns the
@@ -64,6 +86,24 @@ class FreeBlockSolver {
                               // float32 (only a preconditioner, as in newton_operator.hpp); the
                               // rest is room for cells that join
   bool valid_ = false;
+  bool split_ = false;        // a split factor (factor_split): positions [0, nc_) the core, then
+                              // the fringe (fringe_[j] at position nc_ + j, active or a hole)
+  Index nc_ = 0;
+  std::vector<Index> fringe_, core_cells_;  // fringe index -> cell; the core's cells in order
+  std::vector<Index> fidx_;   // cell -> fringe index, -1 when not in the fringe
+  Eigen::MatrixXf W_, Z_;     // fringe x core panel L_FC; fringe x fringe Schur complement (lower)
+  Eigen::MatrixXf Zs_;        // Z on the active fringe J, then its factor L_JJ
+  Eigen::MatrixXf Wa_;        // W on J (na x nc)
+  std::vector<Index> active_;
+  // core cells outside I (their positions O): the preconditioner is the factor's solve
+  // restricted to y_O = 0 (capacitance): with Y = L^-1 E_O and K = Y^T Y,
+  //   z = L^-T (u - Y K^-1 Y^T u),   u = L^-1 r.
+  // Y's core rows L_CC^-1 e_o do not depend on the fringe: kept per core position (yc_col_).
+  std::vector<Index> out_pos_, yc_col_;
+  Eigen::MatrixXf Y_, Yc_;
+  Index n_yc_ = 0;
+  Eigen::LLT<Eigen::MatrixXd> K_;
+  Eigen::VectorXd mu_;
   Eigen::VectorXd x_, Sx_, b_;
   numerics::PcgWork pcg_;
   Eigen::VectorXf tmp_, col_;

@@ -18,7 +18,9 @@
 // (lambda_I = 0; at most a tenth of |I| freed per step, kFreeCap below), until I repeats. When
 // I changes the factor is rebuilt, or updated cell by cell when few cells changed within one QP
 // (kUpdateShare below); it is kept while the point moves by little (the last outer
-// iterations: PCG on a factor of the previous point, kRefactorAbove). The first free set of a
+// iterations: PCG on a factor of the previous point, kRefactorAbove). Free blocks of kSplitFrom
+// cells or more are factorised split instead (core and fringe, kSplitFrom below): a new free set
+// then costs a Cholesky of the fringe's part of the Schur complement, not a refactorisation. The first free set of a
 // frame is the PDAS rule at the starting point; each QP starts from the previous QP's set.
 //
 // Why exact QPs: the plain PDAS step on the nonlinear problem (one linear solve per outer
@@ -95,6 +97,21 @@ constexpr double kRefactorAbove = 1e-2;
 // laplacian.hpp; 16x16 noisy bench stream, one core, 254 us a frame as set): kRefactorAbove 1e-1
 // 255 us (4.6 factorisations, 16.1 PCG steps), 1 268; kUpdateShare 0.2 269 (3.7
 // factorisations: the updates cost more than they save), 0.3 306; kFreeCap 0.05 251, 0.2 268.
+// Free blocks of at least kSplitFrom cells are factorised split (FreeBlockSolver::factor_split):
+// the core, the free cells with g - g_floor > kCoreShare * max(g - g_floor), by a partial
+// Cholesky, the rest of I (the fringe: quiet cells that the noise frees and binds) kept as the
+// Schur complement of the core; a new free set of the same QP then costs the Cholesky of the
+// fringe's part (select) instead of a refactorisation or Givens updates, with the core cells
+// that left I (at most kCoreOutMax, else a new factor) as a capacitance correction. Noisy bench
+// streams, one core (C++ driver), same iterations and residuals, ms a frame (factorisations a
+// frame): 64x64 49.6-51.0 (4.9) -> 43.5-45.5 (2.0), 32x32 2.49 (4.8) -> 2.21 (2.0); kCoreShare
+// 1e-2 45.4 / 2.23, 5e-2 48.5 / 2.36 (a larger fringe: dearer selects), 3e-3 worse (64x64 54
+// against 46 in an earlier version: more core cells leave). 16x16 (free blocks ~100-150) is
+// slower split (272 against 255 us a frame), kept whole. PCG: 15.6 steps a frame at 64x64
+// against 14.1.
+constexpr Index kSplitFrom = 200;
+constexpr double kCoreShare = 2e-2;
+constexpr Index kCoreOutMax = 128;
 }  // namespace
 
 SolveReport solve_active_set(Solver& s, const ConstVecRef& G_exp, VecRef g) {
@@ -111,7 +128,7 @@ SolveReport solve_active_set(Solver& s, const ConstVecRef& G_exp, VecRef g) {
   }
   rep.evaluations = 1;
 
-  std::vector<Index> free_cells;
+  std::vector<Index> free_cells, core, fringe;
   free_cells.reserve(static_cast<size_t>(n));
   // the free set of the QP, carried from one QP to the next; first guess: the PDAS rule at g
   std::vector<char> is_free(static_cast<size_t>(n));
@@ -168,8 +185,28 @@ SolveReport solve_active_set(Solver& s, const ConstVecRef& G_exp, VecRef g) {
                          static_cast<double>(changes) <=
                              kUpdateShare * static_cast<double>(free_cells.size());
         const bool far = inner == 0 && resid > kRefactorAbove;  // the factor is of a far point
-        if ((changes > 0 || far) && !(!far && few && fs.update(s.net, s.Gm, free_cells))) {
-          if (!fs.factor(s.net, s.Gm, free_cells)) {
+        bool kept = false;
+        if ((changes > 0 || far) && !far) {
+          if (fs.is_split())
+            kept = fs.core_outside(free_cells) <= kCoreOutMax && fs.select(s.net, s.Gm, free_cells);
+          else
+            kept = few && fs.update(s.net, s.Gm, free_cells);
+        }
+        if ((changes > 0 || far) && !kept) {
+          bool ok;
+          if (static_cast<Index>(free_cells.size()) >= kSplitFrom) {
+            // core: the free cells well above the floor; fringe: the rest of I
+            core.clear();
+            fringe.clear();
+            const double th = kCoreShare * (g.maxCoeff() - fl);
+            for (Index c : free_cells) (g[c] - fl > th ? core : fringe).push_back(c);
+            ok = fs.factor_split(s.net, s.Gm, core, fringe) && fs.select(s.net, s.Gm, free_cells);
+            // (float round-off: the fringe's block not SPD) the whole block, with its shifts
+            if (!ok) ok = fs.factor(s.net, s.Gm, free_cells);
+          } else {
+            ok = fs.factor(s.net, s.Gm, free_cells);
+          }
+          if (!ok) {
             rep.status = Status::Singular;  // ends the QP, then the frame (below)
             break;
           }
