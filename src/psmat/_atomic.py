@@ -28,7 +28,7 @@ from pathlib import Path
 from typing import IO, Any
 
 __all__ = ["TMP_PREFIX", "OutputRefused", "check_outputs", "replacing", "open_atomic", "write_text_atomic",
-           "same_file", "fsync_dir", "fsync_file"]
+           "same_file", "fsync_dir", "fsync_file", "remove_temporaries"]
 
 #: the name of every temporary file begins so (a study run removes those a killed run left)
 TMP_PREFIX = ".tmp-"
@@ -193,3 +193,15 @@ def write_text_atomic(path: PathLike, text: str, *, overwrite: bool = True) -> N
     """``path`` gets ``text`` (UTF-8) whole or keeps what it had."""
     with open_atomic(path, "w", overwrite=overwrite) as fh:
         fh.write(text)
+
+
+def remove_temporaries(folder: PathLike) -> int:
+    """Delete the temporary files (:data:`TMP_PREFIX`) a killed writer left in ``folder``; how many.
+
+    Call it only while no writer uses the folder (a study run holds its lock).
+    """
+    n = 0
+    for p in Path(folder).glob(TMP_PREFIX + "*"):
+        p.unlink(missing_ok=True)
+        n += 1
+    return n

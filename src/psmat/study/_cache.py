@@ -53,7 +53,7 @@ from typing import Any
 
 import numpy as np
 
-from .._atomic import TMP_PREFIX, open_atomic, write_text_atomic
+from .._atomic import open_atomic, remove_temporaries, write_text_atomic
 from .._filelock import LockHeld, exclusive_lock
 from ._plain import STATS_PREFIX, TEXT_COLUMNS, Expect, check_rows, digest, first_line, parse_json, plain_rows
 from ._trial import Rows, Traces
@@ -215,11 +215,7 @@ class SessionStore:
 
     def remove_temporaries(self) -> int:
         """Delete temporary files a killed run left (call only while holding :func:`study_lock`)."""
-        n = 0
-        for p in self.folder.glob(TMP_PREFIX + "*"):
-            p.unlink(missing_ok=True)
-            n += 1
-        return n
+        return remove_temporaries(self.folder)
 
 
 def glob_escape(text: str) -> str:

@@ -29,7 +29,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from .._atomic import TMP_PREFIX, write_text_atomic
+from .._atomic import remove_temporaries, write_text_atomic
 from ._cache import canonical_json, file_sha256
 from ._layout import StudyLayout
 from ._task import SessionTask
@@ -158,8 +158,4 @@ class ReportIndex:
 
     def remove_temporaries(self) -> int:
         """Delete the temporary files a killed run left in the folder."""
-        n = 0
-        for p in self.folder.glob(TMP_PREFIX + "*"):
-            p.unlink(missing_ok=True)
-            n += 1
-        return n
+        return remove_temporaries(self.folder)
