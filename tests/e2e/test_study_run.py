@@ -195,15 +195,21 @@ def test_processes_and_a_dask_cluster_give_the_same_bytes(study, tmp_path) -> No
     assert (report.computed, report.reused) == (4, 0)
     assert (two / "results" / "metrics.csv").read_bytes() == metrics
     dask = _copy(root, tmp_path / "dask", results=False)
-    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as c:
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as c, \
+            distributed.Client(c.scheduler_address) as client, distributed.get_task_stream(client) as stream:
         report = run_study(dask, scheduler=c.scheduler_address, progress=False)
+        workers = set(client.scheduler_info()["workers"])
     assert (report.computed, report.reused) == (4, 0)
     assert (dask / "results" / "metrics.csv").read_bytes() == metrics
-    # the figures too: drawn as tasks of the loky pool, or in this process after the cluster's sessions
+    # the figures too: drawn as tasks of the loky pool, and as tasks of the cluster's workers (the
+    # scheduler's own record of what ran where), the same bytes
     figures = sorted(p.name for p in (two / "results" / "figures").glob("*.png"))
     assert figures and figures == sorted(p.name for p in (dask / "results" / "figures").glob("*.png"))
     for name in figures:
         assert (dask / "results" / "figures" / name).read_bytes() == (two / "results" / "figures" / name).read_bytes()
+    ran = {str(t["key"]).rsplit("-", 1)[0]: t["worker"] for t in stream.data}
+    assert {f"psmat-figure-{name[:-len('.png')]}" for name in figures} <= set(ran)
+    assert set(ran.values()) <= workers
     for name in ("V01_right-leg", "V02_left-leg"):
         mine, ref = (json.loads((d / "results" / "sessions" / f"{name}.json").read_text()) for d in (dask, root))
         assert mine["key"] == ref["key"]  # the key is made of contents, not of where the folder lies

@@ -10,18 +10,25 @@ opened. The digest of an entry is recomputed here from its documented definition
 (:mod:`psmat.study` (``_cache.py``)), not with psmat's function, to forge entries that only the other
 checks can refuse. The posture input cache is tampered with likewise. A real Dask cluster on
 127.0.0.1 with TLS (throwaway credentials from ``distributed.Security.temporary``) runs the study
-through its scheduler file and gives the same bytes; a worker sending a pickle is refused.
+through its scheduler file and gives the same bytes; a worker sending a pickle is refused. A
+task's time and a figure come back as data, checked (a PNG built here by hand from its
+specification is accepted, each damage to it refused); the cluster's figures are the bytes this
+process draws, and a figure a worker sends as a pickle is refused, never unpickled, and drawn
+here instead.
 """
 
 from __future__ import annotations
 
+import csv
 import hashlib
 import json
 import os
 import pickle
 import re
 import shutil
+import struct
 import sys
+import zlib
 from collections.abc import Iterator
 from pathlib import Path
 
@@ -303,6 +310,44 @@ def test_a_result_is_decoded_without_pickle_and_checked(tmp_path) -> None:
         decode_result(pickle.dumps(_MakeDir(str(sentinel))).decode("latin-1"), expect)  # type: ignore[arg-type]
 
 
+def _chunk(kind: bytes, body: bytes) -> bytes:
+    """A PNG chunk as its specification writes it: length, type, data, CRC-32 of type and data."""
+    return struct.pack(">I", len(body)) + kind + body + struct.pack(">I", zlib.crc32(kind + body))
+
+
+def test_a_task_time_and_a_png_are_checked_as_data() -> None:
+    from psmat._png import check_png
+    from psmat.study._plain import check_timed
+
+    time = {"start": 1.7e9, "wall_s": 0.5, "cpu_s": 0.25, "pid": 4321, "worker": "tls://127.0.0.1:40001"}
+    result, took = check_timed((b"result", time))
+    assert result == b"result" and (took.start, took.wall_s, took.cpu_s, took.pid, took.worker) == tuple(time.values())
+    assert check_timed([b"", {**time, "worker": ""}])[1].worker == ""  # msgpack may send a list
+    for bad in ({**time, "pid": True}, {**time, "pid": -1}, {**time, "pid": 1.0}, {**time, "wall_s": float("nan")},
+                {**time, "cpu_s": -0.1}, {**time, "start": float("inf")}, {**time, "worker": "a\nb"},
+                {**time, "worker": "w" * 257}, {**time, "worker": 7}, {**time, "extra": 1},
+                {k: v for k, v in time.items() if k != "pid"}):
+        with pytest.raises(ValueError):
+            check_timed((b"", bad))
+    for bad in (b"result", (b"", time, 1), None, "text"):
+        with pytest.raises(ValueError, match="pair"):
+            check_timed(bad)
+
+    # a 2 x 1 grey image: signature, IHDR (width, height, depth 8, colour type 0), IDAT, IEND
+    png = (b"\x89PNG\r\n\x1a\n" + _chunk(b"IHDR", struct.pack(">IIBBBBB", 2, 1, 8, 0, 0, 0, 0))
+           + _chunk(b"IDAT", zlib.compress(b"\x00\x10\x20")) + _chunk(b"IEND", b""))
+    assert check_png(png) == png
+    flipped = bytearray(png)
+    flipped[41] ^= 1  # the first byte of IDAT's data: its CRC no longer holds
+    for bad in (png[:-1], png + b"\x00", b"GIF89a" + png[6:], bytes(flipped), png[:8] + _chunk(b"IEND", b""),
+                png[:8] + _chunk(b"IHDR", struct.pack(">IIBBBBB", 0, 1, 8, 0, 0, 0, 0)) + png[33:],
+                png.replace(b"IDAT", b"ID4T")):
+        with pytest.raises(ValueError):
+            check_png(bad)
+    with pytest.raises(ValueError, match="must be bytes"):
+        check_png(png.decode("latin-1"))
+
+
 @pytest.fixture(scope="module")
 def tls_cluster(tmp_path_factory) -> Iterator[tuple[object, object, Path]]:
     """A LocalCluster on 127.0.0.1 over TLS: one worker process, throwaway CA and certificates."""
@@ -393,3 +438,74 @@ def test_the_command_line_passes_tls_and_the_scheduler_file_through(study, tls_c
     assert main(args + tls) == 0
     assert "4 sessions: 1 computed, 3 reused, 0 failed" in capsys.readouterr().out
     assert (copy / "results" / "metrics.csv").read_bytes() == metrics
+
+
+def test_the_cluster_draws_the_figures_this_process_draws_and_a_pickled_one_is_drawn_here(
+        study, tls_cluster, tmp_path, monkeypatch) -> None:
+    import cloudpickle
+    import distributed
+
+    from psmat.study import Cluster, write_results
+    from psmat.study import _cluster
+
+    root, _ = study
+    cluster, security, _ = tls_cluster
+    with open(root / "results" / "metrics.csv", newline="") as fh:
+        rows = list(csv.DictReader(fh))
+    with distributed.Client(cluster.scheduler_address, security=security) as client:
+        pids = client.run(os.getpid)  # {worker address: its pid}, as the cluster knows them
+    drawer = _cluster.cluster_drawer(Cluster(cluster.scheduler_address, security=security))
+    times: dict[str, list] = {}
+
+    def draw(into: str):
+        def run(tasks):
+            for name, data, took in drawer(tasks):
+                times.setdefault(into, []).append(took)
+                yield name, data, took
+        return run
+
+    here = write_results(tmp_path / "here", rows)  # drawn in this process
+    figures = sorted(n for n, p in here.items() if p.suffix == ".png")
+    assert len(figures) == 4  # bars and Bland-Altman plots: no traces given
+    there = write_results(tmp_path / "cluster", rows, draw=draw("cluster"))
+    assert all(there[n].read_bytes() == here[n].read_bytes() for n in figures)
+    assert len(times["cluster"]) == 4 and all(pids.get(t.worker) == t.pid != os.getpid() for t in times["cluster"])
+    # workers sending each figure as a pickle: refused before it is read, the figures drawn here
+    cloudpickle.register_pickle_by_value(sys.modules[__name__])
+    sentinel = tmp_path / "ran"
+    payload = pickle.dumps(_MakeDir(str(sentinel)))
+    monkeypatch.setattr(_cluster, "run_figure", lambda t: _rogue(payload))
+    rogue = write_results(tmp_path / "rogue", rows, draw=draw("rogue"))
+    assert not sentinel.exists()
+    assert all(rogue[n].read_bytes() == here[n].read_bytes() for n in figures)
+    assert len(times["rogue"]) == 4 and all((t.pid, t.worker) == (os.getpid(), "") for t in times["rogue"])
+
+
+def test_figures_are_drawn_here_when_the_cluster_cannot_be_reached(study, tmp_path) -> None:
+    import socket
+
+    import dask
+
+    from psmat.study import Cluster, write_results
+    from psmat.study._cluster import cluster_drawer
+
+    root, _ = study
+    with open(root / "results" / "metrics.csv", newline="") as fh:
+        rows = list(csv.DictReader(fh))
+    with socket.socket() as s:  # a port of this machine that nothing listens on once closed
+        s.bind(("127.0.0.1", 0))
+        port = s.getsockname()[1]
+    drawer = cluster_drawer(Cluster(f"tcp://127.0.0.1:{port}"))
+    times = []
+
+    def draw(tasks):
+        for name, data, took in drawer(tasks):
+            times.append(took)
+            yield name, data, took
+
+    here = write_results(tmp_path / "here", rows)
+    with dask.config.set({"distributed.comm.timeouts.connect": "2s"}):
+        there = write_results(tmp_path / "there", rows, draw=draw)
+    figures = sorted(n for n, p in here.items() if p.suffix == ".png")
+    assert len(figures) == 4 and all(there[n].read_bytes() == here[n].read_bytes() for n in figures)
+    assert len(times) == 4 and all((t.pid, t.worker) == (os.getpid(), "") for t in times)

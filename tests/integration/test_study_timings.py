@@ -1,11 +1,14 @@
 """``results/timings.csv`` and ``results/session_timings.csv`` of ``psmat study run`` on a small
 simulated study (docs/spec.md §12): every stage, each session computed then reused, and a rerun
-that rewrites only the timings (no assertion on how long anything takes)."""
+that rewrites only the timings (no assertion on how long anything takes); on a real Dask
+LocalCluster (two worker processes), each session's line names the worker that ran it, checked
+against the cluster's own list of its workers and their pids."""
 
 from __future__ import annotations
 
 import csv
 import os
+import shutil
 from pathlib import Path
 
 import pytest
@@ -55,12 +58,13 @@ def test_a_run_writes_its_stages_and_one_line_per_session_and_a_rerun_reuses_eve
     assert by["reports"]["computed"] == ""  # no --reports: no pages
 
     per = _read(results / "session_timings.csv")
-    assert list(per[0]) == ["subject", "trial", "stem", "result", "start_s", "wall_s", "cpu_s", "pid"]
+    assert list(per[0]) == ["subject", "trial", "stem", "result", "start_s", "wall_s", "cpu_s", "pid", "worker"]
     assert sorted(r["stem"] for r in per) == sessions
     assert {r["result"] for r in per} == {"computed"}
     for r in per:
         assert float(r["start_s"]) >= 0 and float(r["wall_s"]) > 0 and float(r["cpu_s"]) >= 0
         assert int(r["pid"]) != os.getpid()  # two workers: each session ran in a worker process
+        assert r["worker"] == ""  # a process of this machine, no Dask worker
         assert r["stem"] == f"{r['subject']}_{r['trial']}"
 
     before = _outputs(results)
@@ -76,7 +80,7 @@ def test_a_run_writes_its_stages_and_one_line_per_session_and_a_rerun_reuses_eve
     assert (by["figures"]["computed"], by["figures"]["reused"]) == ("0", str(len(figures)))
     per = _read(results / "session_timings.csv")
     assert sorted(r["stem"] for r in per) == sessions
-    assert all(r["result"] == "reused" and r["wall_s"] == r["cpu_s"] == r["pid"] == "" for r in per)
+    assert all(r["result"] == "reused" and r["wall_s"] == r["cpu_s"] == r["pid"] == r["worker"] == "" for r in per)
 
 
 def test_with_one_worker_the_sessions_run_in_this_process(tmp_path: Path, study: Path) -> None:
@@ -88,3 +92,30 @@ def test_with_one_worker_the_sessions_run_in_this_process(tmp_path: Path, study:
     by = {r["stage"]: r for r in _read(root / "results" / "timings.csv")}
     assert (by["reports"]["computed"], by["reports"]["reused"]) == ("1", "0")  # one subject, one page
     assert float(by["reports"]["cpu_s"]) > 0
+
+
+def test_on_a_dask_cluster_each_session_names_the_worker_that_ran_it(study: Path, tmp_path: Path) -> None:
+    distributed = pytest.importorskip("distributed")
+    root = tmp_path / "dask"
+    shutil.copytree(study, root, ignore=shutil.ignore_patterns("results"))
+    sessions = sorted(p.stem for p in (root / "sessions").glob("*.h5"))
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as c, \
+            distributed.Client(c.scheduler_address) as client:
+        pids = client.run(os.getpid)  # {worker address: its process id}, as the cluster knows them
+        report = run_study(root, scheduler=c.scheduler_address, progress=False, reports=True)
+    assert (report.computed, report.failed) == (len(sessions), 0)
+    assert len(pids) == 2 and os.getpid() not in pids.values()
+    results = root / "results"
+    per = _read(results / "session_timings.csv")
+    assert sorted(r["stem"] for r in per) == sessions and {r["result"] for r in per} == {"computed"}
+    for r in per:
+        assert float(r["start_s"]) >= 0 and float(r["wall_s"]) > 0 and float(r["cpu_s"]) > 0, r
+        assert r["worker"] in pids and int(r["pid"]) == pids[r["worker"]], r  # a worker of this cluster
+    by = {r["stage"]: r for r in _read(results / "timings.csv")}
+    assert (by["sessions"]["computed"], by["sessions"]["reused"]) == (str(len(sessions)), "0")
+    assert float(by["sessions"]["cpu_s"]) == pytest.approx(sum(float(r["cpu_s"]) for r in per), abs=1e-3)
+    assert (by["reports"]["computed"], by["reports"]["reused"]) == ("2", "0")  # a page per volunteer, on the workers
+    assert float(by["reports"]["cpu_s"]) > 0
+    figures = sorted((results / "figures").glob("*.png"))
+    assert figures and (by["figures"]["computed"], by["figures"]["reused"]) == (str(len(figures)), "0")
+    assert sorted(p.name for p in (results / "reports").glob("*.html")) == ["V01.html", "V02.html"]

@@ -15,7 +15,7 @@ from ._html import page, session_section
 from ._item import ReportItem, merged_params
 from ._pdf import write_pdf
 
-__all__ = ["write_report", "ReportResult"]
+__all__ = ["write_report", "render_report", "ReportResult"]
 
 
 class ReportResult(os.PathLike):  # type: ignore[type-arg]
@@ -79,11 +79,28 @@ def write_report(out_html: str | os.PathLike[str], items: Sequence[ReportItem | 
         No session, a bad parameter, a session or platform file the report cannot use (one line,
         naming the file).
     """
+    out = Path(out_html)
+    write_text_atomic(out, render_report(items, title=title, subject=subject, params=params))
+    if not pdf:
+        return ReportResult(out, None, "")
+    target = out.with_suffix(".pdf") if pdf is True else Path(pdf)
+    try:
+        done, engine = write_pdf(out, target)
+    except RuntimeError as exc:  # PdfUnavailable too
+        return ReportResult(out, None, " ".join(str(exc).split()))
+    return ReportResult(out, done, f"PDF by {engine}")
+
+
+def render_report(items: Sequence[ReportItem | str | os.PathLike[str]], *, title: str | None = None,
+                  subject: str | None = None, params: dict[str, Any] | None = None) -> str:
+    """The HTML page :func:`write_report` writes, as text (nothing written).
+
+    Parameters and errors as for :func:`write_report` (no ``out_html``, no ``pdf``).
+    """
     entries = [_item(x) for x in items]
     if not entries:
         raise ValueError("no session to report on")
     p = merged_params(params)
-    out = Path(out_html)
     sections = []
     for k, item in enumerate(entries):
         try:
@@ -99,12 +116,4 @@ def write_report(out_html: str | os.PathLike[str], items: Sequence[ReportItem | 
               ("descriptors", f"psmat.balance.descriptors, preset {p['preset']}"),
               ("report parameters", ", ".join(f"{k}={v}" for k, v in p.items()))]
     name = title or f"psmat report: {entries[0].label or Path(entries[0].session).name}"
-    write_text_atomic(out, page(name, subject, sections, footer))
-    if not pdf:
-        return ReportResult(out, None, "")
-    target = out.with_suffix(".pdf") if pdf is True else Path(pdf)
-    try:
-        done, engine = write_pdf(out, target)
-    except RuntimeError as exc:  # PdfUnavailable too
-        return ReportResult(out, None, " ".join(str(exc).split()))
-    return ReportResult(out, done, f"PDF by {engine}")
+    return page(name, subject, sections, footer)

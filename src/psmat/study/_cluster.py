@@ -1,5 +1,5 @@
-"""A study's sessions on a Dask distributed cluster (``psmat study run --scheduler``), and what
-that asks you to trust.
+"""A study's sessions, per-subject pages and figures on a Dask distributed cluster (``psmat
+study run --scheduler``), and what that asks you to trust.
 
 **A Dask cluster must be trusted.** Its workers run whatever code a client sends them — by
 design, that is what they are for — and Dask's wire protocol lets any peer (the scheduler or a
@@ -19,6 +19,16 @@ What psmat narrows, where Dask allows it:
   (``allow_pickle=False``, JSON) and checked (:func:`psmat.study.decode_result`: the
   session's stem, subject, trial, one row per variant asked for, traces' shapes) before this
   process writes them to ``results/sessions`` with their digests (:mod:`psmat.study` (``_cache.py``)).
+* **Every task's answer is the pair (result, time)**: its time in the worker (start, wall and
+  CPU seconds, pid, the worker's address) as plain numbers and text
+  (:func:`psmat.study._plain.stamp`), checked (:func:`psmat.study._plain.check_timed`) and
+  written to ``results/session_timings.csv``.
+* **Figures and per-subject pages are tasks of the cluster too**, their results data this
+  process checks and writes atomically: a figure comes back as its PNG's bytes, checked as one
+  well-formed PNG (:func:`psmat._png.check_png`) — a figure refused or lost is drawn in this
+  process instead; a page (``--reports``) comes back as its HTML text, checked to hold only what
+  psmat's pages hold (:func:`psmat.report.check_page`: no script, no link, no other style
+  sheet) — a page refused is a problem line of the run, tried again next run.
 * **TLS and authentication are passed through**: ``scheduler_file`` (the JSON a scheduler
   writes with ``--scheduler-file``) and a :class:`distributed.Security` (TLS CA, client
   certificate and key, ``require_encryption``; :func:`security`). Dask's TLS is mutual: the
@@ -26,7 +36,9 @@ What psmat narrows, where Dask allows it:
   scheduler whose certificate it cannot verify.
 
 Tasks carry file paths, not file contents: the study folder must be on a filesystem the
-workers share (the same path on every worker), and the workers need psmat installed.
+workers share (the same path on every worker) for them to read the sessions; they write nothing
+there. The workers need psmat installed, the version of this process (and its matplotlib, for
+figures of the same bytes: both versions are part of each figure's key, read here).
 """
 
 from __future__ import annotations
@@ -37,13 +49,18 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from ._plain import decode_result, encode_result
+from ._figure_tasks import FigureTask, draw_figure
+from ._plain import check_timed, decode_result, encode_result, first_line, stamp
+from ._reports import ReportTask, render_page
+from ._timings import TaskTime, timed
 from ._trial import Rows, Traces
 
 if TYPE_CHECKING:  # pragma: no cover
+    from ._results import DrawFigures
     from ._task import SessionTask
 
-__all__ = ["PLAIN_DESERIALIZERS", "Cluster", "security", "run_encoded", "on_cluster"]
+__all__ = ["PLAIN_DESERIALIZERS", "Cluster", "security", "run_encoded", "run_session", "run_page", "run_figure",
+           "run_on_cluster", "on_cluster", "cluster_drawer"]
 
 #: the only way a result may come back to the client: msgpack (bytes, numbers, text, lists, maps)
 PLAIN_DESERIALIZERS = ("msgpack",)
@@ -120,6 +137,37 @@ def run_encoded(task: SessionTask) -> bytes:
         return encode_result(task.stem, error_rows(task, exc), {})
 
 
+def _worker() -> str:
+    """The address of the Dask worker running this task ("" outside one)."""
+    try:
+        from distributed import get_worker
+
+        return str(get_worker().address)
+    except (ImportError, ValueError):
+        return ""
+
+
+def _stamped(fn: Callable[[Any], Any], task: Any) -> tuple[Any, dict[str, Any]]:
+    out, took = timed(fn, task)
+    return stamp(out, TaskTime(took.start, took.wall_s, took.cpu_s, took.pid, _worker()))
+
+
+def run_session(task: SessionTask) -> tuple[bytes, dict[str, Any]]:
+    """A session on a worker: (:func:`run_encoded`'s bytes, its time) (:func:`stamp`)."""
+    return _stamped(run_encoded, task)
+
+
+def run_page(task: ReportTask) -> tuple[tuple[str | None, str | None], dict[str, Any]]:
+    """A subject's page on a worker: ((its HTML text, None) or (None, why not), its time); the
+    worker writes nothing (:func:`psmat.study._reports.render_page`)."""
+    return _stamped(render_page, task)
+
+
+def run_figure(task: FigureTask) -> tuple[tuple[str, bytes], dict[str, Any]]:
+    """A figure on a worker: ((its name, the PNG's bytes), its time) (:func:`draw_figure`)."""
+    return _stamped(draw_figure, task)
+
+
 def _client(cluster: Cluster) -> Any:
     """A client that reads results as msgpack only (see the module docstring)."""
     distributed = _distributed()
@@ -139,28 +187,129 @@ def _client(cluster: Cluster) -> Any:
         raise RuntimeError(f"cannot connect to the Dask scheduler {where}: {why}") from None
 
 
-def on_cluster(todo: Sequence[SessionTask], cluster: Cluster, fn: Callable[[SessionTask], Any] = run_encoded
+def _answers(client: Any, jobs: Sequence[tuple[Callable[[Any], Any], Any, str]]
+             ) -> Iterator[tuple[Any, Any, TaskTime | None, Exception | None]]:
+    """Each job (what the worker runs, its task, its Dask key) submitted at once; (task, result,
+    time, None) as each answers with a pair that passes :func:`check_timed`, or (task, None,
+    None, why) for one refused (a result not sent as msgpack, a time that fails the check) or
+    lost, in the order they finish."""
+    distributed = _distributed()
+    futures = {client.submit(fn, task, key=key): task for fn, task, key in jobs}
+    for fut in distributed.as_completed(futures):
+        task = futures.pop(fut)
+        try:
+            result, took = check_timed(fut.result())
+        except Exception as exc:  # noqa: BLE001 - a lost worker, a refused format: the run goes on
+            yield task, None, None, exc
+        else:
+            yield task, result, took, None
+        fut.release()
+
+
+def _why(exc: Exception) -> Exception:
+    """What a result refused by a check says; any other failure as it is."""
+    return ValueError(f"the cluster's result was refused: {exc}") if isinstance(exc, ValueError) else exc
+
+
+def _page(task: ReportTask, result: Any) -> str | None:
+    """A page the cluster sent (``(text, None)`` or ``(None, why not)``), checked and written
+    atomically here: None, or why it is not written (one line)."""
+    from .._atomic import write_text_atomic
+    from ..report import check_page
+
+    if not isinstance(result, (tuple, list)) or len(result) != 2:
+        raise ValueError("a page's result must be the pair (page, why not)")
+    text, why = result
+    if text is None and isinstance(why, str):
+        return first_line(why)
+    if why is not None:
+        raise ValueError("a page's result holds both a page and why not")
+    write_text_atomic(task.out, check_page(text))
+    return None
+
+
+def run_on_cluster(sessions: Sequence[SessionTask], pages: Sequence[ReportTask], cluster: Cluster,
+                   fn: Callable[[SessionTask], Any] = run_session) -> Iterator[tuple[str, Any, TaskTime | None]]:
+    """Sessions and per-subject pages on the cluster, submitted together: ``("session", (stem,
+    rows, traces), time)`` and ``("report", (subject, why not or None), time)`` in the order they
+    finish, time the task's in its worker (None when its answer was refused or lost).
+
+    A session whose result is refused or lost gives error rows (tried again next run); a page
+    is written here once checked (:func:`psmat.report.check_page`), a page refused or lost is
+    ``why not``. ``fn`` is what the workers run for a session (default :func:`run_session`):
+    whatever it returns must be the pair (:func:`encode_result`'s bytes, its time) to be accepted.
+    """
+    from ._task import error_rows
+
+    if not sessions and not pages:
+        return
+    jobs = [(fn, t, f"psmat-study-{t.key}") for t in sessions]
+    jobs += [(run_page, r, f"psmat-report-{r.key}") for r in pages]
+    with _client(cluster) as client:
+        for task, result, took, exc in _answers(client, jobs):
+            if isinstance(task, ReportTask):
+                try:
+                    if exc is not None:
+                        raise exc
+                    why = _page(task, result)
+                except Exception as err:  # noqa: BLE001 - refused, lost or not written: a problem line
+                    err = _why(err)
+                    why = first_line(str(err) if isinstance(err, ValueError) else f"{type(err).__name__}: {err}")
+                yield "report", (task.subject, why), took
+                continue
+            try:
+                if exc is not None:
+                    raise exc
+                out = decode_result(result, task.expect)
+            except Exception as err:  # noqa: BLE001 - a lost worker, a refused format: the run goes on
+                out = task.stem, error_rows(task, _why(err)), {}
+            yield "session", out, took
+
+
+def on_cluster(todo: Sequence[SessionTask], cluster: Cluster, fn: Callable[[SessionTask], Any] = run_session
                ) -> Iterator[tuple[str, Rows, Traces]]:
     """(stem, rows, traces) of each task run on the cluster, in the order they finish; a task
     whose result is refused, or that the cluster lost, gives error rows (tried again next run).
 
-    ``fn`` is what the workers run (default :func:`run_encoded`); whatever it returns must be
-    :func:`encode_result`'s bytes to be accepted.
+    ``fn`` is what the workers run (default :func:`run_session`); whatever it returns must be
+    the pair (:func:`encode_result`'s bytes, its time) to be accepted (:func:`run_on_cluster`
+    gives the times too).
     """
-    from ._task import error_rows
+    for _, out, _ in run_on_cluster(todo, (), cluster, fn):
+        yield out
 
-    if not todo:
-        return
-    distributed = _distributed()
-    with _client(cluster) as client:
-        futures = {client.submit(fn, t, key=f"psmat-study-{t.key}"): t for t in todo}
-        for fut in distributed.as_completed(futures):
-            t = futures[fut]
-            try:
-                out = decode_result(fut.result(), t.expect)
-            except ValueError as exc:
-                out = t.stem, error_rows(t, ValueError(f"the cluster's result was refused: {exc}")), {}
-            except Exception as exc:  # noqa: BLE001 - a lost worker, a refused format: the run goes on
-                out = t.stem, error_rows(t, exc), {}
-            fut.release()
-            yield out
+
+def cluster_drawer(cluster: Cluster) -> DrawFigures:
+    """What runs the figure tasks on the cluster (:func:`psmat.study.write_results`' ``draw``):
+    each figure a task (:func:`run_figure`), its PNG checked (:func:`psmat._png.check_png`) and
+    handed back to be written here; a figure refused or lost, or all of them when the cluster
+    cannot be reached, drawn in this process instead (the bytes are the task's alone)."""
+    from .._png import check_png
+
+    def draw(tasks: list[FigureTask]) -> Iterator[tuple[str, bytes, TaskTime | None]]:
+        if not tasks:
+            return
+        again: list[FigureTask] = []
+        done: set[str] = set()
+        try:
+            with _client(cluster) as client:
+                for task, result, took, exc in _answers(client, [(run_figure, t, f"psmat-figure-{t.name}-{t.key}")
+                                                                  for t in tasks]):
+                    try:
+                        if exc is not None:
+                            raise exc
+                        if not isinstance(result, (tuple, list)) or len(result) != 2 or result[0] != task.name:
+                            raise ValueError(f"not the figure {task.name}")
+                        data = check_png(result[1])
+                    except Exception:  # noqa: BLE001 - refused or lost: drawn here below
+                        again.append(task)
+                        continue
+                    done.add(task.name)
+                    yield task.name, data, took
+        except (RuntimeError, OSError):  # the cluster cannot be reached now: every figure not yet had
+            again = [t for t in tasks if t.name not in done]
+        for t in again:
+            (name, data), took = timed(draw_figure, t)
+            yield name, data, took
+
+    return draw

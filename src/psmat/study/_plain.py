@@ -13,7 +13,10 @@ here unpickles: JSON (NaN and infinities refused), NumPy ``.npz`` read with
   named after FP or a variant asked for; arrays named ``stats:<name>`` (:data:`STATS_PREFIX`) are
   a session's statistics for the study-level work after the sessions (float64, at most 3-D);
 * :func:`encode_result` / :func:`decode_result`: (stem, rows, traces) as one ``.npz`` byte
-  string (the rows as UTF-8 JSON in the array ``__result__``).
+  string (the rows as UTF-8 JSON in the array ``__result__``);
+* :func:`stamp` / :func:`check_timed`: a task's result and its time in the worker
+  (:class:`psmat.study._timings.TaskTime`) as the pair ``(result, {start, wall_s, cpu_s, pid,
+  worker})`` of plain numbers and text that a Dask worker sends back, and its check.
 """
 
 from __future__ import annotations
@@ -28,6 +31,7 @@ from typing import Any
 
 import numpy as np
 
+from ._timings import TaskTime
 from ._trial import COLUMNS, Rows, Traces
 
 #: the prefix of the arrays stored with a session's traces that are no trace: statistics the work
@@ -35,7 +39,7 @@ from ._trial import COLUMNS, Rows, Traces
 STATS_PREFIX = "stats:"
 
 __all__ = ["STATS_PREFIX", "Expect", "TEXT_COLUMNS", "parse_json", "plain_rows", "check_rows", "check_traces", "digest",
-           "encode_result", "decode_result", "first_line"]
+           "encode_result", "decode_result", "first_line", "stamp", "check_timed"]
 
 #: the columns that hold text; every other column holds a number or nothing (null / NaN)
 TEXT_COLUMNS = frozenset({"subject", "trial", "variant", "condition", "ispgr", "status"})
@@ -213,3 +217,46 @@ def first_line(text: str, limit: int = 300) -> str:
     """``text`` as one line of at most ``limit`` characters."""
     line = " ".join(str(text).split())
     return line if len(line) <= limit else line[: limit - 1] + "…"
+
+
+#: the fields of a task's time as a worker sends it (:func:`stamp`)
+_TIME_FIELDS = ("start", "wall_s", "cpu_s", "pid", "worker")
+#: the longest worker address accepted (characters)
+_WORKER_MAX = 256
+
+
+def stamp(result: Any, took: TaskTime) -> tuple[Any, dict[str, Any]]:
+    """``(result, time)``: a task's result and its :class:`TaskTime` as a map of plain numbers
+    and text (``start`` s since the epoch, ``wall_s``, ``cpu_s`` s, ``pid``, ``worker``), the
+    form a Dask worker sends back (msgpack carries it; :func:`check_timed` reads it)."""
+    return result, {"start": float(took.start), "wall_s": float(took.wall_s), "cpu_s": float(took.cpu_s),
+                    "pid": int(took.pid), "worker": str(took.worker)}
+
+
+def check_timed(value: Any) -> tuple[Any, TaskTime]:
+    """:func:`stamp`'s pair → (result, :class:`TaskTime`), the time checked (the result is the
+    caller's to check).
+
+    Raises
+    ------
+    ValueError
+        Not a pair; a time that is not a map of exactly ``start``, ``wall_s``, ``cpu_s``
+        (finite numbers, the two durations >= 0), ``pid`` (an integer >= 0) and ``worker``
+        (printable text of at most 256 characters).
+    """
+    if not isinstance(value, (tuple, list)) or len(value) != 2:
+        raise ValueError("a task's answer must be the pair (result, time)")
+    result, t = value
+    if not isinstance(t, dict) or set(t) != set(_TIME_FIELDS):
+        raise ValueError(f"a task's time must be a map of exactly {', '.join(_TIME_FIELDS)}")
+    for name in ("start", "wall_s", "cpu_s"):
+        v = t[name]
+        if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) \
+                or (name != "start" and v < 0):
+            raise ValueError(f"a task's {name} is not a finite number" + ("" if name == "start" else " >= 0"))
+    pid, worker = t["pid"], t["worker"]
+    if isinstance(pid, bool) or not isinstance(pid, int) or pid < 0:
+        raise ValueError("a task's pid is not an integer >= 0")
+    if not isinstance(worker, str) or len(worker) > _WORKER_MAX or not worker.isprintable():
+        raise ValueError(f"a task's worker is not printable text of at most {_WORKER_MAX} characters")
+    return result, TaskTime(float(t["start"]), float(t["wall_s"]), float(t["cpu_s"]), pid, worker)

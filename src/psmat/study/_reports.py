@@ -1,7 +1,8 @@
 """Per-subject HTML reports of a study (``psmat study run DIR --reports``; docs/spec.md §6, §12).
 
 One page per subject, ``DIR/results/reports/<subject>.html``, made by
-:func:`psmat.report.write_report` from that subject's closed sessions, each with its
+:func:`psmat.report.render_report` (the page of :func:`psmat.report.write_report`) from that
+subject's closed sessions, each with its
 force-platform CSV and its ``events/<stem>.csv`` when the study has them; the title names the
 subject, the line under it the body weight and height from ``subjects.csv``.
 
@@ -13,8 +14,11 @@ journal, platform, events and calibration files})``
 
 (the digests the session keys are made of, :mod:`psmat.study` (``_cache.py``)).
 ``reports/.keys.json`` holds, per subject, the key and the SHA-256 of the page written from it;
-a page whose key and bytes both match is not written again. Each page is written atomically by
-:func:`write_report`; the index after each page, so a killed run loses at most the pages in flight.
+a page whose key and bytes both match is not written again. Each page is written atomically,
+by the worker process that made it (:func:`run_report`) or, on a Dask cluster, by the client from
+the text the worker sent back and the client checked (:func:`render_page`,
+:func:`psmat.report.check_page`); the index after each page, so a killed run loses at most the
+pages in flight.
 A page that cannot be made is one problem line of the run; its subject's entry is dropped so the
 next run tries again, and an older page of that subject stays on disk, unlisted.
 """
@@ -34,7 +38,7 @@ from ._cache import canonical_json, file_sha256
 from ._layout import StudyLayout
 from ._task import SessionTask
 
-__all__ = ["ReportTask", "run_report", "report_tasks", "ReportIndex", "REPORTS_DIR"]
+__all__ = ["ReportTask", "run_report", "render_page", "report_tasks", "ReportIndex", "REPORTS_DIR"]
 
 SCHEMA = "psmat-study-report/1"
 #: the folder under ``results/`` that holds the pages
@@ -57,18 +61,30 @@ class ReportTask:
     note: str = ""
 
 
-def run_report(task: ReportTask) -> tuple[str, str | None]:
-    """Write one subject's page (in whichever process runs it): (subject, None) or (subject, why
-    not, one line); never raises for a session the report cannot use."""
-    from ..report import ReportItem, write_report
+def render_page(task: ReportTask) -> tuple[str | None, str | None]:
+    """One subject's page as text (in whichever process runs it), nothing written: (page, None)
+    or (None, why not, one line); never raises for a session the report cannot use."""
+    from ..report import ReportItem, render_report
 
     items = [ReportItem(s, p, label, events) for s, p, label, events in task.items]
     try:
-        write_report(task.out, items, title=task.title, subject=task.line, params=task.params)
+        return render_report(items, title=task.title, subject=task.line, params=task.params), None
     except Exception as exc:  # noqa: BLE001 - one subject's failure is a problem line, never a failed study
         why = str(exc) if isinstance(exc, ValueError) else f"{type(exc).__name__}: {exc}"
-        return task.subject, " ".join(why.split())
-    return task.subject, None
+        return None, " ".join(why.split())
+
+
+def run_report(task: ReportTask) -> tuple[str, str | None]:
+    """Write one subject's page atomically (in whichever process runs it, the study folder at
+    hand): (subject, None) or (subject, why not, one line); never raises for a session the
+    report cannot use."""
+    text, why = render_page(task)
+    if text is not None:
+        try:
+            write_text_atomic(task.out, text)
+        except OSError as exc:
+            return task.subject, " ".join(f"{type(exc).__name__}: {exc}".split())
+    return task.subject, why
 
 
 def file_name(subject: str) -> str:

@@ -92,7 +92,8 @@ def write_results(results_dir: str | os.PathLike[str], rows: Iterable[Mapping[st
     draw : callable, optional
         Runs figure tasks (:mod:`psmat.study` (``_figure_tasks.py``)): given a list of them,
         yields ``(name, PNG bytes, TaskTime or None)`` for each, in any order — the study
-        runner's worker pool; default: one after the other in this process. A figure whose
+        runner's worker pool, or a Dask cluster's workers (:mod:`psmat.study` (``_cluster.py``));
+        default: one after the other in this process. A figure whose
         key and bytes ``results/figures/.keys.json`` records is not drawn again, and a file
         that already holds the bytes drawn is not rewritten.
 

@@ -28,22 +28,23 @@ thesis) corrects each session's SCHC trace by a model fitted on the other volunt
 computed for the study as a whole, never cached per session; what a fit needs from one session
 alone (:func:`psmat.study.session_stats`) is formed in that session's task and stored with its
 result, so a rerun does not form it again. The figures are tasks of the
-same worker pool as the sessions, one per figure, each redrawn only when what it draws changed
-(:mod:`psmat.study` (``_figure_tasks.py``)). A study whose sessions all say in
+same worker pool (or cluster) as the sessions, one per figure, each redrawn only when what it
+draws changed (:mod:`psmat.study` (``_figure_tasks.py``)). A study whose sessions all say in
 their metadata that a simulator wrote them is labelled "simulation" in its figures and report.
 
 **Per-subject reports** (``reports=True``, opt-in: every session is processed a second time):
-one HTML page per subject under ``results/reports/``, tasks of the same pool as the sessions,
-resumable by their own keys (:mod:`psmat.study` (``_reports.py``)), linked from ``report.md``.
+one HTML page per subject under ``results/reports/``, tasks of the same pool (or cluster) as the
+sessions, resumable by their own keys (:mod:`psmat.study` (``_reports.py``)), linked from ``report.md``.
 
 **Stored results are proven, not trusted** (:mod:`psmat.study` (``_cache.py``)): an entry under
 ``results/sessions`` whose digest, rows, traces file or paths do not check out is recomputed,
 and the run says so among its problems.
 
 **On a cluster** (``scheduler="tcp://host:8786"`` or ``scheduler_file``, TLS through
-``security``; the extra ``psmat[cluster]``): the same tasks go to a Dask distributed scheduler
-and come back as they complete, as plain bytes that this process parses without pickle,
-checks and writes (:mod:`psmat.study` (``_cluster.py``)). A Dask cluster must be trusted: its workers run
+``security``; the extra ``psmat[cluster]``): the same tasks — sessions, pages, figures — go to a
+Dask distributed scheduler and come back as they complete, as plain data (with each task's time
+in its worker) that this process parses without pickle, checks and writes
+(:mod:`psmat.study` (``_cluster.py``)). A Dask cluster must be trusted: its workers run
 arbitrary code by design. Tasks carry file paths, not file contents, so the study folder must
 be on a filesystem the workers share (the same path on every worker), and the workers need
 psmat installed.
@@ -145,9 +146,9 @@ def run_study(root: str | os.PathLike[str], *, workers: int | None = None, sched
     reports : bool
         Also write one HTML page per subject, ``results/reports/<subject>.html``
         (:func:`psmat.report.write_report` of its sessions; :mod:`psmat.study` (``_reports.py``)),
-        as tasks in the same worker pool as the sessions (with a cluster: in processes of this
-        machine, after the cluster's sessions), a page whose inputs are unchanged not written
-        again. Opt-in: each session is processed a second time. Without it, pages already there
+        as tasks in the same worker pool as the sessions (with a cluster: on its workers, each
+        page sent back as text, checked and written by this process), a page whose inputs are
+        unchanged not written again. Opt-in: each session is processed a second time. Without it, pages already there
         are left alone and ``report.md`` links those still up to date.
 
     Returns
@@ -271,8 +272,7 @@ def run_study(root: str | os.PathLike[str], *, workers: int | None = None, sched
         clock.end("after_sessions")
         outputs = _write_outputs(layout.results, rows, traces, problems, __version__,
                                  "simulation" if layout.simulated else None, preprocessing_sentence(p["preprocess"]),
-                                 links, clock, _pool_drawer(workers) if cluster is None and (todo or pages_todo)
-                                 else None)
+                                 links, clock, _drawer(workers, cluster, bool(todo or pages_todo)))
         for stem in set(tasks) - set(todo_stems):
             clock.session(tasks[stem].subject, tasks[stem].trial, stem, "not closed" if stem in unclosed else "reused")
         clock.count("sessions", len(tasks) - reused - len(failed), reused)
@@ -356,7 +356,7 @@ def _write_outputs(results: Path, rows: Rows, traces: Mapping[tuple[str, str], T
     """:func:`~psmat.study._results.write_outputs` (summary, figures, report), skipped when its
     inputs (metrics.csv, the problems, the traces files, the label, the subject reports linked)
     are those of the outputs on disk and those outputs are unchanged; ``draw`` runs the figure
-    tasks (:func:`_pool_drawer`)."""
+    tasks (:func:`_drawer`)."""
     import hashlib
 
     from ._results import write_outputs  # matplotlib: imported when a study is run, not with psmat
@@ -512,29 +512,38 @@ def _execute(todo: list[SessionTask], workers: int | None, cluster: Any, pages: 
              ) -> Iterator[tuple[str, Any, TaskTime | None]]:
     """``("session", (stem, rows, traces), time)`` of each session task and ``("report", (subject,
     why not or None), time)`` of each page, in the order they finish, with the task's time in
-    its worker (None from a cluster), in one pool of this machine's
-    processes (``cluster``: a :class:`psmat.study.Cluster` runs the sessions; the pages then run
-    here, after them: they write into the study folder, which this machine has, and their
-    results are no rows the cluster's plain-data channel carries)."""
+    its worker, in one pool of this machine's processes or, given ``cluster`` (a
+    :class:`psmat.study.Cluster`), on its workers (:func:`psmat.study._cluster.run_on_cluster`:
+    each page sent back as text, checked and written here; the time None for a task whose
+    answer was refused or lost)."""
+    if cluster is not None:
+        from ._cluster import run_on_cluster
+
+        yield from run_on_cluster(todo, pages, cluster)
+        return
     from .._parallel import map_unordered  # workers that end with this process, even after kill -9
 
-    if cluster is not None:
-        if todo:
-            from ._cluster import on_cluster
-
-            yield from (("session", r, None) for r in on_cluster(todo, cluster))
-        yield from map_unordered(_work, list(pages), workers)
-        return
     yield from map_unordered(_work, [*todo, *pages], workers)
+
+
+def _drawer(workers: int | None, cluster: Any, pool_started: bool) -> DrawFigures | None:
+    """What draws the figures: the cluster's workers (:func:`psmat.study._cluster.cluster_drawer`),
+    the pool of this run (:func:`_pool_drawer`) when its sessions or pages started one, else this
+    process (None)."""
+    if cluster is not None:
+        from ._cluster import cluster_drawer
+
+        return cluster_drawer(cluster)
+    return _pool_drawer(workers) if pool_started else None
 
 
 def _pool_drawer(workers: int | None) -> DrawFigures:
     """What runs the figure tasks: the same pool of this machine's processes as the sessions
     (joblib's loky executor is kept between the two maps, so its workers, already started and
     with their imports done, draw the figures). Used only when the sessions or pages of this
-    run started that pool: otherwise (every session reused, or a cluster ran them) the figures
-    to redraw are drawn in this process, as starting a pool and its imports costs about what
-    drawing a study's few figures does."""
+    run started that pool: otherwise (every session reused) the figures to redraw are drawn in
+    this process, as starting a pool and its imports costs about what drawing a study's few
+    figures does."""
     from .._parallel import map_unordered
 
     def draw(tasks: list[FigureTask]) -> Iterator[tuple[str, bytes, TaskTime | None]]:

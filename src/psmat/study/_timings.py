@@ -6,14 +6,16 @@
 * ``discover`` — finding the study's files, reading ``subjects.csv``, the calibrations;
 * ``keys`` — each session's key (the SHA-256 of its inputs' bytes) and the stored results
   proven against it (:mod:`psmat.study` (``_cache.py``));
-* ``sessions`` — the session tasks, from the pool's start to the last session's result;
-  ``cpu_s`` is the sum of the tasks' CPU time in the processes that ran them;
+* ``sessions`` — the session tasks, from the pool's start (or the connection to the Dask
+  scheduler) to the last session's result; ``cpu_s`` is the sum of the tasks' CPU time in the
+  processes that ran them;
 * ``reports`` — with ``--reports``: the pages still running after the last session (the pages are
-  tasks of the same pool; without ``--reports``, the pool's shutdown); ``cpu_s`` summed from
-  their workers;
+  tasks of the same pool or cluster; without ``--reports``, the pool's shutdown); ``cpu_s``
+  summed from their workers;
 * ``after_sessions`` — SCHC-DYN across volunteers, ``metrics.csv``, the summary tables and the
   check of ``results/.outputs.json``;
-* ``figures`` and ``report`` — the figures and ``report.md`` (0 when reused unchanged).
+* ``figures`` and ``report`` — the figures (tasks of the pool or cluster; ``cpu_s`` adds their
+  workers') and ``report.md`` (0 when reused unchanged).
 
 Columns: ``stage``, ``wall_s`` (s, this process's clock), ``cpu_s`` (s: this process's CPU time,
 or for ``sessions``/``reports`` the workers' summed), ``computed`` and ``reused`` (how many
@@ -21,8 +23,15 @@ sessions, pages, figures or reports were made now or found up to date; empty whe
 apply). ``session_timings.csv``: one row per session — ``subject``, ``trial``, ``stem``,
 ``result`` (``computed``, ``reused``, ``failed`` or ``not closed``), ``start_s`` (s after the run
 began that the task started in its worker: a worker's start-up delays its first task),
-``wall_s`` and ``cpu_s`` of the task in its worker, and the worker's ``pid``; empty for a session
-not computed now, or computed on a Dask cluster (no worker times come back from it).
+``wall_s`` and ``cpu_s`` of the task in its worker (CPU: :func:`time.process_time` of the worker's
+whole process over the task), the worker's ``pid``, and ``worker``: the Dask worker's address
+(``tcp://host:port``) when a cluster ran it, empty for a process of this machine; the time
+columns are empty for a session not computed now.
+
+On a Dask cluster each task sends its time back beside its result, as plain numbers and text
+checked like the result (:func:`psmat.study._plain.check_timed`); ``start_s`` is then read on
+the worker's clock, so across machines it is as good as their clocks agree, and a worker running
+several tasks at once (``--nthreads`` above 1) counts their CPU time in each other's.
 
 Neither file is an input of any key or of the outputs' digest: a rerun rewrites only them.
 """
@@ -46,7 +55,7 @@ __all__ = ["Stopwatch", "PoolClock", "TaskTime", "timed", "STAGES", "STAGE_COLUM
 #: the stages of a run, in order (docs/spec.md §12)
 STAGES = ("discover", "keys", "sessions", "reports", "after_sessions", "figures", "report")
 STAGE_COLUMNS = ("stage", "wall_s", "cpu_s", "computed", "reused")
-SESSION_COLUMNS = ("subject", "trial", "stem", "result", "start_s", "wall_s", "cpu_s", "pid")
+SESSION_COLUMNS = ("subject", "trial", "stem", "result", "start_s", "wall_s", "cpu_s", "pid", "worker")
 
 R = TypeVar("R")
 
@@ -54,12 +63,14 @@ R = TypeVar("R")
 @dataclass(frozen=True)
 class TaskTime:
     """One task's time in the process that ran it: its start (s since the epoch, wall clock
-    comparable across processes), its wall and CPU seconds, and the process id."""
+    comparable across processes), its wall and CPU seconds, the process id, and the Dask
+    worker's address ("" for a process of this machine)."""
 
     start: float
     wall_s: float
     cpu_s: float
     pid: int
+    worker: str = ""
 
 
 def timed(fn: Callable[[Any], R], arg: Any) -> tuple[R, TaskTime]:
@@ -125,9 +136,9 @@ class Stopwatch:
         """``results/timings.csv`` and ``results/session_timings.csv``, each atomically."""
         rows = [[name, _num(s.wall_s), _num(s.cpu_s), _opt(s.computed), _opt(s.reused)]
                 for name, s in self.stages.items()]
-        srows = [[subject, trial, stem, result, *(("",) * 4 if t is None else
+        srows = [[subject, trial, stem, result, *(("",) * 5 if t is None else
                                                   (_num(max(0.0, t.start - self.start)), _num(t.wall_s),
-                                                   _num(t.cpu_s), str(t.pid)))]
+                                                   _num(t.cpu_s), str(t.pid), t.worker))]
                  for subject, trial, stem, result, t in sorted(self.sessions)]
         out = results / "timings.csv", results / "session_timings.csv"
         write_text_atomic(out[0], _csv(STAGE_COLUMNS, rows))
