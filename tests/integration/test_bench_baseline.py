@@ -139,6 +139,15 @@ def test_bench_cli_smoke(tmp_path):
         assert r["fps_per_core"] == pytest.approx(r["fps"] / r["threads"], rel=1e-12)
     first = next(r for r in rows if r["mode"] == "streaming" and r["threads"] == 1)
     assert printed_fps == pytest.approx(first["fps"], rel=1e-3)  # the table prints 4 significant digits
+    # the thesis' quick fixed point in NumPy on the noisy frames, and psmat's noisy streaming over it
+    quick = [r for r in data["rows"] if r["solver"].startswith("numpy fixed point β=0.05, 25 it (thesis quick)")]
+    assert len(quick) == 1 and quick[0]["iterations"] == 25 and quick[0]["frames"] == 20
+    noisy = next(r for r in data["rows"] if r["solver"] == "psmat newton, noisy G (1 mV, 12 bit)"
+                 and r["mode"] == "streaming")
+    (speedup,) = data["speedups"]
+    assert speedup["size"] == 16 and speedup["basis"] == "total" and speedup["goal"] is None
+    assert speedup["ratio"] == pytest.approx(noisy["fps"] / quick[0]["fps"], rel=1e-12)
+    assert f"- {speedup['line']}" in table.splitlines()
 
 
 def test_sensor_bench_numpy_baseline_agrees_with_the_core():

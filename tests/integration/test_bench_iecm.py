@@ -3,10 +3,13 @@
 from __future__ import annotations
 
 import numpy as np
+import pytest
 
 import psmat.iecm as iecm
-from psmat.bench.iecm import apply_target, complementarity_residual, noisy_entries
-from psmat.bench.iecm_setup import row
+from psmat.bench.iecm import NOISY_RESIDUAL, apply_target, complementarity_residual, noisy_entries
+from psmat.bench.iecm_baselines import measure_quick_fixed_point_numpy
+from psmat.bench.iecm_setup import row, scene
+from psmat.bench.iecm_speedup import speedup_over_numpy
 
 
 def _noisy(size=16, fps=2500.0, threads=2, max_iterations=40, max_residual=1e-7, **kw):
@@ -79,3 +82,65 @@ def test_complementarity_residual_by_hand():
     G2[1, 1] *= 1.1
     a, b = (1e-3 - 1e-12) / G2[1, 1], -0.1 / 1.1
     assert np.isclose(complementarity_residual(g, G2), np.hypot(a, b) - a - b, rtol=1e-9)
+
+
+def test_complementarity_residual_counts_both_sides_slack():
+    # g = G on a 3x3 array of equal cells: the parallel paths make F(G) > G, so a = (G - 1e-12)/G ~ 1 and
+    # b = F(G)/G - 1 > 0 on every cell: both slack, phi < 0; the residual is |phi|, not the (negative) max
+    g = np.full((3, 3), 1e-3)
+    G = iecm.forward(g)
+    a = (G - 1e-12) / G
+    b = iecm.forward(G) / G - 1.0
+    assert np.all(b > 0)
+    assert np.isclose(complementarity_residual(G, G), np.max(np.abs(np.hypot(a, b) - a - b)), rtol=1e-12)
+    assert complementarity_residual(G, G) > 0.1
+
+
+def _quick(size=32, fps=500.0, threads=2, fps_per_core=None):
+    return row(size=size, mode="cold", solver="numpy fixed point β=0.05, 25 it (thesis quick), noisy G",
+               threads=threads, fps=fps, fps_per_core=fps / threads if fps_per_core is None else fps_per_core,
+               noise_v=1e-3)
+
+
+def test_speedup_over_the_numpy_quick_fixed_point_by_hand():
+    # docs/spec.md §10: at 32x32 psmat's noisy streaming >= 5x the NumPy quick fixed point, in total frames/s
+    met = speedup_over_numpy(_noisy(size=32, fps=2500.0), _quick(fps=500.0))
+    assert met["ratio"] == 5.0 and met["basis"] == "total" and met["goal"] == 5.0 and met["goal_met"] is True
+    assert "is 5.00×" in met["line"] and met["line"].endswith("goal >= 5×: met")
+    short = speedup_over_numpy(_noisy(size=32, fps=1995.0), _quick(fps=500.0))
+    assert short["ratio"] == 3.99 and short["goal_met"] is False and short["line"].endswith("goal >= 5×: MISSED")
+    # totals, not per core: psmat 2000 fps on 2 threads against NumPy 500 fps counted on 1 core is 4x
+    # (per core it would be 2x)
+    total = speedup_over_numpy(_noisy(size=32, fps=2000.0, threads=2), _quick(fps=500.0, threads=1))
+    assert total["ratio"] == 4.0
+    # a row stopped by its budget has no rate: no ratio, the goal missed
+    lost = speedup_over_numpy(_noisy(size=32, fps=float("nan")), _quick(fps=500.0))
+    assert np.isnan(lost["ratio"]) and lost["goal_met"] is False and "no ratio" in lost["line"]
+    # no goal at 16x16: the ratio is printed, nothing marked
+    r16 = speedup_over_numpy(_noisy(size=16, fps=5000.0), _quick(size=16, fps=1000.0))
+    assert r16["ratio"] == 5.0 and r16["goal"] is None and r16["goal_met"] is None and "goal" not in r16["line"]
+
+
+def test_speedup_rejects_rows_that_do_not_compare():
+    with pytest.raises(ValueError, match="one size"):
+        speedup_over_numpy(_noisy(size=16), _quick(size=32))
+    noise_free = row(size=32, mode="streaming", solver="psmat newton", threads=2, fps=900.0)
+    with pytest.raises(ValueError, match="noisy"):
+        speedup_over_numpy(noise_free, _quick(size=32))
+
+
+def test_quick_numpy_row_solves_the_noisy_frames_of_psmats_row():
+    # with no update the method returns its start g0 = G, so the row's residual is that of G on the
+    # first 3 noisy frames of the 5-frame recording psmat's noisy rows solve (its frame 0 primes)
+    _, G = scene(8, 6, seed=0, noise_v=1e-3)
+    start = measure_quick_fixed_point_numpy(8, 3, 5, seed=0, min_time=0.0, max_time=10.0, cores=2, iterations=0)
+    assert start["iterations"] == 0 and start["max_residual"] == complementarity_residual(G[1:4], G[1:4])
+    r = measure_quick_fixed_point_numpy(8, 3, 5, seed=0, min_time=0.0, max_time=10.0, cores=2)
+    assert r["mode"] == "cold" and r["noise_v"] == 1e-3 and r["frames"] == 3 and r["threads"] == 2
+    assert r["iterations"] == 25 and r["max_iterations"] == 25  # every frame exactly 25 updates
+    assert r["fps"] == pytest.approx(r["frames"] * r["calls"] / r["seconds"], rel=1e-12)
+    assert r["fps_per_core"] == pytest.approx(r["fps"] / 2, rel=1e-12)
+    # docs/spec.md §10's anchor: the quick fixed point stops far from the bounded problem's solution
+    assert r["max_residual"] > NOISY_RESIDUAL
+    with pytest.raises(ValueError, match="frames"):
+        measure_quick_fixed_point_numpy(8, 6, 5, seed=0, min_time=0.0, max_time=10.0, cores=2)

@@ -8,7 +8,8 @@ Nothing in psmat's library imports this package. Each benchmark is one module wi
 * :mod:`psmat.bench.iecm` — IECM frames/s and accuracy on swaying-feet recordings of
   16×16, 32×32 and 64×64 mats, streaming and cold start, beside the thesis' approach
   (its parts: ``iecm_setup`` frames and rows, ``iecm_baselines`` the baselines' rows,
-  ``iecm_report`` the table, ``iecm_native`` two builds side by side);
+  ``iecm_speedup`` psmat against the NumPy quick fixed point, ``iecm_report`` the table,
+  ``iecm_native`` two builds side by side);
 * :mod:`psmat.bench.sensor` — the sensor model's throughput and identification;
 * :mod:`psmat.bench.acquire` — acquisition through the pty twin, and a corrupted link
   against a thesis-style reader;

@@ -1,17 +1,20 @@
 """The thesis-style baselines of ``python -m psmat.bench iecm``, timed in the same process as psmat:
 the NumPy fixed point (eq. 2.10) for a fixed number of iterations and to the accuracy target,
-and scipy ``least_squares`` with a numerical Jacobian (:mod:`psmat.bench.baselines.iecm_numpy`)."""
+the thesis' quick fixed point (25 iterations, β 0.05) on noisy frames, and scipy ``least_squares``
+with a numerical Jacobian (:mod:`psmat.bench.baselines.iecm_numpy`)."""
 
 from __future__ import annotations
 
+import os
 import time
 
 import numpy as np
 
 from .baselines.iecm_numpy import jacobian_numpy, solve_fixed_point_numpy, solve_least_squares_scipy
-from .iecm_setup import ACCURACY_TARGET, ERROR_THRESHOLD_S, errors, row, scene
+from .iecm_setup import ACCURACY_TARGET, ERROR_THRESHOLD_S, complementarity_residual, errors, row, scene
 
-__all__ = ["measure_fixed_point_numpy", "measure_fixed_point_to_target", "measure_least_squares"]
+__all__ = ["measure_fixed_point_numpy", "measure_quick_fixed_point_numpy", "measure_fixed_point_to_target",
+           "measure_least_squares"]
 
 
 def measure_fixed_point_numpy(size: int, frames: int, seed: int, max_iter: int = 2000,
@@ -28,6 +31,77 @@ def measure_fixed_point_numpy(size: int, frames: int, seed: int, max_iter: int =
                 fps_per_core=frames / secs, err_loaded=e_loaded, err_all=e_all,
                 iterations=float(np.mean(info["iterations"])),
                 note="vectorised over the frames (NumPy batched Cholesky)")
+
+
+def measure_quick_fixed_point_numpy(size: int, frames: int, scene_frames: int, seed: int, min_time: float,
+                                    max_time: float, cores: int, noise_v: float = 1e-3, beta: float = 0.05,
+                                    iterations: int = 25) -> dict:
+    """The thesis' quick fixed point (eq. 2.10) in NumPy on the noisy frames psmat's noisy rows solve.
+
+    Every frame runs cold from ``g0 = G`` for exactly ``iterations`` updates ``g <- g + beta (G - F(g))``
+    (``rtol = 0``), as the thesis' Python module runs each frame independently; the frames are
+    iterated together in one batched call of :func:`solve_fixed_point_numpy`, which also evaluates
+    ``F`` once after the last update for its residual (``iterations`` + 1 forward solves a frame).
+
+    Parameters
+    ----------
+    size : int
+        Array size N (N x N cells).
+    frames : int
+        Frames solved, the first of the recording psmat's noisy streaming row solves.
+    scene_frames : int
+        Frames of that recording (``frames <= scene_frames``): the scene is drawn exactly as for
+        psmat's row (``scene(size, scene_frames + 1, seed, noise_v)``, less its priming frame 0), so
+        the noise on these frames is the same.
+    seed : int
+        Seed of the scene.
+    min_time, max_time : float
+        The batched call is repeated until ``min_time`` s are spent, never starting one that would
+        pass ``max_time`` s (s).
+    cores : int
+        Usable CPUs of the machine; ``fps_per_core = fps / cores`` (NumPy's BLAS may use them all).
+    noise_v : float
+        Voltage noise at the ADC node (V), 12-bit quantisation (:func:`psmat.bench.iecm_setup.scene`).
+    beta : float
+        Damping factor (thesis: 0.05).
+    iterations : int
+        Updates per frame (the quick method: 25).
+
+    Returns
+    -------
+    dict
+        One row (:func:`psmat.bench.iecm_setup.row`), ``mode="cold"``; ``max_residual`` is the
+        complementarity residual of the returned g, computed as for every solver.
+    """
+    if not 1 <= frames <= scene_frames:
+        raise ValueError(f"frames must be in 1..scene_frames={scene_frames}, got {frames}")
+    g, G = scene(size, scene_frames + 1, seed, noise_v)
+    g, G = g[1:frames + 1], G[1:frames + 1]
+
+    solve_fixed_point_numpy(G[:2], beta=beta, rtol=0.0, max_iter=1)  # untimed warm-up (NumPy, BLAS)
+    wall = cpu = 0.0
+    calls = 0
+    while True:
+        c0, t0 = time.process_time(), time.perf_counter()
+        g_hat, info = solve_fixed_point_numpy(G, beta=beta, rtol=0.0, max_iter=iterations)
+        dt = time.perf_counter() - t0
+        wall += dt
+        cpu += time.process_time() - c0
+        calls += 1
+        if wall >= min_time or wall + dt > max_time:
+            break
+    fps = frames * calls / wall
+    e_loaded, e_all = errors(g_hat, g)
+    blas = os.environ.get("OPENBLAS_NUM_THREADS") or os.environ.get("OMP_NUM_THREADS")
+    note = (f"cold from g0 = G every frame, {iterations} updates (+1 forward solve for the residual), "
+            f"the {frames} frames batched in one NumPy call (one process, no pool); BLAS threads "
+            f"{'limited to ' + blas if blas else 'left at their default'} on {cores} usable core(s): "
+            f"{cpu / wall:.2f} cores busy (CPU/wall); fps/core = fps / {cores}")
+    return row(size=size, mode="cold", solver=f"numpy fixed point β={beta:g}, {iterations} it (thesis quick), noisy G",
+                threads=cores, frames=frames, calls=calls, seconds=wall, fps=fps, fps_per_core=fps / cores,
+                err_loaded=e_loaded, err_all=e_all,
+                iterations=float(np.mean(info["iterations"])), max_iterations=float(np.max(info["iterations"])),
+                max_residual=complementarity_residual(g_hat, G), noise_v=noise_v, note=note)
 
 
 def measure_fixed_point_to_target(size: int, seed: int, time_limit: float, beta: float = 0.05,

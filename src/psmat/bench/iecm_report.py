@@ -44,6 +44,8 @@ def format_table(result: dict) -> str:
     lines.append("")
     for k, n in enumerate(notes, 1):
         lines.append(f"[{k}] {n}")
+    for s in result.get("speedups", []):  # psmat's noisy streaming against the NumPy quick fixed point
+        lines.append(f"- {s['line']}")
     for n in result["notes"]:
         lines.append(f"- {n}")
     lines.append("- streaming: consecutive frames, each warm-started from the previous solution, split in "

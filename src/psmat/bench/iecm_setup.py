@@ -13,8 +13,8 @@ import numpy as np
 from .. import twin
 from .baselines.iecm_numpy import forward_numpy
 
-__all__ = ["ERROR_THRESHOLD_S", "ACCURACY_TARGET", "HEAVY_CELLS", "NOISY_LABEL", "scene", "errors", "row",
-           "settings"]
+__all__ = ["ERROR_THRESHOLD_S", "ACCURACY_TARGET", "HEAVY_CELLS", "NOISY_LABEL", "scene", "errors",
+           "complementarity_residual", "row", "settings"]
 
 ERROR_THRESHOLD_S = 1e-4   # cells with g >= this (S) carry the accuracy target
 ACCURACY_TARGET = 1e-6     # relative error reached by "Newton accuracy"
@@ -53,6 +53,21 @@ def errors(g_hat: np.ndarray, g: np.ndarray) -> tuple[float, float]:
     rel = np.abs(g_hat - g) / g
     mask = g >= ERROR_THRESHOLD_S
     return float(rel[mask].max()) if mask.any() else float("nan"), float(rel.max())
+
+
+def complementarity_residual(g: np.ndarray, G: np.ndarray, g_floor: float = 1e-12) -> float:
+    """Largest Fischer-Burmeister residual ``max |phi|`` of the bounded problem (docs/spec.md §3) over
+    cells and frames.
+
+    ``phi = sqrt(a^2 + b^2) - a - b`` with ``a = (g - g_floor)/G`` and ``b = (F(g) - G)/G``
+    (dimensionless); zero exactly when g >= g_floor, F(g) >= G and one of them is tight. phi is
+    negative where both are slack (g above the floor and F(g) > G), hence the absolute value.
+    """
+    import psmat.iecm as iecm
+
+    a = (g - g_floor) / G
+    b = (iecm.forward(g) - G) / G
+    return float(np.max(np.abs(np.hypot(a, b) - a - b)))
 
 
 def row(**kw) -> dict:
