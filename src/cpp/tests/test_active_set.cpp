@@ -2,6 +2,7 @@
 // problem): its pieces — the free block of S, the PCG solve with a stale factor — against
 // dense linear algebra, and its answer against the Fischer-Burmeister reference
 // (solve_bounded_newton.cpp) on a noisy stream: same bound set, same free cells.
+#include <algorithm>
 #include <cmath>
 #include <vector>
 
@@ -409,7 +410,7 @@ TEST_CASE("FreeBlockSolver split: core and fringe; select with fringe cells out,
     CHECK(fs.is_split());
     const Index out = fs.core_outside(I);
     CHECK(out == (t == 3 ? 2 : t == 4 ? 5 : 0));
-    CHECK(fs.changes(I) == out);  // P = I + the core cells out
+    CHECK(fs.changes(I) == 0);  // the core cells out are not in the preconditioner's set
     VectorXd y, Sy;
     const int k = fs.solve(op, net, G, I, b, y, Sy, 1e-10, 50);
     CAPTURE(k);
@@ -423,6 +424,48 @@ TEST_CASE("FreeBlockSolver split: core and fringe; select with fringe cells out,
   REQUIRE(fs.factor(net, G, core));
   CHECK_FALSE(fs.is_split());
   CHECK_FALSE(fs.select(net, G, core));
+}
+
+TEST_CASE("FreeBlockSolver split: a fringe that follows many small changes (updates, holes, compaction)") {
+  // 12x12: core every fourth cell, fringe the next; each step two fringe cells leave and two cells
+  // from outside U join, so the fringe factor is updated cell by cell (holes accumulate until a
+  // quarter of its rows, then it is factorised anew) and the fringe outgrows its room (36 + 2 k
+  // cells against 54 rows: the cells outside I are dropped)
+  RandomNetwork x({12, 12}, 2500, 1e-6, 1e-2);
+  const Shape s = x.s;
+  const MatrixXd S = dense_S(s, x.g);
+  const std::vector<Index> core = some_cells(s.cells(), 4, 0);
+  std::vector<Index> fringe = some_cells(s.cells(), 4, 1);
+  FreeBlockSolver fs;
+  REQUIRE(fs.factor_split(x.net, x.G, core, fringe));
+  NewtonOperator op(s);
+  const VectorXd b = random_normal(s.cells(), 2501);
+  std::vector<Index> outside = some_cells(s.cells(), 4, 2);
+  const std::vector<Index> more = some_cells(s.cells(), 4, 3);
+  outside.insert(outside.end(), more.begin(), more.end());
+  std::vector<Index> in_fringe = fringe;
+  size_t next = 0;
+  for (int step = 0; step < 16; ++step) {
+    CAPTURE(step);
+    // two leave (the oldest), two join (cells never free before)
+    in_fringe.erase(in_fringe.begin(), in_fringe.begin() + 2);
+    in_fringe.push_back(outside[next++]);
+    in_fringe.push_back(outside[next++]);
+    std::vector<Index> I = core;
+    I.insert(I.end(), in_fringe.begin(), in_fringe.end());
+    REQUIRE(fs.select(x.net, x.G, I));
+    CHECK(fs.changes(I) == 0);
+    VectorXd y, Sy;
+    const int k = fs.solve(op, x.net, x.G, I, b, y, Sy, 1e-10, 50);
+    CAPTURE(k);
+    CHECK(k >= 1);
+    CHECK(k <= 3);  // the preconditioner is still S_II's factor (float round-off)
+    const VectorXd yI = dense_free_solve(S, I, b);
+    for (Index r = 0; r < Index(I.size()); ++r)
+      CHECK(y[I[size_t(r)]] == doctest::Approx(yI[r]).epsilon(1e-8).scale(1e-300));
+    for (Index c = 0; c < s.cells(); ++c)
+      if (std::find(I.begin(), I.end(), c) == I.end()) CHECK(y[c] == 0.0);
+  }
 }
 
 TEST_CASE("active_set: the Fischer-Burmeister solution on a noisy stream, bound set included") {

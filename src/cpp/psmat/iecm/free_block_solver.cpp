@@ -10,15 +10,23 @@ namespace psmat::iecm {
 
 Index FreeBlockSolver::changes(const std::vector<Index>& free_cells) const {
   if (!valid_) return static_cast<Index>(free_cells.size());
-  Index in_both = 0;
-  for (Index c : free_cells) in_both += pos_[static_cast<size_t>(c)] >= 0;
-  return static_cast<Index>(free_cells.size()) + size() - 2 * in_both;
+  // split: the core cells outside I at the last select (out_pos_) are not part of the
+  // preconditioner's free set, so an unchanged I is no change
+  Index in_both = 0, out = 0;
+  for (Index c : free_cells) {
+    const Index k = pos_[static_cast<size_t>(c)];
+    const bool was_out = split_ && k >= 0 && k < nc_ && core_out_[static_cast<size_t>(k)];
+    in_both += k >= 0 && !was_out;
+  }
+  if (split_) out = static_cast<Index>(out_pos_.size());
+  return static_cast<Index>(free_cells.size()) + size() - out - 2 * in_both;
 }
 
 bool FreeBlockSolver::factor(const NodalInverse& net, const Eigen::VectorXd& G,
                              const std::vector<Index>& free_cells) {
   valid_ = false;
   split_ = false;
+  fringe_factored_ = false;
   out_pos_.clear();
   const Index m = static_cast<Index>(free_cells.size()), n = G.size();
   cells_ = free_cells;
@@ -104,6 +112,7 @@ bool FreeBlockSolver::factor_split(const NodalInverse& net, const Eigen::VectorX
                                    const std::vector<Index>& fringe) {
   valid_ = false;
   split_ = false;
+  fringe_factored_ = false;
   out_pos_.clear();
   const Index nc = static_cast<Index>(core.size()), nf = static_cast<Index>(fringe.size());
   const Index m = nc + nf, n = G.size();
@@ -166,7 +175,10 @@ bool FreeBlockSolver::select(const NodalInverse& net, const Eigen::VectorXd& G,
     const bool core = pos_[k] >= 0 && pos_[k] < nc_;
     if (!core && fidx_[k] < 0) joining.push_back(c);
   }
-  const Index nf0 = static_cast<Index>(fringe_.size()), kj = static_cast<Index>(joining.size());
+  const Index kj = static_cast<Index>(joining.size());
+  // the fringe keeps every cell that joined it since the factor; out of room, it keeps those in I
+  if (nc_ + static_cast<Index>(fringe_.size()) + kj > L_.rows()) compact_fringe();
+  const Index nf0 = static_cast<Index>(fringe_.size());
   if (kj > 0) {  // new fringe rows: W_J = (L_CC^-1 S_CJ)^T, Z_(F+J),J = S_(F+J),J - W W_J^T
     if (nc_ + nf0 + kj > L_.rows()) {
       valid_ = false;
@@ -195,25 +207,34 @@ bool FreeBlockSolver::select(const NodalInverse& net, const Eigen::VectorXd& G,
       Z_.row(j).head(j + 1) = Sz.col(i).head(j + 1).transpose();
     }
   }
-  // the active fringe J, Z_JJ and its factor
+  // the active fringe J, Z_JJ and its factor L_JJ: updated cell by cell from the last select's
+  // when few fringe cells changed (update_fringe), else gathered and factorised anew
   const Index nf = static_cast<Index>(fringe_.size());
-  active_.clear();
-  for (Index j = 0; j < nf; ++j)
-    if (mark_[static_cast<size_t>(fringe_[static_cast<size_t>(j)])]) active_.push_back(j);
-  const Index na = static_cast<Index>(active_.size());
-  if (Zs_.rows() < na) Zs_.resize(na, na);
-  for (Index q = 0; q < na; ++q)
-    for (Index r = q; r < na; ++r)
-      Zs_(r, q) = Z_(active_[static_cast<size_t>(r)], active_[static_cast<size_t>(q)]);
-  if (!cholesky_in_place(Zs_.topLeftCorner(na, na))) {
-    valid_ = false;
-    return false;
+  if (!(fringe_factored_ && update_fringe())) {
+    active_.clear();
+    actpos_.assign(static_cast<size_t>(nf), -1);
+    for (Index j = 0; j < nf; ++j)
+      if (mark_[static_cast<size_t>(fringe_[static_cast<size_t>(j)])]) {
+        actpos_[static_cast<size_t>(j)] = static_cast<Index>(active_.size());
+        active_.push_back(j);
+      }
+    act_holes_ = 0;
+    const Index na = static_cast<Index>(active_.size());
+    reserve_fringe_factor(na);
+    for (Index q = 0; q < na; ++q)
+      for (Index r = q; r < na; ++r)
+        Zs_(r, q) = Z_(active_[static_cast<size_t>(r)], active_[static_cast<size_t>(q)]);
+    if (!cholesky_in_place(Zs_.topLeftCorner(na, na))) {
+      valid_ = false;
+      return false;
+    }
+    // the factor of S_PP, P = C + J, by blocks: [L_CC 0; W_J L_JJ] (precondition), W_J gathered
+    for (Index r = 0; r < na; ++r) Wa_.row(r) = W_.row(active_[static_cast<size_t>(r)]);
+    fringe_factored_ = true;
   }
-  // the factor of S_PP, P = C + J, by blocks: [L_CC 0; W_J L_JJ] (precondition), W_J gathered
-  if (Wa_.rows() != na || Wa_.cols() != nc_) Wa_.resize(na, nc_);
-  for (Index r = 0; r < na; ++r) Wa_.row(r) = W_.row(active_[static_cast<size_t>(r)]);
+  const Index na = static_cast<Index>(active_.size());
   used_ = nc_ + nf;
-  holes_ = nf - na;
+  holes_ = nf - (na - act_holes_);
   cells_.resize(static_cast<size_t>(used_));
   for (Index j = 0; j < nf; ++j) {
     const Index p = nc_ + j, c = fringe_[static_cast<size_t>(j)];
@@ -223,8 +244,12 @@ bool FreeBlockSolver::select(const NodalInverse& net, const Eigen::VectorXd& G,
   }
   // core cells outside I: the capacitance correction (precondition)
   out_pos_.clear();
+  core_out_.assign(static_cast<size_t>(nc_), 0);
   for (Index k = 0; k < nc_; ++k)
-    if (!mark_[static_cast<size_t>(cells_[static_cast<size_t>(k)])]) out_pos_.push_back(k);
+    if (!mark_[static_cast<size_t>(cells_[static_cast<size_t>(k)])]) {
+      out_pos_.push_back(k);
+      core_out_[static_cast<size_t>(k)] = 1;
+    }
   const Index ko = static_cast<Index>(out_pos_.size());
   if (ko > 0) {
     std::vector<Index> fresh;  // core positions without their L_CC^-1 e_o yet
@@ -251,7 +276,7 @@ bool FreeBlockSolver::select(const NodalInverse& net, const Eigen::VectorXd& G,
       Y_.col(i).head(nc_) = Yc_.col(yc_col_[static_cast<size_t>(out_pos_[static_cast<size_t>(i)])]);
     // fringe rows: L_JJ^-1 (0 - W_J Y_C)
     Y_.bottomRows(na).setZero();
-    gemm_subtract(Y_.bottomRows(na), Wa_, Y_.topRows(nc_));
+    gemm_subtract(Y_.bottomRows(na), Wa_.topRows(na), Y_.topRows(nc_));
     lower_solve_matrix(Zs_.topLeftCorner(na, na), Y_.bottomRows(na), 0);
     // K in double from the float Y: the projection I - Y K^-1 Y^T stays one (positive
     // semidefinite) where K is ill-conditioned
@@ -263,6 +288,104 @@ bool FreeBlockSolver::select(const NodalInverse& net, const Eigen::VectorXd& G,
       valid_ = false;
       return false;
     }
+  }
+  return true;
+}
+
+void FreeBlockSolver::compact_fringe() {
+  // rows and columns of W and Z gathered in place (kept indices only decrease), L_JJ dropped
+  const Index nf = static_cast<Index>(fringe_.size());
+  keep_.resize(static_cast<size_t>(nf));
+  for (Index j = 0; j < nf; ++j) keep_[static_cast<size_t>(j)] = mark_[static_cast<size_t>(fringe_[static_cast<size_t>(j)])];
+  Index q2 = 0;
+  for (Index q = 0; q < nf; ++q) {
+    if (!keep_[static_cast<size_t>(q)]) continue;
+    Index r2 = q2;
+    for (Index r = q; r < nf; ++r)
+      if (keep_[static_cast<size_t>(r)]) Z_(r2++, q2) = Z_(r, q);
+    ++q2;
+  }
+  Index kept = 0;
+  for (Index j = 0; j < nf; ++j) {
+    const Index c = fringe_[static_cast<size_t>(j)];
+    if (!keep_[static_cast<size_t>(j)]) {
+      fidx_[static_cast<size_t>(c)] = -1;
+      pos_[static_cast<size_t>(c)] = -1;
+      continue;
+    }
+    if (kept != j) W_.row(kept) = W_.row(j);
+    fringe_[static_cast<size_t>(kept)] = c;
+    fidx_[static_cast<size_t>(c)] = kept;
+    ++kept;
+  }
+  fringe_.resize(static_cast<size_t>(kept));
+  fringe_factored_ = false;
+}
+
+void FreeBlockSolver::reserve_fringe_factor(Index na) {
+  // room for fringe cells that join later (update_fringe)
+  const Index room = na + std::max<Index>(32, na / 4);
+  if (Zs_.rows() < room) {
+    Eigen::MatrixXf grown(room, room);
+    grown.topLeftCorner(Zs_.rows(), Zs_.cols()) = Zs_;
+    Zs_.swap(grown);
+  }
+  if (Wa_.rows() < room || Wa_.cols() != nc_) {
+    Eigen::MatrixXf grown(room, nc_);
+    if (Wa_.cols() == nc_) grown.topRows(Wa_.rows()) = Wa_;
+    Wa_.swap(grown);
+  }
+}
+
+bool FreeBlockSolver::update_fringe() {
+  // the fringe cells that leave J and join it since the last select (mark_ holds the new I)
+  const Index nf = static_cast<Index>(fringe_.size()), na = static_cast<Index>(active_.size());
+  actpos_.resize(static_cast<size_t>(nf), -1);
+  leaving_.clear();
+  joining_.clear();
+  for (Index i = 0; i < na; ++i) {
+    const Index j = active_[static_cast<size_t>(i)];
+    if (j >= 0 && !mark_[static_cast<size_t>(fringe_[static_cast<size_t>(j)])]) leaving_.push_back(i);
+  }
+  for (Index j = 0; j < nf; ++j)
+    if (actpos_[static_cast<size_t>(j)] < 0 && mark_[static_cast<size_t>(fringe_[static_cast<size_t>(j)])])
+      joining_.push_back(j);
+  const Index changed = static_cast<Index>(leaving_.size() + joining_.size());
+  if (changed > kFringeUpdateMax || act_holes_ + static_cast<Index>(leaving_.size()) > na / 4)
+    return false;
+  reserve_fringe_factor(na + static_cast<Index>(joining_.size()));
+  // a cell that leaves: a rank-1 update of the factor below its row, which becomes an identity
+  // row (as FreeBlockSolver::remove_position)
+  for (Index q : leaving_) {
+    const Index rest = na - q - 1;
+    if (rest > 0) {
+      col_ = Zs_.col(q).segment(q + 1, rest);
+      cholesky_rank1_update(Zs_.block(q + 1, q + 1, rest, rest), col_);
+      Zs_.col(q).segment(q + 1, rest).setZero();
+    }
+    Zs_.row(q).head(q).setZero();
+    Zs_(q, q) = 1.0f;
+    Wa_.row(q).setZero();
+    actpos_[static_cast<size_t>(active_[static_cast<size_t>(q)])] = -1;
+    active_[static_cast<size_t>(q)] = -1;
+    ++act_holes_;
+  }
+  // a cell that joins: a new last row [l' d], L_JJ l = Z_Jj (0 on the holes)
+  for (Index j : joining_) {
+    const Index p = static_cast<Index>(active_.size());
+    col_.resize(p);
+    for (Index i = 0; i < p; ++i) {
+      const Index a = active_[static_cast<size_t>(i)];
+      col_[i] = a < 0 ? 0.0f : (a > j ? Z_(a, j) : Z_(j, a));
+    }
+    Zs_.topLeftCorner(p, p).triangularView<Eigen::Lower>().solveInPlace(col_);
+    const double d2 = static_cast<double>(Z_(j, j)) - static_cast<double>(col_.squaredNorm());
+    if (!(d2 > 1e-6)) return false;  // (the caller refactorises J from the start)
+    Zs_.row(p).head(p) = col_.transpose();
+    Zs_(p, p) = static_cast<float>(std::sqrt(d2));
+    Wa_.row(p) = W_.row(j);
+    actpos_[static_cast<size_t>(j)] = p;
+    active_.push_back(j);
   }
   return true;
 }
@@ -280,29 +403,33 @@ void FreeBlockSolver::precondition(const Eigen::VectorXd& r, Eigen::VectorXd& z)
     const Index na = static_cast<Index>(active_.size());
     tmp_.resize(nc_ + na);
     for (Index k = 0; k < nc_; ++k) tmp_[k] = static_cast<float>(r[cells_[static_cast<size_t>(k)]]);
-    for (Index i = 0; i < na; ++i)
-      tmp_[nc_ + i] = static_cast<float>(r[fringe_[static_cast<size_t>(active_[static_cast<size_t>(i)])]]);
+    for (Index i = 0; i < na; ++i) {  // a hole (update_fringe): an identity row, 0 here
+      const Index j = active_[static_cast<size_t>(i)];
+      tmp_[nc_ + i] = j >= 0 ? static_cast<float>(r[fringe_[static_cast<size_t>(j)]]) : 0.0f;
+    }
     const auto Lc = L_.topLeftCorner(nc_, nc_);
     const auto Lj = Zs_.topLeftCorner(na, na);
     auto uc = tmp_.head(nc_);
     auto uj = tmp_.tail(na);
     lower_solve_matrix(Lc, uc, 0);
-    uj.noalias() -= Wa_ * uc;
+    uj.noalias() -= Wa_.topRows(na) * uc;
     lower_solve_matrix(Lj, uj, 0);
     if (!out_pos_.empty()) {  // the capacitance correction (header)
       mu_ = K_.solve((Y_.transpose() * tmp_).cast<double>());
       tmp_.noalias() -= Y_ * mu_.cast<float>();
     }
     lower_solve_matrix(Lj, uj, 2);
-    uc.noalias() -= Wa_.transpose() * uj;
+    uc.noalias() -= Wa_.topRows(na).transpose() * uj;
     lower_solve_matrix(Lc, uc, 2);
     // the core cells out: the identity rows of PCG's operator (their z is 0 up to round-off,
     // which PCG could not correct)
     for (Index k : out_pos_) tmp_[k] = static_cast<float>(r[cells_[static_cast<size_t>(k)]]);
     z = i_mask_.cwiseProduct(r);
     for (Index k = 0; k < nc_; ++k) z[cells_[static_cast<size_t>(k)]] = tmp_[k];
-    for (Index i = 0; i < na; ++i)
-      z[fringe_[static_cast<size_t>(active_[static_cast<size_t>(i)])]] = tmp_[nc_ + i];
+    for (Index i = 0; i < na; ++i) {
+      const Index j = active_[static_cast<size_t>(i)];
+      if (j >= 0) z[fringe_[static_cast<size_t>(j)]] = tmp_[nc_ + i];
+    }
     return;
   }
   tmp_.resize(used_);

@@ -4,6 +4,8 @@
 // preconditioner. Between calls it keeps the preconditioner, so consecutive frames of a
 // stream reuse one factorisation for as long as PCG converges quickly with it.
 #pragma once
+#include <vector>
+
 #include "psmat/iecm/free_block_solver.hpp"
 #include "psmat/iecm/laplacian.hpp"
 #include "psmat/iecm/newton_operator.hpp"
@@ -23,6 +25,7 @@ class Solver {
   void reset() {
     op.reset();
     free_block.reset();
+    last_free.clear();
   }
 
   const SolveOptions& options() const { return opts_; }
@@ -39,6 +42,7 @@ class Solver {
   NewtonOperator op;      // Newton: matrix-free S and its reusable preconditioner
   Eigen::MatrixXd S;      // dense double S (bounded Newton), sized on first use
   FreeBlockSolver free_block;  // active-set method: factor of the free block of S, kept
+  std::vector<char> last_free;  // active-set method: the last frame's final free set, per cell
 
  private:
   Shape shape_;

@@ -20,8 +20,10 @@
 // (kUpdateShare below); it is kept while the point moves by little (the last outer
 // iterations: PCG on a factor of the previous point, kRefactorAbove). Free blocks of kSplitFrom
 // cells or more are factorised split instead (core and fringe, kSplitFrom below): a new free set
-// then costs a Cholesky of the fringe's part of the Schur complement, not a refactorisation. The first free set of a
-// frame is the PDAS rule at the starting point; each QP starts from the previous QP's set.
+// then costs a Cholesky of the fringe's part of the Schur complement, or an update of it when few
+// fringe cells changed, not a refactorisation. The first free set of a frame is the PDAS rule at
+// the starting point (for free blocks of kKeepFrom cells or more: the previous frame's final
+// set); each QP starts from the previous QP's set.
 //
 // Why exact QPs: the plain PDAS step on the nonlinear problem (one linear solve per outer
 // iteration, bound set read off the iterate) let the noise that re-draws the quiet cells each
@@ -112,6 +114,23 @@ constexpr double kRefactorAbove = 1e-2;
 constexpr Index kSplitFrom = 200;
 constexpr double kCoreShare = 2e-2;
 constexpr Index kCoreOutMax = 128;
+// Free blocks of at least kKeepFrom cells (64x64 noisy frames: ~1 200; 32x32: ~400) keep their
+// split factor across QPs and frames: no refactorisation for a far point (kRefactorAbove does not
+// apply; PCG takes more steps on the older factor, a new one is built when select() or PCG
+// fails), each frame's first QP starts from the previous frame's final free set (Solver::
+// last_free) instead of the PDAS rule, and a QP whose free set repeats an earlier one ends there
+// (PCG on an older factor lets a cell near the threshold flip in and out). There a factorisation
+// costs ~50 PCG steps and the fringe follows the noise by update_fringe(). Noisy bench streams,
+// one core (C++ driver, back to back with the code before), ms a frame (factorisations, PCG steps
+// a frame): 64x64 45.0-45.7 (2.0, 15.7) -> 31.7-32.4 (0.98, 29.7), iterations 4.0 -> 4.2 (at
+// most 7). At 32x32 the same policy saved nothing (2.3-2.5 ms either way: a factor costs ~15
+// PCG steps there), so the threshold leaves it and 16x16 as they were.
+// Tried there and not kept: a diagonal shift to factorise the fringe when its rows come from
+// several points (shifts of 1e-2 needed, PCG 107 steps a frame); the fringe preconditioned by
+// its diagonal (PCG ~1 700 steps), or by a diagonal plus one rank-1 term per mat row and column
+// (the structure of Z_JJ: cells of one quiet row or column couple at 0.25-1, others at ~4e-4),
+// 15 PCG steps on Z_JJ alone against 1; the core and fringe blocks without their coupling, 78.
+constexpr Index kKeepFrom = 800;
 }  // namespace
 
 SolveReport solve_active_set(Solver& s, const ConstVecRef& G_exp, VecRef g) {
@@ -133,7 +152,13 @@ SolveReport solve_active_set(Solver& s, const ConstVecRef& G_exp, VecRef g) {
   // the free set of the QP, carried from one QP to the next; first guess: the PDAS rule at g
   std::vector<char> is_free(static_cast<size_t>(n));
   std::vector<double> lam_bound;  // negative multipliers of bound cells (the PDAS cap)
-  for (Index c = 0; c < n; ++c) is_free[static_cast<size_t>(c)] = g[c] - fl > s.ra[c];
+  // s.last_free: kept by the last frame only when its free set had kKeepFrom cells or more
+  const bool keep = s.last_free.size() == static_cast<size_t>(n);
+  if (keep)
+    is_free = s.last_free;
+  else
+    for (Index c = 0; c < n; ++c) is_free[static_cast<size_t>(c)] = g[c] - fl > s.ra[c];
+  std::vector<std::vector<char>> seen;  // free sets of the current QP (keep)
   Eigen::VectorXd y(n), lo(n), qc(n), yA(n), yA_prev(n), SyA(n), Sy(n), b(n), dg(n), gt(n),
       g_prev(n);
   double merit = fb_merit(g, s.ra, G_exp, fl, resid);
@@ -157,6 +182,7 @@ SolveReport solve_active_set(Solver& s, const ConstVecRef& G_exp, VecRef g) {
         std::max(1e-10, std::min(1e-2, std::max(0.1 * resid, 0.1 * o.rtol / resid)));
     FreeBlockSolver& fs = s.free_block;
     bool factor_here = false;  // the stored factor is of S at this point
+    if (keep) seen.assign(1, is_free);
     for (int inner = 0;; ++inner) {
       // I and y_A = lo on the bound set, without branches on the (noise-drawn) pattern of I
       free_cells.resize(static_cast<size_t>(n));
@@ -184,7 +210,8 @@ SolveReport solve_active_set(Solver& s, const ConstVecRef& G_exp, VecRef g) {
         const bool few = factor_here && changes <= kUpdateMax &&
                          static_cast<double>(changes) <=
                              kUpdateShare * static_cast<double>(free_cells.size());
-        const bool far = inner == 0 && resid > kRefactorAbove;  // the factor is of a far point
+        // the factor is of a far point
+        const bool far = !keep && inner == 0 && resid > kRefactorAbove;
         bool kept = false;
         if ((changes > 0 || far) && !far) {
           if (fs.is_split())
@@ -261,6 +288,10 @@ SolveReport solve_active_set(Solver& s, const ConstVecRef& G_exp, VecRef g) {
         is_free[k] = f;
       }
       if (changed == 0) break;
+      if (keep) {  // a free set seen before in this QP: a cycle (kKeepFrom)
+        if (std::find(seen.begin(), seen.end(), is_free) != seen.end()) break;
+        seen.push_back(is_free);
+      }
     }
     if (rep.status == Status::Singular) break;
     dg = s.Gm.cwiseProduct(y);
@@ -297,6 +328,10 @@ SolveReport solve_active_set(Solver& s, const ConstVecRef& G_exp, VecRef g) {
     fb.used_fallback = true;
     return fb;
   }
+  if (static_cast<Index>(free_cells.size()) >= kKeepFrom)
+    s.last_free = is_free;
+  else
+    s.last_free.clear();
   rep.at_bound = static_cast<int>((g.array() <= fl * (1.0 + 1e-9)).count());
   if (rep.status == Status::Converged && rep.at_bound > 0) rep.status = Status::Bounded;
   rep.cost = 0.5 * (s.ra.array() / G_exp.array()).square().sum();
