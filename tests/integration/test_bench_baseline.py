@@ -129,6 +129,7 @@ def test_bench_cli_smoke(tmp_path):
     printed_fps = float(newton[0].split("|")[6])
     data = json.loads(out.read_text())
     assert data["machine"]["numpy"] == np.__version__
+    assert data["settings"]["quick"] is False and data["settings"]["smoke"] is True  # as asked, not shadowed
     solvers = {r["solver"] for r in data["rows"]}
     assert any(s.startswith("numpy fixed point") for s in solvers)
     rows = [r for r in data["rows"] if r["solver"] == "psmat newton"]

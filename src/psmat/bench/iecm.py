@@ -336,10 +336,10 @@ def run(sizes=(16, 32, 64), frames: int | None = None, threads=None, *, quick: b
         # The thesis' quick fixed point in NumPy on the same noisy frames (fewer above 32x32), and
         # psmat's noisy streaming frames/s as a multiple of it (docs/spec.md §10's goal at 32x32).
         if baselines:
-            quick = _measure_quick_numpy(size, T if not heavy else max(ncpu, T // 5), T, seed, min_time, budget, ncpu)
-            emit(quick)
+            quick_row = _measure_quick_numpy(size, T if not heavy else max(ncpu, T // 5), T, seed, min_time, budget, ncpu)
+            emit(quick_row)
             if noisy_streaming is not None:
-                speedups.append(speedup_over_numpy(noisy_streaming, quick))
+                speedups.append(speedup_over_numpy(noisy_streaming, quick_row))
                 log("  " + speedups[-1]["line"], flush=True)
         # psmat's C++ fixed point, the thesis' iteration (same 2000 iterations as the NumPy baseline).
         if baselines:

@@ -52,18 +52,23 @@ bool FreeBlockSolver::factor(const NodalInverse& net, const Eigen::VectorXd& G,
   return false;
 }
 
-void FreeBlockSolver::remove_position(Index k) {
-  // L = [L11 0 0; l21' l22 0; L31 l32 L33]: without row/column k the factor is [L11 0; L31 L33']
-  // with L33' L33'^T = L33 L33^T + l32 l32^T, a rank-1 update.
-  const Index rest = used_ - k - 1;
+namespace {
+// Row k of the factor L (its leading used x used corner) made an identity row: with
+// L = [L11 0 0; l21' l22 0; L31 l32 L33], without row/column k the factor is [L11 0; L31 L33']
+// with L33' L33'^T = L33 L33^T + l32 l32^T, a rank-1 update. work: workspace.
+void decouple_row(Eigen::MatrixXf& L, Index used, Index k, Eigen::VectorXf& work) {
+  const Index rest = used - k - 1;
   if (rest > 0) {
-    col_ = L_.col(k).segment(k + 1, rest);
-    cholesky_rank1_update(L_.block(k + 1, k + 1, rest, rest), col_);
-    L_.col(k).segment(k + 1, rest).setZero();
+    work = L.col(k).segment(k + 1, rest);
+    cholesky_rank1_update(L.block(k + 1, k + 1, rest, rest), work);
+    L.col(k).segment(k + 1, rest).setZero();
   }
-  L_.row(k).head(k).setZero();
-  L_(k, k) = 1.0f;  // an identity row: decoupled, its right-hand side is 0
+  L.row(k).head(k).setZero();
+  L(k, k) = 1.0f;  // an identity row: decoupled, its right-hand side is 0
 }
+}  // namespace
+
+void FreeBlockSolver::remove_position(Index k) { decouple_row(L_, used_, k, col_); }
 
 bool FreeBlockSolver::update(const NodalInverse& net, const Eigen::VectorXd& G,
                              const std::vector<Index>& free_cells) {
@@ -355,16 +360,9 @@ bool FreeBlockSolver::update_fringe() {
     return false;
   reserve_fringe_factor(na + static_cast<Index>(joining_.size()));
   // a cell that leaves: a rank-1 update of the factor below its row, which becomes an identity
-  // row (as FreeBlockSolver::remove_position)
+  // row (a hole)
   for (Index q : leaving_) {
-    const Index rest = na - q - 1;
-    if (rest > 0) {
-      col_ = Zs_.col(q).segment(q + 1, rest);
-      cholesky_rank1_update(Zs_.block(q + 1, q + 1, rest, rest), col_);
-      Zs_.col(q).segment(q + 1, rest).setZero();
-    }
-    Zs_.row(q).head(q).setZero();
-    Zs_(q, q) = 1.0f;
+    decouple_row(Zs_, na, q, col_);
     Wa_.row(q).setZero();
     actpos_[static_cast<size_t>(active_[static_cast<size_t>(q)])] = -1;
     active_[static_cast<size_t>(q)] = -1;
