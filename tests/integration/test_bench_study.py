@@ -4,10 +4,15 @@ checked: no test asserts a time; what it runs and compares is)."""
 from __future__ import annotations
 
 import json
+import os
+import re
+import subprocess
+import sys
 
 import pytest
 
 from psmat.bench.study import format_report, main, parallel_fraction, run
+from psmat.bench.study_scaling import fit_serial_parallel, format_scaling, parse_counts
 from psmat.study import DEFAULT_PARAMS
 
 
@@ -45,3 +50,161 @@ def test_the_parallel_fraction_by_hand() -> None:
     assert parallel_fraction(80.0, 10.0) == pytest.approx(80.0 / 90.0)
     assert parallel_fraction(80.0, 0.0) == pytest.approx(1.0)  # nothing serial
     assert parallel_fraction(0.0, 5.0) is None  # no session work: nothing to estimate
+
+
+# --- strong scaling: --scaling N1,N2,... (psmat.bench.study_scaling) ---------------------------------
+
+ROW = re.compile(r"^\| (pool|Dask LocalCluster) \| (\d+) \| ([\d.]+) \| ([\d.]+|—) \| ([\d.]+) \| ([\d.]+) \| "
+                 r"([\d.]+) \| ([\d.]+) % \|$", re.M)
+
+
+def _scaling(args: list[str], tmp_path) -> tuple[str, dict]:
+    """``python -m psmat.bench study --quick ARGS --json`` in a fresh process: its stdout and JSON."""
+    out = tmp_path / "scaling.json"
+    proc = subprocess.run([sys.executable, "-m", "psmat.bench", "study", "--quick", *args, "--json", str(out)],
+                          capture_output=True, text=True, timeout=300, check=False, cwd=tmp_path)
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    return proc.stdout, json.loads(out.read_text(encoding="utf-8"))
+
+
+def _ratio_tol(a: float, b: float) -> float:
+    """How far a / b can be from the ratio of the unrounded values, a and b printed to 0.01."""
+    return 0.005 / b + a * 0.005 / b**2 + 1e-9
+
+
+def _check_rows(text: str, kind: str, counts: list[int]) -> list[tuple[int, float]]:
+    """The printed rows of ``kind``: their speed-up and efficiency recomputed by hand from the
+    printed wall times (to the printed rounding), the serial share from the printed serial part."""
+    rows = [m for m in ROW.finditer(text) if m.group(1) == kind]
+    assert [int(m.group(2)) for m in rows] == counts, text
+    first_n, first_t = counts[0], float(rows[0].group(3))
+    for m in rows:
+        n, wall, serial = int(m.group(2)), float(m.group(3)), float(m.group(7))
+        speedup = first_t / wall
+        tol = _ratio_tol(first_t, wall)
+        assert float(m.group(5)) == pytest.approx(speedup, abs=tol + 0.005)
+        assert float(m.group(6)) == pytest.approx(speedup / (n / first_n), abs=tol / (n / first_n) + 0.005)
+        assert 0 <= serial <= wall + 0.01
+        assert float(m.group(8)) == pytest.approx(100 * serial / wall, abs=100 * _ratio_tol(serial, wall) + 0.05)
+    return [(int(m.group(2)), float(m.group(3))) for m in rows]
+
+
+def test_scaling_runs_each_count_from_scratch_with_the_same_metrics(tmp_path) -> None:
+    text, r = _scaling(["--scaling", "2,1"], tmp_path)  # given out of order: run smallest first
+    rows = _check_rows(text, "pool", [1, 2])
+    s = r["scaling"]
+    assert s["counts"] == [1, 2] and r["workers"] is None and "baseline_s" not in r and "resume_s" not in r
+    # every run computed every session: nothing reused from the run before it
+    assert [(x["workers"], x["computed"], x["reused"], x["failed"]) for x in s["runs"]] == [(1, 3, 0, 0), (2, 3, 0, 0)]
+    # the JSON's times are the printed ones, and its speed-up is the ratio of its own times
+    assert [(x["workers"], round(x["wall_s"], 2)) for x in s["runs"]] == rows
+    one, two = s["runs"]
+    assert two["speedup"] == pytest.approx(one["wall_s"] / two["wall_s"]) and two["efficiency"] == pytest.approx(
+        two["speedup"] / 2)
+    # the CPU column is timings.csv's stages summed; one worker runs everything in this process, whose CPU
+    # time cannot much exceed its wall time (a figure drawn here counted twice made it ~1.8x)
+    assert one["cpu_s"] == pytest.approx(sum(st["cpu_s"] for st in one["stages"].values()))
+    assert 0 < one["cpu_s"] <= 1.5 * one["wall_s"]
+    # metrics.csv the same bytes, said so
+    assert s["metrics_identical"] and one["metrics_sha256"] == two["metrics_sha256"] and s["problems"] == []
+    assert "metrics.csv byte-identical across all 2 runs" in text and "problem:" not in text
+    # two counts: the fit through both is exact, T(n) = S + P/n at n = 1 and 2 (by hand)
+    p = 2 * (one["wall_s"] - two["wall_s"])
+    assert s["pool_fit"]["parallel_s"] == pytest.approx(p) and s["pool_fit"]["serial_s"] == pytest.approx(
+        one["wall_s"] - p)
+    assert "pool: least-squares fit T(n) = S + P/n: S = " in text
+    # 1 and 2 workers are not the goal's 2 and 16: the efficiency without a met/MISSED mark
+    assert s["pool_goal_efficiency"] is None
+    assert "pool: 2->16 goal not measured here: counts 1,2; efficiency at 2 workers against 1: " in text
+    assert " met)" not in text and "MISSED" not in text
+
+
+def test_the_serial_parallel_fit_by_hand() -> None:
+    # T = 10 + 80/n exactly: S = 10 s, P = 80 s
+    assert fit_serial_parallel([2, 4, 8, 16], [10 + 80 / n for n in (2, 4, 8, 16)]) == pytest.approx((10.0, 80.0))
+    # the issue's measured times (2, 4, 8, 16 workers): the least-squares line through (1/n, T) by hand:
+    # mean 1/n = 0.234375, mean T = 92.625; Sxx = 0.1123046875, Sxy = 32.0890625 -> P = 285.73, S = 25.66
+    s, p = fit_serial_parallel([2, 4, 8, 16], [169.6, 94.5, 61.6, 44.8])
+    assert p == pytest.approx(32.0890625 / 0.1123046875) and s == pytest.approx(92.625 - p * 0.234375)
+    # a pure serial run (no gain from workers): P = 0
+    assert fit_serial_parallel([1, 3], [5.0, 5.0]) == pytest.approx((5.0, 0.0))
+    with pytest.raises(ValueError, match="two different worker counts"):
+        fit_serial_parallel([4, 4], [1.0, 2.0])
+
+
+def test_the_counts_and_the_goal_mark() -> None:
+    assert parse_counts("16, 2,8,4") == [2, 4, 8, 16]
+    for bad in ("2,x", "0,2", "2,2", ""):
+        with pytest.raises(ValueError, match="--scaling"):
+            parse_counts(bad)
+    # from 2 to 16 workers: 160 s -> 25 s is a speed-up of 6.4 over 8x the workers, exactly the 80 % goal
+    s = {"counts": [2, 16], "usable_cpus": 16, "problems": [], "metrics_identical": True,
+         "runs": [{"kind": "pool", "workers": 2, "wall_s": 160.0, "cpu_s": None, "speedup": 1.0, "efficiency": 1.0,
+                   "serial_s": 4.0, "metrics_sha256": "0" * 64},
+                  {"kind": "pool", "workers": 16, "wall_s": 25.0, "cpu_s": None, "speedup": 6.4, "efficiency": 0.8,
+                   "serial_s": 4.0, "metrics_sha256": "0" * 64}],
+         "pool_fit": None, "pool_goal_efficiency": 0.8}
+    assert "from 2 to 16 workers >= 80% parallel efficiency: 0.80 (met)" in format_scaling(s)
+    s["pool_goal_efficiency"] = 0.47
+    s["usable_cpus"] = 2
+    text = format_scaling(s)
+    assert "0.47 (MISSED)" in text
+    assert "warning: 16 workers exceed the 2 CPUs this process may use: their efficiency measures " \
+           "oversubscription, not scaling" in text
+
+
+def test_scaling_options_refused_in_one_line(capsys) -> None:
+    for argv in (["--scaling", "2,two"], ["--dask"], ["--scaling", "1,1"]):
+        assert main(["--quick", *argv]) == 2
+        err = capsys.readouterr().err
+        assert len(err.strip().splitlines()) == 1, err
+    for workers in ("2", "3"):  # not both, even with --workers at its default value (--quick: cheap if not refused)
+        with pytest.raises(SystemExit):
+            main(["--quick", "--workers", workers, "--scaling", "2,4"])
+        assert "not allowed with argument" in capsys.readouterr().err
+
+
+def test_scaling_on_a_local_dask_cluster_too(tmp_path) -> None:
+    pytest.importorskip("distributed")
+    text, r = _scaling(["--scaling", "1,2", "--dask"], tmp_path)
+    pool, dask = _check_rows(text, "pool", [1, 2]), _check_rows(text, "Dask LocalCluster", [1, 2])
+    s = r["scaling"]
+    assert [(x["kind"], x["workers"], x["computed"]) for x in s["runs"]] == [
+        ("pool", 1, 3), ("pool", 2, 3), ("dask", 1, 3), ("dask", 2, 3)]
+    # the same metrics.csv bytes from the pool and from the cluster, checked across all four runs
+    assert s["metrics_identical"] and len({x["metrics_sha256"] for x in s["runs"]}) == 1
+    assert "metrics.csv byte-identical across all 4 runs" in text and "problem:" not in text
+    # Dask against the pool at the same count: the ratio of the printed times
+    m = re.search(r"speed-up over the pool at the same count: 1: ([\d.]+), 2: ([\d.]+)", text)
+    assert m, text
+    for (n, tp), (_, td), shown in zip(pool, dask, m.groups()):
+        assert float(shown) == pytest.approx(tp / td, abs=_ratio_tol(tp, td) + 0.005)
+    assert "Dask LocalCluster: least-squares fit" in text and "Dask LocalCluster: 2->16 goal not measured" in text
+
+
+def test_dask_skipped_in_one_line_without_distributed(tmp_path) -> None:
+    # a distributed package that cannot be imported, ahead of the installed one on the path
+    blocked = tmp_path / "blocked" / "distributed"
+    blocked.mkdir(parents=True)
+    (blocked / "__init__.py").write_text("raise ImportError('distributed blocked for this test')\n")
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join(filter(None, [str(blocked.parent),
+                                                                      os.environ.get("PYTHONPATH")]))}
+    proc = subprocess.run([sys.executable, "-m", "psmat.bench", "study", "--quick", "--scaling", "1", "--dask"],
+                          capture_output=True, text=True, timeout=300, check=False, cwd=tmp_path, env=env)
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    assert [m.group(1) for m in ROW.finditer(proc.stdout)] == ["pool"]  # the pool's run, no cluster's
+    skipped = [line for line in proc.stdout.splitlines() if line.startswith("Dask")]
+    assert skipped == ["Dask: skipped, Dask distributed is not installed (pip install 'psmat[cluster]')"]
+    assert "pool: fit T(n) = S + P/n needs two worker counts at least" in proc.stdout
+
+
+def test_a_metrics_difference_is_a_problem_line() -> None:
+    from psmat.bench.study_scaling import _metrics_check
+
+    runs = [{"kind": "pool", "workers": 1, "_metrics": b"subject,sigma\nV01,1.0\nV02,2.0\n"},
+            {"kind": "pool", "workers": 2, "_metrics": b"subject,sigma\nV01,1.0\nV02,2.0\n"},
+            {"kind": "dask", "workers": 2, "_metrics": b"subject,sigma\nV01,1.0\nV02,2.5\n"}]
+    assert _metrics_check(runs) == ["metrics.csv of Dask LocalCluster, 2 workers differs from pool, 1 worker's "
+                                    "(first at line 3)"]
+    runs[2]["_metrics"] = runs[0]["_metrics"][:-8]  # a row short
+    assert _metrics_check(runs)[0].endswith("(first at line 3)")

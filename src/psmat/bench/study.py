@@ -1,7 +1,7 @@
 """Balance-study benchmark (docs/spec.md §10, thesis-size study): ``python -m psmat.bench study``.
 
-``python -m psmat.bench study [--volunteers 42] [--seconds 60] [--rate 100] [--workers 2]
-[--dir PATH] [--seed K] [--no-baseline] [--json PATH] [--quick]``
+``python -m psmat.bench study [--volunteers 42] [--seconds 60] [--rate 100] [--workers 2 | --scaling 2,4,8,16]
+[--dask] [--dir PATH] [--seed K] [--no-baseline] [--json PATH] [--quick]``
 
 What is measured
 ----------------
@@ -30,6 +30,22 @@ The simulation itself is timed apart and is not part of the docs/spec.md §10 fi
 end on 2 cores). ``--dir`` keeps the simulated study between runs (it is reused when it
 holds the same number of sessions). The two figures are compared in the same process, on the
 same machine, one after the other.
+
+Strong scaling
+--------------
+``--scaling 2,4,8,16`` (instead of ``--workers``) simulates the study once, then runs it from
+scratch at each worker count, smallest first (``results/`` and its session cache removed, a new
+pool each time; no rerun and no baseline): per count its wall and CPU time, the speed-up over
+the smallest count, the parallel efficiency (speed-up / (n / n_smallest)) and the serial part;
+then the least-squares fit T(n) = S + P/n, and the goal of docs/spec.md §10 — from 2 to 16
+workers at least 80 % parallel efficiency — marked met or MISSED when 2 and 16 were run.
+``--dask`` runs the same counts on a Dask ``LocalCluster`` of single-threaded worker processes
+(``psmat study run --scheduler``), one cluster per count, started before the clock and closed
+after. ``metrics.csv`` must be byte-identical across every run; a count above this process's
+CPUs is run but flagged, its efficiency then measuring oversubscription
+(:mod:`psmat.bench.study_scaling`). On a 16-core machine:
+
+    python -m psmat.bench study --scaling 2,4,8,16 --dask
 """
 
 from __future__ import annotations
@@ -45,6 +61,7 @@ from pathlib import Path
 from typing import Any
 
 from .machine import machine_info
+from .study_scaling import stage_times
 
 __all__ = ["main", "run", "parallel_fraction"]
 
@@ -66,8 +83,12 @@ def _frames(layout: Any) -> int:
 
 
 def run(volunteers: int = 42, seconds: float = 60.0, rate_hz: float = 100.0, workers: int = 2, seed: int = 0,
-        study_dir: str | None = None, baseline: bool = True) -> dict[str, Any]:
-    """Simulate (or reuse) a study and time its processing; the figures as a dict."""
+        study_dir: str | None = None, baseline: bool = True, scaling: list[int] | None = None,
+        dask: bool = False) -> dict[str, Any]:
+    """Simulate (or reuse) a study and time its processing; the figures as a dict. With
+    ``scaling`` (worker counts) its runs at each count instead (``workers`` and ``baseline``
+    unused; ``dask``: on a LocalCluster too), under ``"scaling"``
+    (:func:`psmat.bench.study_scaling.run_scaling`)."""
     from ..study import find_study
     from ..study import run_study
     from ..synth import simulate_study
@@ -91,6 +112,12 @@ def run(volunteers: int = 42, seconds: float = 60.0, rate_hz: float = 100.0, wor
         layout = find_study(root)
         out["sessions"] = len(layout.items)
         out["frames"] = _frames(layout)
+        if scaling is not None:
+            from .study_scaling import run_scaling
+
+            out["workers"] = None
+            out["scaling"] = run_scaling(root, scaling, dask=dask)
+            return out
 
         shutil.rmtree(root / "results", ignore_errors=True)
         t0 = time.perf_counter()
@@ -117,14 +144,6 @@ def run(volunteers: int = 42, seconds: float = 60.0, rate_hz: float = 100.0, wor
     finally:
         if tmp is not None:
             shutil.rmtree(tmp, ignore_errors=True)
-
-
-def stage_times(path: Path) -> dict[str, dict[str, float]]:
-    """The stages of a run's ``timings.csv``: ``{stage: {"wall_s": s, "cpu_s": s}}``."""
-    import csv
-
-    with path.open(newline="", encoding="utf-8") as f:
-        return {r["stage"]: {"wall_s": float(r["wall_s"]), "cpu_s": float(r["cpu_s"])} for r in csv.DictReader(f)}
 
 
 #: the bench's lines: (label, the stages of timings.csv it sums)
@@ -163,16 +182,28 @@ def parallel_fraction(session_cpu_s: float, serial_s: float) -> float | None:
     return session_cpu_s / (session_cpu_s + serial_s)
 
 
-def format_report(r: dict[str, Any]) -> str:
-    """The benchmark's figures as a plain-text table."""
-    frames = r["frames"]
+def _header(r: dict[str, Any]) -> list[str]:
+    """The study, the machine and the simulation's time."""
+    workers = f"{r['workers']} workers" if r.get("scaling") is None else \
+        f"workers {','.join(map(str, r['scaling']['counts']))}"
     lines = [
         f"balance study (simulation): {r['volunteers']} volunteers x 3 trials x {r['seconds']:g} s at "
-        f"{r['rate_hz']:g} Hz = {r['sessions']} sessions, {frames} frames, 16x16; {r['workers']} workers",
+        f"{r['rate_hz']:g} Hz = {r['sessions']} sessions, {r['frames']} frames, 16x16; {workers}",
         f"machine: {r['machine']}",
     ]
     if r.get("simulate_s") is not None:
         lines.append(f"simulation (not part of the target): {r['simulate_s']:.1f} s")
+    return lines
+
+
+def format_report(r: dict[str, Any]) -> str:
+    """The benchmark's figures as a plain-text table (with ``--scaling``, its scaling table)."""
+    if r.get("scaling") is not None:
+        from .study_scaling import format_scaling
+
+        return "\n".join(_header(r)) + "\n" + format_scaling(r["scaling"], r["sessions"])
+    frames = r["frames"]
+    lines = _header(r)
     lines += [
         f"{'run':<44}{'time (s)':>10}{'frames/s':>11}",
         f"{'psmat study run (all variants, results written)':<44}{r['psmat_s']:>10.1f}{frames / r['psmat_s']:>11.0f}",
@@ -198,7 +229,16 @@ def build_parser(prog: str = "python -m psmat.bench study") -> argparse.Argument
     p.add_argument("--volunteers", type=int, default=42, help="volunteers of the simulated study, 3 trials each")
     p.add_argument("--seconds", type=float, default=60.0, help="length of each trial (s)")
     p.add_argument("--rate", type=float, default=100.0, help="the mats' frame rate (Hz)")
-    p.add_argument("--workers", type=int, default=2, help="processes, for psmat and for the baseline's pool")
+    counts = p.add_mutually_exclusive_group()
+    # default None, shown as 2: argparse would not see "--workers 2 --scaling ..." as a conflict if the value
+    # given were the default object itself
+    counts.add_argument("--workers", type=int, default=None,
+                        help="processes, for psmat and for the baseline's pool (default: 2)")
+    counts.add_argument("--scaling", metavar="N1,N2,...", default=None,
+                        help="strong scaling instead of one run: the study from scratch at each worker count, "
+                             "such as 2,4,8,16 (not with --workers; no rerun, no baseline)")
+    p.add_argument("--dask", action="store_true",
+                   help="with --scaling: the same counts on a Dask LocalCluster too (needs Dask distributed)")
     p.add_argument("--seed", type=int, default=0, help="seed of the simulated study")
     p.add_argument("--dir", metavar="PATH", default=None,
                    help="keep the simulated study here, reused when it matches (default: a temporary folder)")
@@ -212,11 +252,24 @@ def build_parser(prog: str = "python -m psmat.bench study") -> argparse.Argument
 
 def main(argv: list[str] | None = None, prog: str = "python -m psmat.bench study") -> int:
     a = build_parser(prog).parse_args(argv)
+    a.workers = 2 if a.workers is None else a.workers
     if a.quick:
         a.volunteers, a.seconds, a.rate, a.workers = 1, 4.0, 50.0, 1
     if a.volunteers < 1 or a.seconds <= 0 or a.rate <= 0 or a.workers < 1:
         print(f"{prog}: --volunteers, --seconds, --rate and --workers must be positive",
               file=sys.stderr)
+        return 2
+    scaling = None
+    if a.scaling is not None:
+        from .study_scaling import parse_counts
+
+        try:
+            scaling = parse_counts(a.scaling)
+        except ValueError as exc:
+            print(f"{prog}: {exc}", file=sys.stderr)
+            return 2
+    elif a.dask:
+        print(f"{prog}: --dask goes with --scaling (the worker counts to run on a LocalCluster)", file=sys.stderr)
         return 2
     from .._atomic import OutputRefused, check_outputs, write_text_atomic
 
@@ -225,7 +278,7 @@ def main(argv: list[str] | None = None, prog: str = "python -m psmat.bench study
     except OutputRefused as exc:
         print(f"{prog}: {exc}", file=sys.stderr)
         return 1
-    r = run(a.volunteers, a.seconds, a.rate, a.workers, a.seed, a.dir, not a.no_baseline)
+    r = run(a.volunteers, a.seconds, a.rate, a.workers, a.seed, a.dir, not a.no_baseline, scaling, a.dask)
     print(format_report(r))
     if a.json:
         write_text_atomic(a.json, json.dumps(r, indent=2, default=str))

@@ -141,7 +141,8 @@ def write_results(results_dir: str | os.PathLike[str], rows: Iterable[Mapping[st
         t = by_name[name]
         _write_bytes(Path(t.path), data)
         index.record(t, data)
-        cpu += 0.0 if took is None else took.cpu_s
+        # a figure drawn in this process is already in the stage's own CPU time: only other processes' is added
+        cpu += 0.0 if took is None or took.pid == os.getpid() else took.cpu_s
     if todo:
         index.save()
     figures: dict[str, Path] = {t.name: Path(t.path) for t in tasks}

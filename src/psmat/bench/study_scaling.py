@@ -1,0 +1,301 @@
+"""Strong scaling of a study run (docs/spec.md §10, §12): ``python -m psmat.bench study --scaling 2,4,8,16 [--dask]``.
+
+The same simulated study is run from scratch once per worker count — ``results/`` (with the
+session cache under it) removed before each run and joblib's process pool shut down, so every
+run computes every session and starts its own workers — first on this machine's pool
+(:func:`psmat.study.run_study` with ``workers=n``), then with ``dask=True`` on a Dask
+``distributed.LocalCluster(n_workers=n, threads_per_worker=1, processes=True)`` on 127.0.0.1
+(``run_study(scheduler=address)``), started before its run's clock (its start is recorded apart)
+and closed after it.
+
+For each run: its wall time (s, this process's clock around ``run_study``), its CPU time (s, the
+stages of its ``results/timings.csv`` summed: the session, page and figure tasks' CPU in their
+workers plus this process's), the speed-up over the first (smallest) count of the same kind,
+the parallel efficiency = speed-up / (n / n_first), and the serial part (the wall time less the
+session stage's). Over each kind's runs the least-squares fit T(n) = S + P/n gives the serial
+seconds S, the parallel seconds P and S's share of the largest count's run. The goal of
+docs/spec.md §10 (from 2 to 16 workers at least 80 % parallel efficiency) is marked met or
+MISSED when the counts hold 2 and 16. ``metrics.csv`` must be byte-identical across all runs;
+a difference is a problem line.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import os
+import shutil
+import time
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+__all__ = ["parse_counts", "fit_serial_parallel", "usable_cpus", "stage_times", "run_scaling", "format_scaling",
+           "GOAL"]
+
+#: docs/spec.md §10: from 2 to 16 workers at least 80 % parallel efficiency
+GOAL = (2, 16, 0.80)
+KINDS = {"pool": "pool", "dask": "Dask LocalCluster"}
+
+
+def parse_counts(text: str) -> list[int]:
+    """``"2,4,8,16"`` as worker counts, smallest first.
+
+    Raises
+    ------
+    ValueError
+        A count that is not a whole number of at least 1, a count given twice, or none.
+    """
+    parts = [p.strip() for p in text.split(",")]
+    try:
+        counts = [int(p) for p in parts]
+    except ValueError:
+        raise ValueError(f"--scaling takes worker counts separated by commas, such as 2,4,8,16, not {text!r}") \
+            from None
+    if not counts or min(counts) < 1:
+        raise ValueError(f"--scaling: every worker count must be at least 1 (got {text})")
+    if len(set(counts)) != len(counts):
+        raise ValueError(f"--scaling: a worker count is given twice ({text})")
+    return sorted(counts)
+
+
+def fit_serial_parallel(counts: Sequence[int], times_s: Sequence[float]) -> tuple[float, float]:
+    """Least-squares fit of ``T(n) = S + P / n`` to wall times measured at worker counts ``n``.
+
+    Parameters
+    ----------
+    counts : sequence of int
+        Worker counts of the runs.
+    times_s : sequence of float
+        Their wall times (s).
+
+    Returns
+    -------
+    (S, P) : tuple of float
+        The serial seconds S (what no worker count shortens) and the parallel seconds P (one
+        worker's share of the work that splits), in s; from two counts the exact solution.
+
+    Raises
+    ------
+    ValueError
+        Fewer than two different counts, or lengths that differ.
+    """
+    if len(counts) != len(times_s):
+        raise ValueError("one time per worker count")
+    if len(set(counts)) < 2:
+        raise ValueError("the fit T(n) = S + P/n needs runs at two different worker counts at least")
+    x = [1.0 / n for n in counts]
+    mx, my = sum(x) / len(x), sum(times_s) / len(times_s)
+    sxx = sum((xi - mx) ** 2 for xi in x)
+    p = sum((xi - mx) * (yi - my) for xi, yi in zip(x, times_s)) / sxx
+    return my - p * mx, p
+
+
+def usable_cpus() -> int:
+    """The CPUs this process may run on (its affinity; all of the machine's where that is unknown)."""
+    try:
+        return len(os.sched_getaffinity(0))
+    except (AttributeError, OSError):
+        return os.cpu_count() or 1
+
+
+def stage_times(path: Path) -> dict[str, dict[str, float]]:
+    """The stages of a run's ``timings.csv``: ``{stage: {"wall_s": s, "cpu_s": s}}``."""
+    import csv
+
+    with path.open(newline="", encoding="utf-8") as f:
+        return {r["stage"]: {"wall_s": float(r["wall_s"]), "cpu_s": float(r["cpu_s"])} for r in csv.DictReader(f)}
+
+
+def _stop_pool() -> None:
+    """Shut joblib's reusable loky executor, so the next run starts its own workers as a first run
+    does (otherwise a run would find the previous run's workers started, their imports done)."""
+    try:
+        from joblib.externals.loky import reusable_executor
+    except ImportError:  # pragma: no cover - joblib is a psmat requirement
+        return
+    executor = getattr(reusable_executor, "_executor", None)
+    if executor is not None:
+        executor.shutdown(wait=True)
+
+
+def _one_run(root: Path, kind: str, n: int, scheduler: str | None, progress: bool) -> dict[str, Any]:
+    """One run from scratch: its times, its counts and its ``metrics.csv`` (bytes and SHA-256)."""
+    from ..study import run_study
+
+    shutil.rmtree(root / "results", ignore_errors=True)
+    t0 = time.perf_counter()
+    if scheduler is None:
+        report = run_study(root, workers=n, progress=progress)
+    else:
+        report = run_study(root, scheduler=scheduler, progress=progress)
+    wall = time.perf_counter() - t0
+    stages = stage_times(root / "results" / "timings.csv")
+    cpu = sum(s["cpu_s"] for s in stages.values())
+    metrics = report.metrics.read_bytes()
+    return {"kind": kind, "workers": n, "wall_s": wall, "cpu_s": cpu if cpu > 0 else None,
+            "serial_s": max(0.0, wall - stages["sessions"]["wall_s"]), "stages": stages,
+            "sessions": report.sessions, "computed": report.computed, "reused": report.reused, "failed": report.failed,
+            "problems": list(report.problems), "metrics_sha256": hashlib.sha256(metrics).hexdigest(),
+            "_metrics": metrics}
+
+
+def _dask_run(root: Path, n: int, progress: bool) -> dict[str, Any]:
+    """One run on a fresh LocalCluster of ``n`` single-threaded worker processes, closed after it."""
+    import logging
+
+    import distributed
+
+    t0 = time.perf_counter()
+    with distributed.LocalCluster(n_workers=n, threads_per_worker=1, processes=True, host="127.0.0.1",
+                                  dashboard_address=None, silence_logs=logging.ERROR) as cluster:
+        started = time.perf_counter() - t0
+        run = _one_run(root, "dask", n, cluster.scheduler_address, progress)
+    run["cluster_start_s"] = started
+    return run
+
+
+def _rate(runs: list[dict[str, Any]]) -> None:
+    """Speed-up and efficiency of each run against the first of the list (same kind)."""
+    first = runs[0]
+    for r in runs:
+        r["speedup"] = first["wall_s"] / r["wall_s"]
+        r["efficiency"] = r["speedup"] / (r["workers"] / first["workers"])
+
+
+def _fit(runs: list[dict[str, Any]]) -> dict[str, float] | None:
+    if len(runs) < 2:
+        return None
+    s, p = fit_serial_parallel([r["workers"] for r in runs], [r["wall_s"] for r in runs])
+    return {"serial_s": s, "parallel_s": p, "serial_share_at_largest": s / runs[-1]["wall_s"]}
+
+
+def _goal(runs: list[dict[str, Any]]) -> float | None:
+    """Efficiency from 2 to 16 workers (docs/spec.md §10) when both were run, else None."""
+    lo, hi, _ = GOAL
+    by = {r["workers"]: r["wall_s"] for r in runs}
+    if lo not in by or hi not in by:
+        return None
+    return (by[lo] / by[hi]) / (hi / lo)
+
+
+def _metrics_check(runs: list[dict[str, Any]]) -> list[str]:
+    """Problem lines: each run whose ``metrics.csv`` differs from the first run's (first differing line)."""
+    first = runs[0]
+    problems = []
+    for r in runs[1:]:
+        if r["_metrics"] == first["_metrics"]:
+            continue
+        a, b = first["_metrics"].splitlines(), r["_metrics"].splitlines()
+        line = next((i + 1 for i, (x, y) in enumerate(zip(a, b)) if x != y), min(len(a), len(b)) + 1)
+        problems.append(f"metrics.csv of {_name(r)} differs from {_name(first)}'s (first at line {line})")
+    return problems
+
+
+def _name(r: dict[str, Any]) -> str:
+    return f"{KINDS[r['kind']]}, {r['workers']} worker{'s' if r['workers'] != 1 else ''}"
+
+
+def run_scaling(root: str | os.PathLike[str], counts: Sequence[int], dask: bool = False,
+                progress: bool = True) -> dict[str, Any]:
+    """Run the study in ``root`` from scratch at each worker count, on the pool and with ``dask``
+    on a LocalCluster; the runs, fits, goal and checks as plain data (:func:`format_scaling`).
+
+    Parameters
+    ----------
+    root : path
+        A study folder (:func:`psmat.study.find_study`); its ``results/`` is removed before each run.
+    counts : sequence of int
+        Worker counts, run in the order given (the first is the reference of speed-up and efficiency).
+    dask : bool
+        Also run each count on a Dask LocalCluster (skipped, with a note, without Dask distributed).
+    progress : bool
+        The runs' progress bars (on stderr).
+    """
+    root = Path(root)
+    counts = list(counts)
+    cpus = usable_cpus()
+    out: dict[str, Any] = {"counts": counts, "usable_cpus": cpus, "problems": []}
+    pool = []
+    for n in counts:
+        _stop_pool()
+        pool.append(_one_run(root, "pool", n, None, progress))
+    _stop_pool()
+    kinds = {"pool": pool}
+    if dask:
+        try:
+            import distributed  # noqa: F401
+        except ImportError:
+            out["dask_skipped"] = "Dask distributed is not installed (pip install 'psmat[cluster]')"
+        else:
+            kinds["dask"] = [_dask_run(root, n, progress) for n in counts]
+    runs = [r for rs in kinds.values() for r in rs]
+    for kind, rs in kinds.items():
+        _rate(rs)
+        out[f"{kind}_fit"] = _fit(rs)
+        out[f"{kind}_goal_efficiency"] = _goal(rs)
+    for r in runs:
+        if r["computed"] != r["sessions"] or r["failed"]:
+            out["problems"].append(f"{_name(r)}: {r['computed']} sessions computed, {r['reused']} reused, "
+                                   f"{r['failed']} failed (every session should be computed)")
+    out["problems"] += _metrics_check(runs)
+    out["metrics_identical"] = all(r["_metrics"] == runs[0]["_metrics"] for r in runs)
+    out["runs"] = [{k: v for k, v in r.items() if not k.startswith("_")} for r in runs]
+    return out
+
+
+def _f(x: float | None, spec: str) -> str:
+    return "—" if x is None else format(x, spec)
+
+
+def format_scaling(s: dict[str, Any], sessions: int | None = None) -> str:
+    """The scaling runs as a Markdown table, then the fits, the goal and the checks."""
+    runs = s["runs"]
+    lines = ["", "strong scaling: each run from scratch (results/ and its session cache removed, a new pool or "
+             "cluster); speed-up and efficiency against the first count of the same kind",
+             "",
+             "| run | workers | wall time (s) | CPU time (s) | speed-up | efficiency | serial part (s) | serial % |",
+             "| --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: |"]
+    for r in runs:
+        lines.append(f"| {KINDS[r['kind']]} | {r['workers']} | {r['wall_s']:.2f} | {_f(r['cpu_s'], '.2f')} | "
+                     f"{r['speedup']:.2f} | {r['efficiency']:.2f} | {r['serial_s']:.2f} | "
+                     f"{100 * r['serial_s'] / r['wall_s']:.1f} % |")
+    lines.append("")
+    over = [n for n in s["counts"] if n > s["usable_cpus"]]
+    if over:
+        lines.append(f"warning: {', '.join(map(str, over))} workers exceed the {s['usable_cpus']} CPUs this process "
+                     "may use: their efficiency measures oversubscription, not scaling")
+    if sessions is not None and s["counts"][-1] > sessions:
+        lines.append(f"note: the pool runs at most one process per session ({sessions} sessions here)")
+    if "dask_skipped" in s:
+        lines.append(f"Dask: skipped, {s['dask_skipped']}")
+    kinds = [k for k in KINDS if f"{k}_fit" in s]
+    for kind in kinds:
+        fit = s[f"{kind}_fit"]
+        if fit is None:
+            lines.append(f"{KINDS[kind]}: fit T(n) = S + P/n needs two worker counts at least")
+        else:
+            lines.append(f"{KINDS[kind]}: least-squares fit T(n) = S + P/n: S = {fit['serial_s']:.2f} s, "
+                         f"P = {fit['parallel_s']:.2f} s; S is {100 * fit['serial_share_at_largest']:.1f} % of "
+                         f"the {s['counts'][-1]}-worker run")
+    lo, hi, target = GOAL
+    for kind in kinds:
+        eff = s[f"{kind}_goal_efficiency"]
+        if eff is not None:
+            lines.append(f"{KINDS[kind]}: docs/spec.md §10 goal, from {lo} to {hi} workers >= {target:.0%} parallel "
+                         f"efficiency: {eff:.2f} ({'met' if eff >= target else 'MISSED'})")
+        else:
+            mine = [r for r in runs if r["kind"] == kind]
+            lines.append(f"{KINDS[kind]}: {lo}->{hi} goal not measured here: counts "
+                         f"{','.join(map(str, s['counts']))}; efficiency at {mine[-1]['workers']} workers against "
+                         f"{mine[0]['workers']}: {mine[-1]['efficiency']:.2f}")
+    if "dask" in kinds:
+        by = {r["workers"]: r["wall_s"] for r in runs if r["kind"] == "pool"}
+        ratios = ", ".join(f"{n}: {by[n] / r['wall_s']:.2f}" for r in runs if r["kind"] == "dask"
+                           for n in [r["workers"]])
+        lines.append(f"Dask LocalCluster speed-up over the pool at the same count: {ratios} "
+                     "(its cluster's start is not in its time)")
+    if s["metrics_identical"]:
+        lines.append(f"metrics.csv byte-identical across all {len(runs)} runs "
+                     f"(sha256 {runs[0]['metrics_sha256'][:16]}…)")
+    lines += [f"problem: {p}" for p in s["problems"]]
+    return "\n".join(lines)
