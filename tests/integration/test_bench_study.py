@@ -182,6 +182,26 @@ def test_scaling_on_a_local_dask_cluster_too(tmp_path) -> None:
     assert "Dask LocalCluster: least-squares fit" in text and "Dask LocalCluster: 2->16 goal not measured" in text
 
 
+def test_bench_dask_workers_start_without_the_malloc_trim_variable() -> None:
+    # Dask's nanny sets MALLOC_TRIM_THRESHOLD_ (which makes psmat's sessions ~10 % slower): the
+    # bench's workers run in the real worker processes without it, with one BLAS thread
+    pytest.importorskip("distributed")
+    import dask
+    from distributed import Client
+
+    from psmat.bench.study_scaling import local_cluster, worker_environ
+
+    assert "MALLOC_TRIM_THRESHOLD_" in dask.config.get("distributed.nanny.pre-spawn-environ")  # Dask's default
+    assert "MALLOC_TRIM_THRESHOLD_" not in worker_environ()
+    with local_cluster(2) as cluster, Client(cluster) as client:
+        seen = client.run(lambda: (os.getpid(), os.environ.get("MALLOC_TRIM_THRESHOLD_"),
+                                   os.environ.get("OPENBLAS_NUM_THREADS")))
+    assert len(seen) == 2 and len({pid for pid, _, _ in seen.values()} | {os.getpid()}) == 3
+    assert all(trim is None and blas == "1" for _, trim, blas in seen.values())
+    # outside the bench's clusters Dask's own setting is back
+    assert "MALLOC_TRIM_THRESHOLD_" in dask.config.get("distributed.nanny.pre-spawn-environ")
+
+
 def test_dask_skipped_in_one_line_without_distributed(tmp_path) -> None:
     # a distributed package that cannot be imported, ahead of the installed one on the path
     blocked = tmp_path / "blocked" / "distributed"

@@ -6,7 +6,8 @@ run computes every session and starts its own workers — first on this machine'
 (:func:`psmat.study.run_study` with ``workers=n``), then with ``dask=True`` on a Dask
 ``distributed.LocalCluster(n_workers=n, threads_per_worker=1, processes=True)`` on 127.0.0.1
 (``run_study(scheduler=address)``), started before its run's clock (its start is recorded apart)
-and closed after it.
+and closed after it. Its workers start with Dask's environment less ``MALLOC_TRIM_THRESHOLD_``
+(:func:`worker_environ`: with it, sessions took ~10 % longer than in the pool).
 
 For each run: its wall time (s, this process's clock around ``run_study``), its CPU time (s, the
 stages of its ``results/timings.csv`` summed: the session, page and figure tasks' CPU in their
@@ -21,16 +22,17 @@ a difference is a problem line.
 
 from __future__ import annotations
 
+import contextlib
 import hashlib
 import os
 import shutil
 import time
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
 from pathlib import Path
 from typing import Any
 
 __all__ = ["parse_counts", "fit_serial_parallel", "usable_cpus", "stage_times", "run_scaling", "format_scaling",
-           "GOAL"]
+           "worker_environ", "local_cluster", "GOAL"]
 
 #: docs/spec.md §10: from 2 to 16 workers at least 80 % parallel efficiency
 GOAL = (2, 16, 0.80)
@@ -139,15 +141,43 @@ def _one_run(root: Path, kind: str, n: int, scheduler: str | None, progress: boo
             "_metrics": metrics}
 
 
-def _dask_run(root: Path, n: int, progress: bool) -> dict[str, Any]:
-    """One run on a fresh LocalCluster of ``n`` single-threaded worker processes, closed after it."""
+def worker_environ() -> dict[str, Any]:
+    """The environment the bench's Dask workers start with: Dask's own (``distributed.nanny.
+    pre-spawn-environ``: one BLAS/OpenMP thread) without ``MALLOC_TRIM_THRESHOLD_``.
+
+    Setting that variable at all (Dask sets 65536) turns off glibc's adaptive mmap threshold, so
+    every temporary array above 128 KiB is mapped and unmapped again; a study's sessions then took
+    ~10 % longer on a Dask worker than in the process pool (3 volunteers x 3 trials x 60 s, one
+    worker, this project's 2-core machine: 2.75-2.90 s a session against 2.52-2.64 s; without the
+    variable 2.46-2.48 s; with it set to 128 MiB still 2.75-2.80 s).
+    """
+    import dask
+
+    env = dict(dask.config.get("distributed.nanny.pre-spawn-environ", default={}) or {})
+    env.pop("MALLOC_TRIM_THRESHOLD_", None)
+    return env
+
+
+@contextlib.contextmanager
+def local_cluster(n: int) -> Iterator[Any]:
+    """A LocalCluster of ``n`` single-threaded worker processes on 127.0.0.1, started with
+    :func:`worker_environ`, closed on exit."""
     import logging
 
+    import dask
     import distributed
 
+    with dask.config.set({"distributed.nanny.pre-spawn-environ": worker_environ()}):
+        with distributed.LocalCluster(n_workers=n, threads_per_worker=1, processes=True, host="127.0.0.1",
+                                      dashboard_address=None, silence_logs=logging.ERROR) as cluster:
+            yield cluster
+
+
+def _dask_run(root: Path, n: int, progress: bool) -> dict[str, Any]:
+    """One run on a fresh LocalCluster of ``n`` single-threaded worker processes (:func:`local_cluster`),
+    closed after it."""
     t0 = time.perf_counter()
-    with distributed.LocalCluster(n_workers=n, threads_per_worker=1, processes=True, host="127.0.0.1",
-                                  dashboard_address=None, silence_logs=logging.ERROR) as cluster:
+    with local_cluster(n) as cluster:
         started = time.perf_counter() - t0
         run = _one_run(root, "dask", n, cluster.scheduler_address, progress)
     run["cluster_start_s"] = started
