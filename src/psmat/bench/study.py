@@ -138,6 +138,8 @@ def run(volunteers: int = 42, seconds: float = 60.0, rate_hz: float = 100.0, wor
             t0 = time.perf_counter()
             with mp.get_context("spawn").Pool(workers) as pool:
                 rows = sum(pool.map(_pool_task, items, chunksize=1))
+                pool.close()  # the workers exit on their own (the with-block alone terminates them)
+                pool.join()
             out["baseline_s"] = time.perf_counter() - t0
             out["baseline_rows"] = rows
         return out
