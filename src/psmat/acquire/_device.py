@@ -26,11 +26,11 @@ import serial
 from ..protocol import (CAL_RESUME, DAQ_START, DAQ_STOP, Gap, Opcode, Reply, Status, cal_hold_arg,
                         encode_command, parse_identify)
 from .._checks import is_int
+from ._buffered import BufferedSource
 from ._clock import HostClock
 from ._errors import AcquireError, CommandRejected, CommandTimeout, DeviceDisconnected
 from ._identify import describe, learn
 from ._port import close_port, open_port, read_chunk
-from ._ring_buffer import FrameBatch, FrameRing
 from ._stats import DeviceStats
 from ._stream import Row, StreamDecoder, default_shape, frame_dtype
 
@@ -55,7 +55,7 @@ class _Waiter:
         self.reply: Reply | None = None
 
 
-class Device:
+class Device(BufferedSource):
     """A PSM mat, material DAQ or spine-IMU DAQ on a serial port (see :func:`open_device`).
 
     Attributes
@@ -140,7 +140,7 @@ class Device:
         self.read_timeout_s = float(read_timeout_s)
         self.description: dict[str, Any] = {}
         self.identified = False
-        self._ring = FrameRing(buffer_frames, shape, self.dtype)
+        self._init_buffer(buffer_frames)
         self._decoder = StreamDecoder(kind, proto, shape, bits=self.bits)
         self.clock = clock if clock is not None else HostClock()
         self._ser: Any = None
@@ -158,7 +158,6 @@ class Device:
         self._last_row_buffered = False         # the last decoded row went to the buffer
         self._reconnects = 0
         self._last_error: str | None = None
-        self._recorder: Any = None
 
     # -- properties ----------------------------------------------------------------------
     @property
@@ -353,57 +352,11 @@ class Device:
         self._fail_waiters()
         self.stop_recording()
 
-    def __enter__(self) -> Device:
-        if not self._started:
-            self.start()
-        return self
-
-    def __exit__(self, *exc: Any) -> None:
-        self.close()
-
     def _check_open(self) -> None:
         if self._closed:
             raise AcquireError(f"device on {self.port} is closed")
         if self._thread is None:
             raise AcquireError(f"device on {self.port} is not open (call open() or use open_device)")
-
-    # -- reading -------------------------------------------------------------------------
-    def read(self, n: int | None = None, timeout_s: float | None = None) -> FrameBatch:
-        """Take frames from the buffer, oldest first.
-
-        Parameters
-        ----------
-        n : int, optional
-            Frames wanted. None: everything buffered now (waiting up to ``timeout_s`` s for at
-            least one frame when ``timeout_s`` is given).
-        timeout_s : float, optional
-            Longest wait for ``n`` frames (s); None means :attr:`read_timeout_s`. Never
-            blocks forever: on timeout, or when the link is lost, returns what it has.
-
-        Returns
-        -------
-        FrameBatch
-            Up to ``n`` frames (possibly none).
-
-        Raises
-        ------
-        DeviceDisconnected
-            The port vanished (and reconnection is off or gave up) and the buffer is empty.
-        """
-        if n is not None and n < 0:
-            raise ValueError(f"n must be >= 0, got {n}")
-        want = 1 if n is None else n
-        if want > 0 and (n is not None or timeout_s is not None):
-            wait = self.read_timeout_s if timeout_s is None else float(timeout_s)
-            self._ring.wait_for(want, wait, stop=lambda: self._gone or self._closed)
-        batch = self._ring.pop(n)
-        if len(batch) == 0 and want > 0 and self._gone:
-            raise DeviceDisconnected(self.port, self._last_error)
-        return batch
-
-    def latest(self, n: int = 1) -> FrameBatch:
-        """The newest ``n`` buffered frames (oldest first) without consuming them."""
-        return self._ring.latest(n)
 
     # -- commands ------------------------------------------------------------------------
     def send_command(self, opcode: int, arg: int = 0, timeout_s: float = 1.0, check: bool = True) -> Reply:
@@ -507,29 +460,6 @@ class Device:
         """Leave calibration mode (full scans again)."""
         return self.send_command(Opcode.CAL_HOLD, CAL_RESUME)
 
-    # -- recording -----------------------------------------------------------------------
-    def record_to(self, writer: Any) -> None:
-        """Append every buffered batch to a :class:`psmat.io.SessionWriter` too.
-
-        The writer receives frames from the reader thread as they are decoded (while
-        started), independently of :meth:`read`, so ring-buffer overflow never loses
-        recorded frames. :meth:`stop_recording` (called by :meth:`close`) stores the
-        final counters with ``set_counters``; closing the writer stays the caller's job.
-        A writer error detaches it and is reported in ``stats.last_error``.
-        """
-        from ._recording import SessionRecorder
-        self.stop_recording()
-        self._recorder = SessionRecorder(writer, self.kind, self.shape)
-
-    def stop_recording(self) -> None:
-        """Detach the session writer (storing the final counters); no-op without one."""
-        rec, self._recorder = self._recorder, None
-        if rec is not None:
-            try:
-                rec.finish(self.stats)
-            except Exception as exc:  # noqa: BLE001 - the writer may already be closed
-                self._last_error = f"recording: {exc}"
-
     # -- internals -----------------------------------------------------------------------
     def _write(self, data: bytes) -> None:
         with self._write_lock:
@@ -601,14 +531,7 @@ class Device:
         seq = np.fromiter((r.seq for r in rows), np.int64, n)
         dev = np.fromiter((r.device_time_us for r in rows), np.int64, n)
         host = np.full(n, t, np.float64)
-        rec = self._recorder
-        if rec is not None:
-            try:
-                rec.append(frames, host, valid, seq, dev)
-            except Exception as exc:  # noqa: BLE001 - a recording problem must not stop acquisition
-                self._recorder = None
-                self._last_error = f"recording stopped: {type(exc).__name__}: {exc}"
-        self._ring.push(frames, host, valid, seq, dev)
+        self._deliver(frames, host, valid, seq, dev)
 
     def _dispatch(self, reply: Reply) -> None:
         with self._waiters_lock:

@@ -15,10 +15,10 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from ._buffered import BufferedSource
 from ._clock import HostClock
-from ._errors import AcquireError, DeviceDisconnected
+from ._errors import AcquireError
 from ._lsl import LslClock, check_text, pylsl_module
-from ._ring_buffer import FrameBatch, FrameRing
 from ._stats import DeviceStats
 
 __all__ = ["LslChunk", "LslInlet", "LslDevice", "open_lsl"]
@@ -187,7 +187,7 @@ class LslInlet:
         self.close()
 
 
-class LslDevice:
+class LslDevice(BufferedSource):
     """A numeric LSL stream with the :class:`~psmat.acquire.Device` API (``kind="lsl"``).
 
     A thread pulls the inlet; between :meth:`start` and :meth:`stop` its samples go to a
@@ -198,6 +198,7 @@ class LslDevice:
     """
 
     kind = "lsl"
+    _lost_what = "LSL stream"
 
     def __init__(self, inlet: LslInlet, *, buffer_frames: int = 60_000, poll_s: float = 0.05,
                  read_timeout_s: float = 1.0) -> None:
@@ -211,9 +212,8 @@ class LslDevice:
         self.clock = inlet.lsl_clock.clock
         self.read_timeout_s = float(read_timeout_s)
         self._poll_s = float(poll_s)
-        self._ring = FrameRing(buffer_frames, self.shape, self.dtype)
+        self._init_buffer(buffer_frames)
         self._lock = threading.Lock()
-        self._recorder: Any = None
         self._started = False
         self._t_start = float("inf")
         self._closed = False
@@ -250,41 +250,6 @@ class LslDevice:
         with self._lock:
             self._started = False
 
-    def read(self, n: int | None = None, timeout_s: float | None = None) -> FrameBatch:
-        """Take samples from the buffer, oldest first, as :meth:`psmat.acquire.Device.read`."""
-        if n is not None and n < 0:
-            raise ValueError(f"n must be >= 0, got {n}")
-        want = 1 if n is None else n
-        if want > 0 and (n is not None or timeout_s is not None):
-            wait = self.read_timeout_s if timeout_s is None else float(timeout_s)
-            self._ring.wait_for(want, wait, stop=lambda: self._gone or self._closed)
-        batch = self._ring.pop(n)
-        if len(batch) == 0 and want > 0 and self._gone:
-            raise DeviceDisconnected(self.port, self._last_error, what="LSL stream")
-        return batch
-
-    def latest(self, n: int = 1) -> FrameBatch:
-        """The newest ``n`` buffered samples without consuming them."""
-        return self._ring.latest(n)
-
-    def record_to(self, writer: Any) -> None:
-        """Append every sample buffered from now on to ``writer`` (a session stream of kind ``lsl``)."""
-        from ._recording import SessionRecorder
-
-        self.stop_recording()
-        with self._lock:
-            self._recorder = SessionRecorder(writer, self.kind, self.shape)
-
-    def stop_recording(self) -> None:
-        """Detach the writer, storing its counters; no-op without one."""
-        with self._lock:
-            rec, self._recorder = self._recorder, None
-        if rec is not None:
-            try:
-                rec.finish(self.stats)
-            except Exception as exc:  # noqa: BLE001 - the writer may already be closed
-                self._last_error = f"recording: {exc}"
-
     def close(self) -> None:
         """Stop, end the puller thread, close the inlet (idempotent)."""
         if self._closed:
@@ -297,14 +262,6 @@ class LslDevice:
         self._ring.wake()
         self.stop_recording()
         self.inlet.close()
-
-    def __enter__(self) -> LslDevice:
-        if not self._started:
-            self.start()
-        return self
-
-    def __exit__(self, *exc: object) -> None:
-        self.close()
 
     def _run(self) -> None:
         try:
@@ -330,15 +287,8 @@ class LslDevice:
             valid = np.ones(n, np.bool_)
             seq = np.full(n, -1, np.int64)
             dev = np.round(chunk.lsl_time_s[keep] * 1e6).astype(np.int64)
-            rec = self._recorder
-            if rec is not None:
-                try:
-                    rec.append(frames, host, valid, seq, dev)
-                except Exception as exc:  # noqa: BLE001 - a recording problem must not stop the reading
-                    self._recorder = None
-                    self._last_error = f"recording stopped: {type(exc).__name__}: {exc}"
             self._frames += n
-            self._ring.push(frames, host, valid, seq, dev)
+            self._deliver(frames, host, valid, seq, dev)
 
 
 def open_lsl(name_or_type: str, timeout_s: float = 5.0, *, clock: HostClock | None = None,
