@@ -8,10 +8,12 @@
 
 #include <memory>
 #include <stdexcept>
+#include <string>
 
 #include "psmat/iecm/batch.hpp"
 #include "psmat/iecm/forward.hpp"
 #include "psmat/iecm/jacobian.hpp"
+#include "psmat/iecm/simd.hpp"
 #include "psmat/iecm/solve.hpp"
 #include "psmat/iecm/stream.hpp"
 #include "psmat/iecm/uncertainty.hpp"
@@ -211,6 +213,10 @@ void register_iecm(py::module_& m) {
       .def("reports", &BatchJob::reports, "list of T SolveReport, in frame order");
 
   m.def("hardware_threads", &hardware_threads);
+  m.def("simd_kernels", [] { return std::string(psmat::iecm::simd_kernels_name()); },
+        "The vector unit the dense IECM kernels run in: 'avx512', 'avx2' or 'baseline' (the "
+        "widest the build has and the CPU runs; the environment variable PSMAT_SIMD, read on "
+        "first use, caps it at 'avx2' or 'baseline')");
 
   py::class_<StreamSolver>(m, "StreamSolver", "Frames in, crosstalk-free frames out, in order")
       .def(py::init([](Index rows, Index cols, const SolveOptions& opts, int threads,

@@ -4,11 +4,12 @@
 // (solve_bounded_newton.cpp) on a noisy stream: same bound set, same free cells.
 #include <algorithm>
 #include <cmath>
+#include <string>
 #include <vector>
 
 #include "psmat/iecm/free_block_solver.hpp"
 #include "psmat/iecm/cholesky.hpp"
-#include "psmat/iecm/cholesky_avx2.hpp"
+#include "psmat/iecm/simd.hpp"
 #include "psmat/iecm/jacobian.hpp"
 #include "psmat/iecm/solve.hpp"
 #include "support.hpp"
@@ -18,6 +19,19 @@ using psmat::iecm::FreeBlockSolver;
 using psmat::iecm::Method;
 using psmat::iecm::NewtonOperator;
 using psmat::iecm::NodalInverse;
+
+namespace {
+// The code paths of the dense kernels: 0 the dispatch (simd.hpp's choice), 1 the baseline sweep
+// (where it has a name of its own), 2... each vector unit this build has and this CPU runs.
+const std::vector<const psmat::iecm::SimdKernels*>& units() {
+  static const auto u = psmat::iecm::simd_kernels_available();
+  return u;
+}
+int n_paths() { return 2 + static_cast<int>(units().size()); }
+const char* path_name(int path) {
+  return path == 0 ? "dispatch" : path == 1 ? "baseline" : units()[size_t(path - 2)]->name;
+}
+}  // namespace
 using psmat::iecm::SolveOptions;
 using psmat::iecm::SolveReport;
 using psmat::iecm::Solver;
@@ -148,11 +162,12 @@ TEST_CASE("cholesky_in_place: L L^T = A across block edges and both sweeps; fals
   CHECK_FALSE(psmat::iecm::cholesky_in_place(B));
 }
 
-TEST_CASE("cholesky_in_place: the AVX2 kernel and the portable one, in a corner of a larger matrix") {
+TEST_CASE("cholesky_in_place: every vector unit and the baseline sweep, in a corner of a larger matrix") {
   // the free block lives in the corner of a bigger buffer (FreeBlockSolver): a leading dimension
-  // above m; both sweeps of both builds against Eigen's LLT in double, the rest untouched
-  CAPTURE(psmat::iecm::cholesky_avx2_built());
-  CAPTURE(psmat::iecm::cpu_has_avx2_fma());
+  // above m; every code path against Eigen's LLT in double, the rest untouched
+  const std::string in_use = psmat::iecm::simd_kernels_name();
+  CAPTURE(in_use);
+  CAPTURE(units().size());
   for (Index m : {17, 130, 401, 700}) {
     CAPTURE(m);
     const Eigen::MatrixXd X = Eigen::MatrixXd::NullaryExpr(
@@ -160,12 +175,14 @@ TEST_CASE("cholesky_in_place: the AVX2 kernel and the portable one, in a corner 
     const Eigen::MatrixXf A = (X * X.transpose() / double(m) +
                                Eigen::MatrixXd::Identity(m, m)).cast<float>();
     const Eigen::MatrixXd Lref = A.cast<double>().llt().matrixL();
-    for (int kernel = 0; kernel < 2; ++kernel) {
-      CAPTURE(kernel);
+    for (int kernel = 0; kernel < n_paths(); ++kernel) {
+      const std::string path = path_name(kernel);
+      CAPTURE(path);
       Eigen::MatrixXf big = Eigen::MatrixXf::Constant(m + 5, m + 5, 7.0f);
       big.topLeftCorner(m, m) = A;
-      const bool ok = kernel == 0 ? psmat::iecm::cholesky_in_place(big.topLeftCorner(m, m))
-                                  : psmat::iecm::cholesky_in_place_portable(big.topLeftCorner(m, m));
+      const bool ok = kernel == 0   ? psmat::iecm::cholesky_in_place(big.topLeftCorner(m, m))
+                      : kernel == 1 ? psmat::iecm::cholesky_in_place_portable(big.topLeftCorner(m, m))
+                                    : units()[size_t(kernel - 2)]->cholesky_in_place(big.data(), m, big.outerStride());
       REQUIRE(ok);
       const Eigen::MatrixXd Lf =
           big.topLeftCorner(m, m).triangularView<Eigen::Lower>().toDenseMatrix().cast<double>();
@@ -174,14 +191,16 @@ TEST_CASE("cholesky_in_place: the AVX2 kernel and the portable one, in a corner 
       CHECK(big.rightCols(5).isConstant(7.0f));
     }
   }
-  if (psmat::iecm::cholesky_avx2_built() && psmat::iecm::cpu_has_avx2_fma()) {
+  for (const psmat::iecm::SimdKernels* u : units()) {
+    const std::string unit = u->name;
+    CAPTURE(unit);
     Eigen::MatrixXf B = Eigen::MatrixXf::Identity(450, 450);
     B(420, 420) = -1.0f;  // indefinite in the right-looking sweep's last blocks
-    CHECK_FALSE(psmat::iecm::cholesky_in_place_avx2(B.data(), B.rows(), B.outerStride()));
+    CHECK_FALSE(u->cholesky_in_place(B.data(), B.rows(), B.outerStride()));
   }
 }
 
-TEST_CASE("cholesky_solve_in_place: (L L^T)^-1 b, both builds, the factor in a corner") {
+TEST_CASE("cholesky_solve_in_place: (L L^T)^-1 b, every code path, the factor in a corner") {
   // the preconditioner's two triangular solves against a dense double solve with A itself
   for (Index m : {1, 9, 140, 333}) {
     CAPTURE(m);
@@ -193,13 +212,16 @@ TEST_CASE("cholesky_solve_in_place: (L L^T)^-1 b, both builds, the factor in a c
     Eigen::MatrixXf big = Eigen::MatrixXf::Constant(m + 4, m + 4, 1e30f);  // the rest: never read
     big.topLeftCorner(m, m) = A.cast<float>();
     REQUIRE(psmat::iecm::cholesky_in_place(big.topLeftCorner(m, m)));
-    for (int kernel = 0; kernel < 2; ++kernel) {
-      CAPTURE(kernel);
+    for (int kernel = 0; kernel < n_paths(); ++kernel) {
+      const std::string path = path_name(kernel);
+      CAPTURE(path);
       Eigen::VectorXf x = b.cast<float>();
       if (kernel == 0)
         psmat::iecm::cholesky_solve_in_place(big.topLeftCorner(m, m), x);
-      else
+      else if (kernel == 1)
         psmat::iecm::cholesky_solve_in_place_portable(big.topLeftCorner(m, m), x);
+      else
+        units()[size_t(kernel - 2)]->cholesky_solve_in_place(big.data(), m, big.outerStride(), x.data());
       CHECK((x.cast<double>() - ref).norm() <= 1e-5 * ref.norm());
     }
   }
@@ -312,7 +334,7 @@ TEST_CASE("FreeBlockSolver::update: cells leave and join; PCG then solves the ne
   CHECK(k2 <= 3);
 }
 
-TEST_CASE("cholesky_partial_in_place: the leading factor and the Schur complement, both builds") {
+TEST_CASE("cholesky_partial_in_place: the leading factor and the Schur complement, every code path") {
   // against the definitions in double: L11 L11^T = A11, L21 = A21 L11^-T, Z = A22 - L21 L21^T;
   // sizes and leading widths across the 32-column blocks, the matrix in a corner
   for (auto mc : {std::pair<Index, Index>{1, 1}, {40, 0}, {70, 33}, {130, 64}, {450, 401}}) {
@@ -326,13 +348,16 @@ TEST_CASE("cholesky_partial_in_place: the leading factor and the Schur complemen
     const Eigen::MatrixXd L21 =
         L11.triangularView<Eigen::Lower>().solve(A.bottomLeftCorner(f, c).transpose()).transpose();
     const Eigen::MatrixXd Z = A.bottomRightCorner(f, f) - L21 * L21.transpose();
-    for (int kernel = 0; kernel < 2; ++kernel) {
-      CAPTURE(kernel);
+    for (int kernel = 0; kernel < n_paths(); ++kernel) {
+      const std::string path = path_name(kernel);
+      CAPTURE(path);
       Eigen::MatrixXf big = Eigen::MatrixXf::Constant(m + 3, m + 3, 7.0f);
       big.topLeftCorner(m, m) = A.cast<float>();
       auto corner = big.topLeftCorner(m, m);
-      REQUIRE((kernel == 0 ? psmat::iecm::cholesky_partial_in_place(corner, c)
-                           : psmat::iecm::cholesky_partial_in_place_portable(corner, c)));
+      REQUIRE((kernel == 0   ? psmat::iecm::cholesky_partial_in_place(corner, c)
+               : kernel == 1 ? psmat::iecm::cholesky_partial_in_place_portable(corner, c)
+                             : units()[size_t(kernel - 2)]->cholesky_partial_in_place(
+                                   big.data(), m, big.outerStride(), c)));
       const Eigen::MatrixXd Lf = corner.cast<double>();
       const double tol = 1e-5 * A.norm();
       CHECK((Eigen::MatrixXd(Lf.topLeftCorner(c, c).triangularView<Eigen::Lower>()) - L11).norm() <= tol);
@@ -361,15 +386,32 @@ TEST_CASE("lower_solve_matrix and gemm_subtract: L^-1 B, (L L^T)^-1 B, L^-T B an
       const Eigen::MatrixXd ref = mode == 0   ? Eigen::MatrixXd(L.triangularView<Eigen::Lower>().solve(Bc))
                                   : mode == 1 ? Eigen::MatrixXd(A.llt().solve(Bc))
                                               : Eigen::MatrixXd(L.transpose().triangularView<Eigen::Upper>().solve(Bc));
-      Eigen::MatrixXf Bf = Bc.cast<float>();
-      psmat::iecm::lower_solve_matrix(Lf, Bf, mode);
-      CHECK((Bf.cast<double>() - ref).norm() <= 1e-5 * ref.norm());
+      for (int kernel = 0; kernel < n_paths(); ++kernel) {  // (no baseline of its own: path 1)
+        if (kernel == 1) continue;
+        const std::string path = path_name(kernel);
+        CAPTURE(path);
+        Eigen::MatrixXf Bf = Bc.cast<float>();
+        if (kernel == 0)
+          psmat::iecm::lower_solve_matrix(Lf, Bf, mode);
+        else
+          units()[size_t(kernel - 2)]->lower_solve_matrix(Lf.data(), m, m, Bf.data(), cols, m, mode);
+        CHECK((Bf.cast<double>() - ref).norm() <= 1e-5 * ref.norm());
+      }
     }
   const Eigen::MatrixXd P = B.topRows(k);  // k x k
-  Eigen::MatrixXf C = Eigen::MatrixXf::Ones(m, k);
-  psmat::iecm::gemm_subtract(C, B.cast<float>(), P.cast<float>());
+  const Eigen::MatrixXf Bk = B.cast<float>(), Pk = P.cast<float>();
   const Eigen::MatrixXd Cref = Eigen::MatrixXd::Ones(m, k) - B * P;
-  CHECK((C.cast<double>() - Cref).norm() <= 1e-5 * Cref.norm());
+  for (int kernel = 0; kernel < n_paths(); ++kernel) {
+    if (kernel == 1) continue;
+    const std::string path = path_name(kernel);
+    CAPTURE(path);
+    Eigen::MatrixXf C = Eigen::MatrixXf::Ones(m, k);
+    if (kernel == 0)
+      psmat::iecm::gemm_subtract(C, Bk, Pk);
+    else
+      units()[size_t(kernel - 2)]->gemm_subtract(C.data(), m, k, m, Bk.data(), k, m, Pk.data(), k);
+    CHECK((C.cast<double>() - Cref).norm() <= 1e-5 * Cref.norm());
+  }
 }
 
 TEST_CASE("FreeBlockSolver split: core and fringe; select with fringe cells out, new cells and core cells out") {

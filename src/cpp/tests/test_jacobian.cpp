@@ -5,8 +5,9 @@
 #include <Eigen/Eigenvalues>
 #include <algorithm>
 #include <cmath>
+#include <string>
 
-#include "psmat/iecm/cholesky_avx2.hpp"
+#include "psmat/iecm/simd.hpp"
 #include "psmat/iecm/jacobian.hpp"
 #include "support.hpp"
 
@@ -235,12 +236,14 @@ TEST_CASE("hadamard_product: matrix-free (T∘T) v equals D_G^-1 S D_G^-1 v") {
   }
 }
 
-TEST_CASE("hadamard_product: the AVX2 kernel and the portable one, zero entries skipped") {
-  // both builds of the kernel (hadamard_kernel.hpp) against the dense T∘T of scaled_hadamard,
-  // on shapes whose node count is and is not a multiple of the kernel's strip of 16 rows, with
-  // v zero on a third of the cells (the bound cells of the active-set method)
-  CAPTURE(psmat::iecm::cholesky_avx2_built());
-  CAPTURE(psmat::iecm::cpu_has_avx2_fma());
+TEST_CASE("hadamard_product: every vector unit and the baseline kernel, zero entries skipped") {
+  // every build of the kernel (hadamard_kernel.hpp: the dispatch, the baseline, each vector unit
+  // of simd.hpp this CPU runs) against the dense T∘T of scaled_hadamard, on shapes whose node
+  // count is and is not a multiple of the kernel's strip of 16 rows, with v zero on a third of
+  // the cells (the bound cells of the active-set method)
+  const std::string in_use = psmat::iecm::simd_kernels_name();
+  CAPTURE(in_use);
+  const auto units = psmat::iecm::simd_kernels_available();
   HadamardWork work;
   unsigned seed = 900;
   for (Shape s : {Shape{1, 5}, Shape{5, 1}, Shape{3, 5}, Shape{16, 16}, Shape{17, 9}, Shape{24, 40}}) {
@@ -261,6 +264,17 @@ TEST_CASE("hadamard_product: the AVX2 kernel and the portable one, zero entries 
     psmat::iecm::hadamard_product_portable(net, v, out2, work);
     CHECK((out1 - ref).cwiseAbs().maxCoeff() < 1e-10 * ref.cwiseAbs().maxCoeff());
     CHECK((out2 - ref).cwiseAbs().maxCoeff() < 1e-10 * ref.cwiseAbs().maxCoeff());
+    for (const psmat::iecm::SimdKernels* u : units) {
+      const std::string unit = u->name;
+      CAPTURE(unit);
+      const Index n = s.nodes();
+      work.P.resize(n, n);
+      work.kdiag.resize(n + s.rows);
+      VectorXd out3 = VectorXd::Constant(s.cells(), 1e300);
+      u->hadamard_kernel(net.M().data(), s.rows, s.cols, v.data(), out3.data(), work.P.data(),
+                         work.kdiag.data());
+      CHECK((out3 - ref).cwiseAbs().maxCoeff() < 1e-10 * ref.cwiseAbs().maxCoeff());
+    }
     v.setZero();  // nothing to sum: exactly 0
     psmat::iecm::hadamard_product(net, v, out1, work);
     CHECK(out1.cwiseAbs().maxCoeff() == 0.0);

@@ -450,8 +450,11 @@ def build_parser(prog: str = "python -m psmat.bench iecm") -> argparse.ArgumentP
                    help="instead: the streaming rows (noise-free and noisy G) measured by the psmat of each "
                         "interpreter, a portable build and a PSMAT_NATIVE=ON one, side by side "
                         "(psmat.bench.iecm_native)")
+    p.add_argument("--compare-simd", action="store_true",
+                   help="instead: the same streaming rows with this installation's dense kernels capped at AVX2 "
+                        "(PSMAT_SIMD=avx2) and in the widest vector unit it has and the CPU runs, side by side")
     p.add_argument("--repeats", type=int, default=3,
-                   help="--compare-native: runs per row and build, alternating, the median reported")
+                   help="--compare-native, --compare-simd: runs per row and build, alternating, the median reported")
     return p
 
 
@@ -460,8 +463,10 @@ def main(argv: list[str] | None = None, prog: str = "python -m psmat.bench iecm"
     a = p.parse_args(argv)
     if a.frames is not None and a.frames < 1:
         p.error("--frames must be >= 1")
+    if a.compare_native and a.compare_simd:
+        p.error("--compare-native and --compare-simd: one comparison at a time")
     if a.sizes is None:
-        a.sizes = [16, 32] if a.compare_native else [16, 32, 64]
+        a.sizes = [16, 32] if a.compare_native else [32, 64] if a.compare_simd else [16, 32, 64]
     if any(s < 2 for s in a.sizes):
         p.error("--sizes must be >= 2")
     try:  # before any work: an existing file only with --overwrite (psmat._atomic)
@@ -469,7 +474,7 @@ def main(argv: list[str] | None = None, prog: str = "python -m psmat.bench iecm"
     except OutputRefused as exc:
         print(f"{prog}: {exc}", file=sys.stderr)
         return 1
-    if a.compare_native:
+    if a.compare_native or a.compare_simd:
         return _compare_native(p, a)
     threads = a.threads
     t_start = time.perf_counter()
@@ -485,19 +490,24 @@ def main(argv: list[str] | None = None, prog: str = "python -m psmat.bench iecm"
 
 
 def _compare_native(p: argparse.ArgumentParser, a: argparse.Namespace) -> int:
-    """``--compare-native``: the table of :mod:`psmat.bench.iecm_native`."""
-    from .iecm_native import BUILDS, compare, format_comparison
+    """``--compare-native`` and ``--compare-simd``: the tables of :mod:`psmat.bench.iecm_native`."""
+    from .iecm_native import BUILDS, SIMD_RUNS, compare, format_comparison
 
+    flag = "--compare-native" if a.compare_native else "--compare-simd"
     if a.threads is not None and len(a.threads) != 1:
-        p.error("--compare-native takes one --threads value")
+        p.error(f"{flag} takes one --threads value")
     if a.repeats < 1:
         p.error("--repeats must be >= 1")
+    if a.compare_native:
+        pythons, envs = dict(zip(BUILDS, a.compare_native)), None
+    else:
+        pythons, envs = {label: sys.executable for label in SIMD_RUNS}, SIMD_RUNS
     t_start = time.perf_counter()
     try:
-        res = compare(dict(zip(BUILDS, a.compare_native)), a.sizes, a.frames, a.threads and a.threads[0],
-                      quick=a.quick, repeats=a.repeats, seed=a.seed)
+        res = compare(pythons, a.sizes, a.frames, a.threads and a.threads[0],
+                      quick=a.quick, repeats=a.repeats, seed=a.seed, envs=envs)
     except (RuntimeError, OSError) as exc:
-        print(f"python -m psmat.bench iecm --compare-native: {exc}", file=sys.stderr)
+        print(f"python -m psmat.bench iecm {flag}: {exc}", file=sys.stderr)
         return 1
     print(format_comparison(res))
     print(f"- wall time: {time.perf_counter() - t_start:.0f} s")

@@ -1,6 +1,8 @@
 """The gain of ``-march=native``: the same IECM rows against two builds of psmat, in one run.
 
 ``python -m psmat.bench iecm --compare-native PORTABLE_PYTHON NATIVE_PYTHON [--sizes 16,32] [--quick]``
+``python -m psmat.bench iecm --compare-simd [--sizes 32,64]``: this installation's dense kernels
+capped at AVX2 (``PSMAT_SIMD=avx2``) against the widest vector unit it has and the CPU runs.
 
 Each argument is the Python interpreter of an environment holding one build of psmat (the
 default portable build, and one installed with ``PSMAT_NATIVE=ON``; README.md, *Installation*).
@@ -25,10 +27,12 @@ from pathlib import Path
 from .iecm_setup import HEAVY_CELLS, NOISY_LABEL, settings
 from .machine import machine_info
 
-__all__ = ["BUILDS", "rows_for", "run_child", "compare", "format_comparison"]
+__all__ = ["BUILDS", "SIMD_RUNS", "rows_for", "run_child", "compare", "format_comparison"]
 
 #: Labels of the two builds, in the order of ``--compare-native``.
 BUILDS = ("portable", "native")
+#: ``--compare-simd``: label -> environment of the child (the same interpreter and build).
+SIMD_RUNS = {"PSMAT_SIMD=avx2": {"PSMAT_SIMD": "avx2"}, "widest": {}}
 
 # Runs in the child: one measure_psmat row as JSON on the last line of stdout, with where the
 # package and its compiled core were imported from.
@@ -39,7 +43,7 @@ import psmat, psmat._core
 from psmat.bench.iecm import measure_psmat
 row = measure_psmat(**json.loads(sys.argv[1]))
 print(json.dumps({"row": row, "psmat": psmat.__file__, "core": psmat._core.__file__,
-                  "version": psmat.__version__}))
+                  "version": psmat.__version__, "simd": psmat._core.iecm.simd_kernels()}))
 """
 
 
@@ -73,14 +77,16 @@ print(json.dumps({"core": psmat._core.__file__}))
 """
 
 
-def run_child(python: str, kwargs: dict | None, timeout: float) -> dict:
+def run_child(python: str, kwargs: dict | None, timeout: float, env_set: dict | None = None) -> dict:
     """One row measured by the psmat installed for ``python`` (a child process).
 
-    Returns ``{"row": ..., "psmat": ..., "core": ..., "version": ...}``; with ``kwargs`` None
-    only ``{"core": ...}``, nothing measured. Raises ``RuntimeError`` with the child's last
-    error line when it fails or runs past ``timeout`` s.
+    Returns ``{"row": ..., "psmat": ..., "core": ..., "version": ..., "simd": ...}``; with
+    ``kwargs`` None only ``{"core": ...}``, nothing measured. ``env_set``: variables set for the
+    child (``PSMAT_SIMD``). Raises ``RuntimeError`` with the child's last error line when it
+    fails or runs past ``timeout`` s.
     """
-    env = {k: v for k, v in os.environ.items() if k not in ("PYTHONPATH", "PYTHONHOME")}
+    env = {k: v for k, v in os.environ.items() if k not in ("PYTHONPATH", "PYTHONHOME", "PSMAT_SIMD")}
+    env.update(env_set or {})
     args = [python, "-c", _PROBE] if kwargs is None else [python, "-c", _CHILD, json.dumps(kwargs)]
     with tempfile.TemporaryDirectory(prefix="psmat-bench-") as cwd:  # nothing importable from here
         try:
@@ -94,13 +100,16 @@ def run_child(python: str, kwargs: dict | None, timeout: float) -> dict:
 
 
 def compare(pythons: dict[str, str], sizes, frames: int | None, threads: int | None, *, quick: bool = False,
-            repeats: int = 3, seed: int = 0, log=print) -> dict:
+            repeats: int = 3, seed: int = 0, envs: dict[str, dict] | None = None, log=print) -> dict:
     """Measure the rows of :func:`rows_for` with every build, alternating, ``repeats`` times.
 
     Parameters
     ----------
     pythons : dict
         Build label -> Python interpreter of that build.
+    envs : dict, optional
+        Build label -> environment variables set for its children: one build run in several
+        ways (:data:`SIMD_RUNS`). Without it the labels must import different builds.
     sizes : iterable of int
         Array sizes.
     frames : int or None
@@ -117,7 +126,7 @@ def compare(pythons: dict[str, str], sizes, frames: int | None, threads: int | N
     """
     # refused before anything is measured: one build under two labels is no comparison
     cores = [run_child(python, None, timeout=120.0)["core"] for python in pythons.values()]
-    if len(set(cores)) < len(cores):
+    if envs is None and len(set(cores)) < len(cores):
         raise RuntimeError(f"the builds import the same psmat._core ({cores[0]}): give two environments")
     info = machine_info()
     threads = threads or info["usable_cpus"]
@@ -131,9 +140,9 @@ def compare(pythons: dict[str, str], sizes, frames: int | None, threads: int | N
                          runs={label: [] for label in pythons})
             for k in range(repeats):
                 for label, python in pythons.items():
-                    res = run_child(python, kw, timeout=budget + 120.0)
-                    seen = builds.setdefault(label, {"python": python, "psmat": res["psmat"],
-                                                     "core": res["core"], "version": res["version"]})
+                    res = run_child(python, kw, timeout=budget + 120.0, env_set=(envs or {}).get(label))
+                    seen = builds.setdefault(label, {"python": python, "psmat": res["psmat"], "core": res["core"],
+                                                     "version": res["version"], "simd": res["simd"]})
                     if seen["core"] != res["core"]:
                         raise RuntimeError(f"{label}: psmat._core moved from {seen['core']} to {res['core']}")
                     entry["runs"][label].append(res["row"])
@@ -155,7 +164,7 @@ def format_comparison(result: dict) -> str:
              f"machine: {m['cpu']}, {m['usable_cpus']} usable of {m['logical_cpus']} logical CPUs; {m['platform']}"]
     for label, b in result["builds"].items():
         lines.append(f"{label}: psmat {b['version']}, {b['python']} -> {Path(b['core']).name} in "
-                     f"{Path(b['core']).parent}")
+                     f"{Path(b['core']).parent}; dense kernels: {b.get('simd', 'unknown')}")
     lines += [f"frames: two feet swaying on the digital twin (seed {result['seed']}), streaming, threads as shown; "
               f"fps: median of {result['repeats']} runs per build (min-max), the builds alternating", ""]
     head = "| size | solver | threads | frames | " + " | ".join(f"{x} fps" for x in labels)

@@ -17,7 +17,8 @@ def format_table(result: dict) -> str:
     lines = [
         f"IECM benchmark — {m['date']}",
         f"machine: {m['cpu']}, {m['usable_cpus']} usable of {m['logical_cpus']} logical CPUs; "
-        f"{m['platform']}; Python {m['python']}, NumPy {m['numpy']}, SciPy {m['scipy']}, psmat {m['psmat']}",
+        f"{m['platform']}; Python {m['python']}, NumPy {m['numpy']}, SciPy {m['scipy']}, psmat {m['psmat']} "
+        f"(dense kernels: {m.get('psmat_simd', 'unknown')})",
         f"frames: two feet swaying on the digital twin (psmat.twin.swaying_feet, seed "
         f"{result['settings']['seed']}), noise-free; error = max |ĝ-g|/g over cells with g >= "
         f"{result['settings']['error_threshold_s']:g} S / over all cells",

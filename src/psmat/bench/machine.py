@@ -38,6 +38,12 @@ def machine_info() -> dict:
         psmat_version = version("psmat")
     except Exception:  # pragma: no cover
         psmat_version = "unknown"
+    try:
+        from .. import _core
+
+        simd = _core.iecm.simd_kernels()
+    except Exception:  # pragma: no cover - an extension without it
+        simd = "unknown"
     return {
         "cpu": model,
         "logical_cpus": os.cpu_count(),
@@ -47,5 +53,6 @@ def machine_info() -> dict:
         "numpy": np.__version__,
         "scipy": scipy_version,
         "psmat": psmat_version,
+        "psmat_simd": simd,
         "date": datetime.datetime.now().astimezone().isoformat(timespec="seconds"),
     }

@@ -4,40 +4,24 @@
 #include <algorithm>
 #include <cmath>
 
-#include "psmat/iecm/cholesky_avx2.hpp"
 #include "psmat/iecm/cholesky_sweep.hpp"
+#include "psmat/iecm/simd.hpp"
 
 namespace psmat::iecm {
 
-#if defined(PSMAT_AVX2_KERNELS) && (defined(__GNUC__) || defined(__clang__))
-bool cholesky_avx2_built() { return true; }
-bool cpu_has_avx2_fma() {
-  static const bool has = __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma");
-  return has;
-}
-#else
-bool cholesky_avx2_built() { return false; }
-bool cpu_has_avx2_fma() { return false; }
-bool cholesky_in_place_avx2(float*, std::ptrdiff_t, std::ptrdiff_t) { return false; }
-bool cholesky_partial_in_place_avx2(float*, std::ptrdiff_t, std::ptrdiff_t, std::ptrdiff_t) {
-  return false;
-}
-void lower_solve_matrix_avx2(const float*, std::ptrdiff_t, std::ptrdiff_t, float*, std::ptrdiff_t,
-                             std::ptrdiff_t, int) {}
-void gemm_subtract_avx2(float*, std::ptrdiff_t, std::ptrdiff_t, std::ptrdiff_t, const float*,
-                        std::ptrdiff_t, std::ptrdiff_t, const float*, std::ptrdiff_t) {}
-void cholesky_solve_in_place_avx2(const float*, std::ptrdiff_t, std::ptrdiff_t, float*) {}
-#endif
 
 bool cholesky_in_place_portable(Eigen::Ref<Eigen::MatrixXf> A) { return cholesky_sweep(A); }
 
-// The sweep of cholesky_sweep.hpp, with AVX2 + FMA where the CPU has them. Measured (one core of
-// the 2-core machine): a free block of 1 250 cells 22.5 ms with SSE2 (the portable baseline);
-// the 64x64 noisy bench stream (4.7 factorisations a frame) 9.7-10.1 frames/s before, 19.3 after,
-// the same iterations, factorisations and residuals.
+// The sweep of cholesky_sweep.hpp, in the widest vector unit the CPU runs (simd.hpp). Measured
+// (one core of the 2-core machine): a free block of 1 250 cells 22.5 ms with SSE2 (the portable
+// baseline); the 64x64 noisy bench stream (4.7 factorisations a frame) 9.7-10.1 frames/s before,
+// 19.3 with AVX2 + FMA, the same iterations, factorisations and residuals. The AVX-512 unit on
+// this machine's AMD EPYC (C++ driver, the noisy bench streams, one core, back to back): 64x64
+// 30.6-31.8 -> 24.0-24.2 ms a frame, 32x32 2.13 -> 1.83 ms, as fast as a -march=native build
+// (24.6 / 1.84), the same iterations and factorisations.
 bool cholesky_in_place(Eigen::Ref<Eigen::MatrixXf> A) {
-  if (cholesky_avx2_built() && cpu_has_avx2_fma())
-    return cholesky_in_place_avx2(A.data(), A.rows(), A.outerStride());
+  if (const SimdKernels* k = simd_kernels())
+    return k->cholesky_in_place(A.data(), A.rows(), A.outerStride());
   return cholesky_sweep(A);
 }
 
@@ -46,16 +30,16 @@ bool cholesky_partial_in_place_portable(Eigen::Ref<Eigen::MatrixXf> A, Eigen::In
 }
 
 bool cholesky_partial_in_place(Eigen::Ref<Eigen::MatrixXf> A, Eigen::Index cols) {
-  if (cholesky_avx2_built() && cpu_has_avx2_fma())
-    return cholesky_partial_in_place_avx2(A.data(), A.rows(), A.outerStride(), cols);
+  if (const SimdKernels* k = simd_kernels())
+    return k->cholesky_partial_in_place(A.data(), A.rows(), A.outerStride(), cols);
   return cholesky_sweep_partial(A, cols);
 }
 
 void lower_solve_matrix(const Eigen::Ref<const Eigen::MatrixXf>& L, Eigen::Ref<Eigen::MatrixXf> B,
                         int mode) {
-  if (cholesky_avx2_built() && cpu_has_avx2_fma())
-    lower_solve_matrix_avx2(L.data(), L.rows(), L.outerStride(), B.data(), B.cols(),
-                            B.outerStride(), mode);
+  if (const SimdKernels* k = simd_kernels())
+    k->lower_solve_matrix(L.data(), L.rows(), L.outerStride(), B.data(), B.cols(),
+                          B.outerStride(), mode);
   else
     lower_solve_matrix_sweep(L.data(), L.rows(), L.outerStride(), B.data(), B.cols(),
                              B.outerStride(), mode);
@@ -63,9 +47,9 @@ void lower_solve_matrix(const Eigen::Ref<const Eigen::MatrixXf>& L, Eigen::Ref<E
 
 void gemm_subtract(Eigen::Ref<Eigen::MatrixXf> C, const Eigen::Ref<const Eigen::MatrixXf>& A,
                    const Eigen::Ref<const Eigen::MatrixXf>& B) {
-  if (cholesky_avx2_built() && cpu_has_avx2_fma())
-    gemm_subtract_avx2(C.data(), C.rows(), C.cols(), C.outerStride(), A.data(), A.cols(),
-                       A.outerStride(), B.data(), B.outerStride());
+  if (const SimdKernels* k = simd_kernels())
+    k->gemm_subtract(C.data(), C.rows(), C.cols(), C.outerStride(), A.data(), A.cols(),
+                     A.outerStride(), B.data(), B.outerStride());
   else
     gemm_subtract_sweep(C.data(), C.rows(), C.cols(), C.outerStride(), A.data(), A.cols(),
                         A.outerStride(), B.data(), B.outerStride());
@@ -77,8 +61,8 @@ void cholesky_solve_in_place_portable(const Eigen::Ref<const Eigen::MatrixXf>& L
 }
 
 void cholesky_solve_in_place(const Eigen::Ref<const Eigen::MatrixXf>& L, Eigen::Ref<Eigen::VectorXf> x) {
-  if (cholesky_avx2_built() && cpu_has_avx2_fma())
-    cholesky_solve_in_place_avx2(L.data(), L.rows(), L.outerStride(), x.data());
+  if (const SimdKernels* k = simd_kernels())
+    k->cholesky_solve_in_place(L.data(), L.rows(), L.outerStride(), x.data());
   else
     cholesky_solve_sweep(L.data(), L.rows(), L.outerStride(), x.data());
 }

@@ -7,28 +7,27 @@ namespace psmat::iecm {
 
 // In place: the lower triangle of A in, L (L L^T = A) out in it; the strict upper triangle is
 // neither read nor kept. False where A is not numerically SPD.
-// Uses AVX2 + FMA where the build and the CPU have them (cholesky_avx2.hpp).
+// In the widest vector unit the build has and the CPU runs (simd.hpp: AVX2 + FMA, AVX-512).
 bool cholesky_in_place(Eigen::Ref<Eigen::MatrixXf> A);
-// The same with the build's baseline instruction set only (the independent check of the AVX2
-// path in the C++ tests).
+// The same with the build's baseline instruction set only (the independent check of the vector
+// units in the C++ tests).
 bool cholesky_in_place_portable(Eigen::Ref<Eigen::MatrixXf> A);
 
 // The first `cols` columns of the factor of A (lower triangle in), and in the trailing block
-// A[cols:, cols:] the Schur complement of the leading cols x cols block (lower triangle). AVX2 +
-// FMA where the build and the CPU have them. False where the leading block is not SPD.
+// A[cols:, cols:] the Schur complement of the leading cols x cols block (lower triangle), in the
+// vector unit of simd.hpp. False where the leading block is not SPD.
 bool cholesky_partial_in_place(Eigen::Ref<Eigen::MatrixXf> A, Eigen::Index cols);
 bool cholesky_partial_in_place_portable(Eigen::Ref<Eigen::MatrixXf> A, Eigen::Index cols);
 
 // B <- L^-1 B (mode 0), (L L^T)^-1 B (1) or L^-T B (2) for a lower factor L (lower triangle read);
-// and C -= A B. AVX2 + FMA where the build and the CPU have them (FreeBlockSolver::select).
+// and C -= A B. In the vector unit of simd.hpp (FreeBlockSolver::select).
 void lower_solve_matrix(const Eigen::Ref<const Eigen::MatrixXf>& L, Eigen::Ref<Eigen::MatrixXf> B,
                         int mode);
 void gemm_subtract(Eigen::Ref<Eigen::MatrixXf> C, const Eigen::Ref<const Eigen::MatrixXf>& A,
                    const Eigen::Ref<const Eigen::MatrixXf>& B);
 
 // x <- (L L^T)^-1 x for a factor L from cholesky_in_place (its lower triangle read): the two
-// triangular solves of a preconditioner, with AVX2 + FMA where the build and the CPU have them
-// (cholesky_avx2.hpp; the PCG steps of the 16x16 noisy frames spent ~13 % of their time here
+// triangular solves of a preconditioner, in the vector unit of simd.hpp (the PCG steps of the 16x16 noisy frames spent ~13 % of their time here
 // with the baseline instruction set).
 void cholesky_solve_in_place(const Eigen::Ref<const Eigen::MatrixXf>& L, Eigen::Ref<Eigen::VectorXf> x);
 // The same with the build's baseline instruction set only.

@@ -1,7 +1,7 @@
 // The blocked Cholesky sweeps behind cholesky_in_place (cholesky.hpp), in a header of their own
-// so that two translation units compile them: cholesky.cpp for the baseline instruction set of
-// the build, cholesky_avx2.cpp with AVX2 + FMA under a renamed Eigen namespace (chosen at run
-// time, cholesky_avx2.hpp). Internal linkage: each unit keeps its own copy.
+// so that several translation units compile them: cholesky.cpp for the baseline instruction set
+// of the build, the vector units of simd.hpp (AVX2 + FMA, AVX-512) under renamed Eigen namespaces
+// (chosen at run time). Internal linkage: each unit keeps its own copy.
 //
 // The free blocks of the active-set method have ~100-300 rows at 16x16 and 32x32, where Eigen's
 // LLT (blocks of 16, right-looking) is slow; a left-looking (Crout) sweep of 16 columns at a

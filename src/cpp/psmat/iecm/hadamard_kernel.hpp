@@ -1,8 +1,8 @@
 // The matrix-free product (T∘T) v of jacobian.hpp (docs/spec.md §3; thesis eq. 2.13) as plain
-// loops on raw arrays, in a header of its own so that two translation units compile it:
-// jacobian.cpp for the baseline instruction set of the build, hadamard_avx2.cpp with AVX2 + FMA
-// (chosen at run time, hadamard_avx2.hpp). Internal linkage: each unit keeps its own copy. No
-// Eigen: nothing of it crosses the boundary between the two units.
+// loops on raw arrays, in a header of its own so that several translation units compile it:
+// jacobian.cpp for the baseline instruction set of the build, the vector units of simd.hpp (AVX2
+// + FMA, AVX-512; chosen at run time). Internal linkage: each unit keeps its own copy. No Eigen:
+// nothing of it crosses the boundary between the units.
 //
 //   ((T∘T) v)[i,p] = K[i,i] + K[p',p'] - 2 K[i,p'],   K = M L_v M,   p' = R + p,
 // with L_v the Laplacian of the cell graph weighted by v and M the padded inverse of the grounded

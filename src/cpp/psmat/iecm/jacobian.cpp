@@ -1,7 +1,6 @@
 #include "psmat/iecm/jacobian.hpp"
 
-#include "psmat/iecm/cholesky_avx2.hpp"
-#include "psmat/iecm/hadamard_avx2.hpp"
+#include "psmat/iecm/simd.hpp"
 #include "psmat/iecm/hadamard_kernel.hpp"
 
 namespace psmat::iecm {
@@ -112,11 +111,6 @@ void scaled_hadamard_column(const NodalInverse& net, const ConstVecRef& G,
   }
 }
 
-#if !(defined(PSMAT_AVX2_KERNELS) && (defined(__GNUC__) || defined(__clang__)))
-void hadamard_kernel_avx2(const double*, std::ptrdiff_t, std::ptrdiff_t, const double*, double*,
-                          double*, double*) {}  // never called: cholesky_avx2_built() is false
-#endif
-
 void hadamard_product_portable(const NodalInverse& net, const ConstVecRef& v, VecRef out,
                                HadamardWork& work) {
   const Index R = net.shape().rows, C = net.shape().cols, n = net.shape().nodes();
@@ -127,15 +121,15 @@ void hadamard_product_portable(const NodalInverse& net, const ConstVecRef& v, Ve
 
 void hadamard_product(const NodalInverse& net, const ConstVecRef& v, VecRef out,
                       HadamardWork& work) {
-  if (!(cholesky_avx2_built() && cpu_has_avx2_fma())) {
+  const SimdKernels* k = simd_kernels();
+  if (k == nullptr) {
     hadamard_product_portable(net, v, out, work);
     return;
   }
   const Index R = net.shape().rows, C = net.shape().cols, n = net.shape().nodes();
   work.P.resize(n, n);
   work.kdiag.resize(n + R);
-  hadamard_kernel_avx2(net.M().data(), R, C, v.data(), out.data(), work.P.data(),
-                       work.kdiag.data());
+  k->hadamard_kernel(net.M().data(), R, C, v.data(), out.data(), work.P.data(), work.kdiag.data());
 }
 
 }  // namespace psmat::iecm

@@ -40,8 +40,8 @@ void scaled_hadamard_column(const NodalInverse& net, const ConstVecRef& G,
 
 // Matrix-free product out = (T∘T) v in O(n^3) instead of O((RC)^2) (docs/spec.md §3):
 //   ((T∘T) v)[i,p] = K[i,i] + K[p',p'] - 2 K[i,p'],   K = M L_v M,
-// with L_v the Laplacian of the same graph weighted by v (the loops: hadamard_kernel.hpp; with
-// AVX2 + FMA where the build and the CPU have them, hadamard_avx2.hpp). `work` is resized as
+// with L_v the Laplacian of the same graph weighted by v (the loops: hadamard_kernel.hpp; in the
+// widest vector unit the build has and the CPU runs, simd.hpp). `work` is resized as
 // needed.
 struct HadamardWork {
   Eigen::MatrixXd P;      // (L_v M)^T, n x n
@@ -49,8 +49,8 @@ struct HadamardWork {
 };
 void hadamard_product(const NodalInverse& net, const ConstVecRef& v, VecRef out,
                       HadamardWork& work);
-// The same with the build's baseline instruction set only (the independent check of the AVX2
-// path in the C++ tests).
+// The same with the build's baseline instruction set only (the independent check of the vector
+// units in the C++ tests).
 void hadamard_product_portable(const NodalInverse& net, const ConstVecRef& v, VecRef out,
                                HadamardWork& work);
 
