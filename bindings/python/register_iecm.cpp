@@ -214,9 +214,10 @@ void register_iecm(py::module_& m) {
 
   m.def("hardware_threads", &hardware_threads);
   m.def("simd_kernels", [] { return std::string(psmat::iecm::simd_kernels_name()); },
-        "The vector unit the dense IECM kernels run in: 'avx512', 'avx2' or 'baseline' (the "
-        "widest the build has and the CPU runs; the environment variable PSMAT_SIMD, read on "
-        "first use, caps it at 'avx2' or 'baseline')");
+        "The vector unit the dense IECM kernels run in: 'avx512', 'avx2', 'baseline' (the build's "
+        "own instruction set) or 'native' (a PSMAT_NATIVE build: the CPU's). The widest unit the "
+        "build has and the CPU runs; the environment variable PSMAT_SIMD, read on first use, caps "
+        "it at 'avx2' or 'baseline'");
 
   py::class_<StreamSolver>(m, "StreamSolver", "Frames in, crosstalk-free frames out, in order")
       .def(py::init([](Index rows, Index cols, const SolveOptions& opts, int threads,

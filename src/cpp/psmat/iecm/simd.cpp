@@ -57,7 +57,11 @@ const SimdKernels* simd_kernels() {
 
 const char* simd_kernels_name() {
   const SimdKernels* k = simd_kernels();
+#if defined(PSMAT_NATIVE_BUILD)
+  return k != nullptr ? k->name : "native";
+#else
   return k != nullptr ? k->name : "baseline";
+#endif
 }
 
 std::vector<const SimdKernels*> simd_kernels_available() {

@@ -35,7 +35,8 @@ struct SimdKernels {
 // The tier in use, or nullptr: the build's baseline code runs (no wider unit built, the CPU has
 // none of them, or PSMAT_SIMD=baseline).
 const SimdKernels* simd_kernels();
-// The name of the code in use: "avx512", "avx2" or "baseline".
+// The name of the code in use: "avx512", "avx2", "baseline" (the build's own instruction set) or,
+// in a native build (PSMAT_NATIVE, no vector units), "native".
 const char* simd_kernels_name();
 // Every tier this build has and this CPU runs, narrowest first (the C++ tests check each one
 // against the baseline code).
