@@ -11,6 +11,7 @@ and ``ninja`` packages of the ``test`` extra), Eigen from ``cmeel-eigen``.
 from __future__ import annotations
 
 import os
+import platform
 import re
 import shutil
 import subprocess
@@ -204,3 +205,30 @@ def test_every_cpp_test_file_is_collected() -> None:
     """The files this module parametrizes over exist; a glob that finds none would pass vacuously."""
     assert CPP_TESTS, "no src/cpp/tests/test_*.cpp found"
     assert "test_forward" in CPP_TESTS
+
+
+def test_vector_units_keep_to_themselves(cpp_build: CppBuild) -> None:
+    """The x86-64 vector units of ``src/cpp/psmat/iecm/simd.hpp`` (one object each, AVX2 and
+    AVX-512) define no global symbol but their kernel table and their own renamed Eigen, and have
+    no static initialiser: the linker cannot take one of their template copies for the baseline
+    code, and nothing of a unit runs before the CPU is known to have its instructions."""
+    cpp_build.fail_if_broken("test_vector_units_keep_to_themselves")
+    if platform.machine().lower() not in ("x86_64", "amd64") or sys.platform != "linux":
+        pytest.skip("the vector units are x86-64 objects, read here as ELF (Linux)")
+    from elftools.elf.elffile import ELFFile
+
+    objects = sorted(BUILD_DIR.rglob("simd_avx*.cpp.o"))
+    assert {o.name for o in objects} >= {"simd_avx2.cpp.o"}, objects  # GCC or Clang on x86-64 builds them
+    for obj in objects:
+        with open(obj, "rb") as f:
+            elf = ELFFile(f)
+            sections = {sec.name for sec in elf.iter_sections()}
+            assert not sections & {".init_array", ".ctors", ".preinit_array"}, (obj.name, sections)
+            tier = obj.name.removeprefix("simd_").removesuffix(".cpp.o")
+            exported = [sym.name for sym in elf.get_section_by_name(".symtab").iter_symbols()
+                        if sym["st_shndx"] != "SHN_UNDEF" and sym["st_info"]["bind"] != "STB_LOCAL"]
+            assert any(f"simd_table_{tier}" in name for name in exported), (obj.name, exported)
+            foreign = [name for name in exported
+                       if f"psmat_eigen_{tier}" not in name and f"simd_table_{tier}" not in name
+                       and name != "DW.ref.__gxx_personality_v0"]
+            assert not foreign, (obj.name, foreign)
