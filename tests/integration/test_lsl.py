@@ -218,7 +218,9 @@ def test_psmat_record_lsl_stores_a_streams_samples_on_the_host_clock(tmp_path: P
     # ... and that offset is the one between time.time() and local_clock(), by the test's own reading of
     # both clocks (the recorder's host clock reads like time.time(); 20 ms: clock readings, not timing)
     assert abs(offset - host_minus_local(time.time)) < 0.02
-    assert np.all(wall >= ts + offset - 2e-3)  # the pusher logged its wall time after stamping
+    # the pusher logged its wall time after stamping: an ordering, not a duration (a loaded machine only
+    # delays the log); within the 20 ms the offset is known to
+    assert np.all(wall >= ts + offset - 0.02)
     assert np.all(np.diff(st.host_time_s) > 0)
     t0, t1 = np.nanmin(s.host_time_s), np.nanmax(s.host_time_s)
     assert t0 - 0.5 <= st.host_time_s[0] and st.host_time_s[-1] <= t1 + 0.5  # inside the recording's span
