@@ -239,8 +239,11 @@ TEST_CASE("hadamard_product: matrix-free (T∘T) v equals D_G^-1 S D_G^-1 v") {
 TEST_CASE("hadamard_product: every vector unit and the baseline kernel, zero entries skipped") {
   // every build of the kernel (hadamard_kernel.hpp: the dispatch, the baseline, each vector unit
   // of simd.hpp this CPU runs) against the dense T∘T of scaled_hadamard, on shapes whose node
-  // count is and is not a multiple of the kernel's strip of 16 rows, with v zero on a third of
-  // the cells (the bound cells of the active-set method)
+  // count is and is not a multiple of the kernel's strip of 16 rows and whose rows and columns
+  // are and are not a multiple of the vector units' groups of four nodes, with v zero on a third
+  // of the cells (the bound cells of the active-set method), then also on a quiet corner of cells
+  // (groups of four nodes whose coefficients are all zero are skipped, and groups partly in it
+  // are not)
   const std::string in_use = psmat::iecm::simd_kernels_name();
   CAPTURE(in_use);
   const auto units = psmat::iecm::simd_kernels_available();
@@ -258,22 +261,28 @@ TEST_CASE("hadamard_product: every vector unit and the baseline kernel, zero ent
     const MatrixXd TT = G.cwiseInverse().asDiagonal() * S * G.cwiseInverse().asDiagonal();
     VectorXd v = random_normal(s.cells(), seed++);
     for (Index a = 0; a < v.size(); a += 3) v[a] = 0.0;
-    const VectorXd ref = TT * v;
     VectorXd out1(s.cells()), out2(s.cells());
-    psmat::iecm::hadamard_product(net, v, out1, work);
-    psmat::iecm::hadamard_product_portable(net, v, out2, work);
-    CHECK((out1 - ref).cwiseAbs().maxCoeff() < 1e-10 * ref.cwiseAbs().maxCoeff());
-    CHECK((out2 - ref).cwiseAbs().maxCoeff() < 1e-10 * ref.cwiseAbs().maxCoeff());
-    for (const psmat::iecm::SimdKernels* u : units) {
-      const std::string unit = u->name;
-      CAPTURE(unit);
-      const Index n = s.nodes();
-      work.P.resize(n, n);
-      work.kdiag.resize(n + s.rows);
-      VectorXd out3 = VectorXd::Constant(s.cells(), 1e300);
-      u->hadamard_kernel(net.M().data(), s.rows, s.cols, v.data(), out3.data(), work.P.data(),
-                         work.kdiag.data());
-      CHECK((out3 - ref).cwiseAbs().maxCoeff() < 1e-10 * ref.cwiseAbs().maxCoeff());
+    for (int pattern = 0; pattern < 2; ++pattern) {
+      CAPTURE(pattern);
+      if (pattern == 1)  // a quiet corner of 6 x 6 cells: groups of four nodes partly in it
+        for (Index i = 0; i < std::min<Index>(6, s.rows); ++i)
+          for (Index p = 0; p < std::min<Index>(6, s.cols); ++p) v[i * s.cols + p] = 0.0;
+      const VectorXd ref = TT * v;
+      psmat::iecm::hadamard_product(net, v, out1, work);
+      psmat::iecm::hadamard_product_portable(net, v, out2, work);
+      CHECK((out1 - ref).cwiseAbs().maxCoeff() <= 1e-10 * ref.cwiseAbs().maxCoeff());
+      CHECK((out2 - ref).cwiseAbs().maxCoeff() <= 1e-10 * ref.cwiseAbs().maxCoeff());
+      for (const psmat::iecm::SimdKernels* u : units) {
+        const std::string unit = u->name;
+        CAPTURE(unit);
+        const Index n = s.nodes();
+        work.P.resize(n, n);
+        work.kdiag.resize(n + 4 * s.rows);
+        VectorXd out3 = VectorXd::Constant(s.cells(), 1e300);
+        u->hadamard_kernel(net.M().data(), s.rows, s.cols, v.data(), out3.data(), work.P.data(),
+                           work.kdiag.data());
+        CHECK((out3 - ref).cwiseAbs().maxCoeff() <= 1e-10 * ref.cwiseAbs().maxCoeff());
+      }
     }
     v.setZero();  // nothing to sum: exactly 0
     psmat::iecm::hadamard_product(net, v, out1, work);

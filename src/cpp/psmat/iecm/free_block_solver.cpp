@@ -234,7 +234,13 @@ bool FreeBlockSolver::select(const NodalInverse& net, const Eigen::VectorXd& G,
       return false;
     }
     // the factor of S_PP, P = C + J, by blocks: [L_CC 0; W_J L_JJ] (precondition), W_J gathered
-    for (Index r = 0; r < na; ++r) Wa_.row(r) = W_.row(active_[static_cast<size_t>(r)]);
+    // column by column (active_ ascends: each column of W_ read forward; row by row, every
+    // element was a cache line of its own: 2.2 ms a 64x64 frame)
+    for (Index k = 0; k < nc_; ++k) {
+      const float* src = W_.col(k).data();
+      float* dst = Wa_.col(k).data();
+      for (Index r = 0; r < na; ++r) dst[r] = src[active_[static_cast<size_t>(r)]];
+    }
     fringe_factored_ = true;
   }
   const Index na = static_cast<Index>(active_.size());
@@ -318,12 +324,17 @@ void FreeBlockSolver::compact_fringe() {
       pos_[static_cast<size_t>(c)] = -1;
       continue;
     }
-    if (kept != j) W_.row(kept) = W_.row(j);
     fringe_[static_cast<size_t>(kept)] = c;
     fidx_[static_cast<size_t>(c)] = kept;
     ++kept;
   }
   fringe_.resize(static_cast<size_t>(kept));
+  for (Index k = 0; k < nc_; ++k) {  // W's kept rows, column by column (as the gather in select)
+    float* w = W_.col(k).data();
+    Index r2 = 0;
+    for (Index j = 0; j < nf; ++j)
+      if (keep_[static_cast<size_t>(j)]) w[r2++] = w[j];
+  }
   fringe_factored_ = false;
 }
 

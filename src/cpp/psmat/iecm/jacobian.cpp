@@ -115,7 +115,7 @@ void hadamard_product_portable(const NodalInverse& net, const ConstVecRef& v, Ve
                                HadamardWork& work) {
   const Index R = net.shape().rows, C = net.shape().cols, n = net.shape().nodes();
   work.P.resize(n, n);
-  work.kdiag.resize(n + R);
+  work.kdiag.resize(n + 4 * R);
   hadamard_kernel(net.M().data(), R, C, v.data(), out.data(), work.P.data(), work.kdiag.data());
 }
 
@@ -128,7 +128,7 @@ void hadamard_product(const NodalInverse& net, const ConstVecRef& v, VecRef out,
   }
   const Index R = net.shape().rows, C = net.shape().cols, n = net.shape().nodes();
   work.P.resize(n, n);
-  work.kdiag.resize(n + R);
+  work.kdiag.resize(n + 4 * R);
   k->hadamard_kernel(net.M().data(), R, C, v.data(), out.data(), work.P.data(), work.kdiag.data());
 }
 

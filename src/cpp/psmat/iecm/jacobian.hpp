@@ -45,7 +45,7 @@ void scaled_hadamard_column(const NodalInverse& net, const ConstVecRef& G,
 // needed.
 struct HadamardWork {
   Eigen::MatrixXd P;      // (L_v M)^T, n x n
-  Eigen::VectorXd kdiag;  // diagonal of K (n), then a column of its R x C block (R)
+  Eigen::VectorXd kdiag;  // diagonal of K (n), then up to four columns of its R x C block (4 R)
 };
 void hadamard_product(const NodalInverse& net, const ConstVecRef& v, VecRef out,
                       HadamardWork& work);
