@@ -132,7 +132,13 @@ constexpr Index kCoreOutMax = 128;
 // 15 PCG steps on Z_JJ alone against 1; the core and fringe blocks without their coupling, 78.
 // Why a kept factor is still rebuilt about once a frame there: the fringe's Cholesky in select()
 // fails (Z_JJ not positive definite: the rows of cells that joined later come from S at later
-// points than W and L_CC). Computing those rows at the factor's own point instead (select never
+// points than W and L_CC). It failed at the frame's first new free set (the first PDAS step of its
+// first QP, ~120 cells joining) in 39 of 40 frames, after computing their rows; so a factor from
+// an earlier frame now serves that frame's first solve (the previous frame's final set) and is
+// rebuilt at the first new set without trying select(): 64x64 20.6 -> 18.8 ms a frame (C++ driver,
+// one core, back to back; the same iterations and PCG steps, 1.000 factorisations a frame against
+// 0.975). Rebuilding it already for the first solve instead (the previous frame's set) was slower,
+// 23.9 ms: that set's fringe lacks the ~120 cells of the first step, and every select joins them. Computing those rows at the factor's own point instead (select never
 // failed) let the factor age over frames; PCG then stops just at its tolerance, the PDAS sets of
 // a QP cycle and the steps are cut: 8.4 iterations a frame (at most 52), 219 ms a frame against
 // 31. The same with a new factor at each frame's first QP: 37 ms (2.0 factorisations a frame).
@@ -170,6 +176,7 @@ SolveReport solve_active_set(Solver& s, const ConstVecRef& G_exp, VecRef g) {
       g_prev(n);
   double merit = fb_merit(g, s.ra, G_exp, fl, resid);
   bool handed_over = false;
+  bool factored_this_frame = false;  // a factorisation at a point of this frame (keep)
   for (;; ++rep.iterations) {
     if (resid <= o.rtol) {
       rep.status = Status::Converged;
@@ -219,8 +226,11 @@ SolveReport solve_active_set(Solver& s, const ConstVecRef& G_exp, VecRef g) {
                              kUpdateShare * static_cast<double>(free_cells.size());
         // the factor is of a far point
         const bool far = !keep && inner == 0 && resid > kRefactorAbove;
+        // a split factor kept from an earlier frame (kKeepFrom) meets the frame's first new free
+        // set: rebuilt without trying select() (kKeepFrom's comment)
+        const bool earlier_frame = keep && !factored_this_frame && changes > 0;
         bool kept = false;
-        if ((changes > 0 || far) && !far) {
+        if ((changes > 0 || far) && !far && !earlier_frame) {
           if (fs.is_split())
             kept = fs.core_outside(free_cells) <= kCoreOutMax && fs.select(s.net, s.Gm, free_cells);
           else
@@ -247,6 +257,7 @@ SolveReport solve_active_set(Solver& s, const ConstVecRef& G_exp, VecRef g) {
           ++rep.factorizations;
           fresh = true;
           factor_here = true;
+          factored_this_frame = true;
         }
         int k = fs.solve(s.op, s.net, s.Gm, free_cells, b, dg, Sy, tol, kmax);
         rep.krylov_iterations += k > 0 ? k : kmax;
