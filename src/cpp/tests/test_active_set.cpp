@@ -412,6 +412,31 @@ TEST_CASE("lower_solve_matrix and gemm_subtract: L^-1 B, (L L^T)^-1 B, L^-T B an
       units()[size_t(kernel - 2)]->gemm_subtract(C.data(), m, k, m, Bk.data(), k, m, Pk.data(), k);
     CHECK((C.cast<double>() - Cref).norm() <= 1e-5 * Cref.norm());
   }
+  // y - A x and y - A^T x, A a block with a leading dimension larger than its rows (B's top m - 5
+  // rows), x and y segments of longer vectors (as in FreeBlockSolver::precondition)
+  const Index r = m - 5;
+  const Eigen::VectorXd x = B.col(1), y0 = B.col(2).reverse();
+  const Eigen::VectorXd ref_n = y0.head(r) - B.topRows(r) * x.head(k);
+  const Eigen::VectorXd ref_t = y0.head(k) - B.topRows(r).transpose() * x.head(r);
+  const Eigen::VectorXf xf = x.cast<float>();
+  for (int kernel = 0; kernel < n_paths(); ++kernel) {
+    const std::string path = path_name(kernel);
+    CAPTURE(path);
+    for (bool transpose : {false, true}) {
+      CAPTURE(transpose);
+      Eigen::VectorXf y = y0.cast<float>();
+      const Index ny = transpose ? k : r, nx = transpose ? r : k;
+      if (kernel == 0)
+        psmat::iecm::gemv_subtract(y.head(ny), Bk.topRows(r), xf.head(nx), transpose);
+      else if (kernel == 1)
+        psmat::iecm::gemv_subtract_portable(y.head(ny), Bk.topRows(r), xf.head(nx), transpose);
+      else
+        units()[size_t(kernel - 2)]->gemv_subtract(y.data(), Bk.data(), r, k, m, xf.data(), transpose);
+      const Eigen::VectorXd& ref = transpose ? ref_t : ref_n;
+      CHECK((y.head(ny).cast<double>() - ref).norm() <= 1e-5 * ref.norm());
+      CHECK(y.tail(m - ny).cast<double>() == y0.tail(m - ny).cast<float>().cast<double>());  // untouched
+    }
+  }
 }
 
 TEST_CASE("FreeBlockSolver split: core and fringe; select with fringe cells out, new cells and core cells out") {

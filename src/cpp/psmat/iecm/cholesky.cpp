@@ -55,6 +55,19 @@ void gemm_subtract(Eigen::Ref<Eigen::MatrixXf> C, const Eigen::Ref<const Eigen::
                         A.outerStride(), B.data(), B.outerStride());
 }
 
+void gemv_subtract_portable(Eigen::Ref<Eigen::VectorXf> y, const Eigen::Ref<const Eigen::MatrixXf>& A,
+                            const Eigen::Ref<const Eigen::VectorXf>& x, bool transpose) {
+  gemv_subtract_sweep(y.data(), A.data(), A.rows(), A.cols(), A.outerStride(), x.data(), transpose);
+}
+
+void gemv_subtract(Eigen::Ref<Eigen::VectorXf> y, const Eigen::Ref<const Eigen::MatrixXf>& A,
+                   const Eigen::Ref<const Eigen::VectorXf>& x, bool transpose) {
+  if (const SimdKernels* k = simd_kernels())
+    k->gemv_subtract(y.data(), A.data(), A.rows(), A.cols(), A.outerStride(), x.data(), transpose);
+  else
+    gemv_subtract_sweep(y.data(), A.data(), A.rows(), A.cols(), A.outerStride(), x.data(), transpose);
+}
+
 void cholesky_solve_in_place_portable(const Eigen::Ref<const Eigen::MatrixXf>& L,
                                       Eigen::Ref<Eigen::VectorXf> x) {
   cholesky_solve_sweep(L.data(), L.rows(), L.outerStride(), x.data());

@@ -25,6 +25,13 @@ void lower_solve_matrix(const Eigen::Ref<const Eigen::MatrixXf>& L, Eigen::Ref<E
                         int mode);
 void gemm_subtract(Eigen::Ref<Eigen::MatrixXf> C, const Eigen::Ref<const Eigen::MatrixXf>& A,
                    const Eigen::Ref<const Eigen::MatrixXf>& B);
+// y -= A x, or y -= A^T x (transpose), in the vector unit of simd.hpp (the split preconditioner's
+// products with the fringe panel and the capacitance columns, FreeBlockSolver::precondition).
+void gemv_subtract(Eigen::Ref<Eigen::VectorXf> y, const Eigen::Ref<const Eigen::MatrixXf>& A,
+                   const Eigen::Ref<const Eigen::VectorXf>& x, bool transpose);
+// The same with the build's baseline instruction set only.
+void gemv_subtract_portable(Eigen::Ref<Eigen::VectorXf> y, const Eigen::Ref<const Eigen::MatrixXf>& A,
+                            const Eigen::Ref<const Eigen::VectorXf>& x, bool transpose);
 
 // x <- (L L^T)^-1 x for a factor L from cholesky_in_place (its lower triangle read): the two
 // triangular solves of a preconditioner, in the vector unit of simd.hpp (the PCG steps of the 16x16 noisy frames spent ~13 % of their time here

@@ -114,6 +114,17 @@ inline void gemm_subtract_sweep(float* c, Eigen::Index rows, Eigen::Index cols, 
   C.noalias() -= A * B;
 }
 
+// y -= A x (transpose false: A rows x cols, x of length cols, y of length rows) or y -= A^T x
+// (true: x of length rows, y of length cols); A column-major, leading dimension lda.
+inline void gemv_subtract_sweep(float* y, const float* a, Eigen::Index rows, Eigen::Index cols,
+                                Eigen::Index lda, const float* x, bool transpose) {
+  const Eigen::Map<const Eigen::MatrixXf, 0, Eigen::OuterStride<>> A(a, rows, cols, Eigen::OuterStride<>(lda));
+  if (transpose)
+    Eigen::Map<Eigen::VectorXf>(y, cols).noalias() -= A.transpose() * Eigen::Map<const Eigen::VectorXf>(x, rows);
+  else
+    Eigen::Map<Eigen::VectorXf>(y, rows).noalias() -= A * Eigen::Map<const Eigen::VectorXf>(x, cols);
+}
+
 // x <- (L L^T)^-1 x with the lower factor L (m x m, column-major, leading dimension ld): the
 // two triangular solves of a preconditioner application.
 inline void cholesky_solve_sweep(const float* l, Eigen::Index m, Eigen::Index ld, float* x) {

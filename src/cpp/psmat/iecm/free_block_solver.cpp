@@ -421,14 +421,17 @@ void FreeBlockSolver::precondition(const Eigen::VectorXd& r, Eigen::VectorXd& z)
     auto uc = tmp_.head(nc_);
     auto uj = tmp_.tail(na);
     lower_solve_matrix(Lc, uc, 0);
-    uj.noalias() -= Wa_.topRows(na) * uc;
+    gemv_subtract(uj, Wa_.topRows(na), uc, false);
     lower_solve_matrix(Lj, uj, 0);
     if (!out_pos_.empty()) {  // the capacitance correction (header)
-      mu_ = K_.solve((Y_.transpose() * tmp_).cast<double>());
-      tmp_.noalias() -= Y_ * mu_.cast<float>();
+      ytu_.setZero(Y_.cols());
+      gemv_subtract(ytu_, Y_, tmp_, true);  // -Y^T u
+      mu_ = K_.solve(-ytu_.cast<double>());
+      ytu_ = mu_.cast<float>();
+      gemv_subtract(tmp_, Y_, ytu_, false);
     }
     lower_solve_matrix(Lj, uj, 2);
-    uc.noalias() -= Wa_.topRows(na).transpose() * uj;
+    gemv_subtract(uc, Wa_.topRows(na), uj, true);
     lower_solve_matrix(Lc, uc, 2);
     // the core cells out: the identity rows of PCG's operator (their z is 0 up to round-off,
     // which PCG could not correct)

@@ -131,7 +131,7 @@ class FreeBlockSolver {
   Eigen::VectorXd mu_;
   Eigen::VectorXd x_, Sx_, b_;
   numerics::PcgWork pcg_;
-  Eigen::VectorXf tmp_, col_;
+  Eigen::VectorXf tmp_, col_, ytu_;
 };
 
 }  // namespace psmat::iecm

@@ -16,7 +16,8 @@ namespace psmat::iecm {
 
 // One tier's kernels, on column-major arrays with leading dimensions ld*:
 //   cholesky_in_place / cholesky_partial_in_place / lower_solve_matrix / gemm_subtract /
-//   cholesky_solve_in_place as in cholesky.hpp, hadamard_kernel as in hadamard_kernel.hpp.
+//   gemv_subtract / cholesky_solve_in_place as in cholesky.hpp, hadamard_kernel as in
+//   hadamard_kernel.hpp.
 struct SimdKernels {
   const char* name;  // "avx2", "avx512"
   bool (*cholesky_in_place)(float* a, std::ptrdiff_t m, std::ptrdiff_t ld);
@@ -27,6 +28,8 @@ struct SimdKernels {
   void (*gemm_subtract)(float* c, std::ptrdiff_t rows, std::ptrdiff_t cols, std::ptrdiff_t ldc,
                         const float* a, std::ptrdiff_t inner, std::ptrdiff_t lda, const float* b,
                         std::ptrdiff_t ldb);
+  void (*gemv_subtract)(float* y, const float* a, std::ptrdiff_t rows, std::ptrdiff_t cols,
+                        std::ptrdiff_t lda, const float* x, bool transpose);
   void (*cholesky_solve_in_place)(const float* l, std::ptrdiff_t m, std::ptrdiff_t ld, float* x);
   void (*hadamard_kernel)(const double* M, std::ptrdiff_t R, std::ptrdiff_t C, const double* v,
                           double* out, double* Pt, double* kdiag);
