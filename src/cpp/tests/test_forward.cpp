@@ -1,7 +1,9 @@
 // Forward model G = F(g) (docs/spec.md §3, thesis eq. 2.5-2.7): expectations from circuit theory,
 // hand-solved networks, an independent brute-force nodal solver and the reference vectors.
 #include <limits>
+#include <string>
 
+#include "psmat/iecm/simd.hpp"
 #include "support.hpp"
 
 using namespace psmat_test;
@@ -310,14 +312,27 @@ TEST_CASE("NodalInverse: M is the inverse of the grounded Laplacian, at a floor-
       using MatrixXld = Eigen::Matrix<long double, Eigen::Dynamic, Eigen::Dynamic>;
       const MatrixXld Lld = L.bottomRightCorner(n - 1, n - 1).cast<long double>();
       const Eigen::MatrixXd inner = MatrixXld(Lld.fullPivLu().inverse()).cast<double>();
-      NodalInverse net(s);
-      REQUIRE(net.compute(g));
-      const Eigen::MatrixXd& M = net.M();
-      CHECK(M.row(0).cwiseAbs().maxCoeff() == 0.0);  // the ground node
-      CHECK(M.col(0).cwiseAbs().maxCoeff() == 0.0);
-      const Eigen::MatrixXd d = M.bottomRightCorner(n - 1, n - 1) - inner;
-      CHECK(d.cwiseAbs().maxCoeff() <= 1e-12 * inner.cwiseAbs().maxCoeff());
-      CHECK((M - M.transpose()).cwiseAbs().maxCoeff() <= 1e-14 * M.cwiseAbs().maxCoeff());
+      // the dispatch (the widest vector unit), the baseline kernel, and each unit this CPU runs
+      // (nodal_inverse_kernel.hpp through simd.hpp's table)
+      const auto units = psmat::iecm::simd_kernels_available();
+      for (size_t path = 0; path < 2 + units.size(); ++path) {
+        const std::string name = path == 0 ? "dispatch" : path == 1 ? "baseline" : units[path - 2]->name;
+        CAPTURE(name);
+        Eigen::MatrixXd M = Eigen::MatrixXd::Zero(n, n);
+        if (path < 2) {
+          NodalInverse net(s);
+          REQUIRE(net.compute(g, path == 1));
+          M = net.M();
+        } else {
+          VectorXd work(psmat::iecm::nodal_inverse_work_size(s.rows, s.cols));
+          REQUIRE(units[path - 2]->nodal_inverse(g.data(), s.rows, s.cols, M.data(), work.data()));
+        }
+        CHECK(M.row(0).cwiseAbs().maxCoeff() == 0.0);  // the ground node
+        CHECK(M.col(0).cwiseAbs().maxCoeff() == 0.0);
+        const Eigen::MatrixXd d = M.bottomRightCorner(n - 1, n - 1) - inner;
+        CHECK(d.cwiseAbs().maxCoeff() <= 1e-12 * inner.cwiseAbs().maxCoeff());
+        CHECK((M - M.transpose()).cwiseAbs().maxCoeff() <= 1e-14 * M.cwiseAbs().maxCoeff());
+      }
     }
   }
 }

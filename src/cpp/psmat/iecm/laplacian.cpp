@@ -1,5 +1,8 @@
 #include "psmat/iecm/laplacian.hpp"
 
+#include "psmat/iecm/nodal_inverse_kernel.hpp"
+#include "psmat/iecm/simd.hpp"
+
 #include <cmath>
 #include <numeric>
 #include <vector>
@@ -52,46 +55,27 @@ bool cell_laplacian(const Shape& s, const ConstVecRef& g, Eigen::MatrixXd& L) {
   return true;
 }
 
+std::ptrdiff_t nodal_inverse_work_size(std::ptrdiff_t R, std::ptrdiff_t C) {
+  return nodal_inverse_work_doubles(R, C);
+}
+
 NodalInverse::NodalInverse(Shape shape)
     : shape_(shape),
-      m_(Eigen::MatrixXd::Zero(shape.nodes(), shape.nodes())),
-      llt_(shape.cols) {}
+      m_(Eigen::MatrixXd::Zero(shape.nodes(), shape.nodes())) {}
 
-bool NodalInverse::compute(const ConstVecRef& g) {
-  const Index R = shape_.rows, C = shape_.cols, r = R - 1;
+bool NodalInverse::compute(const ConstVecRef& g, bool portable) {
+  const Index R = shape_.rows, C = shape_.cols;
   if (g.size() != shape_.cells()) return false;
   // every cell conducting (the bounded solvers keep g >= g_floor > 0): one piece by construction
   const bool all_conduct = g.allFinite() && g.minCoeff() > 0.0;
   if (!all_conduct && !connected(shape_, g, parent_)) return false;
-  // eq. 2.7 with node 0 (row 0, ground) dropped, by blocks (header): Dr, B, Dc
-  const Eigen::Map<const RowMatrixXd> V(g.data(), R, C);
-  rdeg_ = V.bottomRows(r).rowwise().sum();
-  E_ = rdeg_.cwiseInverse().asDiagonal() * V.bottomRows(r);  // Dr^-1 B
-  sc_.setZero(C, C);
-  sc_.diagonal() = V.colwise().sum().transpose();            // Dc
-  sc_.selfadjointView<Eigen::Lower>().rankUpdate(
-      (rdeg_.cwiseSqrt().asDiagonal() * E_).transpose(), -1.0);  // - B^T Dr^-1 B
-  llt_.compute(sc_);  // reads the lower triangle
-  if (llt_.info() != Eigen::Success) return false;
-  // Sc^-1 = W^T W with W = L^-1 (measured on the whole Cmat, n - 1 = 31...127: ~30 % faster
-  // than two triangular solves against the identity). W row by row:
-  // W[i, :i] = -L[i, :i] W[:i, :i] / L[i,i], one vector-matrix product per row.
-  const auto L = llt_.matrixLLT();  // lower triangle: L
-  w_.setZero(C, C);
-  for (Index i = 0; i < C; ++i) {
-    const double inv = 1.0 / L(i, i);
-    if (i > 0)
-      w_.row(i).head(i).noalias() = -(L.row(i).head(i) * w_.topLeftCorner(i, i)) * inv;
-    w_(i, i) = inv;
-  }
-  auto Mcc = m_.bottomRightCorner(C, C);
-  Mcc.noalias() = w_.transpose() * w_;
-  auto Mrc = m_.block(1, R, r, C);
-  Mrc.noalias() = E_ * Mcc;
-  auto Mrr = m_.block(1, 1, r, r);
-  Mrr.noalias() = Mrc * E_.transpose();
-  Mrr.diagonal() += rdeg_.cwiseInverse();
-  m_.block(R, 1, C, r) = Mrc.transpose();
+  // eq. 2.7 with node 0 (row 0, ground) dropped, by blocks (header; nodal_inverse_kernel.hpp),
+  // in the widest vector unit the CPU runs (simd.hpp)
+  work_.resize(nodal_inverse_work_doubles(R, C));
+  const SimdKernels* k = portable ? nullptr : simd_kernels();
+  const bool spd = k ? k->nodal_inverse(g.data(), R, C, m_.data(), work_.data())
+                     : nodal_inverse_kernel(g.data(), R, C, m_.data(), work_.data());
+  if (!spd) return false;
   return m_.allFinite();
 }
 

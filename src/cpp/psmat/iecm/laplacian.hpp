@@ -35,7 +35,9 @@ class NodalInverse {
   // Returns false when the network is not one connected piece (a row or column with no
   // conducting cell, or two blocks with no cell between them), when g has negative or
   // non-finite entries, or when Cmat is numerically not positive definite; M is then unusable.
-  bool compute(const ConstVecRef& g);
+  // portable: the block inverse with the build's baseline instruction set only, not the widest
+  // vector unit of simd.hpp (the independent check of the units in the C++ tests).
+  bool compute(const ConstVecRef& g, bool portable = false);
 
   const Shape& shape() const { return shape_; }
   // n x n, node order as above, zero row/column for the ground node.
@@ -52,11 +54,8 @@ class NodalInverse {
  private:
   Shape shape_;
   Eigen::MatrixXd m_;     // n x n
-  Eigen::VectorXd rdeg_;  // degrees of rows 1..R-1 (Dr)
-  Eigen::MatrixXd E_;     // x C: Dr^-1 B
-  Eigen::MatrixXd sc_;    // C x C: the Schur complement Sc
-  Eigen::LLT<Eigen::MatrixXd> llt_;  // of Sc
-  RowMatrixXd w_;         // C x C workspace: inverse of the Cholesky factor of Sc
+  Eigen::VectorXd work_;  // Dr, E = Dr^-1 B, Sc and the inverse of its Cholesky factor
+                          // (nodal_inverse_kernel.hpp)
   std::vector<Index> parent_;  // union-find workspace of the connectivity check
 };
 

@@ -1,5 +1,6 @@
 // The dense kernels of the IECM preconditioners (cholesky_sweep.hpp: Cholesky sweeps, triangular
-// solves, C -= A B) and the matrix-free product of the Newton matrix (hadamard_kernel.hpp),
+// solves, C -= A B), the matrix-free product of the Newton matrix (hadamard_kernel.hpp) and the
+// block inverse of the nodal matrix (nodal_inverse_kernel.hpp),
 // compiled once more per vector instruction set wider than the build's baseline, one unit each
 // (simd_unit.inc: simd_avx2.cpp with AVX2 + FMA, simd_avx512.cpp with AVX-512 F/VL/DQ/BW + FMA),
 // and chosen once at run time: the widest tier the build has and the CPU (and OS) supports. A
@@ -17,7 +18,7 @@ namespace psmat::iecm {
 // One tier's kernels, on column-major arrays with leading dimensions ld*:
 //   cholesky_in_place / cholesky_partial_in_place / lower_solve_matrix / gemm_subtract /
 //   gemv_subtract / cholesky_solve_in_place as in cholesky.hpp, hadamard_kernel as in
-//   hadamard_kernel.hpp.
+//   hadamard_kernel.hpp, nodal_inverse as nodal_inverse_kernel in nodal_inverse_kernel.hpp.
 struct SimdKernels {
   const char* name;  // "avx2", "avx512"
   bool (*cholesky_in_place)(float* a, std::ptrdiff_t m, std::ptrdiff_t ld);
@@ -33,6 +34,8 @@ struct SimdKernels {
   void (*cholesky_solve_in_place)(const float* l, std::ptrdiff_t m, std::ptrdiff_t ld, float* x);
   void (*hadamard_kernel)(const double* M, std::ptrdiff_t R, std::ptrdiff_t C, const double* v,
                           double* out, double* Pt, double* kdiag);
+  bool (*nodal_inverse)(const double* g, std::ptrdiff_t R, std::ptrdiff_t C, double* m,
+                        double* work);
 };
 
 // The tier in use, or nullptr: the build's baseline code runs (no wider unit built, the CPU has
@@ -44,6 +47,9 @@ const char* simd_kernels_name();
 // Every tier this build has and this CPU runs, narrowest first (the C++ tests check each one
 // against the baseline code).
 std::vector<const SimdKernels*> simd_kernels_available();
+
+// Doubles of workspace that SimdKernels::nodal_inverse takes for an R x C array.
+std::ptrdiff_t nodal_inverse_work_size(std::ptrdiff_t R, std::ptrdiff_t C);
 
 // The units' tables (simd_unit.inc); only where the build has the unit (PSMAT_SIMD_AVX2,
 // PSMAT_SIMD_AVX512) and only to be called where the CPU supports its instructions.
