@@ -286,6 +286,18 @@ TEST_CASE("FreeBlockSolver: PCG with the factor of another point and free set so
   const VectorXd Sy_ref = S * y;
   for (Index a = 0; a < s.cells(); ++a)
     CHECK(Sy[a] == doctest::Approx(Sy_ref[a]).epsilon(1e-9).scale(Sy_ref.norm()));
+  // from a guess (the active-set method's later solves of one QP): the solution perturbed, with
+  // entries outside I that must be ignored; fewer iterations, the same y and S y
+  VectorXd yg = y + 1e-3 * y.norm() / std::sqrt(double(m)) * VectorXd::Ones(s.cells()), Syg;
+  const int kg = fs.solve(op, net, G, I, b, yg, Syg, 1e-12, 200, /*from_guess=*/true);
+  CAPTURE(kg);
+  CHECK(kg >= 1);
+  CHECK(kg < k);
+  for (Index a = 0; a < s.cells(); ++a) {
+    if (in_I[size_t(a)]) CHECK(yg[a] == doctest::Approx(y[a]).epsilon(1e-8).scale(y.norm()));
+    else CHECK(yg[a] == 0.0);
+    CHECK(Syg[a] == doctest::Approx(Sy_ref[a]).epsilon(1e-8).scale(Sy_ref.norm()));
+  }
   // with a fresh factor at this very point PCG needs one or two iterations
   REQUIRE(fs.factor(net, G, I));
   CHECK(fs.changes(I) == 0);
@@ -598,4 +610,45 @@ TEST_CASE("active_set: cold start and a warm start from a point with no cell at 
     if (g_cold[a] > o.g_floor * 2) CHECK(same_free_cell(g_warm[a], g_cold[a], G[a], o.rtol));
     else CHECK(g_warm[a] <= o.g_floor * 2);
   }
+}
+
+TEST_CASE("pcg and pcg_from: the same solution from 0 and from a guess; Sy accumulated") {
+  // numerics/pcg.hpp on an SPD system with a diagonal preconditioner: from y = 0 and from a guess
+  // near the solution both reach the tolerance; the guess needs fewer steps, an exact guess none
+  // (on_start sees A y0 in w.q); the hook accumulates A y along the way (as FreeBlockSolver's Sy)
+  const Index m = 60;
+  const Eigen::MatrixXd X = Eigen::MatrixXd::NullaryExpr(
+      m, m, [](Index i, Index j) { return std::cos(0.7 * double(i * 60 + j) + 0.3); });
+  const Eigen::MatrixXd A = X * X.transpose() / double(m) + 0.05 * Eigen::MatrixXd::Identity(m, m);
+  const Eigen::VectorXd b = Eigen::VectorXd::NullaryExpr(m, [](Index i) { return std::sin(0.4 * double(i)); });
+  const Eigen::VectorXd exact = A.llt().solve(b);
+  const Eigen::VectorXd dinv = A.diagonal().cwiseInverse();
+  psmat::numerics::PcgWork w;
+  Eigen::VectorXd Ay;
+  auto apply = [&](const Eigen::VectorXd& v, Eigen::VectorXd& q) { q = A * v; };
+  auto pre = [&](const Eigen::VectorXd& r, Eigen::VectorXd& z) { z = dinv.cwiseProduct(r); };
+  auto step = [&](double alpha) { Ay.noalias() += alpha * w.q; };
+  const double tol = 1e-10;
+  Eigen::VectorXd y0;
+  Ay.setZero(m);
+  const int k0 = psmat::numerics::pcg(b, y0, tol, 500, w, apply, pre, step);
+  REQUIRE(k0 > 0);
+  CHECK((A * y0 - b).norm() <= tol * b.norm() * (1 + 1e-6));
+  CHECK((Ay - A * y0).norm() <= 1e-10 * b.norm());
+  Eigen::VectorXd y1 = exact + 1e-4 * Eigen::VectorXd::Ones(m);  // a guess near the solution
+  bool started = false;
+  auto start = [&] {
+    started = true;
+    Ay = w.q;
+  };
+  const int k1 = psmat::numerics::pcg_from(b, y1, tol, 500, w, apply, pre, step, start);
+  CHECK(started);
+  REQUIRE(k1 > 0);
+  CHECK(k1 < k0);
+  CHECK((A * y1 - b).norm() <= tol * b.norm() * (1 + 1e-6));
+  CHECK((Ay - A * y1).norm() <= 1e-10 * b.norm());
+  Eigen::VectorXd y2 = exact;  // already there: no step
+  CHECK(psmat::numerics::pcg_from(b, y2, 1e-6, 500, w, apply, pre, step, start) == 0);
+  CHECK(y2 == exact);
+  CHECK((w.q - A * exact).norm() <= 1e-12 * b.norm());
 }

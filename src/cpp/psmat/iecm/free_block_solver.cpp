@@ -459,7 +459,8 @@ void FreeBlockSolver::precondition(const Eigen::VectorXd& r, Eigen::VectorXd& z)
 
 int FreeBlockSolver::solve(NewtonOperator& op, const NodalInverse& net, const Eigen::VectorXd& G,
                            const std::vector<Index>& free_cells, const Eigen::VectorXd& b,
-                           Eigen::VectorXd& y, Eigen::VectorXd& Sy, double tol, int max_iter) {
+                           Eigen::VectorXd& y, Eigen::VectorXd& Sy, double tol, int max_iter,
+                           bool from_guess) {
   const Index n = G.size();
   i_mask_.setZero(n);
   for (Index c : free_cells) i_mask_[c] = 1.0;
@@ -471,11 +472,17 @@ int FreeBlockSolver::solve(NewtonOperator& op, const NodalInverse& net, const Ei
   b_.setZero(n);
   for (Index c : free_cells) b_[c] = b[c];  // b on I, 0 on P \ I (and elsewhere)
   Sy.setZero(n);
-  const int used = numerics::pcg(
-      b_, y, tol, max_iter, pcg_,
-      [&](const Eigen::VectorXd& v, Eigen::VectorXd& out) { apply(op, net, G, v, out); },
-      [&](const Eigen::VectorXd& r, Eigen::VectorXd& z) { precondition(r, z); },
-      [&](double alpha) { Sy.noalias() += alpha * Sx_; });  // S (p on I): apply() left it in Sx_
+  auto op_apply = [&](const Eigen::VectorXd& v, Eigen::VectorXd& out) { apply(op, net, G, v, out); };
+  auto pre = [&](const Eigen::VectorXd& r, Eigen::VectorXd& z) { precondition(r, z); };
+  // S (p on I): apply() left it in Sx_
+  auto step = [&](double alpha) { Sy.noalias() += alpha * Sx_; };
+  int used;
+  if (from_guess) {
+    y = y.cwiseProduct(i_mask_);  // the guess on I
+    used = numerics::pcg_from(b_, y, tol, max_iter, pcg_, op_apply, pre, step, [&] { Sy = Sx_; });
+  } else {
+    used = numerics::pcg(b_, y, tol, max_iter, pcg_, op_apply, pre, step);
+  }
   y = y.cwiseProduct(i_mask_);  // P \ I: the identity rows' solution is 0 up to the tolerance
   return used;
 }

@@ -67,12 +67,13 @@ class FreeBlockSolver {
   Index core_outside(const std::vector<Index>& free_cells) const;
   // Solves S_II y_I = b_I to ||residual|| <= tol ||b_I||; b and y have length R*C
   // (entries outside I: b ignored, y set to 0). Sy receives S y on every cell, summed from the
-  // products PCG makes anyway (the active-set method reads its multipliers off it). Returns the
-  // PCG iterations used, or -1 when max_iter was reached or the recurrence broke down (y then
-  // holds the last iterate).
+  // products PCG makes anyway (the active-set method reads its multipliers off it). With
+  // from_guess, PCG starts from y on I (the previous solve's) instead of 0. Returns the PCG
+  // iterations used, or -1 when max_iter was reached or the recurrence broke down (y then holds
+  // the last iterate).
   int solve(NewtonOperator& op, const NodalInverse& net, const Eigen::VectorXd& G,
             const std::vector<Index>& free_cells, const Eigen::VectorXd& b, Eigen::VectorXd& y,
-            Eigen::VectorXd& Sy, double tol, int max_iter);
+            Eigen::VectorXd& Sy, double tol, int max_iter, bool from_guess = false);
 
  private:
   void apply(NewtonOperator& op, const NodalInverse& net, const Eigen::VectorXd& G,

@@ -13,20 +13,11 @@ struct PcgWork {
   Eigen::VectorXd r, z, p, q;
 };
 
-// Solves A y = b from y = 0 to ||b - A y|| <= tol ||b||.
-//   apply(p, q):        q = A p  (q is resized by the callee)
-//   precondition(r, z): z = P^-1 r, P SPD  (z is resized by the callee)
-//   on_step(alpha):     called after each y += alpha p, with the product A p still in w.q
-//                       (e.g. to accumulate another product of the same direction)
-// Returns the iterations used (0 when b = 0), or -1 when max_iter was reached or the recurrence
-// broke down (p'Ap not positive and finite); y then holds the last iterate.
+namespace detail {
+// The PCG recurrence from the residual w.r = b - A y of the current y (bnorm = ||b|| > 0).
 template <class Apply, class Precondition, class OnStep>
-int pcg(const Eigen::VectorXd& b, Eigen::VectorXd& y, double tol, int max_iter, PcgWork& w,
-        Apply&& apply, Precondition&& precondition, OnStep&& on_step) {
-  y.setZero(b.size());
-  w.r = b;
-  const double bnorm = b.norm();
-  if (bnorm == 0.0) return 0;
+int pcg_steps(double bnorm, Eigen::VectorXd& y, double tol, int max_iter, PcgWork& w,
+              Apply&& apply, Precondition&& precondition, OnStep&& on_step) {
   precondition(w.r, w.z);
   w.p = w.z;
   double rz = w.r.dot(w.z);
@@ -45,6 +36,41 @@ int pcg(const Eigen::VectorXd& b, Eigen::VectorXd& y, double tol, int max_iter, 
     rz = rz_new;
   }
   return -1;
+}
+}  // namespace detail
+
+// Solves A y = b from y = 0 to ||b - A y|| <= tol ||b||.
+//   apply(p, q):        q = A p  (q is resized by the callee)
+//   precondition(r, z): z = P^-1 r, P SPD  (z is resized by the callee)
+//   on_step(alpha):     called after each y += alpha p, with the product A p still in w.q
+//                       (e.g. to accumulate another product of the same direction)
+// Returns the iterations used (0 when b = 0), or -1 when max_iter was reached or the recurrence
+// broke down (p'Ap not positive and finite); y then holds the last iterate.
+template <class Apply, class Precondition, class OnStep>
+int pcg(const Eigen::VectorXd& b, Eigen::VectorXd& y, double tol, int max_iter, PcgWork& w,
+        Apply&& apply, Precondition&& precondition, OnStep&& on_step) {
+  y.setZero(b.size());
+  w.r = b;
+  const double bnorm = b.norm();
+  if (bnorm == 0.0) return 0;
+  return detail::pcg_steps(bnorm, y, tol, max_iter, w, apply, precondition, on_step);
+}
+
+// The same from the initial guess in y (one more product, A y, after which on_start() is called
+// with it in w.q). Returns 0 when the guess already meets the tolerance.
+template <class Apply, class Precondition, class OnStep, class OnStart>
+int pcg_from(const Eigen::VectorXd& b, Eigen::VectorXd& y, double tol, int max_iter, PcgWork& w,
+             Apply&& apply, Precondition&& precondition, OnStep&& on_step, OnStart&& on_start) {
+  const double bnorm = b.norm();
+  if (bnorm == 0.0) {
+    y.setZero(b.size());
+    return 0;
+  }
+  apply(y, w.q);
+  on_start();
+  w.r = b - w.q;
+  if (w.r.norm() <= tol * bnorm) return 0;
+  return detail::pcg_steps(bnorm, y, tol, max_iter, w, apply, precondition, on_step);
 }
 
 // Without a hook.
