@@ -151,6 +151,19 @@ constexpr Index kKeepFrom = 800;
 // PCG steps 29.6 -> 24.4 a frame, and the QPs' more accurate multipliers cut the iterations to
 // 4.00 a frame (at most 4) from 4.23 (at most 7); 16x16 and 32x32 unchanged (their factors are of
 // the point where this applies).
+// Also tried and not kept (C++ driver, one core, ms a frame, each against the code it was tried
+// on): at 64x64, stopping a QP's PDAS steps once at most 0.5-2 % of the free set
+// changes (inexact QPs: line searches fail, 42-67 against 21.6; only in the first QP, 29.6);
+// freeing a cell in the first steps only below a multiplier margin (the same, 240-290); kFreeCap
+// 0.15 / 0.2 (23.5 / 24.9 against 20.1); compacting the fringe whenever it holds over 1.15-1.5
+// times its active cells (19.9-20.5 against 19.4: the dropped rows rejoin); the PDAS rule instead
+// of the last frame's set for a kept factor's first QP (25.1 against 18.8: a larger first block);
+// rescaling a factor of an earlier point by G_factor / G (S = D_G (T∘T) D_G; 19.8 against 18.7:
+// the change of T∘T dominates). At 32x32: the previous frame's factor for the first QP instead of
+// the refactorisation for a far point (2.16 against 1.84: its select fails on rows of another
+// point; with rows at the factor's point the PDAS steps cycle, 2.21 with cycle detection), and
+// no refactorisation after the first step (kRefactorAbove 0.3-100: 2.54-2.61 against 1.91, PCG
+// 38 steps a frame against 14.8).
 }  // namespace
 
 SolveReport solve_active_set(Solver& s, const ConstVecRef& G_exp, VecRef g) {
