@@ -18,6 +18,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from dask_cluster import LOOPBACK_HTTP
 
 from psmat import Calibration
 from psmat.balance import VARIANTS
@@ -195,7 +196,8 @@ def test_processes_and_a_dask_cluster_give_the_same_bytes(study, tmp_path) -> No
     assert (report.computed, report.reused) == (4, 0)
     assert (two / "results" / "metrics.csv").read_bytes() == metrics
     dask = _copy(root, tmp_path / "dask", results=False)
-    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as c, \
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None,
+                                  scheduler_kwargs=LOOPBACK_HTTP) as c, \
             distributed.Client(c.scheduler_address) as client, distributed.get_task_stream(client) as stream:
         report = run_study(dask, scheduler=c.scheduler_address, progress=False)
         workers = set(client.scheduler_info()["workers"])

@@ -182,10 +182,12 @@ def test_scaling_on_a_local_dask_cluster_too(tmp_path) -> None:
     assert "Dask LocalCluster: least-squares fit" in text and "Dask LocalCluster: 2->16 goal not measured" in text
 
 
-def test_bench_dask_workers_start_without_the_malloc_trim_variable() -> None:
+def test_bench_dask_workers_start_without_the_malloc_trim_variable(monkeypatch) -> None:
     # Dask's nanny sets MALLOC_TRIM_THRESHOLD_ (which makes psmat's sessions ~10 % slower): the
-    # bench's workers run in the real worker processes without it, with one BLAS thread
+    # bench's workers run in the real worker processes without it, with one BLAS thread, also where
+    # an earlier cluster of this process left it in os.environ (a nanny writes its environment there)
     pytest.importorskip("distributed")
+    monkeypatch.setenv("MALLOC_TRIM_THRESHOLD_", "65536")
     import dask
     from distributed import Client
 
@@ -198,8 +200,9 @@ def test_bench_dask_workers_start_without_the_malloc_trim_variable() -> None:
                                    os.environ.get("OPENBLAS_NUM_THREADS")))
     assert len(seen) == 2 and len({pid for pid, _, _ in seen.values()} | {os.getpid()}) == 3
     assert all(trim is None and blas == "1" for _, trim, blas in seen.values())
-    # outside the bench's clusters Dask's own setting is back
+    # outside the bench's clusters Dask's own setting is back, and this process's variable
     assert "MALLOC_TRIM_THRESHOLD_" in dask.config.get("distributed.nanny.pre-spawn-environ")
+    assert os.environ.get("MALLOC_TRIM_THRESHOLD_") == "65536"
 
 
 def test_dask_skipped_in_one_line_without_distributed(tmp_path) -> None:

@@ -34,6 +34,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from dask_cluster import LOOPBACK_HTTP
 
 from psmat.study import run_study
 from psmat.synth import simulate_study
@@ -357,7 +358,7 @@ def tls_cluster(tmp_path_factory) -> Iterator[tuple[object, object, Path]]:
     scheduler_file = tmp_path_factory.mktemp("dask") / "scheduler.json"
     with distributed.LocalCluster(n_workers=1, threads_per_worker=1, processes=True, protocol="tls",
                                   host="127.0.0.1", security=security, dashboard_address=None,
-                                  scheduler_kwargs={"scheduler_file": str(scheduler_file)}) as cluster:
+                                  scheduler_kwargs={"scheduler_file": str(scheduler_file), **LOOPBACK_HTTP}) as cluster:
         yield cluster, security, scheduler_file
 
 

@@ -21,6 +21,7 @@ import sys
 from pathlib import Path
 
 import pytest
+from dask_cluster import LOOPBACK_HTTP
 
 from psmat.cli import main
 from psmat.io import load_session
@@ -187,7 +188,8 @@ def test_on_a_dask_cluster_the_pages_are_made_by_its_workers_and_are_the_pools(s
     # the pool's pages, written from the study's folder (a page names its session files)
     pool = {p.name: p.read_text().replace(str(study), str(copy)) for p in sorted(pages.glob("*.html"))}
     shutil.rmtree(pages)
-    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as c, \
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None,
+                                  scheduler_kwargs=LOOPBACK_HTTP) as c, \
             distributed.Client(c.scheduler_address) as client, distributed.get_task_stream(client) as stream:
         first = run_study(copy, scheduler=c.scheduler_address, params={"variants": VARIANTS}, progress=False,
                           reports=True)

@@ -12,6 +12,7 @@ import shutil
 from pathlib import Path
 
 import pytest
+from dask_cluster import LOOPBACK_HTTP
 
 from psmat.study import run_study
 from psmat.synth import simulate_study
@@ -99,7 +100,8 @@ def test_on_a_dask_cluster_each_session_names_the_worker_that_ran_it(study: Path
     root = tmp_path / "dask"
     shutil.copytree(study, root, ignore=shutil.ignore_patterns("results"))
     sessions = sorted(p.stem for p in (root / "sessions").glob("*.h5"))
-    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as c, \
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None,
+                                  scheduler_kwargs=LOOPBACK_HTTP) as c, \
             distributed.Client(c.scheduler_address) as client:
         pids = client.run(os.getpid)  # {worker address: its process id}, as the cluster knows them
         report = run_study(root, scheduler=c.scheduler_address, progress=False, reports=True)

@@ -167,10 +167,22 @@ def local_cluster(n: int) -> Iterator[Any]:
     import dask
     import distributed
 
-    with dask.config.set({"distributed.nanny.pre-spawn-environ": worker_environ()}):
-        with distributed.LocalCluster(n_workers=n, threads_per_worker=1, processes=True, host="127.0.0.1",
-                                      dashboard_address=None, silence_logs=logging.ERROR) as cluster:
-            yield cluster
+    # A nanny writes its pre-spawn environment into this process's own os.environ, so a cluster
+    # started here earlier with Dask's defaults leaves MALLOC_TRIM_THRESHOLD_ behind for every
+    # worker spawned later: it is taken out while this cluster lives.
+    trim = os.environ.pop("MALLOC_TRIM_THRESHOLD_", None)
+    try:
+        with dask.config.set({"distributed.nanny.pre-spawn-environ": worker_environ()}):
+            # the scheduler's HTTP server (health, metrics; no dashboard) on a free loopback port: its
+            # default, 8787, is taken when two clusters start at once (a warning; an error in the tests)
+            with distributed.LocalCluster(n_workers=n, threads_per_worker=1, processes=True, host="127.0.0.1",
+                                          dashboard_address=None,
+                                          scheduler_kwargs={"dashboard_address": "127.0.0.1:0"},
+                                          silence_logs=logging.ERROR) as cluster:
+                yield cluster
+    finally:
+        if trim is not None:
+            os.environ["MALLOC_TRIM_THRESHOLD_"] = trim
 
 
 def _dask_run(root: Path, n: int, progress: bool) -> dict[str, Any]:
