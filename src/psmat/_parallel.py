@@ -9,10 +9,11 @@ killed outright (:func:`psmat._orphans.exit_with_parent`).
 
 from __future__ import annotations
 
+from collections import deque
 from collections.abc import Callable, Iterator, Sequence
 from typing import TypeVar
 
-__all__ = ["map_unordered"]
+__all__ = ["map_unordered", "start_pool"]
 
 T = TypeVar("T")
 R = TypeVar("R")
@@ -32,17 +33,55 @@ def map_unordered(fn: Callable[[T], R], items: Sequence[T], workers: int | None 
     """
     if not items:
         return
-    import os
-
-    from joblib import Parallel, cpu_count, delayed, parallel_config
-
-    from ._orphans import exit_with_parent
-
-    n = min(workers or cpu_count(), len(items))
+    n = _processes(workers, len(items))
     if n <= 1:
         yield from map(fn, items)
         return
-    # the pool is made inside the configuration, its results read outside it (no setting held across yields)
-    with parallel_config(backend="loky", initializer=exit_with_parent, initargs=(os.getpid(),)):
-        results = Parallel(n_jobs=n, return_as="generator_unordered")(delayed(fn)(t) for t in items)
+    results = _parallel(n, fn, [(t,) for t in items])
     yield from results
+
+
+def start_pool(fn: Callable[[], object], count: int, workers: int | None = None) -> Callable[[], None]:
+    """Start, without waiting, the processes that :func:`map_unordered` with ``count`` items and
+    ``workers`` will use: each runs ``fn()`` once (say, a function of the tasks' module, so that its
+    imports are done); the pool is then reused by that map (joblib keeps its loky executor).
+
+    Returns
+    -------
+    callable
+        Waits until every process has run ``fn`` (call it before the map). Nothing is started,
+        and it returns at once, where the map would run in this process.
+    """
+    n = _processes(workers, count)
+    if n <= 1:
+        return lambda: None
+    started = _parallel(n, fn, [()] * n)
+    return lambda: deque(started, maxlen=0)
+
+
+def _processes(workers: int | None, count: int) -> int:
+    from joblib import cpu_count
+
+    return min(workers or cpu_count(), count)
+
+
+def _parallel(n: int, fn: Callable[..., R], args: Sequence[tuple[object, ...]]) -> Iterator[R]:
+    """``fn(*a)`` for each ``a`` on ``n`` loky processes, dispatched now, yielded as each finishes: the one
+    configuration of the pool, so that every call finds the same executor.
+
+    One thread for the numerical libraries in every process, whatever ``n``: a task is one core's
+    work, and joblib's default (cores // n threads) would make the processes' environment depend
+    on ``n``. loky keeps its processes only for the same environment: a later map of another size
+    (a study's 7 figures after its sessions on 16 processes) would start a new pool and pay every
+    import again (its start took 2.8 s on a lent 16-core machine) instead of resizing this one.
+    """
+    import os
+
+    from joblib import Parallel, delayed, parallel_config
+
+    from ._orphans import exit_with_parent
+
+    # the pool is made inside the configuration, its results read outside it (no setting held across yields)
+    with parallel_config(backend="loky", inner_max_num_threads=1, initializer=exit_with_parent,
+                         initargs=(os.getpid(),)):
+        return Parallel(n_jobs=n, return_as="generator_unordered")(delayed(fn)(*a) for a in args)

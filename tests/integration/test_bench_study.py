@@ -92,6 +92,9 @@ def _check_rows(text: str, kind: str, counts: list[int]) -> list[tuple[int, floa
 def test_scaling_runs_each_count_from_scratch_with_the_same_metrics(tmp_path) -> None:
     text, r = _scaling(["--scaling", "2,1"], tmp_path)  # given out of order: run smallest first
     rows = _check_rows(text, "pool", [1, 2])
+    # each run said as it ended, before the table: a benchmark stopped half-way keeps its runs
+    done = re.findall(r"^run done: pool, (\d+) workers?: ([\d.]+) s wall, .* 3 sessions computed$", text, re.M)
+    assert [(int(n), float(t)) for n, t in done] == rows and text.index("run done") < text.index("| run |")
     s = r["scaling"]
     assert s["counts"] == [1, 2] and r["workers"] is None and "baseline_s" not in r and "resume_s" not in r
     # every run computed every session: nothing reused from the run before it

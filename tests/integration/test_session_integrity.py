@@ -371,3 +371,27 @@ def test_a_format_1_file_still_loads_and_says_it_is_unchecked(tmp_path: Path) ->
     assert s.device == DEVICE and s.metadata == META and s.calibration is None
     assert s.counters == {"dropped_frames": 1, "bad_frames": 2, "resyncs": 3, "bytes_discarded": 4}
     assert any("carry no checksums" in n and "counts" in n for n in s.notes)
+
+
+# ---------------------------------------------------------------------- frames=False: metadata and checks only
+def test_without_frames_the_same_session_but_no_frame_read(tmp_path: Path) -> None:
+    d = data(40)
+    p = write_complete(tmp_path / "m.h5", d, chunk_frames=8)
+    whole, bare = load_session(p), load_session(p, frames=False)
+    assert whole.n_frames == 40 and bare.n_frames == 0
+    assert bare.counts.shape == (0, 4, 4) and bare.counts.dtype == whole.counts.dtype
+    assert bare.valid.shape == bare.host_time_s.shape == (0,)
+    for field in ("metadata", "device", "calibration", "counters", "complete", "created_utc", "format_version",
+                  "kind", "notes"):
+        assert getattr(bare, field) == getattr(whole, field), field
+    # a damaged chunk is seen only by reading it: the full load notes it, the bare one cannot
+    first, off, size = chunk_offsets(p, "counts")[1]
+    flip(p, off + size // 2)
+    assert any("8..15" in n for n in load_session(p).notes)
+    assert load_session(p, frames=False).notes == []
+    # what is wrong with the file's structure is refused as by the full load
+    bad = tmp_path / "bad.h5"
+    bad.write_bytes(b"\x89HDF\r\n\x1a\n" + b"\0" * 100)
+    for frames in (True, False):
+        with pytest.raises(SessionFormatError, match="bad.h5"):
+            load_session(bad, frames=frames)

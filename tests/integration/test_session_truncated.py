@@ -144,6 +144,8 @@ def test_every_cut_gives_back_the_frames_before_it(tmp_path: Path) -> None:
         except SessionFormatError as e:
             assert cut < data_start, (cut, str(e))  # only a cut before the first frame's chunk
             assert "cut.h5" in str(e) and "\n" not in str(e), str(e)
+            with pytest.raises(SessionFormatError):  # refused without reading frames too
+                load_session(p, frames=False)
             raised += 1
             continue
         ok = check_device(s, d, ends, 8, cut, f"cut {cut}")
@@ -152,6 +154,8 @@ def test_every_cut_gives_back_the_frames_before_it(tmp_path: Path) -> None:
             assert not any("damaged" in n for n in s.notes), (cut, s.notes)
             assert s.counters["dropped_frames"] == 2 and s.counters["bytes_discarded"] == 17, cut
         assert s.metadata == META and s.calibration == CAL and s.complete, cut
+        bare = load_session(p, frames=False)  # no frame read, the same cut found and noted
+        assert bare.n_frames == 0 and lost_note(cut, len(raw), ok) in bare.notes, (cut, bare.notes)
         recovered += int(s.valid.sum())
         assert sorted(x.name for x in tmp_path.iterdir()) == ["cut.h5", "good.h5"]  # nothing copied or left behind
     assert raised and recovered  # cuts fell in both the metadata and the frames

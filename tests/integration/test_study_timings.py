@@ -121,3 +121,22 @@ def test_on_a_dask_cluster_each_session_names_the_worker_that_ran_it(study: Path
     figures = sorted((results / "figures").glob("*.png"))
     assert figures and (by["figures"]["computed"], by["figures"]["reused"]) == (str(len(figures)), "0")
     assert sorted(p.name for p in (results / "reports").glob("*.html")) == ["V01.html", "V02.html"]
+
+
+def test_a_first_run_starts_its_pool_before_finding_the_sessions_and_a_rerun_does_not(tmp_path: Path) -> None:
+    from joblib.externals.loky import reusable_executor
+
+    from psmat.study._run import _start_pool
+
+    root = tmp_path / "first"
+    simulate_study(root, volunteers=1, duration_s=4.0, seed=7, rate_hz=50.0)
+    assert _start_pool(root, 1) is None  # one worker: the sessions run in this process
+    ready = _start_pool(root, 2)
+    assert ready is not None
+    ready()  # returns once both processes have started and loaded the study's modules
+    started = {p.pid for p in reusable_executor._executor._processes.values()}
+    assert len(started) == 2
+    run_study(root, workers=2, progress=False)
+    per = _read(root / "results" / "session_timings.csv")
+    assert {int(r["pid"]) for r in per} <= started  # the sessions ran in the processes started ahead
+    assert _start_pool(root, 2) is None  # stored results: a rerun may have nothing to compute

@@ -67,3 +67,13 @@ def test_bad_subjects_file(tmp_path, text, match) -> None:
 def test_no_sessions_folder(tmp_path) -> None:
     with pytest.raises(FileNotFoundError, match="sessions"):
         find_study(tmp_path)
+
+
+def test_each_session_carries_its_box_serial_read_once_with_its_metadata(study) -> None:
+    with SessionWriter(study / "sessions" / "S01_left.h5", (4, 4), {"rows": 4, "cols": 4, "serial": "BOX7"},
+                       metadata={"subject": "S01", "trial": "left-leg"}) as w:
+        w.append(np.full((3, 4, 4), 100, np.uint16), np.arange(3) * 0.01, np.ones(3, bool))
+    by = {i.stem: i for i in find_study(study).items}
+    assert by["S01_left"].serial == "BOX7"  # the key of its calibration file, calibration/BOX7.json
+    assert by["S01_right"].serial is None  # no serial in the device description
+    assert by["S04_bad"].serial is None  # unreadable

@@ -17,7 +17,8 @@ session stage's). Over each kind's runs the least-squares fit T(n) = S + P/n giv
 seconds S, the parallel seconds P and S's share of the largest count's run. The goal of
 docs/spec.md §10 (from 2 to 16 workers at least 80 % parallel efficiency) is marked met or
 MISSED when the counts hold 2 and 16. ``metrics.csv`` must be byte-identical across all runs;
-a difference is a problem line.
+a difference is a problem line. Each run prints one line as it ends (``run done: ...``, flushed),
+so that a benchmark stopped half-way, on a machine lent for a few minutes, keeps what it measured.
 """
 
 from __future__ import annotations
@@ -31,7 +32,9 @@ from collections.abc import Iterator, Sequence
 from pathlib import Path
 from typing import Any
 
-__all__ = ["parse_counts", "fit_serial_parallel", "usable_cpus", "stage_times", "run_scaling", "format_scaling",
+from .._cpus import usable_cpus
+
+__all__ = ["parse_counts", "fit_serial_parallel", "stage_times", "run_scaling", "format_scaling",
            "worker_environ", "local_cluster", "GOAL"]
 
 #: docs/spec.md §10: from 2 to 16 workers at least 80 % parallel efficiency
@@ -90,14 +93,6 @@ def fit_serial_parallel(counts: Sequence[int], times_s: Sequence[float]) -> tupl
     sxx = sum((xi - mx) ** 2 for xi in x)
     p = sum((xi - mx) * (yi - my) for xi, yi in zip(x, times_s)) / sxx
     return my - p * mx, p
-
-
-def usable_cpus() -> int:
-    """The CPUs this process may run on (its affinity; all of the machine's where that is unknown)."""
-    try:
-        return len(os.sched_getaffinity(0))
-    except (AttributeError, OSError):
-        return os.cpu_count() or 1
 
 
 def stage_times(path: Path) -> dict[str, dict[str, float]]:
@@ -233,6 +228,13 @@ def _metrics_check(runs: list[dict[str, Any]]) -> list[str]:
     return problems
 
 
+def _said(r: dict[str, Any]) -> dict[str, Any]:
+    """``r``, once its line is printed (flushed: a long benchmark stopped half-way keeps the runs it made)."""
+    print(f"run done: {_name(r)}: {r['wall_s']:.2f} s wall, serial part {r['serial_s']:.2f} s, "
+          f"{r['computed']} sessions computed", flush=True)
+    return r
+
+
 def _name(r: dict[str, Any]) -> str:
     return f"{KINDS[r['kind']]}, {r['workers']} worker{'s' if r['workers'] != 1 else ''}"
 
@@ -260,7 +262,7 @@ def run_scaling(root: str | os.PathLike[str], counts: Sequence[int], dask: bool 
     pool = []
     for n in counts:
         _stop_pool()
-        pool.append(_one_run(root, "pool", n, None, progress))
+        pool.append(_said(_one_run(root, "pool", n, None, progress)))
     _stop_pool()
     kinds = {"pool": pool}
     if dask:
@@ -269,7 +271,7 @@ def run_scaling(root: str | os.PathLike[str], counts: Sequence[int], dask: bool 
         except ImportError:
             out["dask_skipped"] = "Dask distributed is not installed (pip install 'psmat[cluster]')"
         else:
-            kinds["dask"] = [_dask_run(root, n, progress) for n in counts]
+            kinds["dask"] = [_said(_dask_run(root, n, progress)) for n in counts]
     runs = [r for rs in kinds.values() for r in rs]
     for kind, rs in kinds.items():
         _rate(rs)

@@ -59,6 +59,9 @@ class StudyItem:
     not_closed: str | None = None
     #: ``events/<stem>.csv`` when the study has one (its markers replace the session's)
     events: Path | None = None
+    #: the box serial in the session's device description (None: unreadable or absent), read with the
+    #: rest of its metadata so that a run does not open the file again to find its calibration
+    serial: str | None = None
 
     @property
     def ok(self) -> bool:
@@ -170,22 +173,25 @@ def scan_subjects(path: str | os.PathLike[str]) -> SubjectsFile:
     return SubjectsFile(subjects, refused, problems)
 
 
-def _session_meta(path: Path) -> tuple[str | None, str | None, str | None, bool, str | None]:
-    """(subject, trial, problem, simulated, not closed) from a session's metadata (the loader checks the
-    whole file, or reads the journal of a recording that was not closed)."""
+def _session_meta(path: Path) -> tuple[str | None, str | None, str | None, bool, str | None, str | None]:
+    """(subject, trial, problem, simulated, not closed, box serial) from a session's metadata (the
+    loader checks the file's structure and metadata but reads no frame, a third of the cost: a
+    damaged chunk is found, and noted, when the session is processed; it reads the journal of a
+    recording that was not closed)."""
     from ..io import SessionFormatError, load_session
     from ..io.session import not_closed_line, unfinished_reason
 
     try:
-        s = load_session(path)
+        s = load_session(path, frames=False)
     except (SessionFormatError, OSError) as exc:
         not_closed = not_closed_line(path) if not path.exists() else None
-        return None, None, f"unreadable session: {exc}", False, not_closed
+        return None, None, f"unreadable session: {exc}", False, not_closed, None
     meta = s.metadata
     subject = meta.get("subject")
     trial = meta.get("trial")
+    serial = s.device.get("serial")
     return ((None if subject is None else str(subject)), (None if trial is None else str(trial)), None,
-            meta.get("simulated") is True, unfinished_reason(path, s))
+            meta.get("simulated") is True, unfinished_reason(path, s), None if serial in (None, "") else str(serial))
 
 
 def find_study(root: str | os.PathLike[str]) -> StudyLayout:
@@ -219,9 +225,9 @@ def find_study(root: str | os.PathLike[str]) -> StudyLayout:
     logs = {p.stem: p for p in sorted((root / "events").glob("*")) if p.suffix.lower() == ".csv"}
     items = []
     for s in sorted({*sessions.glob("*.h5"), *journal_only(sessions)}):  # journal-only: never skipped silently
-        subject, trial, problem, simulated, not_closed = _session_meta(s)
+        subject, trial, problem, simulated, not_closed, serial = _session_meta(s)
         item = StudyItem(s.stem, s, plates.get(s.stem), subject, trial, simulated=simulated, not_closed=not_closed,
-                         events=logs.get(s.stem))
+                         events=logs.get(s.stem), serial=serial)
         if item.events is not None and (bad := events_problem(item.events)):
             item.problems.append(bad)
         if not_closed:

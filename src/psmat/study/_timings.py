@@ -7,7 +7,8 @@
 * ``keys`` — each session's key (the SHA-256 of its inputs' bytes) and the stored results
   proven against it (:mod:`psmat.study` (``_cache.py``));
 * ``sessions`` — the session tasks, from the pool's start (or the connection to the Dask
-  scheduler) to the last session's result; ``cpu_s`` is the sum of the tasks' CPU time in the
+  scheduler) to the last session's result; on a first run the pool's processes are started
+  before ``discover`` and this stage begins with what is left of their start-up; ``cpu_s`` is the sum of the tasks' CPU time in the
   processes that ran them;
 * ``reports`` — with ``--reports``: the pages still running after the last session (the pages are
   tasks of the same pool or cluster; without ``--reports``, the pool's shutdown); ``cpu_s``

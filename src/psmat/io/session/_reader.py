@@ -55,7 +55,7 @@ from ._truncated import (
 _DECODE_ERRORS = (OSError, KeyError, ValueError, TypeError, RuntimeError, IndexError, AttributeError, OverflowError)
 
 
-def load_session(path: str | os.PathLike[str], *, use_journal: bool = True) -> Session:
+def load_session(path: str | os.PathLike[str], *, use_journal: bool = True, frames: bool = True) -> Session:
     """Load a session file, or recover an interrupted recording from its journal.
 
     Parameters
@@ -66,6 +66,11 @@ def load_session(path: str | os.PathLike[str], *, use_journal: bool = True) -> S
         file is missing (the writer was killed before it closed) or unreadable.
     use_journal : bool
         False: read the HDF5 file only.
+    frames : bool
+        False: every check of the file's structure and metadata, but no frame read: the
+        session comes back with none (``n_frames`` 0), its notes without the damaged chunks
+        (those are found only by reading them). For listing a folder of sessions at a
+        third of the cost; a recording recovered from its journal is read whole.
 
     Returns
     -------
@@ -98,7 +103,7 @@ def load_session(path: str | os.PathLike[str], *, use_journal: bool = True) -> S
         return _from_journal(path, jpath, f"{path.name} missing (the writer did not close)")
     notes: list[str] = []
     try:
-        s = _from_h5(path, notes)
+        s = _from_h5(path, notes, frames)
     except SessionFormatError as e:
         if not have_j:
             raise
@@ -232,13 +237,13 @@ def _session(path: Path, kind: str, b: FrameBatch, **kw: Any) -> Session:
 
 
 # ====================================================================== HDF5
-def _from_h5(path: Path, notes: list[str]) -> Session:
+def _from_h5(path: Path, notes: list[str], frames: bool = True) -> Session:
     try:
         cut = truncation(path)  # shorter than its superblock records: HDF5 alone refuses it
     except OSError:
         cut = None
     if cut is not None:
-        return _from_cut_h5(path, notes, cut)
+        return _from_cut_h5(path, notes, cut, frames)
     try:
         is_h5 = h5py.is_hdf5(path)
     except OSError:
@@ -255,14 +260,14 @@ def _from_h5(path: Path, notes: list[str]) -> Session:
         raise SessionFormatError(f"{path}: corrupt HDF5 file, cannot be opened ({e})") from None
     try:
         with f:
-            return _read_open(f, path, notes)
+            return _read_open(f, path, notes, frames=frames)
     except SessionFormatError:
         raise
     except _DECODE_ERRORS as e:
         raise SessionFormatError(f"{path}: corrupt session file ({type(e).__name__}: {e})".replace("\n", " ")) from None
 
 
-def _from_cut_h5(path: Path, notes: list[str], cut: tuple[int, int]) -> Session:
+def _from_cut_h5(path: Path, notes: list[str], cut: tuple[int, int], frames: bool = True) -> Session:
     """A file cut short (:mod:`._truncated`): read with zeros past the cut; the chunks there are lost."""
     why = f"{path}: truncated at byte {cut[0]} of {cut[1]} (the size its superblock records)"
     padded = PaddedFile(path, cut[1])
@@ -272,7 +277,7 @@ def _from_cut_h5(path: Path, notes: list[str], cut: tuple[int, int]) -> Session:
         except OSError as e:
             raise SessionFormatError(f"{why}; the cut is in its metadata, it cannot be opened ({e})") from None
         with f:
-            return _read_open(f, path, notes, cut)
+            return _read_open(f, path, notes, cut, frames)
     except SessionFormatError:
         raise
     except _DECODE_ERRORS as e:
@@ -282,8 +287,10 @@ def _from_cut_h5(path: Path, notes: list[str], cut: tuple[int, int]) -> Session:
         padded.close()
 
 
-def _read_open(f: h5py.File, path: Path, notes: list[str], cut: tuple[int, int] | None = None) -> Session:
-    """The session in the open file ``f``; ``cut``: ``(bytes held, bytes recorded)`` of a file cut short."""
+def _read_open(f: h5py.File, path: Path, notes: list[str], cut: tuple[int, int] | None = None,
+               frames: bool = True) -> Session:
+    """The session in the open file ``f``; ``cut``: ``(bytes held, bytes recorded)`` of a file cut short;
+    ``frames`` False: no frame read (:func:`load_session`)."""
     a = f.attrs
     fmt = attr_str(a["format"]) if "format" in a else None
     if fmt != FORMAT_NAME:
@@ -300,7 +307,7 @@ def _read_open(f: h5py.File, path: Path, notes: list[str], cut: tuple[int, int] 
     check_objects(f, path, stored=complete, size=None if cut is None else cut[1])
     if cut is not None:
         check_recorded_size(f, path, cut)
-    kind, block = _read_device(f, path, complete, notes, cut)
+    kind, block = _read_device(f, path, complete, notes, cut, frames)
     metadata = _group_json(f, "metadata", path) or {}
     created = attr_str(a.get("created_utc", ""))
     s = _session(
@@ -321,7 +328,7 @@ def _read_open(f: h5py.File, path: Path, notes: list[str], cut: tuple[int, int] 
         st_notes: list[str] = []
         try:
             g = f["streams"][check_stream_name(name)]
-            kind_k, block_k = _read_device(g, path, complete, st_notes, cut)
+            kind_k, block_k = _read_device(g, path, complete, st_notes, cut, frames)
             streams[name] = _session(path, kind_k, block_k, device=_group_json(g, "device", path) or {},
                                      calibration=None, metadata=dict(metadata), counters=_counters(g, st_notes),
                                      version=version, created=created, complete=complete, recovered=False,
@@ -332,14 +339,15 @@ def _read_open(f: h5py.File, path: Path, notes: list[str], cut: tuple[int, int] 
 
 
 def _read_device(g: h5py.Group, path: Path, complete: bool, notes: list[str],
-                 cut: tuple[int, int] | None = None) -> tuple[str, FrameBatch]:
+                 cut: tuple[int, int] | None = None, frames: bool = True) -> tuple[str, FrameBatch]:
     """One device's frames from ``g`` (``/`` or ``/streams/NAME``): its kind and frames, damaged chunks invalid.
 
     Kind, dtypes, shapes and lengths are checked (:func:`check_device`) before anything is
     read; each chunk is then read alone and checked against its Fletcher-32 and, in files that
     have them, its CRC-32 (:mod:`._crc`). In a file cut short (``cut``: bytes held,
     bytes recorded) a chunk not wholly stored before the cut is lost, not read: its frames are
-    invalid, noted with the cut (:mod:`._truncated`).
+    invalid, noted with the cut (:mod:`._truncated`). ``frames`` False: the same checks and notes
+    but no chunk read, and no frames returned (a damaged chunk is then not seen).
     """
     a = g.attrs
     kind = attr_str(a["kind"])
@@ -354,10 +362,11 @@ def _read_device(g: h5py.Group, path: Path, complete: bool, notes: list[str],
     fill = 0 if KINDS[kind].dtype.kind in "ui" else np.nan
     held = None if cut is None else cut[0]
     lost = np.zeros(n, bool)
-    frames, bad = _read_chunked(g[dname], n, fill, notes, tables.get(dname), held, lost)
+    counts, bad = _read_chunked(g[dname], n, fill, notes, tables.get(dname), held, lost, frames)
     cols = {}
     for name in PER_FRAME:
-        cols[name], bad_k = _read_chunked(g[name], n, PER_FRAME_SPEC[name][3], notes, tables.get(name), held, lost)
+        cols[name], bad_k = _read_chunked(g[name], n, PER_FRAME_SPEC[name][3], notes, tables.get(name), held, lost,
+                                          frames)
         bad |= bad_k
     if cut is not None:
         notes.append(lost_note(cut, format_ranges(np.flatnonzero(lost))))
@@ -370,7 +379,7 @@ def _read_device(g: h5py.Group, path: Path, complete: bool, notes: list[str],
                      "a 16-bit word changed between 00 00 and FF FF, or a chunk moved to another position, "
                      "cannot be seen")
     valid = cols["valid"].astype(bool) & ~bad  # docs/spec.md §6: a damaged frame is never returned as valid
-    return kind, FrameBatch(frames, cols["host_time_s"], valid, cols["seq"], cols["device_time_us"])
+    return kind, FrameBatch(counts, cols["host_time_s"], valid, cols["seq"], cols["device_time_us"])
 
 
 def _crc_tables(g: h5py.Group, names: tuple[str, ...], n: int, path: Path,
@@ -401,23 +410,27 @@ def _crc_tables(g: h5py.Group, names: tuple[str, ...], n: int, path: Path,
 
 
 def _read_chunked(ds: h5py.Dataset, n: int, fill: Any, notes: list[str], crcs: NDArray[np.uint32] | None = None,
-                  held: int | None = None, lost: NDArray[np.bool_] | None = None
+                  held: int | None = None, lost: NDArray[np.bool_] | None = None, frames: bool = True
                   ) -> tuple[NDArray[Any], NDArray[np.bool_]]:
     """Rows ``[0, n)`` of ``ds``, chunk by chunk: a chunk failing a checksum becomes ``fill``, flagged.
 
     ``crcs``: the dataset's CRC-32 per chunk (:mod:`._crc`), checked after its Fletcher-32.
     ``held``: the bytes a file cut short holds; a chunk not wholly within them is not read but
     becomes ``fill``, flagged in ``bad`` and in ``lost`` (no damage note: the caller notes the cut).
+    ``frames`` False: no chunk read, only ``lost`` marked; no rows and no flags come back.
     """
-    out = np.empty((n, *ds.shape[1:]), ds.dtype)
+    out = np.empty((n if frames else 0, *ds.shape[1:]), ds.dtype)
     bad = np.zeros(n, bool)
     gone = np.zeros(n, bool)  # past the cut
     step = ds.chunks[0] if ds.chunks else max(n, 1)
     for i, a in enumerate(range(0, n, step)):
         b = min(a + step, n)
         if held is not None and (array_lost(ds, held) if ds.chunks is None else chunk_lost(ds, a, held)):
-            out[a:b] = fill  # past the cut: zeros, never returned as frames
+            if frames:
+                out[a:b] = fill  # past the cut: zeros, never returned as frames
             bad[a:b] = gone[a:b] = True
+            continue
+        if not frames:
             continue
         try:
             out[a:b] = ds[a:b]
@@ -430,6 +443,8 @@ def _read_chunked(ds: h5py.Dataset, n: int, fill: Any, notes: list[str], crcs: N
             bad[a:b] = True
     if lost is not None:
         lost |= gone
+    if not frames:
+        return out, np.zeros(0, bool)
     damaged = bad & ~gone
     if damaged.any():
         idx = np.flatnonzero(damaged)

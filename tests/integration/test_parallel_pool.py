@@ -1,0 +1,51 @@
+"""psmat._parallel: one pool of loky processes, kept between maps of different sizes and started ahead."""
+
+from __future__ import annotations
+
+import os
+import time
+
+import pytest
+
+from psmat._parallel import map_unordered, start_pool
+
+
+def _pid(_: object) -> int:
+    time.sleep(0.2)  # long enough that every process of the pool gets a task
+    return os.getpid()
+
+
+@pytest.fixture
+def sixteen_cores(monkeypatch: pytest.MonkeyPatch) -> None:
+    """joblib believes this machine has 16 cores, and no thread limit is set in the environment:
+    its default thread count for a pool's processes (cores // processes) then differs between a
+    pool of 4 and one of 2, as it did on a 16-core machine between a study's 16 session processes
+    and its 7 figure tasks."""
+    import joblib._parallel_backends as backends
+
+    monkeypatch.setattr(backends, "cpu_count", lambda *a, **k: 16)
+    for var in backends.ParallelBackendBase.MAX_NUM_THREADS_VARS:
+        monkeypatch.delenv(var, raising=False)
+
+
+def test_a_smaller_map_reuses_the_processes_of_a_larger_one(sixteen_cores: None) -> None:
+    first = set(map_unordered(_pid, range(4), 4))
+    assert len(first) == 4 and os.getpid() not in first
+    second = set(map_unordered(_pid, range(2), 2))
+    assert len(second) == 2 and second <= first  # the same processes: no new start, no import again
+
+
+def test_a_started_pool_is_the_one_the_map_uses(sixteen_cores: None) -> None:
+    ready = start_pool(os.getpid, 3, 3)
+    ready()
+    from joblib.externals.loky import reusable_executor
+
+    started = {p.pid for p in reusable_executor._executor._processes.values()}
+    assert len(started) == 3
+    assert set(map_unordered(_pid, range(3), 3)) == started
+
+
+def test_one_process_starts_nothing() -> None:
+    assert start_pool(os.getpid, 5, 1)() is None
+    assert start_pool(os.getpid, 1, 4)() is None
+    assert list(map_unordered(_pid, [0], 4)) == [os.getpid()]
