@@ -140,3 +140,15 @@ def test_a_first_run_starts_its_pool_before_finding_the_sessions_and_a_rerun_doe
     per = _read(root / "results" / "session_timings.csv")
     assert {int(r["pid"]) for r in per} <= started  # the sessions ran in the processes started ahead
     assert _start_pool(root, 2) is None  # stored results: a rerun may have nothing to compute
+
+
+def test_the_longest_sessions_are_handed_out_first(tmp_path: Path) -> None:
+    root = tmp_path / "romberg"
+    simulate_study(root, volunteers=1, duration_s=4.0, seed=8, rate_hz=50.0, romberg=True)  # Romberg: twice as long
+    sizes = {p.stem: p.stat().st_size for p in (root / "sessions").glob("*.h5")}
+    assert max(sizes, key=sizes.get) == "V01_romberg" and sorted(sizes.values())[-2] < sizes["V01_romberg"]
+    run_study(root, workers=1, progress=False)  # one worker: the tasks run in the order they are handed out
+    per = sorted(_read(root / "results" / "session_timings.csv"), key=lambda r: float(r["start_s"]))
+    assert per[0]["stem"] == "V01_romberg"
+    # the others, of one size, in the order of their file names
+    assert [r["trial"] for r in per[1:]] == ["left-leg", "right-leg", "rotation"]
