@@ -157,7 +157,7 @@ def test_the_counts_and_the_goal_mark() -> None:
 
 
 def test_scaling_options_refused_in_one_line(capsys) -> None:
-    for argv in (["--scaling", "2,two"], ["--dask"], ["--scaling", "1,1"]):
+    for argv in (["--scaling", "2,two"], ["--dask"], ["--dask-only"], ["--scaling", "1,1"]):
         assert main(["--quick", *argv]) == 2
         err = capsys.readouterr().err
         assert len(err.strip().splitlines()) == 1, err
@@ -208,6 +208,14 @@ def test_bench_dask_workers_start_without_the_malloc_trim_variable(monkeypatch) 
     assert os.environ.get("MALLOC_TRIM_THRESHOLD_") == "65536"
 
 
+def test_dask_only_runs_the_clusters_counts_alone(tmp_path) -> None:
+    text, r = _scaling(["--scaling", "1", "--dask-only"], tmp_path)
+    assert [m.group(1) for m in ROW.finditer(text)] == ["Dask LocalCluster"]  # no pool's run
+    assert [(x["kind"], x["workers"], x["computed"]) for x in r["scaling"]["runs"]] == [("dask", 1, 3)]
+    assert "speed-up over the pool" not in text and "pool:" not in text
+    assert re.search(r"^run done: Dask LocalCluster, 1 worker: [\d.]+ s wall", text, re.M)
+
+
 def test_dask_skipped_in_one_line_without_distributed(tmp_path) -> None:
     # a distributed package that cannot be imported, ahead of the installed one on the path
     blocked = tmp_path / "blocked" / "distributed"
@@ -222,6 +230,12 @@ def test_dask_skipped_in_one_line_without_distributed(tmp_path) -> None:
     skipped = [line for line in proc.stdout.splitlines() if line.startswith("Dask")]
     assert skipped == ["Dask: skipped, Dask distributed is not installed (pip install 'psmat[cluster]')"]
     assert "pool: fit T(n) = S + P/n needs two worker counts at least" in proc.stdout
+    # --dask-only with no Dask to run on: one line, nothing run
+    proc = subprocess.run([sys.executable, "-m", "psmat.bench", "study", "--quick", "--scaling", "1", "--dask-only"],
+                          capture_output=True, text=True, timeout=300, check=False, cwd=tmp_path, env=env)
+    assert proc.returncode == 2 and proc.stdout == ""
+    assert proc.stderr.strip().splitlines() == [
+        "python -m psmat.bench study: --dask-only needs Dask distributed (pip install 'psmat[cluster]')"]
 
 
 def test_a_metrics_difference_is_a_problem_line() -> None:

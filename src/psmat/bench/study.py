@@ -1,7 +1,7 @@
 """Balance-study benchmark (docs/spec.md §10, thesis-size study): ``python -m psmat.bench study``.
 
 ``python -m psmat.bench study [--volunteers 42] [--seconds 60] [--rate 100] [--workers 2 | --scaling 2,4,8,16]
-[--dask] [--dir PATH] [--seed K] [--no-baseline] [--json PATH] [--quick]``
+[--dask | --dask-only] [--dir PATH] [--seed K] [--no-baseline] [--json PATH] [--quick]``
 
 What is measured
 ----------------
@@ -43,7 +43,9 @@ workers at least 80 % parallel efficiency — marked met or MISSED when 2 and 16
 (``psmat study run --scheduler``), one cluster per count, started before the clock and closed
 after. ``metrics.csv`` must be byte-identical across every run; a count above this process's
 CPUs is run but flagged, its efficiency then measuring oversubscription
-(:mod:`psmat.bench.study_scaling`). On a 16-core machine:
+(:mod:`psmat.bench.study_scaling`). ``--dask-only`` runs the LocalCluster's counts alone, so that
+the two kinds can be measured in two sittings (``--dir`` keeps the study for the second). On a
+16-core machine:
 
     python -m psmat.bench study --scaling 2,4,8,16 --dask
 """
@@ -84,10 +86,10 @@ def _frames(layout: Any) -> int:
 
 def run(volunteers: int = 42, seconds: float = 60.0, rate_hz: float = 100.0, workers: int = 2, seed: int = 0,
         study_dir: str | None = None, baseline: bool = True, scaling: list[int] | None = None,
-        dask: bool = False) -> dict[str, Any]:
+        dask: bool = False, pool: bool = True) -> dict[str, Any]:
     """Simulate (or reuse) a study and time its processing; the figures as a dict. With
     ``scaling`` (worker counts) its runs at each count instead (``workers`` and ``baseline``
-    unused; ``dask``: on a LocalCluster too), under ``"scaling"``
+    unused; ``dask``: on a LocalCluster too, and with ``pool`` False only there), under ``"scaling"``
     (:func:`psmat.bench.study_scaling.run_scaling`)."""
     from ..study import find_study
     from ..study import run_study
@@ -116,7 +118,7 @@ def run(volunteers: int = 42, seconds: float = 60.0, rate_hz: float = 100.0, wor
             from .study_scaling import run_scaling
 
             out["workers"] = None
-            out["scaling"] = run_scaling(root, scaling, dask=dask)
+            out["scaling"] = run_scaling(root, scaling, dask=dask, pool=pool)
             return out
 
         shutil.rmtree(root / "results", ignore_errors=True)
@@ -241,6 +243,9 @@ def build_parser(prog: str = "python -m psmat.bench study") -> argparse.Argument
                              "such as 2,4,8,16 (not with --workers; no rerun, no baseline)")
     p.add_argument("--dask", action="store_true",
                    help="with --scaling: the same counts on a Dask LocalCluster too (needs Dask distributed)")
+    p.add_argument("--dask-only", action="store_true",
+                   help="with --scaling: the LocalCluster's runs alone, without the pool's (to split a "
+                        "measurement in two sittings)")
     p.add_argument("--seed", type=int, default=0, help="seed of the simulated study")
     p.add_argument("--dir", metavar="PATH", default=None,
                    help="keep the simulated study here, reused when it matches (default: a temporary folder)")
@@ -270,9 +275,16 @@ def main(argv: list[str] | None = None, prog: str = "python -m psmat.bench study
         except ValueError as exc:
             print(f"{prog}: {exc}", file=sys.stderr)
             return 2
-    elif a.dask:
-        print(f"{prog}: --dask goes with --scaling (the worker counts to run on a LocalCluster)", file=sys.stderr)
+    elif a.dask or a.dask_only:
+        print(f"{prog}: --dask and --dask-only go with --scaling (the worker counts to run on a LocalCluster)",
+              file=sys.stderr)
         return 2
+    if a.dask_only:
+        try:
+            import distributed  # noqa: F401
+        except ImportError:
+            print(f"{prog}: --dask-only needs Dask distributed (pip install 'psmat[cluster]')", file=sys.stderr)
+            return 2
     from .._atomic import OutputRefused, check_outputs, write_text_atomic
 
     try:  # before any work: an existing file only with --overwrite
@@ -280,7 +292,8 @@ def main(argv: list[str] | None = None, prog: str = "python -m psmat.bench study
     except OutputRefused as exc:
         print(f"{prog}: {exc}", file=sys.stderr)
         return 1
-    r = run(a.volunteers, a.seconds, a.rate, a.workers, a.seed, a.dir, not a.no_baseline, scaling, a.dask)
+    r = run(a.volunteers, a.seconds, a.rate, a.workers, a.seed, a.dir, not a.no_baseline, scaling,
+            a.dask or a.dask_only, not a.dask_only)
     print(format_report(r))
     if a.json:
         write_text_atomic(a.json, json.dumps(r, indent=2, default=str))

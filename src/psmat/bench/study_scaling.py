@@ -240,7 +240,7 @@ def _name(r: dict[str, Any]) -> str:
 
 
 def run_scaling(root: str | os.PathLike[str], counts: Sequence[int], dask: bool = False,
-                progress: bool = True) -> dict[str, Any]:
+                progress: bool = True, pool: bool = True) -> dict[str, Any]:
     """Run the study in ``root`` from scratch at each worker count, on the pool and with ``dask``
     on a LocalCluster; the runs, fits, goal and checks as plain data (:func:`format_scaling`).
 
@@ -254,17 +254,24 @@ def run_scaling(root: str | os.PathLike[str], counts: Sequence[int], dask: bool 
         Also run each count on a Dask LocalCluster (skipped, with a note, without Dask distributed).
     progress : bool
         The runs' progress bars (on stderr).
+    pool : bool
+        False: the LocalCluster's runs only (with ``dask``), say to measure the two kinds in two
+        sittings on a machine lent for a few minutes.
     """
     root = Path(root)
     counts = list(counts)
     cpus = usable_cpus()
     out: dict[str, Any] = {"counts": counts, "usable_cpus": cpus, "problems": []}
-    pool = []
-    for n in counts:
+    if not pool and not dask:
+        raise ValueError("nothing to run: the pool's runs left out and no Dask runs asked for")
+    kinds = {}
+    if pool:
+        runs = []
+        for n in counts:
+            _stop_pool()
+            runs.append(_said(_one_run(root, "pool", n, None, progress)))
         _stop_pool()
-        pool.append(_said(_one_run(root, "pool", n, None, progress)))
-    _stop_pool()
-    kinds = {"pool": pool}
+        kinds["pool"] = runs
     if dask:
         try:
             import distributed  # noqa: F401
@@ -332,7 +339,7 @@ def format_scaling(s: dict[str, Any], sessions: int | None = None) -> str:
             lines.append(f"{KINDS[kind]}: {lo}->{hi} goal not measured here: counts "
                          f"{','.join(map(str, s['counts']))}; efficiency at {mine[-1]['workers']} workers against "
                          f"{mine[0]['workers']}: {mine[-1]['efficiency']:.2f}")
-    if "dask" in kinds:
+    if "dask" in kinds and "pool" in kinds:
         by = {r["workers"]: r["wall_s"] for r in runs if r["kind"] == "pool"}
         ratios = ", ".join(f"{n}: {by[n] / r['wall_s']:.2f}" for r in runs if r["kind"] == "dask"
                            for n in [r["workers"]])
