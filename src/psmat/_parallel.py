@@ -13,7 +13,7 @@ from collections import deque
 from collections.abc import Callable, Iterator, Sequence
 from typing import TypeVar
 
-__all__ = ["map_unordered", "start_pool"]
+__all__ = ["map_unordered", "start_pool", "uses_pool"]
 
 T = TypeVar("T")
 R = TypeVar("R")
@@ -57,6 +57,12 @@ def start_pool(fn: Callable[[], object], count: int, workers: int | None = None)
         return lambda: None
     started = _parallel(n, fn, [()] * n)
     return lambda: deque(started, maxlen=0)
+
+
+def uses_pool(workers: int | None, count: int) -> bool:
+    """Whether :func:`map_unordered` with ``count`` items and ``workers`` runs them in the pool
+    (more than one process) rather than in this process."""
+    return _processes(workers, count) > 1
 
 
 def _processes(workers: int | None, count: int) -> int:

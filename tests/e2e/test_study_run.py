@@ -211,6 +211,9 @@ def test_processes_and_a_dask_cluster_give_the_same_bytes(study, tmp_path) -> No
         assert (dask / "results" / "figures" / name).read_bytes() == (two / "results" / "figures" / name).read_bytes()
     ran = {str(t["key"]).rsplit("-", 1)[0]: t["worker"] for t in stream.data}
     assert {f"psmat-figure-{name[:-len('.png')]}" for name in figures} <= set(ran)
+    # SCHC-DYN's per-session part too: one task per volunteer, on the cluster's workers
+    dyn = [t for t in stream.data if str(t["key"]).startswith("psmat-dynamic-")]
+    assert len(dyn) == len(SUBJECTS) and {t["worker"] for t in dyn} <= workers
     assert set(ran.values()) <= workers
     for name in ("V01_right-leg", "V02_left-leg"):
         mine, ref = (json.loads((d / "results" / "sessions" / f"{name}.json").read_text()) for d in (dask, root))

@@ -14,7 +14,7 @@ through its scheduler file and gives the same bytes; a worker sending a pickle i
 task's time and a figure come back as data, checked (a PNG built here by hand from its
 specification is accepted, each damage to it refused); the cluster's figures are the bytes this
 process draws, and a figure a worker sends as a pickle is refused, never unpickled, and drawn
-here instead.
+here instead; likewise each volunteer's SCHC-DYN corrections, computed here when refused.
 """
 
 from __future__ import annotations
@@ -480,6 +480,66 @@ def test_the_cluster_draws_the_figures_this_process_draws_and_a_pickled_one_is_d
     assert not sentinel.exists()
     assert all(rogue[n].read_bytes() == here[n].read_bytes() for n in figures)
     assert len(times["rogue"]) == 4 and all((t.pid, t.worker) == (os.getpid(), "") for t in times["rogue"])
+
+
+def _dynamic_tasks(root: Path):
+    """The study's SCHC-DYN tasks, planned from its stored results as a run plans them."""
+    from psmat.study._cache import TraceFiles, normalise_rows
+    from psmat.study._dynamic import plan_dynamic
+    from psmat.study._dynamic_tasks import dynamic_tasks
+
+    folder = root / "results" / "sessions"
+    docs = [json.loads(p.read_text()) for p in sorted(folder.glob("*.json"))]
+    rows = [r for d in docs for r in normalise_rows(d["rows"])]
+    files = TraceFiles({(d["rows"][0]["subject"], d["rows"][0]["trial"]): folder / d["traces"] for d in docs})
+    plan = plan_dynamic(rows, files, stats={k: files.stats(k) for k in files}, trust_stats=True)
+    return dynamic_tasks(plan, {k: files.path(k) for k in plan.jobs}, preprocess="quijoux2021")
+
+
+def _same_answers(a, b) -> bool:
+    """Two lists of (trial, row, trace) equal bit for bit (NaN where both hold NaN)."""
+    def same(u, v) -> bool:
+        return (isinstance(u, float) and isinstance(v, float) and u != u and v != v) or u == v
+
+    return len(a) == len(b) and all(
+        ta == tb and ra.keys() == rb.keys() and all(same(ra[k], rb[k]) for k in ra)
+        and (ca is None) == (cb is None) and (ca is None or ca.tobytes() == cb.tobytes())
+        for (ta, ra, ca), (tb, rb, cb) in zip(a, b))
+
+
+def test_the_cluster_corrects_each_volunteer_as_this_process_does_and_a_pickled_answer_is_computed_here(
+        study, tls_cluster, tmp_path, monkeypatch) -> None:
+    import cloudpickle
+    import distributed
+
+    from psmat.study import Cluster
+    from psmat.study import _cluster
+    from psmat.study._dynamic_tasks import run_dynamic
+
+    root, _ = study
+    cluster, security, _ = tls_cluster
+    tasks = _dynamic_tasks(root)
+    assert len(tasks) == 2 and all(len(t.sessions) == 2 for t in tasks)
+    here = {t.subject: run_dynamic(t) for t in tasks}
+    assert all(r["status"] == "ok" for a in here.values() for _, r, _ in a)
+    with distributed.Client(cluster.scheduler_address, security=security) as client:
+        pids = client.run(os.getpid)
+    run = _cluster.cluster_dynamic(Cluster(cluster.scheduler_address, security=security))
+    got = list(run(tasks))
+    assert sorted(t.subject for t, _, _ in got) == ["V01", "V02"]
+    for task, answers, took in got:
+        assert pids.get(took.worker) == took.pid != os.getpid()
+        assert _same_answers(answers, here[task.subject])
+    # workers answering with a pickle: refused before it is read, each volunteer computed here
+    cloudpickle.register_pickle_by_value(sys.modules[__name__])
+    sentinel = tmp_path / "ran"
+    payload = pickle.dumps(_MakeDir(str(sentinel)))
+    monkeypatch.setattr(_cluster, "run_dynamic_plain", lambda t: _rogue(payload))
+    got = list(run(tasks))
+    assert not sentinel.exists() and len(got) == 2
+    for task, answers, took in got:
+        assert (took.pid, took.worker) == (os.getpid(), "")
+        assert _same_answers(answers, here[task.subject])
 
 
 def test_figures_are_drawn_here_when_the_cluster_cannot_be_reached(study, tmp_path) -> None:

@@ -10,7 +10,8 @@ session, the whole study, its results.
   (:func:`result_key`, :func:`file_sha256`, :func:`study_lock`); results cross processes as plain
   data (:func:`encode_result`, :func:`decode_result`, :class:`Expect`);
 * :func:`dynamic_rows` — SCHC-DYN, a linear correction fitted on the other volunteers
-  (:func:`fit_correction`; :func:`session_stats`, each session's own part of its fit);
+  (:func:`fit_correction`; :func:`session_stats`, each session's own part of its fit;
+  :func:`plan_dynamic` the fits and :func:`correct_session` one session's part, as a run splits it);
 * :func:`write_results` — summary, figures and report (:func:`summary_rows`, :func:`pairwise_rows`,
   :func:`index_rows`, :func:`median_session`); :mod:`psmat.study.thesis_tables` holds the
   thesis' Tables 3.5-3.8 they are compared with.
@@ -22,7 +23,7 @@ private module (``_trial.py``, ``_run.py``, ...); the names below are the packag
 from . import thesis_tables
 from ._cache import file_sha256, result_key, study_lock
 from ._cluster import Cluster, on_cluster, security
-from ._dynamic import dynamic_rows, fit_correction, session_stats
+from ._dynamic import DynamicPlan, correct_session, dynamic_rows, fit_correction, plan_dynamic, session_stats
 from ._figures import median_session
 from ._layout import StudyItem, StudyLayout, Subject, find_study, read_subjects
 from ._plain import Expect, decode_result, digest, encode_result, first_line, parse_json
@@ -36,4 +37,5 @@ __all__ = ["Subject", "StudyItem", "StudyLayout", "find_study", "read_subjects",
            "METRICS", "DEFAULT_PARAMS", "Rows", "Traces", "RunReport", "SessionTask", "run_study", "Cluster",
            "on_cluster", "security", "file_sha256", "result_key", "study_lock", "Expect", "encode_result",
            "decode_result", "digest", "first_line", "parse_json", "dynamic_rows", "fit_correction", "write_results",
-           "session_stats", "summary_rows", "pairwise_rows", "index_rows", "median_session", "thesis_tables"]
+           "session_stats", "plan_dynamic", "correct_session", "DynamicPlan", "summary_rows", "pairwise_rows",
+           "index_rows", "median_session", "thesis_tables"]

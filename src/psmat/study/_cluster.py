@@ -29,6 +29,10 @@ What psmat narrows, where Dask allows it:
   process instead; a page (``--reports``) comes back as its HTML text, checked to hold only what
   psmat's pages hold (:func:`psmat.report.check_page`: no script, no link, no other style
   sheet) — a page refused is a problem line of the run, tried again next run.
+* **SCHC-DYN's per-volunteer corrections are tasks of the cluster too**
+  (:mod:`psmat.study` (``_dynamic_tasks.py``)): each sends its rows and corrected traces back as
+  an ``.npz`` of JSON and float64 arrays, checked (:func:`psmat.study._dynamic_tasks.decode_dynamic`)
+  before use; an answer refused or lost is computed in this process instead.
 * **TLS and authentication are passed through**: ``scheduler_file`` (the JSON a scheduler
   writes with ``--scheduler-file``) and a :class:`distributed.Security` (TLS CA, client
   certificate and key, ``require_encryption``; :func:`security`). Dask's TLS is mutual: the
@@ -49,6 +53,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+from ._dynamic_tasks import Answer, DynamicTask, RunDynamic, decode_dynamic, encode_dynamic, run_dynamic, task_key
 from ._figure_tasks import FigureTask, draw_figure
 from ._plain import check_timed, decode_result, encode_result, first_line, stamp
 from ._reports import ReportTask, render_page
@@ -60,7 +65,7 @@ if TYPE_CHECKING:  # pragma: no cover
     from ._task import SessionTask
 
 __all__ = ["PLAIN_DESERIALIZERS", "Cluster", "security", "run_encoded", "run_session", "run_page", "run_figure",
-           "run_on_cluster", "on_cluster", "cluster_drawer"]
+           "run_on_cluster", "on_cluster", "cluster_drawer", "run_dynamic_plain", "cluster_dynamic"]
 
 #: the only way a result may come back to the client: msgpack (bytes, numbers, text, lists, maps)
 PLAIN_DESERIALIZERS = ("msgpack",)
@@ -279,6 +284,35 @@ def on_cluster(todo: Sequence[SessionTask], cluster: Cluster, fn: Callable[[Sess
         yield out
 
 
+def _checked_or_here(cluster: Cluster, tasks: Sequence[Any], jobs: Callable[[Any], tuple[Callable[[Any], Any], str]],
+                     check: Callable[[Any, Any], Any], here: Callable[[Any], Any]
+                     ) -> Iterator[tuple[Any, Any, TaskTime | None]]:
+    """(task, value, time) for each task: run on the cluster (``jobs(task)``: what the worker
+    runs and its Dask key) and its answer passed through ``check(task, result)``, or, when that
+    answer is refused or lost, or the cluster cannot be reached, ``here(task)`` in this process."""
+    if not tasks:
+        return
+    again: list[Any] = []
+    done: set[int] = set()
+    try:
+        with _client(cluster) as client:
+            for task, result, took, exc in _answers(client, [(fn, t, key) for t in tasks for fn, key in [jobs(t)]]):
+                try:
+                    if exc is not None:
+                        raise exc
+                    value = check(task, result)
+                except Exception:  # noqa: BLE001 - refused or lost: done here below
+                    again.append(task)
+                    continue
+                done.add(id(task))
+                yield task, value, took
+    except (RuntimeError, OSError):  # the cluster cannot be reached now: every task not yet had
+        again = [t for t in tasks if id(t) not in done]
+    for t in again:
+        value, took = timed(here, t)
+        yield t, value, took
+
+
 def cluster_drawer(cluster: Cluster) -> DrawFigures:
     """What runs the figure tasks on the cluster (:func:`psmat.study.write_results`' ``draw``):
     each figure a task (:func:`run_figure`), its PNG checked (:func:`psmat._png.check_png`) and
@@ -286,30 +320,48 @@ def cluster_drawer(cluster: Cluster) -> DrawFigures:
     cannot be reached, drawn in this process instead (the bytes are the task's alone)."""
     from .._png import check_png
 
+    def check(task: FigureTask, result: Any) -> tuple[str, bytes]:
+        if not isinstance(result, (tuple, list)) or len(result) != 2 or result[0] != task.name:
+            raise ValueError(f"not the figure {task.name}")
+        return task.name, check_png(result[1])
+
     def draw(tasks: list[FigureTask]) -> Iterator[tuple[str, bytes, TaskTime | None]]:
-        if not tasks:
-            return
-        again: list[FigureTask] = []
-        done: set[str] = set()
-        try:
-            with _client(cluster) as client:
-                for task, result, took, exc in _answers(client, [(run_figure, t, f"psmat-figure-{t.name}-{t.key}")
-                                                                  for t in tasks]):
-                    try:
-                        if exc is not None:
-                            raise exc
-                        if not isinstance(result, (tuple, list)) or len(result) != 2 or result[0] != task.name:
-                            raise ValueError(f"not the figure {task.name}")
-                        data = check_png(result[1])
-                    except Exception:  # noqa: BLE001 - refused or lost: drawn here below
-                        again.append(task)
-                        continue
-                    done.add(task.name)
-                    yield task.name, data, took
-        except (RuntimeError, OSError):  # the cluster cannot be reached now: every figure not yet had
-            again = [t for t in tasks if t.name not in done]
-        for t in again:
-            (name, data), took = timed(draw_figure, t)
+        for _, (name, data), took in _checked_or_here(
+                cluster, tasks, lambda t: (run_figure, f"psmat-figure-{t.name}-{t.key}"), check, draw_figure):
             yield name, data, took
 
     return draw
+
+
+def _encoded_dynamic(task: DynamicTask) -> bytes:
+    """One volunteer's SCHC-DYN on a worker as :func:`encode_dynamic`'s bytes; b"" (refused by
+    the client, which then computes it) when it raised: an exception is never sent back."""
+    try:
+        return encode_dynamic(task, run_dynamic(task))
+    except Exception:  # noqa: BLE001 - see above
+        return b""
+
+
+def run_dynamic_plain(task: DynamicTask) -> tuple[bytes, dict[str, Any]]:
+    """One volunteer's SCHC-DYN on a worker: (:func:`_encoded_dynamic`'s bytes, its time)."""
+    return _stamped(_encoded_dynamic, task)
+
+
+def cluster_dynamic(cluster: Cluster) -> RunDynamic:
+    """What runs SCHC-DYN's tasks (:mod:`psmat.study` (``_dynamic_tasks.py``)) on the cluster: each
+    answer checked (:func:`decode_dynamic`, against the length of each session's trace read here)
+    or, refused or lost, computed in this process."""
+    import numpy as np
+
+    def check(task: DynamicTask, result: Any) -> list[Answer]:
+        lengths = {}
+        for trial, path, _, _ in task.sessions:
+            with np.load(path) as z:
+                lengths[trial] = int(z["t_s"].shape[0])
+        return decode_dynamic(result, task, lengths)
+
+    def run(tasks: list[DynamicTask]) -> Iterator[tuple[DynamicTask, list[Answer], TaskTime | None]]:
+        yield from _checked_or_here(cluster, tasks, lambda t: (run_dynamic_plain, f"psmat-dynamic-{task_key(t)}"),
+                                    check, run_dynamic)
+
+    return run

@@ -49,7 +49,8 @@ from ._conditions import condition_of
 from ._row_metrics import descriptor_values, sway_metrics
 from ._trial import COLUMNS
 
-__all__ = ["MODELS", "Correction", "fit_correction", "dynamic_rows", "session_stats"]
+__all__ = ["MODELS", "Correction", "DynamicPlan", "fit_correction", "dynamic_rows", "plan_dynamic", "correct_session",
+           "session_stats"]
 
 MODELS = ("gain", "fir", "tf")
 Key = tuple[str, str]  # (subject, trial)
@@ -280,6 +281,46 @@ def dynamic_rows(rows: Sequence[Mapping[str, Any]], traces: Mapping[Key, Mapping
         ``{(subject, trial): {"t_s", "FP", "<base>-DYN"}}`` for the corrected sessions; the
         corrected trace is absolute (the base trace's mean added back).
     """
+    plan = plan_dynamic(rows, traces, base=base, folds=folds, model=model, by_trial=by_trial, rate_hz=rate_hz,
+                        fir_half_s=fir_half_s, ridge=ridge, stats=stats)
+    new_traces: dict[Key, dict[str, NDArray[np.float64]]] = {}
+    for key, (r, corr) in plan.jobs.items():  # each usable session's series was read by the plan
+        s = plan.series[key]
+        plan.rows[key], c = correct_session(s, r, corr, plan.fs, base=base, preprocess=preprocess,
+                                            descriptors=descriptors)
+        if c is not None:
+            new_traces[key] = {"t_s": s.t, "FP": s.fp, plan.name: c}
+    return [plan.rows[k] for k in plan.order if k in plan.rows], new_traces
+
+
+@dataclass
+class DynamicPlan:
+    """What :func:`dynamic_rows` decides before any session is corrected: the fitting rate, the
+    rows already final (a session not usable or without a model to fit on) and, for every other
+    session, its base row and the correction fitted without its volunteer. Each of those is then
+    corrected alone (:func:`correct_session`), in any process."""
+
+    name: str  # the variant, "<base>-DYN"
+    fs: float  # the fitting rate, Hz
+    order: list[Key]  # the sessions with a base row, in the rows' order
+    rows: dict[Key, dict[str, Any]]  # final rows
+    jobs: dict[Key, tuple[Mapping[str, Any], Correction]]  # base row and correction of each session to correct
+    series: dict[Key, _Series]  # the series read while planning (resampled at fs), reused by the corrections
+
+
+def plan_dynamic(rows: Sequence[Mapping[str, Any]], traces: Mapping[Key, Mapping[str, Any]], *, base: str = "SCHC",
+                 folds: int | None = None, model: str = "fir", by_trial: bool = True, rate_hz: float | None = None,
+                 fir_half_s: float = 0.1, ridge: float = 1e-3, stats: Mapping[Key, Mapping[str, Any]] | None = None,
+                 trust_stats: bool = False) -> DynamicPlan:
+    """The fits of :func:`dynamic_rows` (same parameters) and what is left to do per session.
+
+    With ``trust_stats`` (the FIR model only), a session whose ``stats`` hold a rate is taken as
+    usable without reading its trace: the statistics were formed from that very trace by
+    :func:`session_stats`, which forms none for a trace that is not usable (a study's own
+    sessions, :func:`psmat.study.run_study`). Traces are then read only for the sessions without
+    statistics and for those formed at another rate than the fitting rate. Otherwise every
+    candidate's trace is read, as :func:`dynamic_rows` documents.
+    """
     if model not in MODELS:
         raise ValueError(f"unknown model {model!r}; choose one of {MODELS}")
     if folds is not None and (isinstance(folds, bool) or not isinstance(folds, (int, np.integer)) or folds < 2):
@@ -293,7 +334,10 @@ def dynamic_rows(rows: Sequence[Mapping[str, Any]], traces: Mapping[Key, Mapping
             continue
         by_key.setdefault((str(r["subject"]), str(r["trial"])), {})[str(r["variant"])] = r
     out: dict[Key, dict[str, Any]] = {}
-    usable: dict[Key, _Series] = {}
+    given = stats or {}
+    trusted = trust_stats and model == "fir"
+    rates: dict[Key, float] = {}  # the usable sessions' own rates, Hz
+    series: dict[Key, _Series] = {}
     for key, vs in by_key.items():
         if base not in vs:
             continue
@@ -302,27 +346,40 @@ def dynamic_rows(rows: Sequence[Mapping[str, Any]], traces: Mapping[Key, Mapping
         if why is not None:
             out[key] = _row(vs[base], name, f"not corrected: {why}")
             continue
+        own = given.get(key)
+        if trusted and own and "rate_hz" in own:
+            rates[key] = float(own["rate_hz"])
+            continue
         s = _series(traces.get(key), base)
         if isinstance(s, str):
             out[key] = _row(vs[base], name, f"not corrected: {s}")
         else:
-            usable[key] = s
-    if usable:
-        fs = float(rate_hz) if rate_hz is not None else float(np.median([_rate(s.t) for s in usable.values()]))
-        for s in usable.values():
-            s.resample(fs)
-    fold = _fold_of({k[0] for k in usable}, folds)
+            series[key] = s
+            rates[key] = float(_rate(s.t))
+    fs = (float(rate_hz) if rate_hz is not None else float(np.median(list(rates.values())))) if rates else 1.0
+    for s in series.values():
+        s.resample(fs)
+    half = _fir_half(fir_half_s, fs)
+    fir: dict[Key, list[tuple[NDArray[np.float64], NDArray[np.float64]]]] = {}
+    if model == "fir":  # formed once, summed by every fold
+        for k in rates:
+            formed = _given_stats(given.get(k), fs, half)
+            if formed is None:
+                if k not in series:  # statistics at another rate: the trace after all
+                    s = _series(traces.get(k), base)
+                    assert not isinstance(s, str)  # its statistics say it is usable
+                    s.resample(fs)
+                    series[k] = s
+                formed = [_fir_stats(series[k].x[:, a], series[k].y[:, a], half) for a in range(2)]
+            fir[k] = formed
+    fold = _fold_of({k[0] for k in rates}, folds)
     fits: dict[tuple[int, str | None], Correction | None] = {}  # one fit per held-out fold (and trial type)
-    half = _fir_half(fir_half_s, fs) if usable else 1
-    given = stats or {}
-    fir = ({k: _given_stats(given.get(k), fs, half) or [_fir_stats(v.x[:, a], v.y[:, a], half) for a in range(2)]
-            for k, v in usable.items()} if model == "fir" else {})  # formed once, summed by every fold
-    new_traces: dict[Key, dict[str, NDArray[np.float64]]] = {}
-    for key, s in usable.items():
+    jobs: dict[Key, tuple[Mapping[str, Any], Correction]] = {}
+    for key in rates:
         subject, trial = key
         scope = (fold[subject], trial if by_trial else None)
         if scope not in fits:
-            train = [k for k in usable if fold[k[0]] != scope[0] and scope[1] in (None, k[1])]
+            train = [k for k in rates if fold[k[0]] != scope[0] and scope[1] in (None, k[1])]
             if not train:
                 fits[scope] = None
             elif model == "fir":
@@ -330,19 +387,34 @@ def dynamic_rows(rows: Sequence[Mapping[str, Any]], traces: Mapping[Key, Mapping
                                                                 sum(fir[k][a][1] for k in train), ridge)
                                                       for a in range(2)), fs)
             else:
-                fits[scope] = fit_correction([usable[k].x for k in train], [usable[k].y for k in train], fs,
+                fits[scope] = fit_correction([series[k].x for k in train], [series[k].y for k in train], fs,
                                              model=model, fir_half_s=fir_half_s, ridge=ridge)
         corr, r = fits[scope], by_key[key][base]
         if corr is None:
             where = f" with a {trial!r} trial" if by_trial else ""
             out[key] = _row(r, name, f"not corrected: no other volunteer{where} to fit on (fewer than 2 volunteers)")
-            continue
-        c = _at(s.t, s.grid, corr.apply(s.x)) + s.mat.mean(axis=0)
-        a, b = c - c.mean(axis=0), s.fp - s.fp.mean(axis=0)
-        metrics = {**sway_metrics(s.t, c, 1.0 / float(np.median(np.diff(s.t))), preprocess), "eu_cm": eu(a, b),
-                   "eu_ml_cm": eu(a[:, 0], b[:, 0]), "eu_ap_cm": eu(a[:, 1], b[:, 1])}
-        if descriptors is not None:
-            metrics.update(descriptor_values(s.t, c, descriptors))
-        out[key] = _row(r, name, "ok", **metrics)
-        new_traces[key] = {"t_s": s.t, "FP": s.fp, name: c}
-    return [out[k] for k in by_key if k in out], new_traces
+        else:
+            jobs[key] = (r, corr)
+    return DynamicPlan(name, fs, list(by_key), out, jobs, series)
+
+
+def correct_session(trace: Mapping[str, Any] | _Series | None, base_row: Mapping[str, Any], corr: Correction,
+                    fs: float, *, base: str = "SCHC", preprocess: str | None = None, descriptors: str | None = None
+                    ) -> tuple[dict[str, Any], NDArray[np.float64] | None]:
+    """One session's ``<base>-DYN`` row and corrected trace (absolute, (N, 2) cm; None when the
+    trace is not usable, the row then says why): its base trace (a :func:`dynamic_rows` trace, or
+    the series the plan read) resampled at ``fs`` (Hz), corrected by ``corr``, back on the trace's
+    own times; its sway metrics (``preprocess``), Eu against FP and the ``descriptors`` preset's."""
+    name = f"{base}-DYN"
+    s = trace if isinstance(trace, _Series) else _series(trace, base)
+    if isinstance(s, str):
+        return _row(base_row, name, f"not corrected: {s}"), None
+    if not hasattr(s, "x"):
+        s.resample(fs)
+    c = _at(s.t, s.grid, corr.apply(s.x)) + s.mat.mean(axis=0)
+    a, b = c - c.mean(axis=0), s.fp - s.fp.mean(axis=0)
+    metrics = {**sway_metrics(s.t, c, 1.0 / float(np.median(np.diff(s.t))), preprocess), "eu_cm": eu(a, b),
+               "eu_ml_cm": eu(a[:, 0], b[:, 0]), "eu_ap_cm": eu(a[:, 1], b[:, 1])}
+    if descriptors is not None:
+        metrics.update(descriptor_values(s.t, c, descriptors))
+    return _row(base_row, name, "ok", **metrics), c

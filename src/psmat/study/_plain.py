@@ -9,6 +9,7 @@ here unpickles: JSON (NaN and infinities refused), NumPy ``.npz`` read with
   for, in that order, of the session's subject and trial, for the whole trial (``condition`` "")
   and then the same for each of its conditions (a label each, none twice), text where
   :data:`COLUMNS` holds text and numbers (or null) elsewhere;
+* :func:`check_row`: one row's columns and their types (text or a finite number or null);
 * :func:`check_traces`: ``t_s`` of shape (N,), each other trace (N, 2), float64,
   named after FP or a variant asked for; arrays named ``stats:<name>`` (:data:`STATS_PREFIX`) are
   a session's statistics for the study-level work after the sessions (float64, at most 3-D);
@@ -38,8 +39,8 @@ from ._trial import COLUMNS, Rows, Traces
 #: after the sessions needs from that session alone (:func:`psmat.study.session_stats`)
 STATS_PREFIX = "stats:"
 
-__all__ = ["STATS_PREFIX", "Expect", "TEXT_COLUMNS", "parse_json", "plain_rows", "check_rows", "check_traces", "digest",
-           "encode_result", "decode_result", "first_line", "stamp", "check_timed"]
+__all__ = ["STATS_PREFIX", "Expect", "TEXT_COLUMNS", "parse_json", "plain_rows", "check_row", "check_rows",
+           "check_traces", "digest", "read_result", "encode_plain", "encode_result", "decode_result", "first_line", "stamp", "check_timed"]
 
 #: the columns that hold text; every other column holds a number or nothing (null / NaN)
 TEXT_COLUMNS = frozenset({"subject", "trial", "variant", "condition", "ispgr", "status"})
@@ -102,24 +103,7 @@ def check_rows(value: Any, expect: Expect) -> Rows:
     """
     if not isinstance(value, list) or not value:
         raise ValueError("no rows (a session has one row per variant)")
-    out: Rows = []
-    for k, r in enumerate(value):
-        if not isinstance(r, dict) or set(r) != set(expect.columns):
-            raise ValueError(f"row {k} does not have exactly the columns of metrics.csv")
-        row: dict[str, Any] = {}
-        for c in expect.columns:
-            v = r[c]
-            if c in TEXT_COLUMNS:
-                if not isinstance(v, str):
-                    raise ValueError(f"row {k}: {c} is not text")
-                row[c] = v
-            elif v is None:
-                row[c] = math.nan
-            elif isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
-                raise ValueError(f"row {k}: {c} is not a finite number or null")
-            else:
-                row[c] = v
-        out.append(row)
+    out: Rows = [check_row(r, expect.columns, k) for k, r in enumerate(value)]
     if any((r["subject"], r["trial"]) != (expect.subject, expect.trial) for r in out):
         raise ValueError(f"rows of another session (expected subject {expect.subject!r}, trial {expect.trial!r})")
     n = len(expect.variants) + 1
@@ -135,6 +119,34 @@ def check_rows(value: Any, expect: Expect) -> Rows:
                              "each label once")
         labels.append(label)
     return out
+
+
+def check_row(value: Any, columns: tuple[str, ...], k: int = 0) -> dict[str, Any]:
+    """One row read as JSON → the row (null → NaN, columns in the order of ``columns``).
+
+    Raises
+    ------
+    ValueError
+        Not an object with exactly ``columns``; a text column (:data:`TEXT_COLUMNS`) not text or
+        another column not a finite number or null (booleans refused); ``k`` numbers the row in
+        the message.
+    """
+    if not isinstance(value, dict) or set(value) != set(columns):
+        raise ValueError(f"row {k} does not have exactly the columns of metrics.csv")
+    row: dict[str, Any] = {}
+    for c in columns:
+        v = value[c]
+        if c in TEXT_COLUMNS:
+            if not isinstance(v, str):
+                raise ValueError(f"row {k}: {c} is not text")
+            row[c] = v
+        elif v is None:
+            row[c] = math.nan
+        elif isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
+            raise ValueError(f"row {k}: {c} is not a finite number or null")
+        else:
+            row[c] = v
+    return row
 
 
 def check_traces(traces: Mapping[str, Any], expect: Expect) -> Traces:
@@ -176,21 +188,18 @@ def digest(*parts: str | bytes) -> str:
 
 def encode_result(stem: str, rows: Rows, traces: Mapping[str, Any]) -> bytes:
     """(stem, rows, traces) → ``.npz`` bytes: no pickle inside, so any side reads it as data."""
-    head = json.dumps({"stem": stem, "rows": plain_rows(rows)}, allow_nan=False).encode()
-    buf = io.BytesIO()
-    np.savez(buf, **{_RESULT: np.frombuffer(head, np.uint8)},
-             **{k: np.asarray(v, np.float64) for k, v in traces.items()})
-    return buf.getvalue()
+    return encode_plain({"stem": stem, "rows": plain_rows(rows)}, traces)
 
 
-def decode_result(data: bytes, expect: Expect) -> tuple[str, Rows, Traces]:
-    """:func:`encode_result`'s bytes → (stem, rows, traces), checked against ``expect``.
+def read_result(data: Any) -> tuple[Any, dict[str, np.ndarray]]:
+    """Bytes of an ``.npz`` written like :func:`encode_result`'s → (its JSON document, its other
+    arrays), read without pickle; the caller checks both.
 
     Raises
     ------
     ValueError
-        Not such bytes (not an ``.npz``, an array that needs pickle, bad JSON), another stem,
-        or rows or traces that fail :func:`check_rows` / :func:`check_traces`.
+        Not bytes, not an ``.npz``, an array that needs pickle, no ``__result__`` array of bytes,
+        or not JSON (NaN and infinities refused) in it.
     """
     if not isinstance(data, (bytes, bytearray, memoryview)):
         raise ValueError(f"a result must be bytes, got {type(data).__name__}")
@@ -203,9 +212,29 @@ def decode_result(data: bytes, expect: Expect) -> tuple[str, Rows, Traces]:
     if head is None or head.dtype != np.uint8 or head.ndim != 1:
         raise ValueError(f"no {_RESULT} in the result")
     try:
-        doc = parse_json(head.tobytes().decode("utf-8"))
-    except ValueError as exc:
+        return parse_json(head.tobytes().decode("utf-8")), arrays
+    except (ValueError, UnicodeDecodeError) as exc:
         raise ValueError(f"result rows: {exc}") from None
+
+
+def encode_plain(doc: Any, arrays: Mapping[str, Any]) -> bytes:
+    """A JSON document and float64 arrays as ``.npz`` bytes (:func:`read_result` reads them back)."""
+    head = json.dumps(doc, allow_nan=False).encode()
+    buf = io.BytesIO()
+    np.savez(buf, **{_RESULT: np.frombuffer(head, np.uint8)}, **{k: np.asarray(v, np.float64) for k, v in arrays.items()})
+    return buf.getvalue()
+
+
+def decode_result(data: bytes, expect: Expect) -> tuple[str, Rows, Traces]:
+    """:func:`encode_result`'s bytes → (stem, rows, traces), checked against ``expect``.
+
+    Raises
+    ------
+    ValueError
+        Not such bytes (not an ``.npz``, an array that needs pickle, bad JSON), another stem,
+        or rows or traces that fail :func:`check_rows` / :func:`check_traces`.
+    """
+    doc, arrays = read_result(data)
     if not isinstance(doc, dict) or set(doc) != {"stem", "rows"}:
         raise ValueError("the result's JSON is not {stem, rows}")
     if doc["stem"] != expect.stem:

@@ -27,7 +27,10 @@ which no key or digest reads.
 thesis) corrects each session's SCHC trace by a model fitted on the other volunteers, so its fits are
 computed for the study as a whole, never cached per session; what a fit needs from one session
 alone (:func:`psmat.study.session_stats`) is formed in that session's task and stored with its
-result, so a rerun does not form it again. The figures are tasks of the
+result, so a rerun does not form it again, and the fits read no trace. Each session's correction
+and metrics are then tasks of the same pool (or cluster), one per volunteer
+(:mod:`psmat.study` (``_dynamic_tasks.py``)); a rerun that computed no session runs them here.
+The figures are tasks of the
 same worker pool (or cluster) as the sessions, one per figure, each redrawn only when what it
 draws changed (:mod:`psmat.study` (``_figure_tasks.py``)). A study whose sessions all say in
 their metadata that a simulator wrote them is labelled "simulation" in its figures and report.
@@ -65,6 +68,7 @@ from typing import TYPE_CHECKING, Any
 from ..balance import KNOWN_VARIANTS
 from ._cache import SessionStore, Stored, TraceFiles, canonical_json, file_sha256, normalise_rows, result_key, \
     study_lock, write_text_atomic
+from ._dynamic_tasks import Answer, DynamicTask, RunDynamic
 from ._figure_tasks import FigureTask, draw_figure
 from ._layout import StudyItem, StudyLayout, find_study
 from ._reports import REPORTS_DIR, ReportIndex, ReportTask, report_tasks, run_report
@@ -258,6 +262,9 @@ def run_study(root: str | os.PathLike[str], *, workers: int | None = None, sched
                 clock.session(t.subject, t.trial, stem, "failed" if stem in failed else "computed", took)
                 bar.update(1)
         pool.stop()
+        from .._parallel import uses_pool
+
+        pooled = ready is not None or uses_pool(workers, len(todo) + len(pages_todo))  # a pool of this run's
         clock.begin("after_sessions")
         listed = {r.subject: Path(r.out) for r in pages if index.current(r)}
         if reports:  # a note only where its page stands (a failed page is its own line)
@@ -265,17 +272,19 @@ def run_study(root: str | os.PathLike[str], *, workers: int | None = None, sched
         keep = _first_of_each(order, tasks, problems)
         rows = [r for stem in keep for r in done[stem].rows]
         problems += _session_problems(layout.items, order, done, failed)
-        traces: Mapping[tuple[str, str], Traces] = TraceFiles(
-            {(tasks[s].subject, tasks[s].trial): t for s in keep if (t := done[s].traces)})
+        files = TraceFiles({(tasks[s].subject, tasks[s].trial): t for s in keep if (t := done[s].traces)})
+        traces: Mapping[tuple[str, str], Traces] = files
         if "SCHC" in p["variants"]:  # beyond the thesis: SCHC-DYN across volunteers
-            rows, traces = _with_dynamic(rows, traces, p)
+            run_dyn = _dynamic_runner(workers, cluster, pooled)
+            rows, traces, cpu = _with_dynamic(rows, files, p, run_dyn)
+            clock.add("after_sessions", 0.0, cpu)  # the workers' CPU time correcting the sessions
         metrics = layout.results / "metrics.csv"
         write_metrics(metrics, rows)
         links = {s: path.relative_to(layout.results).as_posix() for s, path in listed.items()}
         clock.end("after_sessions")
         outputs = _write_outputs(layout.results, rows, traces, problems, __version__,
                                  "simulation" if layout.simulated else None, preprocessing_sentence(p["preprocess"]),
-                                 links, clock, _drawer(workers, cluster, bool(todo or pages_todo)))
+                                 links, clock, _drawer(workers, cluster, pooled))
         for stem in set(tasks) - set(todo_stems):
             clock.session(tasks[stem].subject, tasks[stem].trial, stem, "not closed" if stem in unclosed else "reused")
         clock.count("sessions", len(tasks) - reused - len(failed), reused)
@@ -309,18 +318,29 @@ def write_metrics(path: Path, rows: Sequence[dict[str, Any]]) -> None:
     write_text_atomic(path, text)
 
 
-def _with_dynamic(rows: Rows, traces: Mapping[tuple[str, str], Traces], params: Mapping[str, Any]
-                  ) -> tuple[Rows, Mapping[tuple[str, str], Traces]]:
-    """The study's rows and traces with ``SCHC-DYN`` (:func:`psmat.study.dynamic_rows`:
-    fitted on the other volunteers, so it is computed after every session, never cached per
-    session; each session's own part of the fit comes formed by its task, stored with its
-    traces); each session's new row follows its own rows."""
-    from ._dynamic import dynamic_rows
+def _with_dynamic(rows: Rows, traces: TraceFiles, params: Mapping[str, Any], run: RunDynamic
+                  ) -> tuple[Rows, Mapping[tuple[str, str], Traces], float]:
+    """The study's rows and traces with ``SCHC-DYN``, and the CPU seconds its tasks took in the
+    workers. The fits (:func:`psmat.study.plan_dynamic`: across volunteers, so computed after
+    every session, never cached per session) are made here from each session's own part, formed
+    by its task and stored with its traces; each session's correction and metrics are then the
+    tasks ``run`` runs, one per volunteer (:mod:`psmat.study` (``_dynamic_tasks.py``)), the same
+    numbers in any process. Each session's new row follows its own rows."""
+    from ._dynamic import plan_dynamic
+    from ._dynamic_tasks import dynamic_tasks
 
-    stats = {k: traces.stats(k) for k in traces} if isinstance(traces, TraceFiles) else None
-    dyn_rows, dyn_traces = dynamic_rows(rows, traces, preprocess=params["preprocess"],
-                                        descriptors=params["descriptors"], stats=stats)
-    by_key = {(r["subject"], r["trial"]): {**r, "condition": ""} for r in dyn_rows}
+    plan = plan_dynamic(rows, traces, stats={k: traces.stats(k) for k in traces}, trust_stats=True)
+    todo = dynamic_tasks(plan, {k: traces.path(k) for k in plan.jobs}, preprocess=params["preprocess"],
+                         descriptors=params["descriptors"])
+    dyn_traces: dict[tuple[str, str], Traces] = {}
+    cpu = 0.0
+    for task, answers, took in run(todo):
+        for trial, row, c in answers:
+            plan.rows[(task.subject, trial)] = row
+            if c is not None:
+                dyn_traces[(task.subject, trial)] = {plan.name: c}
+        cpu += took.cpu_s if took is not None and took.pid != os.getpid() else 0.0
+    by_key = {k: {**plan.rows[k], "condition": ""} for k in plan.order if k in plan.rows}
     out: Rows = []
     for i, r in enumerate(rows):
         out.append(r)
@@ -330,7 +350,32 @@ def _with_dynamic(rows: Rows, traces: Mapping[tuple[str, str], Traces], params: 
         if last and key in by_key:
             out.append(by_key.pop(key))
     out += list(by_key.values())
-    return out, _MergedTraces(traces, dyn_traces)
+    return out, _MergedTraces(traces, dyn_traces), cpu
+
+
+def _dynamic_runner(workers: int | None, cluster: Any, pool_started: bool) -> RunDynamic:
+    """What runs SCHC-DYN's tasks: the cluster's workers (:func:`psmat.study._cluster.cluster_dynamic`),
+    the pool of this run when its sessions or pages started one, else this process (a rerun that
+    computed nothing: the pool's start would cost more than the tasks)."""
+    from ._dynamic_tasks import run_dynamic
+
+    if cluster is not None:
+        from ._cluster import cluster_dynamic
+
+        return cluster_dynamic(cluster)
+
+    def run(tasks: list[DynamicTask]) -> Iterator[tuple[DynamicTask, list[Answer], TaskTime | None]]:
+        if not pool_started:
+            for t in tasks:
+                yield t, *timed(run_dynamic, t)
+            return
+        from .._parallel import map_unordered
+
+        by_subject = {t.subject: t for t in tasks}
+        for _, (subject, answers), took in map_unordered(_work, tasks, workers):
+            yield by_subject[subject], answers, took
+
+    return run
 
 
 class _MergedTraces(Mapping[tuple[str, str], Traces]):
@@ -594,11 +639,16 @@ def _pool_drawer(workers: int | None) -> DrawFigures:
     return draw
 
 
-def _work(task: SessionTask | ReportTask | FigureTask) -> tuple[str, Any, TaskTime]:
-    """One task of the pool, a session, a subject's page or a figure: its kind, its result and
-    its time in the worker (:file:`results/session_timings.csv`)."""
+def _work(task: SessionTask | ReportTask | FigureTask | DynamicTask) -> tuple[str, Any, TaskTime]:
+    """One task of the pool, a session, a subject's page, a figure or a volunteer's SCHC-DYN: its
+    kind, its result and its time in the worker (:file:`results/session_timings.csv`)."""
     if isinstance(task, ReportTask):
         return ("report", *timed(run_report, task))
     if isinstance(task, FigureTask):
         return ("figure", *timed(draw_figure, task))
+    if isinstance(task, DynamicTask):
+        from ._dynamic_tasks import run_dynamic
+
+        answers, took = timed(run_dynamic, task)
+        return "dynamic", (task.subject, answers), took
     return ("session", *timed(run_task, task))

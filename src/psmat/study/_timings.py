@@ -13,8 +13,9 @@
 * ``reports`` — with ``--reports``: the pages still running after the last session (the pages are
   tasks of the same pool or cluster; without ``--reports``, the pool's shutdown); ``cpu_s``
   summed from their workers;
-* ``after_sessions`` — SCHC-DYN across volunteers, ``metrics.csv``, the summary tables and the
-  check of ``results/.outputs.json``;
+* ``after_sessions`` — SCHC-DYN across volunteers (its fits here, each volunteer's corrections
+  as tasks of the pool or cluster: ``cpu_s`` adds their workers'), ``metrics.csv``, the summary
+  tables and the check of ``results/.outputs.json``;
 * ``figures`` and ``report`` — the figures (tasks of the pool or cluster; ``cpu_s`` adds their
   workers') and ``report.md`` (0 when reused unchanged).
 
