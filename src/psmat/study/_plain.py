@@ -40,7 +40,8 @@ from ._trial import COLUMNS, Rows, Traces
 STATS_PREFIX = "stats:"
 
 __all__ = ["STATS_PREFIX", "Expect", "TEXT_COLUMNS", "parse_json", "plain_rows", "check_row", "check_rows",
-           "check_traces", "digest", "read_result", "encode_plain", "encode_result", "decode_result", "first_line", "stamp", "check_timed"]
+           "check_traces", "digest", "read_result", "encode_plain", "encode_result",
+           "decode_result", "first_line", "stamp", "check_timed"]
 
 #: the columns that hold text; every other column holds a number or nothing (null / NaN)
 TEXT_COLUMNS = frozenset({"subject", "trial", "variant", "condition", "ispgr", "status"})
@@ -221,7 +222,8 @@ def encode_plain(doc: Any, arrays: Mapping[str, Any]) -> bytes:
     """A JSON document and float64 arrays as ``.npz`` bytes (:func:`read_result` reads them back)."""
     head = json.dumps(doc, allow_nan=False).encode()
     buf = io.BytesIO()
-    np.savez(buf, **{_RESULT: np.frombuffer(head, np.uint8)}, **{k: np.asarray(v, np.float64) for k, v in arrays.items()})
+    np.savez(buf, **{_RESULT: np.frombuffer(head, np.uint8)},
+             **{k: np.asarray(v, np.float64) for k, v in arrays.items()})
     return buf.getvalue()
 
 
