@@ -30,6 +30,17 @@ def test_the_benchmark_runs_both_ways_and_the_rerun_reuses_every_session(tmp_pat
     assert r["stages"]["sessions"]["cpu_s"] > 0 and r["resume_stages"]["sessions"]["cpu_s"] == 0
     assert text.count("serial part (all but the session tasks)") == 2 and "after the sessions" in text
     assert text.count("parallel fraction") == 1  # the first run only: the rerun has no session work
+    # the order replayed on the run's 3 session times, at 2, 4, 8 and 16 workers
+    order = r["order"]
+    assert order["sessions"] == 3 and [row["workers"] for row in order["rows"]] == [2, 4, 8, 16]
+    for row in order["rows"]:
+        # no order beats the even split, and the longest first with the times known is the best of them here
+        assert row["even split (bound)"] <= row["longest first (times known)"] + 1e-12
+        assert row["longest first (times known)"] <= min(row["largest file first"], row["most work first"]) + 1e-12
+    # 3 sessions on 4 or more workers: each its own worker, whatever the order: the longest one's time
+    ends = {row[k] for row in order["rows"][1:] for k in row if k not in ("workers", "even split (bound)")}
+    assert len(ends) == 1 and ends.pop() > 0
+    assert "order of the sessions, replayed" in text
     # a second benchmark run reuses the simulated study in --dir instead of simulating again
     again = run(volunteers=1, seconds=4.0, rate_hz=50.0, workers=1, seed=3, study_dir=str(tmp_path / "study"),
                 baseline=False)
@@ -43,6 +54,17 @@ def test_quick_runs_a_tiny_study_and_writes_its_stages(tmp_path, capsys) -> None
     assert (r["volunteers"], r["seconds"], r["rate_hz"], r["workers"], r["sessions"]) == (1, 4.0, 50.0, 1, 3)
     assert r["psmat_report"]["computed"] == 3 and "baseline_s" not in r
     assert "serial part" in capsys.readouterr().out
+
+
+def test_the_replayed_finish_by_hand() -> None:
+    from psmat.bench.study_order import finish
+
+    # 5, 4, 3, 3, 3 s on 2 workers taking the next as each is free: A 5, B 4; B takes 3 (7), A 3 (8),
+    # B 3 (10); the last ends at 10. Longest first is the best possible here ((5+4+3+3+3)/2 = 9 needs a
+    # split no order of these reaches: {5, 4} and {3, 3, 3})
+    assert finish([5, 4, 3, 3, 3], 2) == 10
+    assert finish([3, 3, 3, 4, 5], 2) == 11  # the long ones last: 3 3 | 3 (6) 4 (7) | 5 (11)
+    assert finish([5, 4, 3, 3, 3], 5) == 5 and finish([], 3) == 0
 
 
 def test_the_parallel_fraction_by_hand() -> None:

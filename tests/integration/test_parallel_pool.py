@@ -28,21 +28,29 @@ def sixteen_cores(monkeypatch: pytest.MonkeyPatch) -> None:
         monkeypatch.delenv(var, raising=False)
 
 
+def _pool_pids() -> set[int]:
+    """The processes of joblib's loky executor now."""
+    from joblib.externals.loky import reusable_executor
+
+    return {p.pid for p in reusable_executor._executor._processes.values()}
+
+
 def test_a_smaller_map_reuses_the_processes_of_a_larger_one(sixteen_cores: None) -> None:
     first = set(map_unordered(_pid, range(4), 4))
-    assert len(first) == 4 and os.getpid() not in first
+    pool = _pool_pids()
+    assert len(pool) == 4 and first <= pool and os.getpid() not in pool
     second = set(map_unordered(_pid, range(2), 2))
-    assert len(second) == 2 and second <= first  # the same processes: no new start, no import again
+    # the same processes: no new start, no import again (which of them ran the tasks is the load's choice)
+    assert second and second <= pool and _pool_pids() <= pool
 
 
 def test_a_started_pool_is_the_one_the_map_uses(sixteen_cores: None) -> None:
     ready = start_pool(os.getpid, 3, 3)
     ready()
-    from joblib.externals.loky import reusable_executor
-
-    started = {p.pid for p in reusable_executor._executor._processes.values()}
+    started = _pool_pids()
     assert len(started) == 3
-    assert set(map_unordered(_pid, range(3), 3)) == started
+    ran = set(map_unordered(_pid, range(3), 3))
+    assert ran and ran <= started  # which of them ran the tasks is the load's choice
 
 
 def test_one_process_starts_nothing() -> None:

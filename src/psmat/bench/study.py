@@ -26,6 +26,11 @@ bounds what more cores can gain. The parallel fraction p (Amdahl) is estimated f
 the session tasks' CPU seconds summed over the workers against them plus the serial part's
 wall time, with the speed-up that p allows on 16 cores. ``--quick`` runs a tiny study (1 volunteer, 4 s at 50 Hz).
 
+**The order of the sessions** (:mod:`psmat.bench.study_order`): the run's own session times
+replayed on 2, 4, 8 and 16 workers in the order it hands them out (the most expected work
+first) beside the order before it (the largest file first), the longest first with the times
+known, and the even split: when the last session would end in each.
+
 The simulation itself is timed apart and is not part of the docs/spec.md §10 figure (≤ 180 s end to
 end on 2 cores). ``--dir`` keeps the simulated study between runs (it is reused when it
 holds the same number of sessions). The two figures are compared in the same process, on the
@@ -64,6 +69,7 @@ from typing import Any
 
 from .machine import machine_info
 from .study_scaling import stage_times
+from .study_order import format_orders, replay_orders
 
 __all__ = ["main", "run", "parallel_fraction"]
 
@@ -127,6 +133,7 @@ def run(volunteers: int = 42, seconds: float = 60.0, rate_hz: float = 100.0, wor
         out["psmat_s"] = time.perf_counter() - t0
         out["stages"] = stage_times(root / "results" / "timings.csv")
         out["psmat_report"] = {"computed": report.computed, "reused": report.reused, "failed": report.failed}
+        out["order"] = replay_orders(root)  # from this run's session times, before the rerun's replace them
         t0 = time.perf_counter()
         again = run_study(root, workers=workers, progress=False)
         out["resume_s"] = time.perf_counter() - t0
@@ -215,6 +222,8 @@ def format_report(r: dict[str, Any]) -> str:
         f"{'psmat study run again (every session reused)':<44}{r['resume_s']:>10.2f}{'':>11}",
         *stage_lines(r, "resume_stages", r["resume_s"]),
     ]
+    if r.get("order") is not None:
+        lines += format_orders(r["order"])
     if "baseline_s" in r:
         lines.append(f"{'baseline: multiprocessing.Pool over sessions':<44}{r['baseline_s']:>10.1f}"
                      f"{frames / r['baseline_s']:>11.0f}")

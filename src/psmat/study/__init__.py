@@ -8,7 +8,8 @@ session, the whole study, its results.
 * :func:`run_study` — every session, in worker processes or on a Dask cluster (:class:`Cluster`,
   :func:`on_cluster`, :func:`security`), each kept in a cache keyed by its inputs
   (:func:`result_key`, :func:`file_sha256`, :func:`study_lock`); results cross processes as plain
-  data (:func:`encode_result`, :func:`decode_result`, :class:`Expect`);
+  data (:func:`encode_result`, :func:`decode_result`, :class:`Expect`); the sessions handed out
+  most expected work first (:func:`most_work_first`, :func:`expected_work`);
 * :func:`dynamic_rows` — SCHC-DYN, a linear correction fitted on the other volunteers
   (:func:`fit_correction`; :func:`session_stats`, each session's own part of its fit;
   :func:`plan_dynamic` the fits and :func:`correct_session` one session's part, as a run splits it);
@@ -26,6 +27,7 @@ from ._cluster import Cluster, on_cluster, security
 from ._dynamic import DynamicPlan, correct_session, dynamic_rows, fit_correction, plan_dynamic, session_stats
 from ._figures import median_session
 from ._layout import StudyItem, StudyLayout, Subject, find_study, read_subjects
+from ._order import expected_work, most_work_first
 from ._plain import Expect, decode_result, digest, encode_result, first_line, parse_json
 from ._results import write_results
 from ._run import RunReport, run_study
@@ -38,4 +40,4 @@ __all__ = ["Subject", "StudyItem", "StudyLayout", "find_study", "read_subjects",
            "on_cluster", "security", "file_sha256", "result_key", "study_lock", "Expect", "encode_result",
            "decode_result", "digest", "first_line", "parse_json", "dynamic_rows", "fit_correction", "write_results",
            "session_stats", "plan_dynamic", "correct_session", "DynamicPlan", "summary_rows", "pairwise_rows",
-           "index_rows", "median_session", "thesis_tables"]
+           "index_rows", "median_session", "thesis_tables", "expected_work", "most_work_first"]

@@ -22,9 +22,12 @@ import csv
 import os
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from ..units import n_from_kg
+
+if TYPE_CHECKING:  # pragma: no cover
+    from ..circuit import Circuit
 
 __all__ = ["Subject", "StudyItem", "StudyLayout", "read_subjects", "scan_subjects", "SubjectsFile", "find_study"]
 
@@ -62,6 +65,9 @@ class StudyItem:
     #: the box serial in the session's device description (None: unreadable or absent), read with the
     #: rest of its metadata so that a run does not open the file again to find its calibration
     serial: str | None = None
+    #: the circuit the session's own description and stored calibration give (None: not a mat's
+    #: session, or unreadable), for the run's estimate of its work (:mod:`psmat.study` (``_order.py``))
+    circuit: Circuit | None = None
 
     @property
     def ok(self) -> bool:
@@ -173,25 +179,32 @@ def scan_subjects(path: str | os.PathLike[str]) -> SubjectsFile:
     return SubjectsFile(subjects, refused, problems)
 
 
-def _session_meta(path: Path) -> tuple[str | None, str | None, str | None, bool, str | None, str | None]:
-    """(subject, trial, problem, simulated, not closed, box serial) from a session's metadata (the
-    loader checks the file's structure and metadata but reads no frame, a third of the cost: a
-    damaged chunk is found, and noted, when the session is processed; it reads the journal of a
-    recording that was not closed)."""
+def _session_meta(path: Path) -> tuple[str | None, str | None, str | None, bool, str | None, str | None,
+                                       Circuit | None]:
+    """(subject, trial, problem, simulated, not closed, box serial, circuit) from a session's
+    metadata (the loader checks the file's structure and metadata but reads no frame, a third of
+    the cost: a damaged chunk is found, and noted, when the session is processed; it reads the
+    journal of a recording that was not closed)."""
     from ..io import SessionFormatError, load_session
     from ..io.session import not_closed_line, unfinished_reason
+    from ..process import session_circuit
 
     try:
         s = load_session(path, frames=False)
     except (SessionFormatError, OSError) as exc:
         not_closed = not_closed_line(path) if not path.exists() else None
-        return None, None, f"unreadable session: {exc}", False, not_closed, None
+        return None, None, f"unreadable session: {exc}", False, not_closed, None, None
     meta = s.metadata
     subject = meta.get("subject")
     trial = meta.get("trial")
     serial = s.device.get("serial")
+    try:
+        circuit = session_circuit(s) if s.kind == "psm" else None
+    except (ValueError, TypeError, KeyError):  # a description the processing will refuse, with its reason
+        circuit = None
     return ((None if subject is None else str(subject)), (None if trial is None else str(trial)), None,
-            meta.get("simulated") is True, unfinished_reason(path, s), None if serial in (None, "") else str(serial))
+            meta.get("simulated") is True, unfinished_reason(path, s), None if serial in (None, "") else str(serial),
+            circuit)
 
 
 def find_study(root: str | os.PathLike[str]) -> StudyLayout:
@@ -225,9 +238,9 @@ def find_study(root: str | os.PathLike[str]) -> StudyLayout:
     logs = {p.stem: p for p in sorted((root / "events").glob("*")) if p.suffix.lower() == ".csv"}
     items = []
     for s in sorted({*sessions.glob("*.h5"), *journal_only(sessions)}):  # journal-only: never skipped silently
-        subject, trial, problem, simulated, not_closed, serial = _session_meta(s)
+        subject, trial, problem, simulated, not_closed, serial, circuit = _session_meta(s)
         item = StudyItem(s.stem, s, plates.get(s.stem), subject, trial, simulated=simulated, not_closed=not_closed,
-                         events=logs.get(s.stem), serial=serial)
+                         events=logs.get(s.stem), serial=serial, circuit=circuit)
         if item.events is not None and (bad := events_problem(item.events)):
             item.problems.append(bad)
         if not_closed:

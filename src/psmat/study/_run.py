@@ -71,6 +71,7 @@ from ._cache import SessionStore, Stored, TraceFiles, canonical_json, file_sha25
 from ._dynamic_tasks import Answer, DynamicTask, RunDynamic
 from ._figure_tasks import FigureTask, draw_figure
 from ._layout import StudyItem, StudyLayout, find_study
+from ._order import most_work_first
 from ._reports import REPORTS_DIR, ReportIndex, ReportTask, report_tasks, run_report
 from ._row_metrics import preprocessing_sentence
 from ._task import SessionTask, run_task, status_rows
@@ -220,7 +221,8 @@ def run_study(root: str | os.PathLike[str], *, workers: int | None = None, sched
         reused = len(done)
         failed: set[str] = set(unclosed)
         done.update(unclosed)
-        todo = _longest_first([t for stem, t in tasks.items() if stem not in done])
+        todo = most_work_first([t for stem, t in tasks.items() if stem not in done],
+                               {i.stem: i.circuit for i in layout.items})
         todo_stems = [t.stem for t in todo]
         order = sorted(tasks, key=lambda s: _order(tasks[s]))
         pages = report_tasks(layout, tasks, order, set(tasks) - set(unclosed), __version__)
@@ -473,20 +475,6 @@ def _tasks(layout: StudyLayout, params: dict[str, Any], version: str) -> list[Se
         return [_task(item, layout, params, version) for item in layout.items]
     with ThreadPoolExecutor(n, thread_name_prefix="psmat-keys") as pool:
         return list(pool.map(lambda item: _task(item, layout, params, version), layout.items))
-
-
-def _longest_first(todo: list[SessionTask]) -> list[SessionTask]:
-    """The tasks in the order they are handed to the workers: the largest session files first (a
-    session's frames are stored uncompressed, so its file's size follows its length; a study's
-    order among files of one size), so that no long session starts last while the other workers
-    wait for it (a Romberg trial is twice as long as the others). The results do not depend on it."""
-    def size(t: SessionTask) -> int:
-        try:
-            return os.stat(t.session).st_size
-        except OSError:
-            return 0
-
-    return sorted(todo, key=size, reverse=True)
 
 
 def _task(item: StudyItem, layout: StudyLayout, params: dict[str, Any], version: str) -> SessionTask:

@@ -1,0 +1,35 @@
+"""A few frames from the middle of a session's file, for estimates (how much work processing it is).
+
+One chunk of the frame dataset is read (HDF5 checks its Fletcher-32 as it reads); nothing else of
+the file's checks runs, so the frames serve an estimate only, never a result: a session is read,
+and checked, whole by :func:`psmat.io.load_session` where it is processed.
+"""
+
+from __future__ import annotations
+
+import os
+
+import h5py
+import numpy as np
+from numpy.typing import NDArray
+
+from ._layout import KINDS, attr_str
+
+__all__ = ["sample_frames"]
+
+
+def sample_frames(path: str | os.PathLike[str], count: int = 8) -> tuple[int, NDArray[np.generic]] | None:
+    """(frames in the file, up to ``count`` consecutive frames from the start of its middle chunk),
+    or None when the file cannot give them (missing, not a session, no frames, a damaged chunk)."""
+    try:
+        with h5py.File(path, "r") as f:
+            kind = attr_str(f.attrs["kind"])
+            ds = f[KINDS[kind].dataset]
+            n = int(ds.shape[0])
+            if n == 0:
+                return None
+            chunk = int(ds.chunks[0]) if ds.chunks else n
+            start = (n // 2) // chunk * chunk
+            return n, np.asarray(ds[start:min(n, start + count)])
+    except (OSError, KeyError, ValueError, TypeError):
+        return None
