@@ -58,6 +58,6 @@ def format_orders(r: dict[str, Any]) -> list[str]:
     names = [k for k in r["rows"][0] if k != "workers"]
     lines = [f"order of the sessions, replayed on this run's {r['sessions']} session times "
              "(s until the last one ends; start-up and the work after them left out):",
-             f"  {'workers':>7}" + "".join(f"{n:>30}" for n in names)]
-    lines += [f"  {row['workers']:>7}" + "".join(f"{row[n]:>30.2f}" for n in names) for row in r["rows"]]
+             f"  {'workers':>7}" + "".join(f"{n:>{len(n) + 3}}" for n in names)]
+    lines += [f"  {row['workers']:>7}" + "".join(f"{row[n]:>{len(n) + 3}.2f}" for n in names) for row in r["rows"]]
     return lines

@@ -9,8 +9,8 @@ at 100 Hz, 2 workers) a session's time in its worker went with the share of cell
 trials 2.1 s), and was 1.55 s + 2.12 s × that share (least squares), hence :data:`FIXED_SHARE`.
 Equal-sized files, the previous order, told those apart not at all. Replayed on that run's own
 session times (:mod:`psmat.bench.study_order`, printed by ``python -m psmat.bench study``), 16
-workers would finish the sessions in 19.17 s in this order against 20.45 s largest file first,
-18.93 s for the longest first with the times known, and 18.59 s for an even split.
+workers would finish the sessions in 19.63 s in this order against 20.87 s largest file first,
+19.29 s for the longest first with the times known, and 18.92 s for an even split.
 
 The estimate reads one chunk of each session to compute (the sessions' stored circuits, found at
 discovery); a session it cannot estimate goes first, largest file first. The results never
