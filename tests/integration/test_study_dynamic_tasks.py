@@ -124,7 +124,7 @@ def test_trusted_statistics_spare_the_plan_every_usable_trace(study) -> None:
     ref = plan_dynamic(rows, traces, stats=stats)
     assert set(ref.series) == set(traces)  # untrusted: every trace read
     trusted = plan_dynamic(rows, _Guarded(traces, traces), stats=stats, trust_stats=True)
-    assert trusted.series == {} and trusted.fs == ref.fs and list(trusted.jobs) == list(ref.jobs)
+    assert trusted.series == {} and trusted.rate_hz == ref.rate_hz and list(trusted.jobs) == list(ref.jobs)
     for key, (row, corr) in trusted.jobs.items():
         assert all(np.array_equal(a, b) for a, b in zip(corr.coef, ref.jobs[key][1].coef))
     # statistics at another rate than the fitting rate: that trace alone is read and resampled
@@ -187,7 +187,7 @@ def test_answers_that_are_not_what_the_task_asked_for_are_refused(study) -> None
     refused(b"not an npz", "not a result file")
     refused(pickle.dumps(answers), "not a result file")
     refused(_npz(__result__=np.array([object()], dtype=object)), "not a result file")
-    other = DynamicTask("V09", task.sessions, task.fs, task.base, task.preprocess, task.descriptors)
+    other = DynamicTask("V09", task.sessions, task.rate_hz, task.base, task.preprocess, task.descriptors)
     refused(encode_dynamic(other, answers), "a result for 'V09'")
     with pytest.raises(ValueError, match="must be bytes"):
         decode_dynamic({"rows": []}, task, lengths)

@@ -286,7 +286,7 @@ def dynamic_rows(rows: Sequence[Mapping[str, Any]], traces: Mapping[Key, Mapping
     new_traces: dict[Key, dict[str, NDArray[np.float64]]] = {}
     for key, (r, corr) in plan.jobs.items():  # each usable session's series was read by the plan
         s = plan.series[key]
-        plan.rows[key], c = correct_session(s, r, corr, plan.fs, base=base, preprocess=preprocess,
+        plan.rows[key], c = correct_session(s, r, corr, plan.rate_hz, base=base, preprocess=preprocess,
                                             descriptors=descriptors)
         if c is not None:
             new_traces[key] = {"t_s": s.t, "FP": s.fp, plan.name: c}
@@ -301,7 +301,7 @@ class DynamicPlan:
     corrected alone (:func:`correct_session`), in any process."""
 
     name: str  # the variant, "<base>-DYN"
-    fs: float  # the fitting rate, Hz
+    rate_hz: float  # the fitting rate, Hz
     order: list[Key]  # the sessions with a base row, in the rows' order
     rows: dict[Key, dict[str, Any]]  # final rows
     jobs: dict[Key, tuple[Mapping[str, Any], Correction]]  # base row and correction of each session to correct
@@ -399,18 +399,19 @@ def plan_dynamic(rows: Sequence[Mapping[str, Any]], traces: Mapping[Key, Mapping
 
 
 def correct_session(trace: Mapping[str, Any] | _Series | None, base_row: Mapping[str, Any], corr: Correction,
-                    fs: float, *, base: str = "SCHC", preprocess: str | None = None, descriptors: str | None = None
+                    rate_hz: float, *, base: str = "SCHC", preprocess: str | None = None,
+                    descriptors: str | None = None
                     ) -> tuple[dict[str, Any], NDArray[np.float64] | None]:
     """One session's ``<base>-DYN`` row and corrected trace (absolute, (N, 2) cm; None when the
     trace is not usable, the row then says why): its base trace (a :func:`dynamic_rows` trace, or
-    the series the plan read) resampled at ``fs`` (Hz), corrected by ``corr``, back on the trace's
+    the series the plan read) resampled at ``rate_hz`` (Hz), corrected by ``corr``, back on the trace's
     own times; its sway metrics (``preprocess``), Eu against FP and the ``descriptors`` preset's."""
     name = f"{base}-DYN"
     s = trace if isinstance(trace, _Series) else _series(trace, base)
     if isinstance(s, str):
         return _row(base_row, name, f"not corrected: {s}"), None
     if not hasattr(s, "x"):
-        s.resample(fs)
+        s.resample(rate_hz)
     c = _at(s.t, s.grid, corr.apply(s.x)) + s.mat.mean(axis=0)
     a, b = c - c.mean(axis=0), s.fp - s.fp.mean(axis=0)
     metrics = {**sway_metrics(s.t, c, 1.0 / float(np.median(np.diff(s.t))), preprocess), "eu_cm": eu(a, b),

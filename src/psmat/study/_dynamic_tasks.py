@@ -48,7 +48,7 @@ class DynamicTask:
 
     subject: str
     sessions: tuple[Session, ...]
-    fs: float  # the fitting rate, Hz
+    rate_hz: float  # the fitting rate, Hz
     base: str
     preprocess: str | None
     descriptors: str | None
@@ -61,7 +61,7 @@ def dynamic_tasks(plan: DynamicPlan, files: Mapping[tuple[str, str], Path], *, b
     by_subject: dict[str, list[Session]] = {}
     for (subject, trial), (row, corr) in plan.jobs.items():
         by_subject.setdefault(subject, []).append((trial, str(files[(subject, trial)]), dict(row), corr))
-    return [DynamicTask(s, tuple(v), plan.fs, base, preprocess, descriptors) for s, v in by_subject.items()]
+    return [DynamicTask(s, tuple(v), plan.rate_hz, base, preprocess, descriptors) for s, v in by_subject.items()]
 
 
 def _traces(path: str) -> dict[str, NDArray[np.float64]]:
@@ -73,7 +73,7 @@ def run_dynamic(task: DynamicTask) -> list[Answer]:
     """Correct each session of ``task`` (in whichever process runs it)."""
     out: list[Answer] = []
     for trial, path, row, corr in task.sessions:
-        new, c = correct_session(_traces(path), row, corr, task.fs, base=task.base, preprocess=task.preprocess,
+        new, c = correct_session(_traces(path), row, corr, task.rate_hz, base=task.base, preprocess=task.preprocess,
                                  descriptors=task.descriptors)
         out.append((trial, new, c))
     return out
@@ -81,7 +81,7 @@ def run_dynamic(task: DynamicTask) -> list[Answer]:
 
 def task_key(task: DynamicTask) -> str:
     """A digest of everything the task's answer depends on (its Dask key)."""
-    parts: list[str | bytes] = [task.subject, repr(task.fs), task.base, repr(task.preprocess), repr(task.descriptors)]
+    parts: list[str | bytes] = [task.subject, repr(task.rate_hz), task.base, repr(task.preprocess), repr(task.descriptors)]
     for trial, path, row, corr in task.sessions:
         parts += [trial, path, json.dumps(plain_rows([row])), corr.model, repr(corr.rate_hz),
                   *(np.asarray(c, np.float64).tobytes() for c in corr.coef)]
