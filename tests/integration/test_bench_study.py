@@ -56,6 +56,22 @@ def test_quick_runs_a_tiny_study_and_writes_its_stages(tmp_path, capsys) -> None
     assert "serial part" in capsys.readouterr().out
 
 
+def test_the_first_session_and_the_tail_by_hand(tmp_path) -> None:
+    from psmat.bench.study_scaling import session_spread
+
+    path = tmp_path / "session_timings.csv"
+    head = "subject,trial,stem,result,start_s,wall_s,cpu_s,pid,worker\n"
+    # pid 11 runs 1.5-3.5 then 3.5-6.0; pid 12 runs 1.2-4.2; a reused session has no times
+    path.write_text(head + "V1,a,V1_a,computed,1.5,2.0,2.0,11,\nV1,b,V1_b,computed,3.5,2.5,2.5,11,\n"
+                    "V2,a,V2_a,computed,1.2,3.0,3.0,12,\nV2,b,V2_b,reused,,,,,\n")
+    assert session_spread(path) == pytest.approx((1.2, 6.0 - 4.2))
+    # on a cluster the worker's address tells them apart (two workers may share a pid number)
+    path.write_text(head + "V1,a,V1_a,computed,0.5,1.0,1.0,7,tcp://a:1\nV1,b,V1_b,computed,0.5,2.0,2.0,7,tcp://b:1\n")
+    assert session_spread(path) == pytest.approx((0.5, 1.0))
+    path.write_text(head + "V2,b,V2_b,reused,,,,,\n")
+    assert session_spread(path) is None
+
+
 def test_the_replayed_finish_by_hand() -> None:
     from psmat.bench.study_order import finish
 
@@ -115,8 +131,14 @@ def test_scaling_runs_each_count_from_scratch_with_the_same_metrics(tmp_path) ->
     text, r = _scaling(["--scaling", "2,1"], tmp_path)  # given out of order: run smallest first
     rows = _check_rows(text, "pool", [1, 2])
     # each run said as it ended, before the table: a benchmark stopped half-way keeps its runs
-    done = re.findall(r"^run done: pool, (\d+) workers?: ([\d.]+) s wall, .* 3 sessions computed$", text, re.M)
-    assert [(int(n), float(t)) for n, t in done] == rows and text.index("run done") < text.index("| run |")
+    done = re.findall(r"^run done: pool, (\d+) workers?: ([\d.]+) s wall, .* 3 sessions computed; first session at "
+                      r"([\d.]+) s, the workers' last sessions ended ([\d.]+) s apart$", text, re.M)
+    assert [(int(n), float(t)) for n, t, _, _ in done] == rows and text.index("run done") < text.index("| run |")
+    for (n, t, first, apart), run_ in zip(done, r["scaling"]["runs"]):
+        assert 0 < float(first) < float(t) and (run_["first_session_s"], run_["tail_s"]) == pytest.approx(
+            (float(first), float(apart)), abs=0.006)
+        if n == "1":
+            assert float(apart) == 0  # one worker: nothing to be apart from
     s = r["scaling"]
     assert s["counts"] == [1, 2] and r["workers"] is None and "baseline_s" not in r and "resume_s" not in r
     # every run computed every session: nothing reused from the run before it

@@ -17,7 +17,8 @@ session stage's). Over each kind's runs the least-squares fit T(n) = S + P/n giv
 seconds S, the parallel seconds P and S's share of the largest count's run. The goal of
 docs/spec.md §10 (from 2 to 16 workers at least 80 % parallel efficiency) is marked met or
 MISSED when the counts hold 2 and 16. ``metrics.csv`` must be byte-identical across all runs;
-a difference is a problem line. Each run prints one line as it ends (``run done: ...``, flushed),
+a difference is a problem line. Each run prints one line as it ends (``run done: ...``, flushed:
+with when its first session started and how far apart its workers' last sessions ended),
 so that a benchmark stopped half-way, on a machine lent for a few minutes, keeps what it measured.
 """
 
@@ -103,6 +104,23 @@ def stage_times(path: Path) -> dict[str, dict[str, float]]:
         return {r["stage"]: {"wall_s": float(r["wall_s"]), "cpu_s": float(r["cpu_s"])} for r in csv.DictReader(f)}
 
 
+def session_spread(path: Path) -> tuple[float, float] | None:
+    """From a run's ``session_timings.csv``: when its first session started (s after the run
+    began: the pool's or cluster's start-up) and how far apart its workers' last sessions ended
+    (s: the tail an order of the sessions leaves); None without computed sessions."""
+    import csv
+
+    with path.open(newline="", encoding="utf-8") as f:
+        rows = [r for r in csv.DictReader(f) if r["result"] == "computed" and r["start_s"]]
+    if not rows:
+        return None
+    last: dict[str, float] = {}
+    for r in rows:
+        who = r["worker"] or r["pid"]
+        last[who] = max(last.get(who, 0.0), float(r["start_s"]) + float(r["wall_s"]))
+    return min(float(r["start_s"]) for r in rows), max(last.values()) - min(last.values())
+
+
 def _stop_pool() -> None:
     """Shut joblib's reusable loky executor, so the next run starts its own workers as a first run
     does (otherwise a run would find the previous run's workers started, their imports done)."""
@@ -129,7 +147,10 @@ def _one_run(root: Path, kind: str, n: int, scheduler: str | None, progress: boo
     stages = stage_times(root / "results" / "timings.csv")
     cpu = sum(s["cpu_s"] for s in stages.values())
     metrics = report.metrics.read_bytes()
+    spread = session_spread(root / "results" / "session_timings.csv")
     return {"kind": kind, "workers": n, "wall_s": wall, "cpu_s": cpu if cpu > 0 else None,
+            "first_session_s": None if spread is None else spread[0],
+            "tail_s": None if spread is None else spread[1],
             "serial_s": max(0.0, wall - stages["sessions"]["wall_s"]), "stages": stages,
             "sessions": report.sessions, "computed": report.computed, "reused": report.reused, "failed": report.failed,
             "problems": list(report.problems), "metrics_sha256": hashlib.sha256(metrics).hexdigest(),
@@ -230,8 +251,11 @@ def _metrics_check(runs: list[dict[str, Any]]) -> list[str]:
 
 def _said(r: dict[str, Any]) -> dict[str, Any]:
     """``r``, once its line is printed (flushed: a long benchmark stopped half-way keeps the runs it made)."""
+    spread = "" if r.get("tail_s") is None else \
+        (f"; first session at {r['first_session_s']:.2f} s, the workers' last sessions ended "
+         f"{r['tail_s']:.2f} s apart")
     print(f"run done: {_name(r)}: {r['wall_s']:.2f} s wall, serial part {r['serial_s']:.2f} s, "
-          f"{r['computed']} sessions computed", flush=True)
+          f"{r['computed']} sessions computed{spread}", flush=True)
     return r
 
 
