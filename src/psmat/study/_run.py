@@ -68,7 +68,8 @@ from typing import TYPE_CHECKING, Any
 from ..balance import KNOWN_VARIANTS
 from ._cache import SessionStore, Stored, TraceFiles, canonical_json, file_sha256, normalise_rows, result_key, \
     study_lock, write_text_atomic
-from ._dynamic_tasks import Answer, DynamicTask, RunDynamic
+from ._dynamic import plan_dynamic
+from ._dynamic_tasks import Answer, DynamicTask, RunDynamic, dynamic_tasks, run_dynamic
 from ._figure_tasks import FigureTask, draw_figure
 from ._layout import StudyItem, StudyLayout, find_study
 from ._order import most_work_first
@@ -328,9 +329,6 @@ def _with_dynamic(rows: Rows, traces: TraceFiles, params: Mapping[str, Any], run
     by its task and stored with its traces; each session's correction and metrics are then the
     tasks ``run`` runs, one per volunteer (:mod:`psmat.study` (``_dynamic_tasks.py``)), the same
     numbers in any process. Each session's new row follows its own rows."""
-    from ._dynamic import plan_dynamic
-    from ._dynamic_tasks import dynamic_tasks
-
     plan = plan_dynamic(rows, traces, stats={k: traces.stats(k) for k in traces}, trust_stats=True)
     todo = dynamic_tasks(plan, {k: traces.path(k) for k in plan.jobs}, preprocess=params["preprocess"],
                          descriptors=params["descriptors"])
@@ -359,8 +357,6 @@ def _dynamic_runner(workers: int | None, cluster: Any, pool_started: bool) -> Ru
     """What runs SCHC-DYN's tasks: the cluster's workers (:func:`psmat.study._cluster.cluster_dynamic`),
     the pool of this run when its sessions or pages started one, else this process (a rerun that
     computed nothing: the pool's start would cost more than the tasks)."""
-    from ._dynamic_tasks import run_dynamic
-
     if cluster is not None:
         from ._cluster import cluster_dynamic
 
@@ -635,8 +631,6 @@ def _work(task: SessionTask | ReportTask | FigureTask | DynamicTask) -> tuple[st
     if isinstance(task, FigureTask):
         return ("figure", *timed(draw_figure, task))
     if isinstance(task, DynamicTask):
-        from ._dynamic_tasks import run_dynamic
-
         answers, took = timed(run_dynamic, task)
         return "dynamic", (task.subject, answers), took
     return ("session", *timed(run_task, task))
