@@ -13,7 +13,7 @@ from collections import deque
 from collections.abc import Callable, Iterator, Sequence
 from typing import TypeVar
 
-__all__ = ["map_unordered", "start_pool", "uses_pool"]
+__all__ = ["map_unordered", "start_pool", "pool_size"]
 
 T = TypeVar("T")
 R = TypeVar("R")
@@ -59,10 +59,11 @@ def start_pool(fn: Callable[[], object], count: int, workers: int | None = None)
     return lambda: deque(started, maxlen=0)
 
 
-def uses_pool(workers: int | None, count: int) -> bool:
-    """Whether :func:`map_unordered` with ``count`` items and ``workers`` runs them in the pool
-    (more than one process) rather than in this process."""
-    return _processes(workers, count) > 1
+def pool_size(workers: int | None, count: int) -> int:
+    """The processes :func:`map_unordered` with ``count`` items and ``workers`` runs them on (1:
+    in this process, no pool). A later map given this as its ``workers`` reuses those processes
+    and starts none."""
+    return max(1, _processes(workers, count))
 
 
 def _processes(workers: int | None, count: int) -> int:

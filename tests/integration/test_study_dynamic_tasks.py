@@ -78,7 +78,7 @@ def test_the_tasks_give_the_rows_and_traces_of_one_process_bit_for_bit(study, po
     rows, traces, files = study
     ref_rows, ref_traces = dynamic_rows(rows, traces, preprocess=DEFAULT_PARAMS["preprocess"])
     assert len(ref_rows) == 8 and all(r["status"] == "ok" for r in ref_rows)
-    runner = _dynamic_runner(2, None, pooled)
+    runner = _dynamic_runner(2 if pooled else 1, None)
     took = []
 
     def run(tasks):

@@ -153,3 +153,24 @@ def test_the_longest_sessions_are_handed_out_first(tmp_path: Path) -> None:
     # the others, of one size: the rotation trial, on two feet, has the most loaded cells
     # (psmat.study._order), then the one-leg trials
     assert per[1]["trial"] == "rotation" and {r["trial"] for r in per[2:]} == {"left-leg", "right-leg"}
+
+
+def test_the_work_after_the_sessions_reuses_the_pools_processes_and_starts_none(tmp_path: Path) -> None:
+    # three volunteers (three SCHC-DYN tasks, seven figures) and a rerun that recomputes two
+    # sessions with 4 workers asked for: its pool has 2 processes, and the SCHC-DYN tasks and the
+    # figures run on those 2 instead of starting more (each new process pays the imports again)
+    from joblib.externals.loky import reusable_executor
+
+    root = tmp_path / "three"
+    simulate_study(root, volunteers=3, duration_s=4.0, seed=9, rate_hz=50.0)
+    run_study(root, workers=1, progress=False)
+    for stem in ("V01_left-leg", "V03_rotation"):
+        (root / "results" / "sessions" / f"{stem}.json").unlink()
+    shutil.rmtree(root / "results" / "figures")
+    report = run_study(root, workers=4, progress=False)
+    assert (report.computed, report.reused) == (2, 7)
+    assert len(list((root / "results" / "figures").glob("*.png"))) == 7  # drawn again, all of them
+    per = _read(root / "results" / "session_timings.csv")
+    ran = {int(r["pid"]) for r in per if r["result"] == "computed"}
+    pool = {p.pid for p in reusable_executor._executor._processes.values()}
+    assert len(pool) == 2 and ran <= pool

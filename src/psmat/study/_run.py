@@ -265,9 +265,13 @@ def run_study(root: str | os.PathLike[str], *, workers: int | None = None, sched
                 clock.session(t.subject, t.trial, stem, "failed" if stem in failed else "computed", took)
                 bar.update(1)
         pool.stop()
-        from .._parallel import uses_pool
+        from .._parallel import pool_size
 
-        pooled = ready is not None or uses_pool(workers, len(todo) + len(pages_todo))  # a pool of this run's
+        # the processes this run's pool has (1: none), which the maps after the sessions reuse
+        # rather than start more (a rerun of 3 sessions on 16 cores: its 42 SCHC-DYN tasks on those 3)
+        size = pool_size(workers, len(todo) + len(pages_todo))
+        if ready is not None:  # started ahead for every session
+            size = max(size, pool_size(workers, len(tasks)))
         clock.begin("after_sessions")
         listed = {r.subject: Path(r.out) for r in pages if index.current(r)}
         if reports:  # a note only where its page stands (a failed page is its own line)
@@ -278,7 +282,7 @@ def run_study(root: str | os.PathLike[str], *, workers: int | None = None, sched
         files = TraceFiles({(tasks[s].subject, tasks[s].trial): t for s in keep if (t := done[s].traces)})
         traces: Mapping[tuple[str, str], Traces] = files
         if "SCHC" in p["variants"]:  # beyond the thesis: SCHC-DYN across volunteers
-            run_dyn = _dynamic_runner(workers, cluster, pooled)
+            run_dyn = _dynamic_runner(size, cluster)
             rows, traces, cpu = _with_dynamic(rows, files, p, run_dyn)
             clock.add("after_sessions", 0.0, cpu)  # the workers' CPU time correcting the sessions
         metrics = layout.results / "metrics.csv"
@@ -287,7 +291,7 @@ def run_study(root: str | os.PathLike[str], *, workers: int | None = None, sched
         clock.end("after_sessions")
         outputs = _write_outputs(layout.results, rows, traces, problems, __version__,
                                  "simulation" if layout.simulated else None, preprocessing_sentence(p["preprocess"]),
-                                 links, clock, _drawer(workers, cluster, pooled))
+                                 links, clock, _drawer(size, cluster))
         for stem in set(tasks) - set(todo_stems):
             clock.session(tasks[stem].subject, tasks[stem].trial, stem, "not closed" if stem in unclosed else "reused")
         clock.count("sessions", len(tasks) - reused - len(failed), reused)
@@ -353,24 +357,24 @@ def _with_dynamic(rows: Rows, traces: TraceFiles, params: Mapping[str, Any], run
     return out, _MergedTraces(traces, dyn_traces), cpu
 
 
-def _dynamic_runner(workers: int | None, cluster: Any, pool_started: bool) -> RunDynamic:
+def _dynamic_runner(size: int, cluster: Any) -> RunDynamic:
     """What runs SCHC-DYN's tasks: the cluster's workers (:func:`psmat.study._cluster.cluster_dynamic`),
-    the pool of this run when its sessions or pages started one, else this process (a rerun that
-    computed nothing: the pool's start would cost more than the tasks)."""
+    the ``size`` processes of this run's pool when its sessions or pages started one, else this
+    process (a rerun that computed nothing: the pool's start would cost more than the tasks)."""
     if cluster is not None:
         from ._cluster import cluster_dynamic
 
         return cluster_dynamic(cluster)
 
     def run(tasks: list[DynamicTask]) -> Iterator[tuple[DynamicTask, list[Answer], TaskTime | None]]:
-        if not pool_started:
+        if size <= 1:
             for t in tasks:
                 yield t, *timed(run_dynamic, t)
             return
         from .._parallel import map_unordered
 
         by_subject = {t.subject: t for t in tasks}
-        for _, (subject, answers), took in map_unordered(_work, tasks, workers):
+        for _, (subject, answers), took in map_unordered(_work, tasks, size):
             yield by_subject[subject], answers, took
 
     return run
@@ -596,28 +600,28 @@ def _ready() -> int:
     return os.getpid()
 
 
-def _drawer(workers: int | None, cluster: Any, pool_started: bool) -> DrawFigures | None:
+def _drawer(size: int, cluster: Any) -> DrawFigures | None:
     """What draws the figures: the cluster's workers (:func:`psmat.study._cluster.cluster_drawer`),
-    the pool of this run (:func:`_pool_drawer`) when its sessions or pages started one, else this
-    process (None)."""
+    the ``size`` processes of this run's pool (:func:`_pool_drawer`) when its sessions or pages
+    started one, else this process (None)."""
     if cluster is not None:
         from ._cluster import cluster_drawer
 
         return cluster_drawer(cluster)
-    return _pool_drawer(workers) if pool_started else None
+    return _pool_drawer(size) if size > 1 else None
 
 
-def _pool_drawer(workers: int | None) -> DrawFigures:
-    """What runs the figure tasks: the same pool of this machine's processes as the sessions
-    (joblib's loky executor is kept between the two maps, so its workers, already started and
-    with their imports done, draw the figures). Used only when the sessions or pages of this
-    run started that pool: otherwise (every session reused) the figures to redraw are drawn in
-    this process, as starting a pool and its imports costs about what drawing a study's few
-    figures does."""
+def _pool_drawer(size: int) -> DrawFigures:
+    """What runs the figure tasks: the same pool of this machine's processes as the sessions, at
+    most its ``size`` (joblib's loky executor is kept between the two maps, so its workers,
+    already started and with their imports done, draw the figures; a larger map would start
+    more). Used only when the sessions or pages of this run started that pool: otherwise (every
+    session reused) the figures to redraw are drawn in this process, as starting a pool and its
+    imports costs about what drawing a study's few figures does."""
     from .._parallel import map_unordered
 
     def draw(tasks: list[FigureTask]) -> Iterator[tuple[str, bytes, TaskTime | None]]:
-        for _, (name, data), took in map_unordered(_work, tasks, workers):
+        for _, (name, data), took in map_unordered(_work, tasks, size):
             yield name, data, took
 
     return draw
