@@ -149,9 +149,11 @@ class _Series:
     grid: NDArray[np.float64] = field(init=False)  # uniform times at the fitting rate, s
     x: NDArray[np.float64] = field(init=False)  # mat on the grid, mean-removed, cm
     y: NDArray[np.float64] = field(init=False)  # platform on the grid, mean-removed, cm
+    rate_hz: float | None = field(default=None, init=False)  # the grid's rate, Hz (None: not resampled yet)
 
     def resample(self, rate_hz: float) -> None:
         """Fill ``grid``, ``x`` and ``y`` at ``rate_hz`` (linear interpolation)."""
+        self.rate_hz = rate_hz
         self.grid = self.t[0] + np.arange(int(np.floor((self.t[-1] - self.t[0]) * rate_hz)) + 1) / rate_hz
         self.x, self.y = (_at(self.grid, self.t, c) for c in (self.mat, self.fp))
         self.x -= self.x.mean(axis=0)
@@ -305,7 +307,7 @@ class DynamicPlan:
     order: list[Key]  # the sessions with a base row, in the rows' order
     rows: dict[Key, dict[str, Any]]  # final rows
     jobs: dict[Key, tuple[Mapping[str, Any], Correction]]  # base row and correction of each session to correct
-    series: dict[Key, _Series]  # the series read while planning (resampled at fs), reused by the corrections
+    series: dict[Key, _Series]  # the series read while planning (resampled at rate_hz), reused by the corrections
 
 
 def plan_dynamic(rows: Sequence[Mapping[str, Any]], traces: Mapping[Key, Mapping[str, Any]], *, base: str = "SCHC",
@@ -410,7 +412,7 @@ def correct_session(trace: Mapping[str, Any] | _Series | None, base_row: Mapping
     s = trace if isinstance(trace, _Series) else _series(trace, base)
     if isinstance(s, str):
         return _row(base_row, name, f"not corrected: {s}"), None
-    if not hasattr(s, "x"):
+    if s.rate_hz != rate_hz:
         s.resample(rate_hz)
     c = _at(s.t, s.grid, corr.apply(s.x)) + s.mat.mean(axis=0)
     a, b = c - c.mean(axis=0), s.fp - s.fp.mean(axis=0)
