@@ -31,7 +31,8 @@ from ._device import CSV_BAUDRATE, Device, DeviceStats, open_device
 from ._discover import FoundPort, find_devices, is_psmat_port
 from ._errors import AcquireError, CommandRejected, CommandTimeout, DeviceDisconnected
 from ._identify import IDENTIFY_FIELDS
-from ._lsl import LslClock, PressureOutlets, frame_times
+from ..io import frame_times  # (psmat.io: frames of one serial chunk, spread)
+from ._lsl import LslClock, PressureOutlets
 from ._lsl_inlet import LslChunk, LslDevice, LslInlet, open_lsl
 from ._playback import PlaybackDevice, open_playback
 from ._port import close_port, open_port, read_chunk

@@ -32,9 +32,10 @@ from typing import Any, Callable
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from ..io import frame_times
 from ._clock import HostClock
 
-__all__ = ["LslClock", "PressureOutlets", "pylsl_module", "frame_times", "channel_labels"]
+__all__ = ["LslClock", "PressureOutlets", "pylsl_module", "channel_labels"]
 
 #: what a stream's name, type and source id may hold: LSL's resolver takes them into an XPath
 #: query, where a quote would end the string
@@ -102,38 +103,6 @@ class LslClock:
     def to_host(self, lsl_time_s: ArrayLike) -> NDArray[np.float64]:
         """LSL ``local_clock`` times of this machine (s) as host times (s)."""
         return np.asarray(lsl_time_s, np.float64) + self.offset_s
-
-
-def frame_times(host_time_s: ArrayLike, device_time_us: ArrayLike | None = None) -> NDArray[np.float64]:
-    """Each frame's time on the host clock (s), frames of one serial chunk spread by the device clock.
-
-    The reader stamps every frame of one serial chunk with the chunk's arrival time, so a run of
-    frames shares one ``host_time_s``. Within such a run, when every frame's ``device_time_us`` is
-    known and does not go back, frame ``k`` is put at ``host_last − (dev_last − dev_k)·1e-6``: the
-    run's last frame at the arrival, the earlier ones as much earlier as the device clock says.
-    Elsewhere the host time stays as it is.
-
-    Parameters
-    ----------
-    host_time_s : (T,) float
-        Host arrival times (s).
-    device_time_us : (T,) int, optional
-        Device clock (µs), -1 where unknown.
-    """
-    host = np.asarray(host_time_s, np.float64).reshape(-1)
-    out = host.copy()
-    if device_time_us is None or host.size < 2:
-        return out
-    dev = np.asarray(device_time_us, np.int64).reshape(-1)
-    if dev.shape != host.shape:
-        raise ValueError(f"device_time_us must have shape {host.shape}, got {dev.shape}")
-    starts = np.flatnonzero(np.r_[True, host[1:] != host[:-1]])
-    ends = np.r_[starts[1:], host.size] - 1
-    for s, e in zip(starts, ends):
-        d = dev[s:e + 1]
-        if e > s and d.min() >= 0 and np.all(np.diff(d) >= 0):
-            out[s:e + 1] = host[e] - (d[-1] - d) * 1e-6
-    return out
 
 
 def channel_labels(shape: tuple[int, int]) -> list[str]:
@@ -232,7 +201,7 @@ class PressureOutlets:
             The frames' host times (s, on ``clock``).
         device_time_us : (T,) int, optional
             Their device clock (µs, -1 unknown): frames that arrived together are spread by it
-            (:func:`frame_times`).
+            (:func:`psmat.io.frame_times`).
         """
         if self._pressure is None:
             raise ValueError("the LSL outlets are closed")

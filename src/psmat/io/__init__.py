@@ -9,6 +9,9 @@
 * other mats' pressure files (Tekscan ASCII export, XSENSOR CSV export, a generic CSV of one
   frame a line) as sessions of kind ``"pressure"``: :func:`import_pressure`,
   :func:`read_pressure_file` (private modules ``_import*``).
+* :func:`frame_times`: frames of one serial chunk (one arrival time on the host) spread back by
+  the device clock or the device's frame period (:func:`run_end_period_s`), private module
+  ``_frame_times``.
 * force-platform centre-of-pressure files (generic CSV and the BDS public data set):
   :func:`load_forceplate_csv`, :func:`load_bds`, :func:`bds_trial`, ... (private module
   ``_forceplate``).
@@ -28,6 +31,7 @@ from ._forceplate import (
 )
 from ._import import (IMPORT_FORMATS, ImportedFrames, ImportFormatError, detect_format, import_pressure,
                       read_pressure_file)
+from ._frame_times import frame_times, run_end_period_s
 from ._imu_log import ImuLog, load_imu_log, write_imu_log
 from .session import (
     COUNTER_NAMES,
@@ -54,6 +58,8 @@ from .session import (
 )
 
 __all__ = [
+    "frame_times",
+    "run_end_period_s",
     "IMPORT_FORMATS",
     "ImportedFrames",
     "ImportFormatError",

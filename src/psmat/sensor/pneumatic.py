@@ -524,16 +524,22 @@ def load_daq_session(path: str | os.PathLike[str], schedule: Protocol | PathOrLi
     The session's valid rows become the DAQ's text lines with the host's arrival time (ms)
     as the time column, then go through :func:`load_daq_log` (same divider conversion,
     alignment and checks; keyword arguments are passed on). Rows that failed on the wire are
-    left out; their time slots stay empty rather than shifting later samples.
+    left out; their time slots stay empty rather than shifting later samples. Lines that reached
+    the host in one serial chunk share its arrival time; they are spread back from it by the
+    DAQ's line period (:func:`psmat.io.frame_times`), estimated from the lines that are at their
+    arrival (:func:`psmat.io.run_end_period_s`; the thesis' 0.5 s when the session cannot tell).
     """
-    from ..io import load_session
+    from ..io import frame_times, load_session, run_end_period_s
 
     s = load_session(path)
     if s.kind != "daq":
         raise ValueError(f"{path}: a {s.kind!r} session; load_daq_session reads material-DAQ (daq) sessions")
     if not s.valid.any():
         raise ValueError(f"{path}: no valid DAQ rows")
-    t_ms = (s.host_time_s - s.host_time_s[s.valid][0]) * 1e3
+    period_s = run_end_period_s(s.host_time_s)
+    host_s = frame_times(s.host_time_s, s.device_time_us,
+                         period_s=period_s if math.isfinite(period_s) else DAQ_PERIOD_S)
+    t_ms = (host_s - host_s[s.valid][0]) * 1e3
     lines = [f"{t:.3f}," + ",".join(str(int(c)) for c in row)
              for t, row, ok in zip(t_ms, s.counts, s.valid) if ok]
     kwargs.setdefault("name", Path(path).stem)

@@ -1,0 +1,97 @@
+"""Each frame's time on the host clock, when frames of one serial chunk share their arrival time.
+
+A reader thread stamps every frame decoded from one serial chunk with the chunk's arrival time
+(``host_time_s``), so frames that reached the host together — a busy host, a USB adapter's latency
+timer — form a run of equal times. :func:`frame_times` spreads such a run back from its arrival:
+by the device clock where every frame of the run has one, else by the device's frame period when
+it is given, never back past the run before. :func:`run_end_period_s` estimates that period from
+the frames that are at their arrival (each run's last).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+__all__ = ["frame_times", "run_end_period_s"]
+
+
+def _runs(host: NDArray[np.float64]) -> tuple[NDArray[np.intp], NDArray[np.intp]]:
+    """First and last index of each run of equal host times."""
+    starts = np.flatnonzero(np.r_[True, host[1:] != host[:-1]])
+    ends = np.r_[starts[1:], host.size] - 1
+    return starts, ends
+
+
+def run_end_period_s(host_time_s: ArrayLike) -> float:
+    """The frame period (s) from the frames that are at their arrival: each run's last frame.
+
+    ``(host at the last run's end − host at the first run's end) / (frames between them)``; NaN
+    with fewer than two runs. Unlike the span of all frames over their count, it is not shortened
+    when the first frames arrived together (their run's earlier frames were sent before its time).
+
+    Parameters
+    ----------
+    host_time_s : (T,) float
+        Host arrival times (s), not decreasing.
+    """
+    host = np.asarray(host_time_s, np.float64).reshape(-1)
+    if host.size < 2:
+        return float("nan")
+    _, ends = _runs(host)
+    if ends.size < 2 or not host[ends[-1]] > host[ends[0]]:
+        return float("nan")
+    return float(host[ends[-1]] - host[ends[0]]) / float(ends[-1] - ends[0])
+
+
+def frame_times(host_time_s: ArrayLike, device_time_us: ArrayLike | None = None, *,
+                period_s: float | None = None) -> NDArray[np.float64]:
+    """Each frame's time on the host clock (s), frames of one serial chunk spread back from its arrival.
+
+    Within a run of frames that share one ``host_time_s``:
+
+    * when every frame's ``device_time_us`` is known and does not go back, frame ``k`` is put at
+      ``host_last − (dev_last − dev_k)·1e-6``: the run's last frame at the arrival, the earlier
+      ones as much earlier as the device clock says;
+    * otherwise, with ``period_s``, frame ``k`` is put ``period_s`` before the next one; a run
+      that would then reach back to the run before it is spread evenly between that run's last
+      time and its own arrival instead, so the times increase strictly;
+    * otherwise the host time stays as it is.
+
+    Parameters
+    ----------
+    host_time_s : (T,) float
+        Host arrival times (s), not decreasing.
+    device_time_us : (T,) int, optional
+        Device clock (µs), -1 where unknown.
+    period_s : float, optional
+        The device's frame period (s) for runs without a usable device clock (e.g.
+        :func:`run_end_period_s`); must be positive and finite.
+    """
+    host = np.asarray(host_time_s, np.float64).reshape(-1)
+    out = host.copy()
+    dev = None
+    if device_time_us is not None:
+        dev = np.asarray(device_time_us, np.int64).reshape(-1)
+        if dev.shape != host.shape:
+            raise ValueError(f"device_time_us must have shape {host.shape}, got {dev.shape}")
+    if period_s is not None and not (np.isfinite(period_s) and period_s > 0):
+        raise ValueError(f"period_s must be positive and finite, got {period_s!r}")
+    if host.size < 2 or (dev is None and period_s is None):
+        return out
+    starts, ends = _runs(host)
+    for s, e in zip(starts, ends):
+        if e == s:
+            continue
+        d = dev[s:e + 1] if dev is not None else None
+        if d is not None and d.min() >= 0 and np.all(np.diff(d) >= 0):
+            out[s:e + 1] = host[e] - (d[-1] - d) * 1e-6
+        elif period_s is not None:
+            back = (e - np.arange(s, e + 1)) * float(period_s)
+            before = out[s - 1] if s > 0 else -np.inf
+            if host[e] - back[0] > before:
+                out[s:e + 1] = host[e] - back
+            else:  # the period reaches back past the run before: evenly after it instead
+                m = e - s + 1
+                out[s:e + 1] = before + (host[e] - before) * np.arange(1, m + 1) / m
+    return out

@@ -1,0 +1,41 @@
+"""psmat.io.frame_times and run_end_period_s: frames that reached the host in one serial chunk
+(one arrival time) spread back from it, checked against times worked out by hand."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from psmat.io import frame_times, run_end_period_s
+
+
+def test_runs_without_a_device_clock_are_spread_back_by_the_period() -> None:
+    # lines sent every 0.5 s from 0; read two at a time, at the second's arrival
+    host = [0.5, 0.5, 1.5, 1.5, 2.5, 2.5]
+    assert run_end_period_s(host) == pytest.approx(0.5, abs=1e-15)  # (2.5 - 0.5) / (5 - 1)
+    # the span of all frames over their count would say (2.5 - 0.5) / 5 = 0.4 s
+    np.testing.assert_allclose(frame_times(host, period_s=0.5), [0.0, 0.5, 1.0, 1.5, 2.0, 2.5], atol=1e-12)
+    # frames alone in their run stay at their arrival
+    np.testing.assert_array_equal(frame_times([1.0, 2.0, 3.0], period_s=0.5), [1.0, 2.0, 3.0])
+
+
+def test_a_run_never_reaches_back_past_the_run_before() -> None:
+    # three frames at 1.1 would go back to 0.1 s with a 0.5 s period, before the frame at 1.0:
+    # they are spread evenly over (1.0, 1.1] instead
+    out = frame_times([1.0, 1.1, 1.1, 1.1], period_s=0.5)
+    np.testing.assert_allclose(out, [1.0, 1.0 + 0.1 / 3, 1.0 + 0.2 / 3, 1.1], atol=1e-12)
+    assert np.all(np.diff(out) > 0)
+
+
+def test_the_device_clock_comes_before_the_period() -> None:
+    host = [10.0, 10.0, 10.0, 11.0, 11.0]
+    dev = [0, 10_000, 20_000, -1, 50_000]  # the second run has an unknown device time
+    np.testing.assert_allclose(frame_times(host, dev, period_s=0.1), [9.98, 9.99, 10.0, 10.9, 11.0], atol=1e-12)
+
+
+def test_bad_periods_and_undefined_estimates() -> None:
+    for bad in (0.0, -0.5, float("nan"), float("inf")):
+        with pytest.raises(ValueError, match="period_s"):
+            frame_times([1.0, 1.0], period_s=bad)
+    assert np.isnan(run_end_period_s([2.0, 2.0, 2.0]))  # one run: no two arrivals to measure
+    assert np.isnan(run_end_period_s([2.0]))
