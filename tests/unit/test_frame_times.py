@@ -39,3 +39,13 @@ def test_bad_periods_and_undefined_estimates() -> None:
             frame_times([1.0, 1.0], period_s=bad)
     assert np.isnan(run_end_period_s([2.0, 2.0, 2.0]))  # one run: no two arrivals to measure
     assert np.isnan(run_end_period_s([2.0]))
+
+
+def test_frames_without_a_time_are_left_out_of_both() -> None:
+    nan = float("nan")
+    # the finite arrivals 0.5, 0.5, 1.5, 1.5: run ends 0.5 (frame 1) and 1.5 (frame 3), 2 frames apart
+    assert run_end_period_s([0.5, 0.5, nan, 1.5, 1.5]) == pytest.approx(0.5, abs=1e-15)
+    # a frame without a time stays so, and the run after it reaches back to the last frame with one
+    out = frame_times([1.0, nan, 1.2, 1.2], period_s=0.5)
+    assert np.isnan(out[1])
+    np.testing.assert_allclose(out[[0, 2, 3]], [1.0, 1.1, 1.2], atol=1e-12)

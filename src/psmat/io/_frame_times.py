@@ -36,6 +36,7 @@ def run_end_period_s(host_time_s: ArrayLike) -> float:
         Host arrival times (s), not decreasing.
     """
     host = np.asarray(host_time_s, np.float64).reshape(-1)
+    host = host[np.isfinite(host)]  # frames without a time are no arrival
     if host.size < 2:
         return float("nan")
     _, ends = _runs(host)
@@ -80,18 +81,20 @@ def frame_times(host_time_s: ArrayLike, device_time_us: ArrayLike | None = None,
     if host.size < 2 or (dev is None and period_s is None):
         return out
     starts, ends = _runs(host)
+    before = -np.inf  # the last finite time before the run
     for s, e in zip(starts, ends):
-        if e == s:
+        if e == s:  # one frame (or a frame without a time: NaN equals nothing)
+            before = host[e] if np.isfinite(host[e]) else before
             continue
         d = dev[s:e + 1] if dev is not None else None
         if d is not None and d.min() >= 0 and np.all(np.diff(d) >= 0):
             out[s:e + 1] = host[e] - (d[-1] - d) * 1e-6
         elif period_s is not None:
             back = (e - np.arange(s, e + 1)) * float(period_s)
-            before = out[s - 1] if s > 0 else -np.inf
             if host[e] - back[0] > before:
                 out[s:e + 1] = host[e] - back
             else:  # the period reaches back past the run before: evenly after it instead
                 m = e - s + 1
                 out[s:e + 1] = before + (host[e] - before) * np.arange(1, m + 1) / m
+        before = host[e]
     return out

@@ -47,7 +47,7 @@ DEFAULT_PARAMS: dict[str, Any] = {
     "pitch_column": 2,  # Euler angle of the sagittal tilt: (heading, roll, pitch), docs/spec.md §5
     "max_lag_s": 30.0,  # alignment search range for recordings made apart, s
 }
-_INPUTS_SCHEMA = "psmat-posture-inputs/2"
+_INPUTS_SCHEMA = "psmat-posture-inputs/3"  # 3: samples of one serial chunk spread (_arrivals_spread)
 #: why a session without the spine IMUs is left out (a balance study's sessions, for instance)
 NO_IMU = "no 'imu' stream and no IMU log"
 
@@ -69,7 +69,7 @@ def _mat_g(session: Any, calibration: Path | None, method: str) -> tuple[NDArray
     clock the IMUs share."""
     from ...process import process_loaded
 
-    t = session.host_time_s
+    t = _arrivals_spread(session.host_time_s, session.device_time_us)
     if np.isfinite(t).sum() < 2:
         raise ValueError("the mat session has fewer than two timed frames")
     return t, process_loaded(session, calibration=calibration, method=method, progress=False).g
@@ -78,8 +78,18 @@ def _mat_g(session: Any, calibration: Path | None, method: str) -> tuple[NDArray
 def _imu_together(session: Any, column: int) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.bool_]]:
     imu = session.streams["imu"]
     pitch = np.deg2rad(np.asarray(imu.counts[:, :, column], np.float64))
-    valid = imu.valid & np.isfinite(imu.host_time_s) & np.all(np.isfinite(pitch), axis=1)
-    return imu.host_time_s, pitch, valid
+    valid = imu.valid & np.all(np.isfinite(pitch), axis=1)
+    t = _arrivals_spread(imu.host_time_s, imu.device_time_us)
+    return t, pitch, valid & np.isfinite(t)
+
+
+def _arrivals_spread(host_time_s: NDArray[np.float64], device_time_us: Any) -> NDArray[np.float64]:
+    """Host times (s) with the samples of one serial chunk (one arrival time) spread back from it:
+    by the device's clock, else by the period of the samples at their arrival (psmat.io.frame_times)."""
+    from ...io import frame_times, run_end_period_s
+
+    period = run_end_period_s(host_time_s)
+    return frame_times(host_time_s, device_time_us, period_s=period if np.isfinite(period) else None)
 
 
 def _imu_apart(log_path: Path, t_mat: NDArray[np.float64], g: NDArray[np.float64], column: int,
