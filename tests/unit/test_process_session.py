@@ -111,6 +111,39 @@ def test_the_same_session_without_drops_gives_the_same_pressures_where_the_load_
     assert dev < 1e-4 * miss, (dev, miss)  # about 2e-12
 
 
+def test_a_box_that_restarted_is_placed_by_the_host_clock_and_stepped_with_the_true_interval(counts, tmp_path) -> None:
+    """The box lost power for 0.5 s after frame 29 (or was unplugged and reconnected): its clock
+    and sequence numbers start again. The frames after the restart are a new segment of the device
+    clock, placed after the first by the host clock; before, such a session was refused ("the
+    device clock does not advance at frame 30") and nothing of it could be processed."""
+    k = np.arange(T)
+    true_s = k * DT + np.where(k >= 30, 0.5, 0.0)  # the frames' times on the first segment's clock
+    dev = np.where(k < 30, k * DT_US, 300 + (k - 30) * DT_US)  # the clock starts again at 300 µs
+    host = 1.7e9 + true_s + 0.004 + 0.001 * (k % 3)  # the same USB latencies in both segments
+    path = tmp_path / "restart.h5"
+    with SessionWriter(path, SHAPE, {"rows": SHAPE[0], "cols": SHAPE[1], "serial": "BOX1"}) as w:
+        w.append(counts, host, np.ones(T, bool), seq=np.where(k < 30, k, k - 30), device_time_us=dev)
+    out = process_session(path, threads=1, save=False, progress=False)
+    assert out.clock is not None and out.clock.source == "device" and out.clock.restarts == 1
+    np.testing.assert_allclose(out.clock.t_s, true_s, rtol=0, atol=1e-6)  # the host times' float64 grain
+    assert "started again 1 time(s)" in out.params["frame_clock"]
+    # the sensor model stepped 0.51 s over the outage, 10 ms elsewhere (by hand, as _by_hand)
+    G = Circuit().conductance(counts)
+    steps = np.diff(true_s, prepend=-DT)
+    expected = MPICreep.thesis().inverse(iecm.solve(G, "newton", threads=1), steps) * PSI_KPA
+    np.testing.assert_allclose(out.pressure_kpa, expected, rtol=1e-9, atol=0)
+
+
+def test_a_restarted_clock_without_host_times_after_it_is_one_clear_error(counts, tmp_path) -> None:
+    k = np.arange(T)
+    host = np.where(k < 30, 1.7e9 + k * DT, np.nan)  # nothing to place the second segment by
+    path = tmp_path / "restart.h5"
+    with SessionWriter(path, SHAPE, {"rows": SHAPE[0], "cols": SHAPE[1]}) as w:
+        w.append(counts, host, np.ones(T, bool), device_time_us=np.where(k < 30, k, k - 30) * DT_US)
+    with pytest.raises(ValueError, match="the device clock started again at frame 30, and the frames 30-59"):
+        process_session(path, save=False)
+
+
 def test_the_stored_calibration_wins_over_a_circuit_argument(counts, tmp_path) -> None:
     """docs/spec.md §2: a calibration is applied when data are loaded. The session's stored
     calibration comes first, a ``circuit`` argument only for a session without one, and a

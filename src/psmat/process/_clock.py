@@ -7,6 +7,10 @@ device's when the box stamps its frames (v2, ``device_time_us``), else the host'
 * **device clock**: the frames' own stamps. A frame whose stamp was lost (-1: it failed its
   check on the wire) is placed on the frame grid, interpolated between its neighbours (or the
   grid extended, at either end); a frame lost altogether is a longer period before the next.
+  A box that restarted during the recording (it lost power, or was unplugged and reconnected)
+  starts its clock again: where the stamps go back, the frames after it are a new segment of the
+  device clock, placed after the one before by the host clock (each segment shifted by the median
+  of host time minus device time over its frames, so the USB latency cancels).
 * **host clock**: the host stamps a frame when the read that brought it returns, so the frames
   of one read share a stamp and their differences are not frame periods. The frames are taken
   as evenly spaced on the line through the first and the last stamped frame (the recording's
@@ -39,12 +43,16 @@ class SessionClock:
         ``device_time_us`` (v2) or ``host_time_s``.
     filled : int
         Frames without a stamp of their own, placed on the frame grid.
+    restarts : int
+        Times the device clock started again (its stamps went back): its segments were placed on
+        the host clock (module docstring).
     """
 
     t_s: NDArray[np.float64]
     periods_s: NDArray[np.float64]
     source: Literal["device", "host"]
     filled: int
+    restarts: int = 0
 
     @property
     def step_s(self) -> float:
@@ -73,9 +81,9 @@ def session_clock(session: Any) -> SessionClock:
     """
     T = int(np.shape(session.counts)[0])
     dev = session.device_time_us
+    restarts = 0
     if dev is not None and np.any(np.asarray(dev) >= 0):
-        dev = np.asarray(dev)
-        t = np.where(dev >= 0, dev * 1e-6, np.nan)
+        t, restarts = _device_seconds(np.asarray(dev, np.int64), np.asarray(session.host_time_s, np.float64))
         source: Literal["device", "host"] = "device"
     else:
         t = np.asarray(session.host_time_s, np.float64).copy()
@@ -100,4 +108,26 @@ def session_clock(session: Any) -> SessionClock:
         j = int(np.flatnonzero(periods <= 0)[0])
         raise ValueError(f"the session's {source} clock does not advance at frame {j} ({float(t[j - 1])!r} s, then "
                          f"{float(t[j])!r} s)")
-    return SessionClock(t, periods, source, int(T - known.size))
+    return SessionClock(t, periods, source, int(T - known.size), restarts)
+
+
+def _device_seconds(dev_us: NDArray[np.int64], host_s: NDArray[np.float64]) -> tuple[NDArray[np.float64], int]:
+    """The device stamps (µs, -1 unknown) as seconds on the first segment's clock, NaN where unknown,
+    and how often the clock started again (module docstring)."""
+    t = np.where(dev_us >= 0, dev_us * 1e-6, np.nan)
+    known = np.flatnonzero(dev_us >= 0)
+    cuts = known[1:][dev_us[known[1:]] < dev_us[known[:-1]]]  # the first frame of each new segment
+    if cuts.size == 0:
+        return t, 0
+    bounds = np.r_[0, cuts, t.size]
+    shift = np.empty(cuts.size + 1)
+    for k, (a, b) in enumerate(zip(bounds[:-1], bounds[1:])):
+        d = host_s[a:b] - t[a:b]
+        d = d[np.isfinite(d)]
+        if d.size == 0:
+            raise ValueError(f"the device clock started again at frame {int(bounds[k])}, and the frames "
+                             f"{int(a)}-{int(b) - 1} have no host time to place them by")
+        shift[k] = np.median(d)
+    for k, (a, b) in enumerate(zip(bounds[:-1], bounds[1:])):
+        t[a:b] += shift[k] - shift[0]
+    return t, int(cuts.size)

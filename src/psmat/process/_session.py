@@ -185,7 +185,9 @@ def process_loaded(session: Any, *, circuit: Circuit | None = None,
                    threads=threads, mat_calibration=mat_cal, stream=False, pressure=pressure) as proc:
         out = proc.push(session.counts, clock.periods_s, valid=session.valid, progress=progress)
     del out.params["dt_s"]  # one per frame: the session's own time columns hold them
-    out.params.update(frame_clock=f"{clock.source}: each frame stepped with its own period",
+    restarted = (f"; the box's clock started again {clock.restarts} time(s), its segments placed by the host clock"
+                 if clock.restarts else "")
+    out.params.update(frame_clock=f"{clock.source}: each frame stepped with its own period{restarted}",
                       median_period_s=clock.step_s, circuit_from=source, pressure_calibration_from=pressure_from)
     out.params.update(geo_params)
     out.clock = clock
