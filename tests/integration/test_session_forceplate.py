@@ -115,6 +115,28 @@ def test_forceplate_csv_without_header_and_tabs(tmp_path: Path) -> None:
     np.testing.assert_array_equal(r2.cop_ml_cm, [150.0, 125.0, 100.0])
 
 
+def test_forceplate_csv_european_semicolons_and_decimal_commas(tmp_path: Path) -> None:
+    """What a spreadsheet in a European locale writes: semicolons between the fields, a comma before
+    the decimals; the same numbers as the file written with points (before: "non-numeric value")."""
+    t = np.arange(40) * 0.01
+    x, y = np.sin(7 * t) * 12.345, -np.cos(5 * t) * 6.5
+    plain, european = tmp_path / "plain.csv", tmp_path / "eu.csv"
+    lines = [f"{float(a)!r},{float(b)!r},{float(c)!r}" for a, b, c in zip(t, x, y)]
+    plain.write_text("time,x [mm],y [mm]\n" + "\n".join(lines) + "\n")
+    european.write_text("time (s);x [mm];y [mm]\n"
+                        + "\n".join(ln.replace(",", ";").replace(".", ",") for ln in lines) + "\n")
+    a, b = load_forceplate_csv(plain), load_forceplate_csv(european)
+    for k in ("t", "cop_ml_cm", "cop_ap_cm"):
+        np.testing.assert_array_equal(getattr(b, k), getattr(a, k))
+    assert b.meta["unit"] == "mm"
+    np.testing.assert_allclose(b.cop_ml_cm, x / 10, rtol=1e-15, atol=0)  # mm -> cm
+    # without a header, a first line with decimal commas is data, split on its semicolons
+    headless = tmp_path / "eu_headless.csv"
+    headless.write_text("0,00;1,5;-2,25\n0,01;1,75;-2\n")
+    r = load_forceplate_csv(headless)
+    assert r.t.tolist() == [0.0, 0.01] and r.cop_ml_cm.tolist() == [1.5, 1.75] and r.cop_ap_cm.tolist() == [-2.25, -2.0]
+
+
 def test_forceplate_csv_errors(tmp_path: Path) -> None:
     with pytest.raises(FileNotFoundError):
         load_forceplate_csv(tmp_path / "missing.csv")

@@ -108,11 +108,13 @@ def _read_table(path: Path, delimiter: str | None) -> tuple[list[str] | None, ND
     lines = [ln for ln in text.splitlines() if ln.strip() and not ln.lstrip().startswith("#")]
     if not lines:
         raise ValueError(f"{path}: empty file")
-    if delimiter is None:
-        first = lines[0]
-        delimiter = "\t" if "\t" in first else ";" if ";" in first and "," not in first else "," if "," in first else None
+    if delimiter is None:  # from the last line, a data line: a header may hold any character
+        probe = lines[-1]
+        delimiter = "\t" if "\t" in probe else ";" if ";" in probe else "," if "," in probe else None
     rows = list(csv.reader(io.StringIO("\n".join(lines)), delimiter=delimiter)) if delimiter else [ln.split() for ln in lines]
     rows = [[c.strip() for c in r if c.strip() != ""] for r in rows]
+    if delimiter == ";":  # the European CSV: a decimal comma read as a point (as psmat.io's other CSV readers)
+        rows = [[c.replace(",", ".") for c in r] for r in rows]
     header: list[str] | None = None
     try:
         [float(c) for c in rows[0]]
@@ -167,7 +169,8 @@ def load_forceplate_csv(
 ) -> ForcePlateRecording:
     """Load a force-platform CoP file: columns time (s), x, y [, Fz (N)].
 
-    The delimiter (comma, tab, semicolon or whitespace) is detected from the first line.
+    The delimiter (comma, tab, semicolon or whitespace) is detected from the last line; with
+    semicolons a number may have a decimal comma (the European CSV: ``0,01;1,25;-0,5``).
     With a header, columns are found by name (``time``/``t``, ``x``/``cop_x``/``COPx``,
     ``y``/…, ``Fz``; case, spaces, underscores and bracketed units ignored) or given
     explicitly (``t_column``, ``x``, ``y``, ``fz``: a column name, or its 0-based index);
