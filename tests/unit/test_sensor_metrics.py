@@ -346,6 +346,14 @@ def test_load_daq_log_errors(tmp_path):
         load_daq_log(good, schedule=["0,0", "1,5"], offset_s=100.0)
 
 
+def test_a_schedule_from_a_european_spreadsheet_reads_as_the_plain_one() -> None:
+    plain = load_schedule_csv(["time_s,pressure_psi", "0,0", "10.5,2.5", "20,5"])
+    european = load_schedule_csv(["time_s;pressure_psi", "0;0", "10,5;2,5", "20;5"])
+    for a, b in zip(plain, european):
+        np.testing.assert_array_equal(a, b)
+    assert european[0].tolist() == [0.0, 10.5, 20.0] and european[1].tolist() == [0.0, 2.5, 5.0]
+
+
 # --------------------------------------------------------------------------- tables and figures
 @pytest.fixture(scope="module")
 def small_study() -> dict[str, list[PneumaticRun]]:

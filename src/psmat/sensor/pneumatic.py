@@ -291,7 +291,8 @@ def _parse_number(tok: str) -> float:
 def load_schedule_csv(source: PathOrLines) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """Read an applied-pressure schedule: CSV rows ``time_s,pressure_psi``.
 
-    A header row (first data row not numeric), blank lines and ``#`` comments are allowed.
+    A header row (first data row not numeric), blank lines and ``#`` comments are allowed. A row
+    separated by a semicolon may write its decimals with a comma (``10,5;2,5``: the European CSV).
     Each row gives the pressure applied from its time on (a zero-order hold); the last row's
     time is the end of the schedule.
 
@@ -318,8 +319,10 @@ def load_schedule_csv(source: PathOrLines) -> tuple[NDArray[np.float64], NDArray
         s = text.split("#", 1)[0].strip()
         if not s:
             continue
-        row = next(csv.reader(io.StringIO(s)))
-        row = [c.strip() for c in row]
+        if ";" in s:  # the European CSV: semicolons, a decimal comma read as a point
+            row = [c.strip().replace(",", ".") for c in s.split(";")]
+        else:
+            row = [c.strip() for c in next(csv.reader(io.StringIO(s)))]
         try:
             if len(row) != 2:
                 raise ValueError(f"expected 2 columns (time_s, pressure_psi), got {len(row)}")
