@@ -64,6 +64,17 @@ def test_bad_subjects_file(tmp_path, text, match) -> None:
         read_subjects(p)
 
 
+def test_a_subjects_file_from_a_european_spreadsheet(tmp_path) -> None:
+    """Semicolons between the fields, decimal commas, and the byte-order mark such a spreadsheet
+    writes: the same subjects as the plain file (before: "needs a column 'subject'")."""
+    plain, european = tmp_path / "plain.csv", tmp_path / "eu.csv"
+    plain.write_text("subject,weight_kg,height_cm\nS01,67.5,175.5\nS02,80,181\n")
+    european.write_bytes("\ufeffsubject;weight_kg;height_cm\nS01;67,5;175,5\nS02;80;181\n".encode())
+    a, b = read_subjects(plain), read_subjects(european)
+    assert {k: v.weight_kg for k, v in b.items()} == {k: v.weight_kg for k, v in a.items()} == {"S01": 67.5, "S02": 80.0}
+    assert b["S01"].extra == {"height_cm": "175,5"}  # other columns kept as written
+
+
 def test_no_sessions_folder(tmp_path) -> None:
     with pytest.raises(FileNotFoundError, match="sessions"):
         find_study(tmp_path)

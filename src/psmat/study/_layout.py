@@ -120,8 +120,10 @@ class SubjectsFile:
 def scan_subjects(path: str | os.PathLike[str]) -> SubjectsFile:
     """``subjects.csv`` row by row: a bad row is refused alone, with its line number and why.
 
-    The file is UTF-8 text, with or without a byte-order mark (as spreadsheets save CSV); it
-    needs the columns ``subject`` and ``weight_kg`` (kg, in (0, 500)). A row whose id appears
+    The file is UTF-8 text, with or without a byte-order mark (as spreadsheets save CSV), its
+    fields separated by commas or, as a spreadsheet in a European locale writes it, by semicolons
+    with decimal commas (``S01;67,5``); it needs the columns ``subject`` and ``weight_kg`` (kg, in
+    (0, 500)). A row whose id appears
     twice is refused with the other: which weight is right is not known.
     """
     path = Path(path)
@@ -139,7 +141,10 @@ def scan_subjects(path: str | os.PathLike[str]) -> SubjectsFile:
 
     try:
         with open(path, newline="", encoding="utf-8-sig") as fh:
-            reader = csv.DictReader(fh, restkey="\0extra")
+            # semicolons in the header: the European CSV, whose numbers have decimal commas
+            delim = ";" if ";" in fh.readline() else ","
+            fh.seek(0)
+            reader = csv.DictReader(fh, restkey="\0extra", delimiter=delim)
             names = [(n or "").strip() for n in (reader.fieldnames or [])]
             for need in ("subject", "weight_kg"):
                 if need not in names:
@@ -162,7 +167,7 @@ def scan_subjects(path: str | os.PathLike[str]) -> SubjectsFile:
                     continue
                 text = row.pop("weight_kg")
                 try:
-                    w = float(text)
+                    w = float(text.replace(",", ".") if delim == ";" else text)
                 except ValueError:
                     refuse(sid, k, f"weight_kg of {sid!r} is not a number ({text!r}): the row is left out")
                     continue
