@@ -137,6 +137,19 @@ def test_forceplate_csv_european_semicolons_and_decimal_commas(tmp_path: Path) -
     assert r.t.tolist() == [0.0, 0.01] and r.cop_ml_cm.tolist() == [1.5, 1.75] and r.cop_ap_cm.tolist() == [-2.25, -2.0]
 
 
+def test_samples_without_a_cop_are_lost_samples(tmp_path: Path) -> None:
+    p = tmp_path / "fp.csv"
+    p.write_text("time,x,y,Fz\n0.00,1.0,2.0,700\n0.01,NaN,NaN,3\n0.02,1.5,2.5,690\n0.03,1.25,nan,2\n0.04,2.0,3.0,710\n")
+    t, c = load_forceplate_csv(p).samples()
+    assert t.tolist() == [0.0, 0.02, 0.04] and c.tolist() == [[1.0, 2.0], [1.5, 2.5], [2.0, 3.0]]
+    p.write_text("time,x,y\n0.0,NaN,1\n0.1,2,3\n")
+    with pytest.raises(ValueError, match="fp.csv has 1 sample.s. with a time and a CoP"):
+        load_forceplate_csv(p).samples()
+    p.write_text("time,x,y\n0.5,1,1\n0.5,2,3\n0.5,2,3\n")
+    with pytest.raises(ValueError, match="times do not advance"):
+        load_forceplate_csv(p).samples()
+
+
 def test_forceplate_csv_errors(tmp_path: Path) -> None:
     with pytest.raises(FileNotFoundError):
         load_forceplate_csv(tmp_path / "missing.csv")

@@ -92,6 +92,38 @@ def test_fp_sway_is_that_of_the_preprocessed_platform_trace(study) -> None:
         assert r["ispgr"] == ("ok" if float(r["duration_s"]) >= 25.0 else f"short: {float(r['duration_s']):.1f} s < 25 s")
 
 
+def test_platform_samples_without_a_cop_are_left_out_not_the_session(study, tmp_path) -> None:
+    """A platform's software writes NaN where Fz fell below its threshold (a dropout, the subject
+    stepping off at the end): those samples are left out and the rest keep their times, so the
+    platform's metrics are those of its other samples, by hand as above. Before, the whole session
+    was an error ("cop_ref has 10 non-finite value(s)") in every variant."""
+    from psmat.study import process_trial
+
+    session = next((study / "sessions").glob("*_rotation.h5"))
+    clean = next((study / "forceplate").glob("*_rotation.csv"))
+    lines = clean.read_text().splitlines()
+    gone = set(range(400, 405)) | set(range(len(lines) - 41, len(lines) - 1))  # data rows (0 = first after header)
+    holed = tmp_path / clean.name
+    holed.write_text("\n".join([lines[0]] + [",".join([ln.split(",")[0], "NaN", "NaN", *ln.split(",")[3:]])
+                                            if k in gone else ln for k, ln in enumerate(lines[1:])]) + "\n")
+    subject, trial = session.stem.split("_", 1)
+    params = {"variants": VARIANTS.split(",")}
+    rows, traces = process_trial(session, holed, subject, trial, 70.0, params, traces=True)
+    assert [r["status"] for r in rows if r["condition"] == ""] == ["ok"] * 4
+    fp_row = rows[0]
+    fp = load_forceplate_csv(clean)
+    keep = np.ones(fp.t.size, bool)
+    keep[sorted(gone)] = False
+    t, c = fp.t[keep], fp.cop_cm[keep]
+    tm = traces["t_s"]  # the mat's aligned frames: the window is their overlap with the platform's samples
+    ends = [(lo, hi) for lo in (tm[0], t[0]) for hi in (tm[-1], t[-1]) if abs(hi - lo - fp_row["duration_s"]) < 1e-9]
+    w = (t >= ends[0][0]) & (t <= ends[0][1])
+    _, x = swarii(t[w], c[w], 25.0, 1.0 / 25.0)
+    b, a = signal.butter(4, 10.0, fs=25.0)
+    x = signal.filtfilt(b, a, x, axis=0)
+    assert fp_row["path_cm"] == pytest.approx(float(np.sum(np.hypot(*np.diff(x, axis=0).T))), rel=1e-9)
+
+
 def test_preprocessing_brings_the_mat_path_closer_to_the_platform(study, tmp_path) -> None:
     """The point of the low-pass (measured on this simulation): the mat's frame-to-frame noise, the
     8×8 mat's most, inflates its raw path; after the same preprocessing the mat's paths are closer

@@ -80,6 +80,32 @@ class ForcePlateRecording:
         """``(T, 2)`` CoP as (ML, AP) in cm — the layout of :func:`psmat.balance.cop`."""
         return np.column_stack([self.cop_ml_cm, self.cop_ap_cm])
 
+    def samples(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """``(t (s), CoP (cm) (N, 2))`` of the samples that have a time and a CoP: the ones to analyse.
+
+        A sample without (NaN: a platform's software writes one where Fz fell below its threshold,
+        the subject off the plate, or a dropout) is left out as a lost sample; the others keep their
+        times.
+
+        Raises
+        ------
+        ValueError
+            Fewer than two such samples, or times that do not advance (median step <= 0); the
+            message names the file.
+        """
+        name = Path(str(self.meta.get("source", "the recording"))).name
+        t, c = np.asarray(self.t, np.float64), self.cop_cm
+        ok = np.isfinite(t) & np.all(np.isfinite(c), axis=1)
+        if ok.sum() < 2:
+            raise ValueError(f"force-platform file {name} has {int(ok.sum())} sample(s) with a time and a CoP; "
+                             "it needs at least 2")
+        t, c = t[ok], c[ok]
+        step = float(np.median(np.diff(t)))
+        if not step > 0:
+            raise ValueError(f"force-platform file {name}: its times do not advance (median step {step:g} s "
+                             "between samples)")
+        return t, c
+
     def __repr__(self) -> str:
         src = self.meta.get("source", "")
         return f"ForcePlateRecording(n={self.n}, rate_hz={self.rate_hz:.3g}, fz={'yes' if self.fz_n is not None else 'no'}, source={src!r})"

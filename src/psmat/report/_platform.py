@@ -62,10 +62,9 @@ def compare_platform(path: Path, t_s: NDArray[np.float64], cop_cm: NDArray[np.fl
         fp = load_forceplate_csv(path)
     except UnicodeDecodeError:
         raise ValueError(f"force-platform file {path.name} is not UTF-8 text") from None
-    t_fp = np.asarray(fp.t, np.float64)
-    c_fp = np.column_stack([fp.cop_ml_cm, fp.cop_ap_cm]).astype(np.float64)
-    if t_fp.size < 8 or not np.all(np.diff(t_fp) > 0):
-        raise ValueError(f"force-platform file {path.name}: fewer than 8 samples, or times that do not increase")
+    t_fp, c_fp = fp.samples()  # the samples with a time and a CoP (a NaN one is a lost sample)
+    if t_fp.size < 8:
+        raise ValueError(f"force-platform file {path.name}: fewer than 8 samples with a time and a CoP")
     a = align(t_fp, c_fp, t_s, cop_cm, max_lag_s=p["max_lag_s"])
     lo, hi = max(t_s[0] + a.lag_s, t_fp[0]), min(t_s[-1] + a.lag_s, t_fp[-1])
     in_mat = (t_s + a.lag_s >= lo) & (t_s + a.lag_s <= hi)
