@@ -296,6 +296,21 @@ def test_a_marker_before_the_first_frame_names_the_condition_running_at_it(impor
     assert "romberg_velocity_cm_s" in _table(page, "quotient")
 
 
+def test_markers_in_seconds_from_the_start_without_the_flag_label_nothing(study, tmp_path) -> None:
+    """The markers of the fixture above (0 and 15 s from the start) given as host-clock times, the
+    flag forgotten: the recording's host clock counts from 1970, so none falls within an hour of it.
+    They are not used, and the page says why; before, the marker at 15 s, before the recording on
+    that clock, labelled the whole session "eyes closed"."""
+    session = study / "sessions" / "V01_rotation.h5"
+    out = write_report(tmp_path / "off.html", [ReportItem(session, events=[(0.0, "eyes open"), (SWITCH_S, "eyes closed")])],
+                       params={"preset": None})
+    text = Path(out).read_text(encoding="utf-8")
+    page = _parse(text)
+    assert not _tables(page, "condition")
+    assert ("markers not used (markers given with the report (the session&#x27;s host clock): none within 1 h of the "
+            "recording, so on another clock; seconds from the first frame are --events-from-start)") in text
+
+
 def test_ispgr_and_descriptor_units_by_hand() -> None:
     assert ispgr(30.0, 50.0) == "ok"
     assert ispgr(20.0, 40.0) == "short: 20.0 s < 25 s; rate 40 Hz < 50 Hz"

@@ -160,3 +160,28 @@ def test_a_bad_events_file_is_one_problem_and_the_whole_trial_rows_stay(plain_st
     rows = [r for r in _rows(root) if r["trial"] == "right-leg"]
     assert [(r["variant"], r["condition"], r["status"]) for r in rows] == [(v, "", "ok") for v in ("FP", *VARIANTS)]
     assert np.isfinite([float(r["velocity_cm_s"]) for r in rows]).all()
+
+
+def test_markers_on_another_clock_are_one_problem_not_a_silent_trial(plain_study, tmp_path) -> None:
+    """An experimenter's log in seconds from the start (0-30 s) where the session's host clock counts
+    from 1970: not one marker falls within the recording, so no condition can be cut. Before, the run
+    said nothing and the trial simply had none; now it is one problem line naming the two clocks."""
+    root = tmp_path / "study"
+    shutil.copytree(plain_study, root)
+    s = load_session(root / "sessions" / "V01_right-leg.h5")
+    path = _write_events(root, "time_s,label\n0.5,eyes open\n15.0,eyes closed\n")
+    report = _run(root)
+    assert report.failed == 0 and report.computed == 1
+    assert len(report.problems) == 1
+    line = report.problems[0]
+    assert line.startswith(f"V01_right-leg: events file not used, no conditions: none of the 2 markers of {path} "
+                           "(0.5-15 s) falls within 1 h of the recording (")
+    assert f"{s.host_time_s[0]:.6f}-{s.host_time_s[-1]:.6f} s on the session's host clock" in line
+    rows = [r for r in _rows(root) if r["trial"] == "right-leg"]
+    assert [(r["variant"], r["condition"], r["status"]) for r in rows] == [(v, "", "ok") for v in ("FP", *VARIANTS)]
+    # the same markers on the host clock: no problem, the conditions cut
+    t0 = float(s.host_time_s[0])
+    _write_events(root, f"time_s,label\n{t0 + 0.5!r},eyes open\n{t0 + 15.0!r},eyes closed\n")
+    again = _run(root)
+    assert again.problems == [] and {r["condition"] for r in _rows(root) if r["trial"] == "right-leg"} == {
+        "", "unmarked", "eyes open", "eyes closed"}  # unmarked: the first 0.5 s, before the first marker

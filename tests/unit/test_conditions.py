@@ -132,3 +132,15 @@ def test_inside_shares_no_sample_between_spans_and_keeps_the_last() -> None:
     a, b = condition_spans([(0.0, "a"), (4.0, "b")], 0.0, 10.0)
     ia, ib = inside(t, a, 10.0), inside(t, b, 10.0)
     assert ia.sum() == 4 and ib.sum() == 7 and not np.any(ia & ib) and np.all(ia | ib)
+
+
+def test_markers_on_another_clock_by_hand() -> None:
+    from psmat.balance import NEAR_S, off_the_clock
+
+    first, last = 1.7e9, 1.7e9 + 60.0  # a minute recorded, host clock from 1970
+    assert off_the_clock([0.5, 15.0], first, last)  # seconds from the start
+    assert not off_the_clock([first - 2.0, first + 30.0], first, last)  # pressed 2 s before, then during
+    assert not off_the_clock([first - 2.0], first, last)  # one marker shortly before: on this clock
+    assert not off_the_clock([last + NEAR_S], first, last)  # the hour's edge is in
+    assert off_the_clock([last + NEAR_S + 1.0, first - NEAR_S - 1.0], first, last)
+    assert not off_the_clock([], first, last)  # no markers: nothing to judge

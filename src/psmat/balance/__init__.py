@@ -13,7 +13,8 @@
   study's one preprocessing for mat and platform); :func:`describe_preset` says it in words;
 * :func:`conditions` — the conditions a session's markers cut a trial into (:class:`Condition`),
   :func:`load_events_csv`, :func:`romberg_role` and :func:`romberg` (the quotient eyes closed / open);
-  :func:`frame_clock` (markers from the host clock to the frame clock), :func:`condition_spans`
+  :func:`frame_clock` (markers from the host clock to the frame clock), :func:`off_the_clock` (markers
+  on another clock than the recording's), :func:`condition_spans`
   (the conditions inside an analysed window) and :func:`inside` (the samples of one);
 * :func:`align` — the time alignment of the mat with a force platform (:class:`Alignment`),
   built on :func:`search_lag`, psmat's one cross-correlation search;
@@ -31,8 +32,8 @@ below are the package's API.
 
 from ._align import Alignment, align, pearson_at_lag, resample_standardised, search_lag
 from ._cop import cell_centres_cm, cop
-from ._conditions import (UNMARKED, Condition, condition_spans, conditions, frame_clock, inside, load_events_csv,
-                          romberg, romberg_role)
+from ._conditions import (NEAR_S, UNMARKED, Condition, condition_spans, conditions, frame_clock, inside,
+                          load_events_csv, off_the_clock, romberg, romberg_role)
 from ._descriptor_units import descriptor_unit
 from ._descriptors import descriptors
 from ._emulate import Subgrid, subgrid_cops, subgrids
@@ -51,4 +52,4 @@ __all__ = ["cop", "cell_centres_cm", "eu", "sway", "Sway", "descriptors", "descr
            "mean_force_n", "equilibrate", "Equilibration", "Subgrid", "subgrids", "subgrid_cops", "BASE_VARIANTS",
            "VARIANTS", "EXTRA_VARIANTS", "KNOWN_VARIANTS", "VariantName", "describe", "legend_label", "VariantTrace",
            "variant_traces", "Condition", "conditions", "load_events_csv", "romberg_role", "romberg", "frame_clock",
-           "condition_spans", "inside", "UNMARKED", "describe_preset"]
+           "condition_spans", "inside", "UNMARKED", "describe_preset", "off_the_clock", "NEAR_S"]

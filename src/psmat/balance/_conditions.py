@@ -31,12 +31,14 @@ import numpy as np
 from numpy.typing import NDArray
 
 __all__ = ["Condition", "conditions", "load_events_csv", "romberg_role", "romberg", "frame_clock",
-           "condition_spans", "inside", "UNMARKED"]
+           "condition_spans", "inside", "UNMARKED", "off_the_clock", "NEAR_S"]
 
 #: labels (case-insensitive) that end the current condition without starting one
 END_LABELS = frozenset({"end", "stop", "off"})
 #: the label :func:`condition_spans` gives the stretch before the first marker ("" is the whole trial)
 UNMARKED = "unmarked"
+#: markers within this many seconds of a recording are taken to be on its clock (:func:`off_the_clock`)
+NEAR_S = 3600.0
 _EO = frozenset({"eyes open", "eo", "open"})
 _EC = frozenset({"eyes closed", "ec", "closed"})
 
@@ -154,6 +156,19 @@ def frame_clock(host_s: Sequence[float] | NDArray[np.float64], frame_host_s: NDA
     slope = (t[-1] - t[0]) / (h[-1] - h[0]) if h[-1] > h[0] else 1.0
     y = np.where(x < h[0], t[0] + (x - h[0]) * slope, y)
     return np.where(x > h[-1], t[-1] + (x - h[-1]) * slope, y)
+
+
+def off_the_clock(host_s: Sequence[float] | NDArray[np.float64], first_s: float, last_s: float) -> bool:
+    """Whether markers are on another clock than a recording's: not one falls within :data:`NEAR_S`
+    (an hour) of its first and last frames' host times (s).
+
+    Most often they are seconds from the start where the host clock counts from 1970. Used anyway
+    they would cut no condition, or label the whole trial with the last marker's condition (a marker
+    before the recording starts a condition that is running when it begins); a marker set shortly
+    before the recording is on its clock. No markers: False.
+    """
+    x = np.asarray(host_s, np.float64)
+    return bool(x.size) and not np.any((x >= first_s - NEAR_S) & (x <= last_s + NEAR_S))
 
 
 def condition_spans(events: Sequence[tuple[float, str]], lo_s: float, hi_s: float) -> list[Condition]:

@@ -20,8 +20,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from ..balance import (ISPGR_MIN_HZ, ISPGR_MIN_S, condition_spans, cop, describe_preset, descriptors, frame_clock,
-                       inside, ispgr, preprocess, romberg, romberg_role, sway)
+from ..balance import (ISPGR_MIN_HZ, ISPGR_MIN_S, NEAR_S, condition_spans, cop, describe_preset, descriptors,
+                       frame_clock, inside, ispgr, off_the_clock, preprocess, romberg, romberg_role, sway)
 from ..io import load_session
 from ..process import PressureRecord, session_pressure
 from ..profile import session_profile
@@ -161,6 +161,12 @@ def _conditions(item: ReportItem, s: Any, rec: PressureRecord, c: NDArray[np.flo
     events, where = _events(item, s)
     if not events:
         return [], f"no markers ({where}: none): the whole session is one condition", {}, ""
+    host = np.asarray(s.host_time_s, np.float64)
+    host = host[np.isfinite(host)]
+    if item.events is not None and host.size and off_the_clock([e[0] for e in events], host[0], host[-1]):
+        return [], (f"markers not used ({where}: none within {NEAR_S / 3600:g} h of the recording, so on another "
+                    "clock; seconds from the first frame are --events-from-start): the whole session is one "
+                    "condition"), {}, ""
     t = rec.t_s
     on_frames = frame_clock([e[0] for e in events], s.host_time_s, t)
     found = condition_spans([(float(x), e[1]) for x, e in zip(on_frames, events)], float(t[0]), float(t[-1]))

@@ -62,6 +62,8 @@ class StudyItem:
     not_closed: str | None = None
     #: ``events/<stem>.csv`` when the study has one (its markers replace the session's)
     events: Path | None = None
+    #: why that file is not used (:func:`events_problem`; then the trial gets no condition), or None
+    events_unusable: str | None = None
     #: the box serial in the session's device description (None: unreadable or absent), read with the
     #: rest of its metadata so that a run does not open the file again to find its calibration
     serial: str | None = None
@@ -246,8 +248,9 @@ def find_study(root: str | os.PathLike[str]) -> StudyLayout:
         subject, trial, problem, simulated, not_closed, serial, circuit = _session_meta(s)
         item = StudyItem(s.stem, s, plates.get(s.stem), subject, trial, simulated=simulated, not_closed=not_closed,
                          events=logs.get(s.stem), serial=serial, circuit=circuit)
-        if item.events is not None and (bad := events_problem(item.events)):
+        if item.events is not None and (bad := events_problem(item.events, None if problem else s)):
             item.problems.append(bad)
+            item.events_unusable = bad
         if not_closed:
             item.problems.append(not_closed)
         if problem:
@@ -271,16 +274,29 @@ def find_study(root: str | os.PathLike[str]) -> StudyLayout:
     return StudyLayout(root, subjects, items, cal, problems, refused)
 
 
-def events_problem(path: Path) -> str | None:
-    """Why an events file cannot be used (one line: :func:`psmat.balance.load_events_csv`'s), or None."""
-    from ..balance import load_events_csv
+def events_problem(path: Path, session: Path | None = None) -> str | None:
+    """Why an events file cannot be used (one line: :func:`psmat.balance.load_events_csv`'s), or None.
+
+    With ``session``: also when its markers are on another clock than the session's recording
+    (:func:`psmat.balance.off_the_clock`, against the host times of its first and last frames,
+    :func:`psmat.io.session.host_time_span`).
+    """
+    from ..balance import NEAR_S, load_events_csv, off_the_clock
+    from ..io.session import host_time_span
 
     try:
-        load_events_csv(path)
+        marks = load_events_csv(path)
     except UnicodeDecodeError as exc:
         return f"events file not used, no conditions: {path} is not UTF-8 text (offset {exc.start})"
     except (ValueError, OSError) as exc:
         return f"events file not used, no conditions: {' '.join(str(exc).split())}"
+    span = None if session is None or not marks else host_time_span(session)
+    times = [t for t, _ in marks]
+    if span is not None and off_the_clock(times, *span):
+        return (f"events file not used, no conditions: none of the {len(marks)} markers of {path} "
+                f"({min(times):.6g}-{max(times):.6g} s) falls within {NEAR_S / 3600:g} h of the recording "
+                f"({span[0]:.6f}-{span[1]:.6f} s on the session's host clock); write their times on that clock "
+                "(the time_s of psmat's own markers), not from the start of the recording")
     return None
 
 

@@ -495,9 +495,11 @@ def _task(item: StudyItem, layout: StudyLayout, params: dict[str, Any], version:
               "journal_sha256": _sha(jpath) if jpath.is_file() else None,
               "forceplate_sha256": _sha(item.forceplate), "calibration": None if cal is None else cal.name,
               "calibration_sha256": _sha(cal), "events_sha256": _sha(item.events)}
+    if item.events_unusable:  # its markers are not used (only then in the key: the others' keys stay)
+        inputs["events_unusable"] = True
     return SessionTask(item.stem, str(item.session), None if item.forceplate is None else str(item.forceplate),
                        subject, trial, weight, None if cal is None else str(cal), params, result_key(inputs), inputs,
-                       notes, _events(item.events))
+                       notes, () if item.events_unusable else _events(item.events))
 
 
 def _events(path: Path | None) -> tuple[tuple[float, str], ...] | None:

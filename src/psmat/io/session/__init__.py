@@ -40,7 +40,7 @@ file written in one go), :mod:`._writer` (:class:`SessionWriter`, :class:`Stream
 (:func:`row_counts`, the error counters per row of a summary), :mod:`._unfinished` (a
 recording that was not closed: :func:`unfinished_line`, :func:`journal_only`, ...),
 :mod:`._truncated` (a file cut short, :func:`recorded_size`), :mod:`._sample` (a few frames for
-an estimate, :func:`sample_frames`), :mod:`._events` (events: their
+an estimate, :func:`sample_frames`; the host times a file spans, :func:`host_time_span`), :mod:`._events` (events: their
 journal and ``/events``), :mod:`._export_formats` (:func:`export`: CSV, Parquet, MATLAB),
 :mod:`._crc`, :mod:`._storage` and :mod:`._verify` (the checks). :mod:`psmat.io` re-exports the
 names most callers need.
@@ -260,7 +260,7 @@ from ._layout import (
 )
 from ._products import save_product, save_products
 from ._reader import load_session, repair_session, replacement_journal
-from ._sample import sample_frames
+from ._sample import host_time_span, sample_frames
 from ._truncated import recorded_size
 from ._unfinished import journal_only, not_closed_line, session_files, unfinished_line, unfinished_reason
 from ._writer import SessionWriter, StreamWriter
@@ -292,6 +292,7 @@ __all__ = [
     "replacement_journal",
     "row_counts",
     "sample_frames",
+    "host_time_span",
     "save_product",
     "save_products",
     "session_files",

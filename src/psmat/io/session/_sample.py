@@ -1,4 +1,5 @@
-"""A few frames from the middle of a session's file, for estimates (how much work processing it is).
+"""A few frames from the middle of a session's file, for estimates (how much work processing it is),
+and the host times its recording spans, for checks made before it is processed.
 
 One chunk of the frame dataset is read (HDF5 checks its Fletcher-32 as it reads); nothing else of
 the file's checks runs, so the frames serve an estimate only, never a result: a session is read,
@@ -15,7 +16,7 @@ from numpy.typing import NDArray
 
 from ._layout import KINDS, attr_str
 
-__all__ = ["sample_frames"]
+__all__ = ["sample_frames", "host_time_span"]
 
 
 def sample_frames(path: str | os.PathLike[str], count: int = 8) -> tuple[int, NDArray[np.generic]] | None:
@@ -33,3 +34,24 @@ def sample_frames(path: str | os.PathLike[str], count: int = 8) -> tuple[int, ND
             return n, np.asarray(ds[start:min(n, start + count)])
     except (OSError, KeyError, ValueError, TypeError):
         return None
+
+
+def host_time_span(path: str | os.PathLike[str]) -> tuple[float, float] | None:
+    """(first, last) host time (s) of a session's frames, from its file's first and last chunks of
+    ``host_time_s``; None when the file cannot give them (missing, not a session, no frame with a
+    time in those chunks, a damaged chunk)."""
+    try:
+        with h5py.File(path, "r") as f:
+            ds = f["host_time_s"]
+            n = int(ds.shape[0])
+            chunk = int(ds.chunks[0]) if ds.chunks else n
+            if n == 0:
+                return None
+            head = np.asarray(ds[:min(n, chunk)], np.float64)
+            tail = np.asarray(ds[max(0, n - chunk):n], np.float64)
+    except (OSError, KeyError, ValueError, TypeError):
+        return None
+    head, tail = head[np.isfinite(head)], tail[np.isfinite(tail)]
+    if head.size == 0 or tail.size == 0:
+        return None
+    return float(head[0]), float(tail[-1])
