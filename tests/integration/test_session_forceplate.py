@@ -150,6 +150,25 @@ def test_samples_without_a_cop_are_lost_samples(tmp_path: Path) -> None:
         load_forceplate_csv(p).samples()
 
 
+def test_forceplate_csv_time_in_milliseconds_is_read_in_seconds(tmp_path: Path) -> None:
+    """Platform software often writes the time in ms: read as seconds it made a 1 kHz platform a
+    1 Hz one (and the study's alignment and metrics wrong). The unit comes from the time column's
+    header, as the CoP's does from the x column's."""
+    p = tmp_path / "fp.csv"
+    for header, scale in (("Time [ms]", 1e-3), ("time_ms", 1e-3), ("Time (us)", 1e-6), ("time (µs)", 1e-6),
+                          ("Time (s)", 1.0), ("t", 1.0)):
+        p.write_text(f"{header},COPx [mm],COPy [mm]\n0,10,20\n1,11,21\n2,12,22\n")
+        r = load_forceplate_csv(p)
+        np.testing.assert_allclose(r.t, np.arange(3) * scale, rtol=1e-15, atol=0)
+        assert r.rate_hz == pytest.approx(1.0 / scale)
+    p.write_text("0,1,2\n5,1,2\n")  # no header: seconds unless told
+    assert load_forceplate_csv(p).t.tolist() == [0.0, 5.0]
+    assert load_forceplate_csv(p, t_unit="ms").t.tolist() == [0.0, 0.005]
+    p.write_text("Time [frames],x,y\n0,1,2\n1,1,2\n")
+    with pytest.raises(ValueError, match="time unit 'frames' not known"):
+        load_forceplate_csv(p)
+
+
 def test_forceplate_csv_errors(tmp_path: Path) -> None:
     with pytest.raises(FileNotFoundError):
         load_forceplate_csv(tmp_path / "missing.csv")

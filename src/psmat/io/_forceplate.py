@@ -123,7 +123,18 @@ def _unit_of(name: str) -> str | None:
     return m.group(1).lower() if m else None
 
 
-_TIME = ("time", "t", "times", "timestamp", "timesec")
+_TIME = ("time", "t", "times", "timestamp", "timesec", "timems", "timeus")
+#: seconds per time unit: a bracketed unit of the time column's name, or its name's suffix
+_TIME_UNITS = {"s": 1.0, "sec": 1.0, "ms": 1e-3, "msec": 1e-3, "us": 1e-6, "µs": 1e-6, "μs": 1e-6}
+
+
+def _time_unit_of(name: str) -> str:
+    """The time column's unit: ``"Time [ms]"`` → ``"ms"``, ``"time_ms"`` → ``"ms"``, ``"time"`` → ``"s"``."""
+    m = re.search(r"[\[(]\s*([^\])\s]+)\s*[\])]", name)
+    if m:
+        return m.group(1).lower()
+    n = _norm(name)
+    return "ms" if n == "timems" else "us" if n == "timeus" else "s"
 _X = ("x", "copx", "copml", "ml", "xcop", "coml")
 _Y = ("y", "copy", "copap", "ap", "ycop", "coap")
 _FZ = ("fz", "forcez", "force", "vgrf", "fzn")
@@ -192,8 +203,9 @@ def load_forceplate_csv(
     unit: str | None = None,
     swap_axes: bool = False,
     delimiter: str | None = None,
+    t_unit: str | None = None,
 ) -> ForcePlateRecording:
-    """Load a force-platform CoP file: columns time (s), x, y [, Fz (N)].
+    """Load a force-platform CoP file: columns time, x, y [, Fz (N)].
 
     The delimiter (comma, tab, semicolon or whitespace) is detected from the last line; with
     semicolons a number may have a decimal comma (the European CSV: ``0,01;1,25;-0,5``).
@@ -202,8 +214,9 @@ def load_forceplate_csv(
     explicitly (``t_column``, ``x``, ``y``, ``fz``: a column name, or its 0-based index);
     without a header they are taken in the order time, x, y[, Fz]. ``unit``: CoP length
     unit ``"cm"``, ``"mm"`` or ``"m"``; default: the unit in the x column header (e.g.
-    ``x[mm]``), else cm. ``x`` is medial–lateral and ``y`` anterior–posterior unless
-    ``swap_axes``.
+    ``x[mm]``), else cm. ``t_unit``: ``"s"``, ``"ms"`` or ``"us"``; default: the unit in the
+    time column's header (``Time [ms]``, ``time_ms``), else s; ``t`` is in s either way. ``x`` is
+    medial–lateral and ``y`` anterior–posterior unless ``swap_axes``.
     """
     path = Path(path)
     if not path.is_file():
@@ -226,12 +239,16 @@ def load_forceplate_csv(
     u = unit or (_unit_of(names[ix]) if header else None) or "cm"
     if u not in _UNIT_TO_CM:
         raise ValueError(f"unit must be one of {sorted(_UNIT_TO_CM)}, got {u!r}")
+    tu = t_unit or (_time_unit_of(names[it]) if header else "s")
+    if tu not in _TIME_UNITS:
+        raise ValueError(f"{path}: time unit {tu!r} not known (the time column {names[it]!r}); "
+                         f"one of {sorted(_TIME_UNITS)}, or t_unit=")
     s = _UNIT_TO_CM[u]
     cx, cy = data[:, ix] * s, data[:, iy] * s
     ml, ap = (cy, cx) if swap_axes else (cx, cy)
     used = {it, ix, iy} | ({ifz} if ifz is not None else set())
     return ForcePlateRecording(
-        t=data[:, it].copy(),
+        t=data[:, it] * _TIME_UNITS[tu],
         cop_ml_cm=ml.copy(),
         cop_ap_cm=ap.copy(),
         fz_n=data[:, ifz].copy() if ifz is not None else None,
@@ -240,6 +257,7 @@ def load_forceplate_csv(
             "format": "csv",
             "columns": list(names),
             "unit": u,
+            "time_unit": tu,
             "swap_axes": swap_axes,
             "channels": {names[k]: data[:, k].copy() for k in range(data.shape[1]) if k not in used},
         },
