@@ -23,7 +23,7 @@ N_PER_CM2_KPA: float = 10.0
 #: kPa per unit, by the names other mats' software writes (lower case, spaces removed): the pressure
 #: units :func:`kpa_per_unit` knows.
 PRESSURE_UNITS_KPA: dict[str, float] = {
-    "kpa": 1.0, "pa": 1e-3, "mpa": 1e3, "mmhg": MMHG_KPA, "psi": PSI_KPA,
+    "kpa": 1.0, "pa": 1e-3, "mpa": 1e3, "mmhg": MMHG_KPA, "psi": PSI_KPA, "bar": 100.0, "mbar": 0.1,
     "n/cm2": N_PER_CM2_KPA, "n/cm^2": N_PER_CM2_KPA, "n/cm²": N_PER_CM2_KPA, "ncm2": N_PER_CM2_KPA,
 }
 #: cm per unit of length, by name (lower case): the lengths :func:`cm_per_unit` knows.
@@ -33,6 +33,9 @@ LENGTH_UNITS_CM: dict[str, float] = {
     "m": 100.0, "meter": 100.0, "meters": 100.0, "metre": 100.0, "metres": 100.0,
     "in": 2.54, "inch": 2.54, "inches": 2.54,
 }
+#: s per unit of time, by name (lower case): the times :func:`s_per_unit` knows.
+TIME_UNITS_S: dict[str, float] = {"s": 1.0, "sec": 1.0, "ms": 1e-3, "msec": 1e-3, "us": 1e-6, "µs": 1e-6,
+                                  "μs": 1e-6, "min": 60.0}
 #: Standard gravity, m/s² (CGPM 1901): N per kg of body mass.
 STANDARD_GRAVITY_M_S2: float = 9.80665
 
@@ -60,13 +63,14 @@ def force_n(pressure_kpa: ArrayOrFloat, area_cm2: ArrayOrFloat) -> ArrayOrFloat:
 
 
 def kpa_per_unit(unit: str) -> float:
-    """kPa per one ``unit`` of pressure (``"kPa"``, ``"mmHg"``, ``"PSI"``, ``"N/cm2"``, ``"Pa"``, ``"MPa"``).
+    """kPa per one ``unit`` of pressure (``"kPa"``, ``"mmHg"``, ``"PSI"``, ``"N/cm2"``, ``"Pa"``, ``"MPa"``,
+    ``"bar"``, ``"mbar"``).
 
     Case and spaces are ignored. Raises ValueError (one line naming the known units) for any other.
     """
     key = "".join(str(unit).split()).lower()
     if key not in PRESSURE_UNITS_KPA:
-        raise ValueError(f"unknown pressure unit {unit!r} (known: kPa, Pa, MPa, mmHg, PSI, N/cm2)")
+        raise ValueError(f"unknown pressure unit {unit!r} (known: kPa, Pa, MPa, bar, mbar, mmHg, PSI, N/cm2)")
     return PRESSURE_UNITS_KPA[key]
 
 
@@ -79,3 +83,14 @@ def cm_per_unit(unit: str) -> float:
     if key not in LENGTH_UNITS_CM:
         raise ValueError(f"unknown length unit {unit!r} (known: mm, cm, m, in)")
     return LENGTH_UNITS_CM[key]
+
+
+def s_per_unit(unit: str) -> float:
+    """s per one ``unit`` of time (``"s"``, ``"ms"``, ``"us"`` or ``"µs"``, ``"min"``).
+
+    Case is ignored. Raises ValueError (one line naming the known units) for any other.
+    """
+    key = str(unit).strip().lower()
+    if key not in TIME_UNITS_S:
+        raise ValueError(f"unknown time unit {unit!r} (known: s, ms, us, min)")
+    return TIME_UNITS_S[key]

@@ -197,8 +197,9 @@ def test_unit_factors_are_the_definitions() -> None:
     assert kpa_per_unit("PSI") == pytest.approx(PSI_KPA, rel=1e-6)  # psmat's psi is given to 7 digits
     assert kpa_per_unit("N/cm2") == kpa_per_unit("N / cm^2") == 10.0
     assert cm_per_unit("millimeters") == 0.1 and cm_per_unit("inches") == 2.54
-    with pytest.raises(ValueError, match="unknown pressure unit 'bar'"):
-        kpa_per_unit("bar")
+    assert kpa_per_unit("bar") == 100.0 and kpa_per_unit("mbar") == 0.1  # 1 bar = 10^5 Pa, by definition
+    with pytest.raises(ValueError, match="unknown pressure unit 'atm'"):
+        kpa_per_unit("atm")
 
 
 def test_a_pressure_profile_has_a_geometry_and_no_circuit() -> None:

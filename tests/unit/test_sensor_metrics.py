@@ -354,6 +354,20 @@ def test_a_schedule_from_a_european_spreadsheet_reads_as_the_plain_one() -> None
     assert european[0].tolist() == [0.0, 10.5, 20.0] and european[1].tolist() == [0.0, 2.5, 5.0]
 
 
+def test_a_schedule_header_names_its_units_and_they_are_converted() -> None:
+    """Read as psi, a schedule written in kPa was 6.9 times too high (the header was skipped unread)."""
+    plain = load_schedule_csv(["time_s,pressure_psi", "0,0", "60,14.50377438972831"])  # 100 kPa = 14.5038 psi
+    for header, rows in (("time_ms,pressure_kpa", ["0,0", "60000,100"]), ("Time [ms],Pressure (kPa)", ["0,0", "60000,100"]),
+                         ("t,p_bar", ["0,0", "60,1"]), ("time,pressure", ["0,0", "60,14.50377438972831"])):
+        t, p = load_schedule_csv([header, *rows])
+        np.testing.assert_allclose(t, plain[0], rtol=1e-15)
+        np.testing.assert_allclose(p, plain[1], rtol=1e-9)  # psi by psmat.units: 1 psi = 6.894757 kPa
+    with pytest.raises(ValueError, match="line 1: header 'seconds,load' names no time and pressure column"):
+        load_schedule_csv(["seconds,load", "0,0", "1,5"])
+    with pytest.raises(ValueError, match="line 1: unknown pressure unit 'atm'"):
+        load_schedule_csv(["time_s,pressure_atm", "0,0", "1,5"])
+
+
 # --------------------------------------------------------------------------- tables and figures
 @pytest.fixture(scope="module")
 def small_study() -> dict[str, list[PneumaticRun]]:

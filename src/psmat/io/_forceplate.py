@@ -30,6 +30,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from ..units import s_per_unit
+
 __all__ = [
     "ForcePlateRecording",
     "bds_dir",
@@ -124,8 +126,6 @@ def _unit_of(name: str) -> str | None:
 
 
 _TIME = ("time", "t", "times", "timestamp", "timesec", "timems", "timeus")
-#: seconds per time unit: a bracketed unit of the time column's name, or its name's suffix
-_TIME_UNITS = {"s": 1.0, "sec": 1.0, "ms": 1e-3, "msec": 1e-3, "us": 1e-6, "µs": 1e-6, "μs": 1e-6}
 
 
 def _time_unit_of(name: str) -> str:
@@ -240,15 +240,16 @@ def load_forceplate_csv(
     if u not in _UNIT_TO_CM:
         raise ValueError(f"unit must be one of {sorted(_UNIT_TO_CM)}, got {u!r}")
     tu = t_unit or (_time_unit_of(names[it]) if header else "s")
-    if tu not in _TIME_UNITS:
-        raise ValueError(f"{path}: time unit {tu!r} not known (the time column {names[it]!r}); "
-                         f"one of {sorted(_TIME_UNITS)}, or t_unit=")
+    try:
+        s_per = s_per_unit(tu)
+    except ValueError as exc:
+        raise ValueError(f"{path}: the time column {names[it]!r}: {exc}; or give t_unit=") from None
     s = _UNIT_TO_CM[u]
     cx, cy = data[:, ix] * s, data[:, iy] * s
     ml, ap = (cy, cx) if swap_axes else (cx, cy)
     used = {it, ix, iy} | ({ifz} if ifz is not None else set())
     return ForcePlateRecording(
-        t=data[:, it] * _TIME_UNITS[tu],
+        t=data[:, it] * s_per,
         cop_ml_cm=ml.copy(),
         cop_ap_cm=ap.copy(),
         fz_n=data[:, ifz].copy() if ifz is not None else None,

@@ -288,10 +288,38 @@ def _parse_number(tok: str) -> float:
     return v
 
 
+def _schedule_units(header: list[str], name: str, no: int) -> tuple[float, float]:
+    """(s, psi) per unit of a schedule's two columns, from their header names (load_schedule_csv)."""
+    import re
+
+    from ..units import kpa_per_unit, psi_from_kpa, s_per_unit
+
+    def split(text: str, names: tuple[str, ...], default: str) -> str | None:
+        m = re.fullmatch(r"([a-z]+)\s*(?:[_ ]\s*([^\s\[\]()]+)|[\[(]\s*([^\])]+?)\s*[\])])?", text.strip().lower())
+        if not m or m.group(1) not in names:
+            return None
+        return m.group(2) or m.group(3) or default
+
+    if len(header) != 2:
+        raise ValueError(f"{name}: line {no}: expected a header time_s,pressure_psi, got {','.join(header)!r}")
+    t_unit, p_unit = split(header[0], ("time", "t"), "s"), split(header[1], ("pressure", "p"), "psi")
+    if t_unit is None or p_unit is None:
+        raise ValueError(f"{name}: line {no}: header {','.join(header)!r} names no time and pressure column: "
+                         "expected time_s,pressure_psi (or the time in ms, the pressure in kPa, bar, ...)")
+    try:
+        return s_per_unit(t_unit), float(psi_from_kpa(kpa_per_unit(p_unit)))
+    except ValueError as exc:
+        raise ValueError(f"{name}: line {no}: {exc}") from None
+
+
 def load_schedule_csv(source: PathOrLines) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """Read an applied-pressure schedule: CSV rows ``time_s,pressure_psi``.
 
-    A header row (first data row not numeric), blank lines and ``#`` comments are allowed. A row
+    A header row (first data row not numeric), blank lines and ``#`` comments are allowed. The
+    header names the units: ``time_s`` (or ``time``, ``t``; ``time_ms``, ``time [ms]``, ...) and
+    ``pressure_psi`` (or ``pressure``, ``p``; ``pressure_kpa``, ``pressure [bar]``... any pressure
+    unit :func:`psmat.units.kpa_per_unit` knows); the values are converted to s and psi. A header
+    that names neither is an error: read as psi, a schedule in kPa would be 6.9 times too high. A row
     separated by a semicolon may write its decimals with a comma (``10,5;2,5``: the European CSV).
     Each row gives the pressure applied from its time on (a zero-order hold); the last row's
     time is the end of the schedule.
@@ -315,6 +343,7 @@ def load_schedule_csv(source: PathOrLines) -> tuple[NDArray[np.float64], NDArray
     ts: list[float] = []
     ps: list[float] = []
     header_seen = False
+    s_per, psi_per = 1.0, 1.0  # the header's units (none: s and psi)
     for no, text in enumerate(lines, start=1):
         s = text.split("#", 1)[0].strip()
         if not s:
@@ -330,8 +359,10 @@ def load_schedule_csv(source: PathOrLines) -> tuple[NDArray[np.float64], NDArray
         except ValueError as exc:
             if not ts and not header_seen:
                 header_seen = True
+                s_per, psi_per = _schedule_units(row, name, no)
                 continue
             raise ValueError(f"{name}: line {no}: {exc}: {text!r}") from None
+        t, p = t * s_per, p * psi_per
         if p < 0:
             raise ValueError(f"{name}: line {no}: negative pressure {p} psi")
         if ts and t <= ts[-1]:
