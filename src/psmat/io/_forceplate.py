@@ -30,7 +30,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from ..units import s_per_unit
+from ..units import cm_per_unit, s_per_unit
 
 __all__ = [
     "ForcePlateRecording",
@@ -42,7 +42,6 @@ __all__ = [
     "load_forceplate_csv",
 ]
 
-_UNIT_TO_CM = {"cm": 1.0, "mm": 0.1, "m": 100.0}
 
 
 @dataclass(eq=False)
@@ -213,8 +212,8 @@ def load_forceplate_csv(
     ``y``/…, ``Fz``; case, spaces, underscores and bracketed units ignored) or given
     explicitly (``t_column``, ``x``, ``y``, ``fz``: a column name, or its 0-based index);
     without a header they are taken in the order time, x, y[, Fz]. ``unit``: CoP length
-    unit ``"cm"``, ``"mm"`` or ``"m"``; default: the unit in the x column header (e.g.
-    ``x[mm]``), else cm. ``t_unit``: ``"s"``, ``"ms"`` or ``"us"``; default: the unit in the
+    unit (``"cm"``, ``"mm"``, ``"m"``, ``"in"``: :func:`psmat.units.cm_per_unit`); default: the unit
+    in the x column header (e.g. ``x[mm]``), else cm. ``t_unit``: ``"s"``, ``"ms"`` or ``"us"``; default: the unit in the
     time column's header (``Time [ms]``, ``time_ms``), else s; ``t`` is in s either way. ``x`` is
     medial–lateral and ``y`` anterior–posterior unless ``swap_axes``.
     """
@@ -237,14 +236,15 @@ def load_forceplate_csv(
         ifz = _find(header, _FZ, fz, "Fz", path, required=False)
         names = header
     u = unit or (_unit_of(names[ix]) if header else None) or "cm"
-    if u not in _UNIT_TO_CM:
-        raise ValueError(f"unit must be one of {sorted(_UNIT_TO_CM)}, got {u!r}")
+    try:
+        s = cm_per_unit(u)
+    except ValueError as exc:
+        raise ValueError(f"{path}: the CoP columns: {exc}; or give unit=") from None
     tu = t_unit or (_time_unit_of(names[it]) if header else "s")
     try:
         s_per = s_per_unit(tu)
     except ValueError as exc:
         raise ValueError(f"{path}: the time column {names[it]!r}: {exc}; or give t_unit=") from None
-    s = _UNIT_TO_CM[u]
     cx, cy = data[:, ix] * s, data[:, iy] * s
     ml, ap = (cy, cx) if swap_axes else (cx, cy)
     used = {it, ix, iy} | ({ifz} if ifz is not None else set())
