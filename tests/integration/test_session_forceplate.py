@@ -169,6 +169,24 @@ def test_forceplate_csv_time_in_milliseconds_is_read_in_seconds(tmp_path: Path) 
         load_forceplate_csv(p)
 
 
+def test_samples_without_a_load_are_lost_samples(tmp_path: Path) -> None:
+    """CoP = moment / Fz has no meaning once the subject steps off: a platform's software then writes
+    0 or noise. With an Fz column, a sample under 5 % of the median |Fz| is left out (700 N standing:
+    under 35 N); a plate counting downward force negative is read by its magnitude."""
+    p = tmp_path / "fp.csv"
+    fz = [700.0] * 4 + [3.0, 34.9, 35.1] + [700.0] * 4  # standing, then off the plate for 2 samples; median 700 N
+    rows = [f"{k * 0.01:.2f},{1 + k * 0.5},{2 + k * 0.25},{f}" for k, f in enumerate(fz)]
+    p.write_text("time,x,y,Fz\n" + "\n".join(rows) + "\n")
+    t, c = load_forceplate_csv(p).samples()
+    kept = [k for k in range(len(fz)) if k not in (4, 5)]
+    np.testing.assert_allclose(t, np.array(kept) * 0.01, rtol=0, atol=1e-12)
+    assert c[:, 0].tolist() == [1 + k * 0.5 for k in kept]
+    p.write_text("time,x,y,Fz\n" + "\n".join(r.rsplit(",", 1)[0] + ",-" + r.rsplit(",", 1)[1] for r in rows) + "\n")
+    np.testing.assert_allclose(load_forceplate_csv(p).samples()[0], np.array(kept) * 0.01, rtol=0, atol=1e-12)
+    p.write_text("time,x,y\n" + "\n".join(r.rsplit(",", 1)[0] for r in rows) + "\n")  # no Fz: every sample
+    assert load_forceplate_csv(p).samples()[0].size == len(fz)
+
+
 def test_forceplate_csv_errors(tmp_path: Path) -> None:
     with pytest.raises(FileNotFoundError):
         load_forceplate_csv(tmp_path / "missing.csv")

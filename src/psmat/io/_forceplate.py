@@ -44,6 +44,12 @@ __all__ = [
 
 
 
+#: a platform sample whose |Fz| is below this share of the recording's median has no CoP (a
+#: standing subject loads the plate with their weight; stepping off leaves a few N):
+#: :meth:`ForcePlateRecording.samples` leaves it out
+FZ_SHARE = 0.05
+
+
 @dataclass(eq=False)
 class ForcePlateRecording:
     """A force-platform recording.
@@ -85,8 +91,10 @@ class ForcePlateRecording:
         """``(t (s), CoP (cm) (N, 2))`` of the samples that have a time and a CoP: the ones to analyse.
 
         A sample without (NaN: a platform's software writes one where Fz fell below its threshold,
-        the subject off the plate, or a dropout) is left out as a lost sample; the others keep their
-        times.
+        the subject off the plate, or a dropout) is left out as a lost sample, and so is one whose
+        vertical force, where the file has it, is below :data:`FZ_SHARE` of the recording's median
+        (CoP = moment / Fz is undefined without a load: such software writes 0 or noise there); the
+        others keep their times.
 
         Raises
         ------
@@ -97,6 +105,10 @@ class ForcePlateRecording:
         name = Path(str(self.meta.get("source", "the recording"))).name
         t, c = np.asarray(self.t, np.float64), self.cop_cm
         ok = np.isfinite(t) & np.all(np.isfinite(c), axis=1)
+        if self.fz_n is not None:
+            fz = np.abs(np.asarray(self.fz_n, np.float64))  # a platform may count downward force negative
+            if np.isfinite(fz).any():
+                ok &= fz >= FZ_SHARE * float(np.nanmedian(fz))  # NaN compares False: lost too
         if ok.sum() < 2:
             raise ValueError(f"force-platform file {name} has {int(ok.sum())} sample(s) with a time and a CoP; "
                              "it needs at least 2")
