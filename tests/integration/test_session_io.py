@@ -471,6 +471,19 @@ def test_info_summary(tmp_path: Path) -> None:
     assert s.path == p and info(p) == text  # the same summary from the path
 
 
+def test_info_spans_a_device_clock_that_started_again(tmp_path: Path) -> None:
+    """A box that restarted: 2 s on its clock, then (restarted at 0.3 s) 1 s more; the span is 3 s in
+    two segments, not the last stamp minus the first (-0.7 s)."""
+    k = np.arange(30)
+    dev = np.r_[np.linspace(0, 2_000_000, 20), np.linspace(300_000, 1_300_000, 10)].astype(np.int64)  # µs
+    p = tmp_path / "restart.h5"
+    with SessionWriter(p, (4, 4), DEVICE) as w:
+        w.append(np.zeros((30, 4, 4), np.uint16), 100.0 + k * 0.1, np.ones(30, bool), seq=np.where(k < 20, k, k - 20),
+                 device_time_us=dev)
+    text = info(load_session(p))
+    assert "device clock  3.000 s span in 2 segments (it started again 1 time(s))" in text
+
+
 # ---------------------------------------------------------------------- interrupted files (in process)
 def _snapshot(w: SessionWriter, dst: Path) -> Path:
     """What a kill at this instant leaves on disk: the journal (the HDF5 file appears only at close)."""

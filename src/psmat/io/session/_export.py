@@ -104,8 +104,12 @@ def _frame_lines(s: Session, pad: str) -> list[str]:
         lines.append(f"{pad}check         {v1}")
     if s.device_time_us is not None:
         known = s.device_time_us[s.device_time_us >= 0]
-        if known.size > 1:
-            lines.append(f"{pad}device clock  {(known[-1] - known[0]) / 1e6:.3f} s span")
+        if known.size > 1:  # a box that restarted starts its clock again: a span per segment, summed
+            segments = np.split(known, np.flatnonzero(np.diff(known) < 0) + 1)
+            span = sum(int(g[-1] - g[0]) for g in segments) / 1e6
+            lines.append(f"{pad}device clock  {span:.3f} s span"
+                         + (f" in {len(segments)} segments (it started again {len(segments) - 1} time(s))"
+                            if len(segments) > 1 else ""))
     lines.append(f"{pad}device        {_kv(s.device)}")
     return lines
 
