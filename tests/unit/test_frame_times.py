@@ -49,3 +49,12 @@ def test_frames_without_a_time_are_left_out_of_both() -> None:
     out = frame_times([1.0, nan, 1.2, 1.2], period_s=0.5)
     assert np.isnan(out[1])
     np.testing.assert_allclose(out[[0, 2, 3]], [1.0, 1.1, 1.2], atol=1e-12)
+
+
+def test_clock_restarts_by_hand() -> None:
+    from psmat.io import clock_restarts
+
+    # stamps 0, 10, (unknown), 20 ms; then the box restarts at 1 ms; an unknown; then 2 ms
+    assert clock_restarts([0, 10_000, -1, 20_000, 1_000, -1, 2_000]).tolist() == [4]
+    assert clock_restarts([0, 10_000, 10_000, 20_000]).tolist() == []  # a stamp repeated is no restart
+    assert clock_restarts([-1, -1]).tolist() == []

@@ -31,7 +31,7 @@ from ._forceplate import (
 )
 from ._import import (IMPORT_FORMATS, ImportedFrames, ImportFormatError, detect_format, import_pressure,
                       read_pressure_file)
-from ._frame_times import frame_times, run_end_period_s
+from ._frame_times import clock_restarts, frame_times, run_end_period_s
 from ._imu_log import ImuLog, load_imu_log, write_imu_log
 from .session import (
     COUNTER_NAMES,
@@ -59,6 +59,7 @@ from .session import (
 
 __all__ = [
     "frame_times",
+    "clock_restarts",
     "run_end_period_s",
     "IMPORT_FORMATS",
     "ImportedFrames",

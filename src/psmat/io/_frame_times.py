@@ -5,7 +5,8 @@ A reader thread stamps every frame decoded from one serial chunk with the chunk'
 timer — form a run of equal times. :func:`frame_times` spreads such a run back from its arrival:
 by the device clock where every frame of the run has one, else by the device's frame period when
 it is given, never back past the run before. :func:`run_end_period_s` estimates that period from
-the frames that are at their arrival (each run's last).
+the frames that are at their arrival (each run's last). :func:`clock_restarts` finds where a device
+clock started again (a box that restarted: its stamps go back).
 """
 
 from __future__ import annotations
@@ -13,7 +14,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-__all__ = ["frame_times", "run_end_period_s"]
+__all__ = ["frame_times", "run_end_period_s", "clock_restarts"]
 
 
 def _runs(host: NDArray[np.float64]) -> tuple[NDArray[np.intp], NDArray[np.intp]]:
@@ -98,3 +99,18 @@ def frame_times(host_time_s: ArrayLike, device_time_us: ArrayLike | None = None,
                 out[s:e + 1] = before + (host[e] - before) * np.arange(1, m + 1) / m
         before = host[e]
     return out
+
+
+def clock_restarts(device_time_us: ArrayLike) -> NDArray[np.intp]:
+    """The frames at which a device clock started again: where its stamp goes back from the last
+    known one (a box that lost power, or was unplugged and reconnected). Unknown stamps (-1) are
+    passed over. Each returned index starts a new segment of the clock.
+
+    Parameters
+    ----------
+    device_time_us : (T,) int
+        Device clock (µs), -1 where unknown.
+    """
+    dev = np.asarray(device_time_us, np.int64).reshape(-1)
+    known = np.flatnonzero(dev >= 0)
+    return known[1:][dev[known[1:]] < dev[known[:-1]]]

@@ -114,9 +114,10 @@ def session_clock(session: Any) -> SessionClock:
 def _device_seconds(dev_us: NDArray[np.int64], host_s: NDArray[np.float64]) -> tuple[NDArray[np.float64], int]:
     """The device stamps (µs, -1 unknown) as seconds on the first segment's clock, NaN where unknown,
     and how often the clock started again (module docstring)."""
+    from ..io import clock_restarts
+
     t = np.where(dev_us >= 0, dev_us * 1e-6, np.nan)
-    known = np.flatnonzero(dev_us >= 0)
-    cuts = known[1:][dev_us[known[1:]] < dev_us[known[:-1]]]  # the first frame of each new segment
+    cuts = clock_restarts(dev_us)  # the first frame of each new segment
     if cuts.size == 0:
         return t, 0
     bounds = np.r_[0, cuts, t.size]

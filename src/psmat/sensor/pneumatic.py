@@ -33,6 +33,7 @@ import csv
 import io
 import math
 import os
+import re
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -44,6 +45,7 @@ from numpy.typing import NDArray
 from .._checks import conductances, fraction, positive, positive_int
 from ..circuit import OPEN, Circuit
 from ..protocol import parse_daq_fields
+from ..units import kpa_per_unit, psi_from_kpa, s_per_unit
 from ._mpi_creep import MPICreep
 from .protocols import Protocol, Segment, segments_from_pressure
 
@@ -290,9 +292,6 @@ def _parse_number(tok: str) -> float:
 
 def _schedule_units(header: list[str], name: str, no: int) -> tuple[float, float]:
     """(s, psi) per unit of a schedule's two columns, from their header names (load_schedule_csv)."""
-    import re
-
-    from ..units import kpa_per_unit, psi_from_kpa, s_per_unit
 
     def split(text: str, names: tuple[str, ...], default: str) -> str | None:
         m = re.fullmatch(r"([a-z]+)\s*(?:[_ ]\s*([^\s\[\]()]+)|[\[(]\s*([^\])]+?)\s*[\])])?", text.strip().lower())

@@ -11,6 +11,7 @@ from typing import Any
 
 import numpy as np
 
+from .._frame_times import clock_restarts
 from ._counts import row_counts
 from ._layout import COUNTER_NAMES, Session
 from ._reader import load_session
@@ -103,9 +104,9 @@ def _frame_lines(s: Session, pad: str) -> list[str]:
     if v1:
         lines.append(f"{pad}check         {v1}")
     if s.device_time_us is not None:
-        known = s.device_time_us[s.device_time_us >= 0]
-        if known.size > 1:  # a box that restarted starts its clock again: a span per segment, summed
-            segments = np.split(known, np.flatnonzero(np.diff(known) < 0) + 1)
+        dev = s.device_time_us
+        if (dev >= 0).sum() > 1:  # a box that restarted starts its clock again: a span per segment, summed
+            segments = [g[g >= 0] for g in np.split(dev, clock_restarts(dev))]
             span = sum(int(g[-1] - g[0]) for g in segments) / 1e6
             lines.append(f"{pad}device clock  {span:.3f} s span"
                          + (f" in {len(segments)} segments (it started again {len(segments) - 1} time(s))"
