@@ -163,11 +163,21 @@ def test_a_bad_subjects_row_costs_only_its_subject(text, refused, why, tmp_path)
     assert layout.problems == []  # said by the sessions of the subject, once each
 
 
-def test_a_subjects_file_that_is_not_utf8_is_one_line(tmp_path):
-    layout = find_study(_study(tmp_path / "study", SUBJECTS.replace("S01", "José").encode("latin-1")))
+@pytest.mark.parametrize("encoding", ["cp1252", "utf-16"])
+def test_a_subjects_file_a_spreadsheet_saved_is_read(encoding, tmp_path):
+    # Excel's "CSV" on a western Windows is Windows-1252; its "Unicode text" UTF-16 with tabs
+    text = SUBJECTS.replace("S01", "José")
+    if encoding == "utf-16":
+        text = text.replace(",", "\t").replace("70.5", "70,5")  # and a decimal comma, as a European Excel
+    layout = find_study(_study(tmp_path / "study", text.encode(encoding)))
+    assert {s: v.weight_kg for s, v in layout.subjects.items()} == {"José": 70.5, "S02": 58.0, "S03": 81.2}
+
+
+def test_a_subjects_file_that_is_not_text_is_one_line(tmp_path):
+    layout = find_study(_study(tmp_path / "study", SUBJECTS.encode() + b"S04\x00\x00,70\n"))
     assert layout.subjects == {}
-    assert len(layout.problems) == 1 and "not UTF-8 text (byte 0xe9" in layout.problems[0]
-    assert "UnicodeDecodeError" not in layout.problems[0]
+    assert len(layout.problems) == 1 and "is not text (byte 0x00 at offset" in layout.problems[0]
+    assert "Error" not in layout.problems[0]
 
 
 @pytest.mark.parametrize("case, words", [

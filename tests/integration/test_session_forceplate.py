@@ -199,3 +199,62 @@ def test_forceplate_csv_errors(tmp_path: Path) -> None:
     p.write_text("t,x,y\n1,2,3\n4,5\n")
     with pytest.raises(ValueError, match="row 3"):
         load_forceplate_csv(p)
+
+
+def _export(t, x_mm, y_mm, fz, sep=",", comma=False):
+    """The data rows of a platform export, numbers as written by hand (``comma``: decimal commas)."""
+    rows = [sep.join(f"{v:.3f}" for v in r) for r in zip(t, x_mm, y_mm, fz)]
+    return "\n".join(r.replace(".", ",") for r in rows) if comma else "\n".join(rows)
+
+
+T4, X4, Y4, FZ4 = [0.0, 0.001, 0.002, 0.003], [12.5, 13.0, -4.25, 0.5], [-30.0, -29.5, 2.0, 7.75], [701.0, 699.5, 702.0, 700.0]
+
+
+def test_forceplate_export_with_a_preamble_and_a_units_row(tmp_path: Path) -> None:
+    """What platform software writes: lines about the recording above the header, the units in a
+    row of their own under it (before: "row 4 has 4 fields, expected 1"; and with the units row,
+    "non-numeric value": a mm file could not be read, and read without the units it is 10x off)."""
+    p = tmp_path / "export.txt"
+    preamble = ["Platform export v2.1", "Subject;Müller", "Sampling rate;1000;Hz"]
+    p.write_bytes(("\r\n".join(preamble + ["Time;COPx;COPy;Fz", "ms;mm;mm;N",
+                                           _export([1000 * v for v in T4], X4, Y4, FZ4, ";", comma=True)])
+                   + "\r\n").encode("cp1252"))  # a German Windows: Windows-1252, decimal commas
+    r = load_forceplate_csv(p)
+    np.testing.assert_allclose(r.t, T4, rtol=0, atol=1e-12)  # ms -> s
+    np.testing.assert_allclose(r.cop_ml_cm, np.array(X4) / 10, rtol=1e-15)  # mm -> cm
+    np.testing.assert_allclose(r.cop_ap_cm, np.array(Y4) / 10, rtol=1e-15)
+    np.testing.assert_array_equal(r.fz_n, FZ4)
+    assert r.meta["preamble"] == preamble and r.meta["unit"] == "mm" and r.meta["time_unit"] == "ms"
+    assert r.meta["columns"] == ["Time [ms]", "COPx [mm]", "COPy [mm]", "Fz [N]"]
+
+
+@pytest.mark.parametrize("encoding", ["utf-16", "utf-8-sig", "cp1252"])
+def test_forceplate_export_as_a_spreadsheet_saves_it(encoding: str, tmp_path: Path) -> None:
+    """Excel's "Unicode text" (UTF-16, tabs; decimal commas in a European locale), "CSV UTF-8" (a
+    byte-order mark), "CSV" on a western Windows (Windows-1252); a unit in brackets (µ, °)."""
+    p = tmp_path / "export.txt"
+    p.write_bytes(("Zeit [s]\tCOPx [mm]\tCOPy [mm]\tFz [N]\tT [°C]\n"
+                   + _export(T4, X4, Y4, FZ4, "\t", comma=True).replace("\n", "\t21,5\n") + "\t21,5\n").encode(encoding))
+    r = load_forceplate_csv(p, t_column="Zeit [s]")
+    np.testing.assert_allclose(r.t, T4, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(r.cop_ml_cm, np.array(X4) / 10, rtol=1e-15)
+    assert r.meta["channels"]["T [°C]"].tolist() == [21.5] * 4
+
+
+def test_forceplate_rows_that_are_not_a_preamble(tmp_path: Path) -> None:
+    """A row of numbers above a second header (two exports pasted together) is no preamble: the
+    rows under the first header are data, the second header a bad row (nothing dropped unsaid); an
+    empty field is a missing value (NaN: a lost sample); a bad value is named with its row."""
+    p = tmp_path / "fp.csv"
+    p.write_text("note\nt,x,y\n0,1,2\nt,x,y\n1,2,3\n")
+    with pytest.raises(ValueError, match=r"row 4: 't' is not a number"):
+        load_forceplate_csv(p)
+    p.write_text("t,x,y,Fz\n0,1,2,700\n0.01,,,3\n0.02,1.5,2.5,690\n0.03,x1,2,700\n")
+    with pytest.raises(ValueError, match=r"row 5: 'x1' is not a number"):
+        load_forceplate_csv(p)
+    p.write_text("t,x,y,Fz\n0,1,2,700\n0.01,,,3\n0.02,1.5,2.5,690\n")
+    r = load_forceplate_csv(p)
+    assert np.isnan(r.cop_ml_cm[1]) and r.samples()[0].tolist() == [0.0, 0.02]
+    p.write_bytes(b"t,x,y\n0,1,2\n\x00\x01\x02\n")
+    with pytest.raises(ValueError, match=r"fp.csv: is not text \(byte 0x00 at offset 12\)"):
+        load_forceplate_csv(p)

@@ -67,6 +67,19 @@ def test_events_csv_comma_and_semicolon(tmp_path: Path) -> None:
     assert load_events_csv(c) == [(0.5, "eyes open"), (30.25, "eyes closed")]
 
 
+@pytest.mark.parametrize("encoding", ["cp1252", "utf-16"])
+def test_events_csv_as_a_spreadsheet_saves_it(tmp_path: Path, encoding: str) -> None:
+    """Excel's "CSV" on a western Windows is Windows-1252 (before: UnicodeDecodeError for "fermés");
+    its "Unicode text" UTF-16 with tabs, and decimal commas in a European locale."""
+    p = tmp_path / "ev.csv"
+    sep = "\t" if encoding == "utf-16" else ";"
+    p.write_bytes(f"time_s{sep}label\r\n0,5{sep}yeux ouverts\r\n30,25{sep}yeux fermés\r\n".encode(encoding))
+    assert load_events_csv(p) == [(0.5, "yeux ouverts"), (30.25, "yeux fermés")]
+    p.write_bytes(b"time_s,label\n0.5,a\x00\n")
+    with pytest.raises(ValueError, match=r"ev.csv: is not text \(byte 0x00 at offset 18\)"):
+        load_events_csv(p)
+
+
 @pytest.mark.parametrize("text, message", [
     ("t,label\n1,a\n", "line 1: header"),
     ("time_s,label\n1,a\nabc,b\n", "line 3: time 'abc'"),

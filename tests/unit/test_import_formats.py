@@ -214,3 +214,20 @@ def test_a_pressure_profile_has_a_geometry_and_no_circuit() -> None:
         Profile.from_dict({**d, "circuit": {"r_o_ohm": 1.0}})
     with pytest.raises(ProfileError, match="geometry"):
         Profile.from_dict({k: v for k, v in d.items() if k != "geometry"})
+
+
+def test_an_export_saved_again_as_utf16_or_windows_1252_reads_the_same(tmp_path: Path) -> None:
+    """A file opened and saved again by a spreadsheet ("Unicode text": UTF-16) or written by Windows
+    software (Windows-1252, a µ in a note): before, UTF-16 read as replacement characters was no
+    Tekscan file at all."""
+    plain = read_pressure_file(tekscan_file(tmp_path / "t.asf"))
+    text = (tmp_path / "t.asf").read_text()
+    for name, data in (("u16.asf", text.encode("utf-16")),
+                       ("w1252.asf", text.replace("VERSION 7.00-20", "VERSION 7.00-20 (µ)").encode("cp1252"))):
+        (tmp_path / name).write_bytes(data)
+        r = read_pressure_file(tmp_path / name)
+        np.testing.assert_array_equal(r.pressure_kpa, plain.pressure_kpa)
+        np.testing.assert_array_equal(r.t_s, plain.t_s)
+    (tmp_path / "bin.csv").write_bytes(b"1,2,3\n\x00\x00\x00\n")
+    with pytest.raises(ImportFormatError, match=r"bin\.csv is not text \(byte 0x00 at offset 6\)"):
+        read_pressure_file(tmp_path / "bin.csv", "csv", shape=(1, 3), pitch_cm=1.0, rate_hz=10.0)

@@ -131,6 +131,15 @@ def test_a_users_file_loads_and_reshapes(tmp_path: Path) -> None:
     assert p.with_shape((3, 2)) is p
 
 
+def test_a_file_notepad_saved_with_a_byte_order_mark_loads(tmp_path: Path) -> None:
+    """TOML is UTF-8; Windows' Notepad may begin it with a byte-order mark (before: "not valid TOML")."""
+    path = tmp_path / "bom.toml"
+    path.write_bytes(GOOD.encode("utf-8-sig"))
+    p, plain = load_profile(path), load_profile(_write(tmp_path, GOOD))
+    assert p.source == str(path) and p.shape == (3, 2) and p.rate_hz == 20.0
+    assert {**p.to_dict(), "source": plain.source} == plain.to_dict()
+
+
 # ------------------------------------------------------------------ bad files: one line naming file and key
 BAD = [
     # a typo is not a default

@@ -354,6 +354,23 @@ def test_a_schedule_from_a_european_spreadsheet_reads_as_the_plain_one() -> None
     assert european[0].tolist() == [0.0, 10.5, 20.0] and european[1].tolist() == [0.0, 2.5, 5.0]
 
 
+def test_a_schedule_file_as_a_spreadsheet_saves_it(tmp_path) -> None:
+    """Excel's "CSV UTF-8" begins with a byte-order mark (before: its header "\\ufefftime_s" named no
+    time column); its "Unicode text" is UTF-16 with tabs and, in a European locale, decimal commas;
+    its "CSV" on a western Windows is Windows-1252 (before: "not UTF-8 text")."""
+    plain = load_schedule_csv(["time_s,pressure_psi", "0,0", "10.5,2.5", "20,5"])
+    f = tmp_path / "schedule.csv"
+    for data in ("time_s,pressure_psi\r\n0,0\r\n10.5,2.5\r\n20,5\r\n".encode("utf-8-sig"),
+                 "time_s\tpressure_psi\n0\t0\n10,5\t2,5\n20\t5\n".encode("utf-16"),
+                 "# Prüfstand: Druck in psi\ntime_s;pressure_psi\n0;0\n10,5;2,5\n20;5\n".encode("cp1252")):
+        f.write_bytes(data)
+        for a, b in zip(plain, load_schedule_csv(f)):
+            np.testing.assert_array_equal(a, b)
+    f.write_bytes(b"time_s,pressure_psi\n0,0\n\x00\x00\n")
+    with pytest.raises(ValueError, match=r"schedule .*schedule.csv is not text \(byte 0x00 at offset 24\)"):
+        load_schedule_csv(f)
+
+
 def test_a_schedule_header_names_its_units_and_they_are_converted() -> None:
     """Read as psi, a schedule written in kPa was 6.9 times too high (the header was skipped unread)."""
     plain = load_schedule_csv(["time_s,pressure_psi", "0,0", "60,14.50377438972831"])  # 100 kPa = 14.5038 psi

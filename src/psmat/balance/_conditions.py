@@ -30,6 +30,8 @@ from typing import Literal
 import numpy as np
 from numpy.typing import NDArray
 
+from .._text import NotTextError, read_text
+
 __all__ = ["Condition", "conditions", "load_events_csv", "romberg_role", "romberg", "frame_clock",
            "condition_spans", "inside", "UNMARKED", "off_the_clock", "NEAR_S"]
 
@@ -219,13 +221,13 @@ def inside(t_s: NDArray[np.float64], span: Condition, hi_s: float) -> NDArray[np
 
 
 def load_events_csv(path: str | os.PathLike[str]) -> list[tuple[float, str]]:
-    """Markers from a CSV file: header ``time_s,label`` (or ``time,label``), comma or semicolon separated
-    (with semicolons, a time may have a decimal comma: ``12,5;eyes closed``).
+    """Markers from a CSV file: header ``time_s,label`` (or ``time,label``), comma, semicolon or tab separated
+    (with semicolons or tabs, a time may have a decimal comma: ``12,5;eyes closed``).
 
     Parameters
     ----------
     path : path
-        The file (UTF-8). Blank lines are skipped; labels keep their inner spaces, outer ones are stripped.
+        The file (UTF-8, UTF-16 with its byte-order mark, or Windows-1252). Blank lines are skipped; labels keep their inner spaces, outer ones are stripped.
 
     Returns
     -------
@@ -242,12 +244,17 @@ def load_events_csv(path: str | os.PathLike[str]) -> list[tuple[float, str]]:
     p = Path(path)
     if not p.is_file():
         raise FileNotFoundError(f"events file not found: {p}")
-    text = p.read_text(encoding="utf-8-sig")
+    try:
+        text = read_text(p)
+    except NotTextError as exc:
+        raise ValueError(f"{p}: {exc}") from None
     lines = text.splitlines()
     first = next((i for i, line in enumerate(lines) if line.strip()), None)
     if first is None:
         raise ValueError(f"{p}: empty file (expected a header time_s,label)")
-    delim = ";" if ";" in lines[first] and "," not in lines[first] else ","
+    # a spreadsheet's text (tabs) or European CSV (semicolons) may write a decimal comma (0,5 s)
+    head = lines[first]
+    delim = "\t" if "\t" in head else ";" if ";" in head and "," not in head else ","
     header = [h.strip().lower() for h in lines[first].split(delim)]
     if header not in (["time_s", "label"], ["time", "label"]):
         raise ValueError(f"{p}: line {first + 1}: header must be time_s,label (or time,label), got {lines[first]!r}")
@@ -257,8 +264,8 @@ def load_events_csv(path: str | os.PathLike[str]) -> list[tuple[float, str]]:
             continue
         if len(row) != 2:
             raise ValueError(f"{p}: line {n}: expected 2 fields (time_s, label), got {len(row)}")
-        try:  # a semicolon-separated file may write a decimal comma (0,5 s)
-            t = float(row[0].replace(",", ".") if delim == ";" else row[0])
+        try:
+            t = float(row[0].replace(",", ".") if delim != "," else row[0])
         except ValueError:
             raise ValueError(f"{p}: line {n}: time {row[0]!r} is not a number of seconds") from None
         if not math.isfinite(t):

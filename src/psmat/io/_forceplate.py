@@ -30,6 +30,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from .._text import NotTextError, read_text
 from ..units import cm_per_unit, s_per_unit
 
 __all__ = [
@@ -151,34 +152,85 @@ _Y = ("y", "copy", "copap", "ap", "ycop", "coap")
 _FZ = ("fz", "forcez", "force", "vgrf", "fzn")
 
 
-def _read_table(path: Path, delimiter: str | None) -> tuple[list[str] | None, NDArray[np.float64]]:
-    text = path.read_text(encoding="utf-8-sig")
+def _numeric(row: list[str]) -> bool:
+    """Whether every field of ``row`` is a number (an empty field: a missing one)."""
+    try:
+        [float(c) for c in row if c]
+    except ValueError:
+        return False
+    return any(row)
+
+
+#: a field of a units row under the header: ``s``, ``mm``, ``[N]``, ``(N.m)``, ``µs``, ``%``
+_UNIT_FIELD = re.compile(r"[\[(]?\s*[A-Za-zµ°%/.*·^²\-]{1,8}\s*[\])]?")
+
+
+def _units_row(row: list[str]) -> bool:
+    return any(row) and all(not c or _UNIT_FIELD.fullmatch(c) for c in row)
+
+
+def _read_table(path: Path, delimiter: str | None) -> tuple[list[str] | None, NDArray[np.float64], list[str]]:
+    """(header, data, preamble) of a platform's table: the header (with a units row's units in brackets), the
+    numbers (an empty field: NaN, a lost sample) and the lines above the header (the software's own notes).
+
+    The header is the first row of names followed by numbers (or by a units row, ``s;mm;mm;N``, and
+    numbers); the rows above it are a preamble (the software's name, the subject, the rate...), kept
+    unread, unless a row of numbers is among them: then the first row is the header, as in a file
+    without a preamble, and the malformed rows are errors.
+    """
+    try:
+        text = read_text(path)
+    except NotTextError as exc:
+        raise ValueError(f"{path}: {exc}") from None
     lines = [ln for ln in text.splitlines() if ln.strip() and not ln.lstrip().startswith("#")]
     if not lines:
         raise ValueError(f"{path}: empty file")
     if delimiter is None:  # from the last line, a data line: a header may hold any character
         probe = lines[-1]
         delimiter = "\t" if "\t" in probe else ";" if ";" in probe else "," if "," in probe else None
-    rows = list(csv.reader(io.StringIO("\n".join(lines)), delimiter=delimiter)) if delimiter else [ln.split() for ln in lines]
-    rows = [[c.strip() for c in r if c.strip() != ""] for r in rows]
-    if delimiter == ";":  # the European CSV: a decimal comma read as a point (as psmat.io's other CSV readers)
+    if delimiter:
+        rows = [[c.strip() for c in r] for r in csv.reader(io.StringIO("\n".join(lines)), delimiter=delimiter)]
+        for r in rows:  # a delimiter that ends every line adds no field
+            while r and not r[-1]:
+                r.pop()
+    else:
+        rows = [ln.split() for ln in lines]
+    if delimiter != ",":  # tabs, semicolons or spaces: a decimal comma read as a point (the European CSV)
         rows = [[c.replace(",", ".") for c in r] for r in rows]
+    width = len(rows[-1])
     header: list[str] | None = None
-    try:
-        [float(c) for c in rows[0]]
-    except ValueError:
-        header, rows = rows[0], rows[1:]
+    start = at = 0  # the first data row; the header's row
+    if not _numeric(rows[0]):
+        header, start = rows[0], 1
+        for i in range(len(rows) - 1):
+            if _numeric(rows[i]) and len(rows[i]) == width:
+                break  # numbers above any later header: no preamble
+            if len(rows[i]) != width or _numeric(rows[i]):
+                continue
+            if _numeric(rows[i + 1]):
+                header, start, at = rows[i], i + 1, i
+                break
+            if i + 2 < len(rows) and len(rows[i + 1]) <= width and _units_row(rows[i + 1]) and _numeric(rows[i + 2]):
+                units = rows[i + 1] + [""] * (width - len(rows[i + 1]))
+                header = [h if not u or _unit_of(h) else f"{h} [{u.strip('[]() ')}]" for h, u in zip(rows[i], units)]
+                start, at = i + 2, i
+                break
+    preamble = lines[:at]
+    rows = rows[start:]
     if not rows:
         raise ValueError(f"{path}: no data rows")
     width = len(rows[0])
     for k, r in enumerate(rows):
         if len(r) != width:
-            raise ValueError(f"{path}: row {k + 1 + (header is not None)} has {len(r)} fields, expected {width}")
-    try:
-        data = np.array(rows, dtype=np.float64)
-    except ValueError as e:
-        raise ValueError(f"{path}: non-numeric value in the data ({e})") from None
-    return header, data
+            raise ValueError(f"{path}: row {k + 1 + start} has {len(r)} fields, expected {width}")
+    data = np.empty((len(rows), width))
+    for k, r in enumerate(rows):
+        try:
+            data[k] = [float(c) if c else np.nan for c in r]
+        except ValueError:
+            bad = next(c for c in r if c and not _numeric([c]))
+            raise ValueError(f"{path}: row {k + 1 + start}: {bad!r} is not a number") from None
+    return header, data, preamble
 
 
 def _find(header: list[str], names: Sequence[str], given: str | int | None, what: str, path: Path, required: bool = True,
@@ -232,7 +284,7 @@ def load_forceplate_csv(
     path = Path(path)
     if not path.is_file():
         raise FileNotFoundError(f"force-platform file not found: {path}")
-    header, data = _read_table(path, delimiter)
+    header, data, preamble = _read_table(path, delimiter)
     if header is None:
         if data.shape[1] < 3:
             raise ValueError(f"{path}: need at least 3 columns (time, x, y), got {data.shape[1]}")
@@ -273,6 +325,7 @@ def load_forceplate_csv(
             "time_unit": tu,
             "swap_axes": swap_axes,
             "channels": {names[k]: data[:, k].copy() for k in range(data.shape[1]) if k not in used},
+            "preamble": preamble,
         },
     )
 

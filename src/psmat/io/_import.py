@@ -11,6 +11,7 @@ import os
 from pathlib import Path
 from typing import Any
 
+from .._text import NotTextError, decode_text
 from ._import_common import ImportedFrames, ImportFormatError, write_imported
 from ._import_csv import read_csv_frames
 from ._import_tekscan import looks_like_tekscan, read_tekscan
@@ -25,14 +26,12 @@ IMPORT_FORMATS = ("tekscan", "xsensor", "csv")
 
 def detect_format(path: str | os.PathLike[str]) -> str:
     """``"tekscan"``, ``"xsensor"`` or ``"csv"`` from a file's first 64 lines (a generic CSV otherwise)."""
-    lines = []
-    with open(path, encoding="utf-8-sig", errors="replace") as f:
-        for _ in range(64):
-            line = f.readline()
-            if not line:
-                break
-            lines.append(line)
-    head = "".join(lines)
+    with open(path, "rb") as f:
+        data = f.read(1 << 16)
+    try:  # (a character cut at the 64 KiB mark reads as Windows-1252: the keywords are ASCII)
+        head = "\n".join(decode_text(data).splitlines()[:64])
+    except NotTextError:
+        return "csv"  # (whose reader says that the file is not text)
     if looks_like_tekscan(head):
         return "tekscan"
     if looks_like_xsensor(head):

@@ -16,7 +16,9 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-__all__ = ["ImportedFrames", "ImportFormatError", "write_imported", "number"]
+from .._text import NotTextError, read_text
+
+__all__ = ["ImportedFrames", "ImportFormatError", "write_imported", "number", "text_lines"]
 
 
 class ImportFormatError(ValueError):
@@ -50,6 +52,15 @@ class ImportedFrames:
     source_format: str
     source_unit: str
     extra: dict[str, Any] = field(default_factory=dict)
+
+
+def text_lines(path: Path) -> list[str]:
+    """The lines of another maker's export (UTF-8, UTF-16 with its byte-order mark, or Windows-1252,
+    as their software and spreadsheets save it); a file that is not text is an ImportFormatError."""
+    try:
+        return read_text(path).splitlines()
+    except NotTextError as exc:
+        raise ImportFormatError(f"{path} {exc}") from None
 
 
 def number(text: str, where: str) -> float:

@@ -19,7 +19,7 @@ from pathlib import Path
 import numpy as np
 
 from ..units import kpa_per_unit
-from ._import_common import ImportedFrames, ImportFormatError, number
+from ._import_common import ImportedFrames, ImportFormatError, number, text_lines
 
 __all__ = ["read_csv_frames"]
 
@@ -83,7 +83,7 @@ def read_csv_frames(path: str | Path, *, shape: tuple[int, int] | None = None, p
     header_time = False
     saw_header = False
     nums: list[int] = []
-    for ln, line in enumerate(p.read_text(encoding="utf-8-sig", errors="replace").splitlines(), 1):
+    for ln, line in enumerate(text_lines(p), 1):
         s = line.strip()
         if not s or s.startswith("#"):
             continue

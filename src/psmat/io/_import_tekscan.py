@@ -19,7 +19,7 @@ from pathlib import Path
 import numpy as np
 
 from ..units import cm_per_unit, kpa_per_unit
-from ._import_common import ImportedFrames, ImportFormatError, number
+from ._import_common import ImportedFrames, ImportFormatError, number, text_lines
 
 __all__ = ["read_tekscan", "looks_like_tekscan"]
 
@@ -80,7 +80,7 @@ def read_tekscan(path: str | Path, *, unit: str | None = None) -> ImportedFrames
         the wrong number of values, a value that is not a number, a frame cut short).
     """
     p = Path(path)
-    lines = p.read_text(encoding="utf-8-sig", errors="replace").splitlines()
+    lines = text_lines(p)
     head, first = _header(lines, p)
     missing = [k for k in _KEYS if k not in head and not (k == "UNITS" and unit)]
     if missing:

@@ -22,7 +22,7 @@ from pathlib import Path
 import numpy as np
 
 from ..units import kpa_per_unit
-from ._import_common import ImportedFrames, ImportFormatError, number
+from ._import_common import ImportedFrames, ImportFormatError, number, text_lines
 
 __all__ = ["read_xsensor", "looks_like_xsensor"]
 
@@ -78,7 +78,7 @@ def read_xsensor(path: str | Path, *, unit: str | None = None) -> ImportedFrames
         One line naming the file, the line and what is wrong.
     """
     p = Path(path)
-    lines = p.read_text(encoding="utf-8-sig", errors="replace").splitlines()
+    lines = text_lines(p)
     frames: list[np.ndarray] = []
     stamps: list[tuple[int, float]] = []  # (day number, s of the day): s since 2000 would lose µs
     first: dict[str, object] = {}

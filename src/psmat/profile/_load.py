@@ -44,7 +44,7 @@ def parse_toml(text: str, where: str) -> Profile:
 
 def _read(path: Path, where: str) -> Profile:
     try:
-        text = path.read_text(encoding="utf-8")
+        text = path.read_text(encoding="utf-8-sig")  # TOML is UTF-8; Notepad may add a byte-order mark
     except UnicodeDecodeError as exc:
         raise ProfileError(f"{where}: not UTF-8 text (byte 0x{exc.object[exc.start]:02x} at offset {exc.start})"
                            ) from None

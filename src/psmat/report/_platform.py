@@ -58,10 +58,7 @@ def compare_platform(path: Path, t_s: NDArray[np.float64], cop_cm: NDArray[np.fl
         A platform file that cannot be read or does not overlap the mat by 8 samples (one line,
         naming the file).
     """
-    try:
-        fp = load_forceplate_csv(path)
-    except UnicodeDecodeError:
-        raise ValueError(f"force-platform file {path.name} is not UTF-8 text") from None
+    fp = load_forceplate_csv(path)
     t_fp, c_fp = fp.samples()  # the samples with a time and a CoP (a NaN one is a lost sample)
     if t_fp.size < 8:
         raise ValueError(f"force-platform file {path.name}: fewer than 8 samples with a time and a CoP")

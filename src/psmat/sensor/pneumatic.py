@@ -43,6 +43,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from .._checks import conductances, fraction, positive, positive_int
+from .._text import NotTextError, read_text
 from ..circuit import OPEN, Circuit
 from ..protocol import parse_daq_fields
 from ..units import kpa_per_unit, psi_from_kpa, s_per_unit
@@ -267,9 +268,9 @@ def _read_lines(source: PathOrLines, what: str) -> tuple[list[str], str, bool]:
         if not path.is_file():
             raise FileNotFoundError(f"{what}: no such file: {path}")
         try:
-            text = path.read_text(encoding="utf-8")
-        except UnicodeDecodeError as exc:
-            raise ValueError(f"{what} {path}: not UTF-8 text ({exc})") from None
+            text = read_text(path)
+        except NotTextError as exc:
+            raise ValueError(f"{what} {path} {exc}") from None
         return text.splitlines(), str(path), text.endswith(("\n", "\r"))
     if isinstance(source, (bytes, bytearray)):
         raise TypeError(f"{what}: pass a path, a text file object or an iterable of str, not bytes")
@@ -319,8 +320,9 @@ def load_schedule_csv(source: PathOrLines) -> tuple[NDArray[np.float64], NDArray
     ``pressure_psi`` (or ``pressure``, ``p``; ``pressure_kpa``, ``pressure [bar]``... any pressure
     unit :func:`psmat.units.kpa_per_unit` knows); the values are converted to s and psi. A header
     that names neither is an error: read as psi, a schedule in kPa would be 6.9 times too high. A row
-    separated by a semicolon may write its decimals with a comma (``10,5;2,5``: the European CSV).
-    Each row gives the pressure applied from its time on (a zero-order hold); the last row's
+    separated by a semicolon or a tab may write its decimals with a comma (``10,5;2,5``: the European
+    CSV, or a spreadsheet saved as text). The file may be UTF-8, UTF-16 with its byte-order mark or
+    Windows-1252 (as spreadsheets save it). Each row gives the pressure applied from its time on (a zero-order hold); the last row's
     time is the end of the schedule.
 
     Parameters
@@ -347,8 +349,8 @@ def load_schedule_csv(source: PathOrLines) -> tuple[NDArray[np.float64], NDArray
         s = text.split("#", 1)[0].strip()
         if not s:
             continue
-        if ";" in s:  # the European CSV: semicolons, a decimal comma read as a point
-            row = [c.strip().replace(",", ".") for c in s.split(";")]
+        if ";" in s or "\t" in s:  # the European CSV or a spreadsheet's text: a decimal comma read as a point
+            row = [c.strip().replace(",", ".") for c in re.split(r"[;\t]", s)]
         else:
             row = [c.strip() for c in next(csv.reader(io.StringIO(s)))]
         try:

@@ -19,11 +19,13 @@ DIR/truth/                simulated studies only; never read here
 from __future__ import annotations
 
 import csv
+import io
 import os
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+from .._text import NotTextError, read_text
 from ..units import n_from_kg
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -122,9 +124,9 @@ class SubjectsFile:
 def scan_subjects(path: str | os.PathLike[str]) -> SubjectsFile:
     """``subjects.csv`` row by row: a bad row is refused alone, with its line number and why.
 
-    The file is UTF-8 text, with or without a byte-order mark (as spreadsheets save CSV), its
-    fields separated by commas or, as a spreadsheet in a European locale writes it, by semicolons
-    with decimal commas (``S01;67,5``); it needs the columns ``subject`` and ``weight_kg`` (kg, in
+    The file is text as spreadsheets save it (UTF-8 with or without a byte-order mark, UTF-16 with
+    one, or Windows-1252), its fields separated by commas or, as a spreadsheet in a European locale
+    writes it, by semicolons or tabs with decimal commas (``S01;67,5``); it needs the columns ``subject`` and ``weight_kg`` (kg, in
     (0, 500)). A row whose id appears
     twice is refused with the other: which weight is right is not known.
     """
@@ -142,9 +144,11 @@ def scan_subjects(path: str | os.PathLike[str]) -> SubjectsFile:
             subjects.pop(sid, None)
 
     try:
-        with open(path, newline="", encoding="utf-8-sig") as fh:
-            # semicolons in the header: the European CSV, whose numbers have decimal commas
-            delim = ";" if ";" in fh.readline() else ","
+        with io.StringIO(read_text(path), newline="") as fh:
+            # tabs or semicolons in the header: a spreadsheet's "text" or European CSV, whose numbers
+            # have decimal commas
+            head = fh.readline()
+            delim = "\t" if "\t" in head else ";" if ";" in head else ","
             fh.seek(0)
             reader = csv.DictReader(fh, restkey="\0extra", delimiter=delim)
             names = [(n or "").strip() for n in (reader.fieldnames or [])]
@@ -169,7 +173,7 @@ def scan_subjects(path: str | os.PathLike[str]) -> SubjectsFile:
                     continue
                 text = row.pop("weight_kg")
                 try:
-                    w = float(text.replace(",", ".") if delim == ";" else text)
+                    w = float(text.replace(",", ".") if delim != "," else text)
                 except ValueError:
                     refuse(sid, k, f"weight_kg of {sid!r} is not a number ({text!r}): the row is left out")
                     continue
@@ -178,9 +182,8 @@ def scan_subjects(path: str | os.PathLike[str]) -> SubjectsFile:
                     continue
                 if sid not in refused:
                     subjects[sid] = Subject(sid, w, row)
-    except UnicodeDecodeError as exc:
-        return SubjectsFile({}, {}, [f"{path} is not UTF-8 text (byte 0x{exc.object[exc.start]:02x} at offset "
-                                     f"{exc.start}); save it as CSV in UTF-8"])
+    except NotTextError as exc:
+        return SubjectsFile({}, {}, [f"{path} {exc}; save it as CSV"])
     except csv.Error as exc:
         return SubjectsFile({}, {}, [f"{path} is not a readable CSV file ({exc})"])
     return SubjectsFile(subjects, refused, problems)

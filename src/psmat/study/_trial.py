@@ -82,19 +82,6 @@ def _metrics(t: np.ndarray, c: np.ndarray, fs: float, t_ref: np.ndarray | None, 
     return out
 
 
-def _forceplate(path: Path, load: Any) -> tuple[np.ndarray, np.ndarray]:
-    """The force-platform file through ``load``: (times (s), CoP (cm)) of its samples that have a
-    time and a CoP (``ForcePlateRecording.samples``: the others are lost samples). A file that is
-    not UTF-8 text, has fewer than two such samples or whose times do not advance is a ValueError
-    saying so."""
-    try:
-        fp = load(path)
-    except UnicodeDecodeError as exc:
-        raise ValueError(f"force-platform file {path.name} is not text (byte 0x{exc.object[exc.start]:02x} at offset "
-                         f"{exc.start} is not UTF-8)") from None
-    return fp.samples()
-
-
 def process_trial(session: str | os.PathLike[str], forceplate: str | os.PathLike[str] | None, subject: str,
                   trial: str, weight_kg: float | None, params: dict[str, Any] | None = None, *,
                   calibration: str | os.PathLike[str] | None = None,
@@ -219,7 +206,8 @@ def _process(session: Path, forceplate: Path | None, subject: str, trial: str, w
                 rows.append(_row(p, subject, trial, v, "no force-platform file: no Eu, no lag" if status == "ok"
                                  else status, **cond, **values))
         return rows
-    t_fp, c_fp = _forceplate(forceplate, load_forceplate_csv)
+    # the samples with a time and a CoP (ForcePlateRecording.samples: the others are lost samples)
+    t_fp, c_fp = load_forceplate_csv(forceplate).samples()
     fs_fp = 1.0 / float(np.median(np.diff(t_fp)))
     ref = traces[p["align_on"]].cop_cm[0]
     ok = np.all(np.isfinite(ref), axis=1)
