@@ -44,6 +44,24 @@ def test_pairs_and_problems(study) -> None:
     assert lay.problems == []
 
 
+def test_companion_files_gathered_on_windows(study) -> None:
+    """Files gathered on Windows, which does not tell case apart (before: "no force-platform file"
+    beside S02_LEFT.TXT); two platform files for one session are a problem, neither is used (before:
+    the last in sorted order, silently); an id that differs only in case is pointed at."""
+    fp = study / "forceplate"
+    (fp / "S02_LEFT.TXT").write_text("time,x,y\n0,0,0\n0.01,0.1,0.2\n")
+    (fp / "S01_right.txt").write_text("time,x,y\n0,0,0\n0.01,0.1,0.2\n")  # beside S01_right.csv
+    (fp / "s03_rot.csv").write_text("time,x,y\n0,0,0\n0.01,0.1,0.2\n")  # beside S03_rot.csv: that one is it
+    (study / "subjects.csv").write_text("subject,weight_kg\nS01,70.5\nS02,58\ns03,80\n")
+    by = {i.stem: i for i in find_study(study).items}
+    assert by["S02_left"].ok and by["S02_left"].forceplate == fp / "S02_LEFT.TXT"
+    assert by["S01_right"].forceplate is None
+    assert by["S01_right"].problems == ["2 force-platform files for session S01_right: S01_right.csv, S01_right.txt; "
+                                        "which one belongs to it is not known: keep one"]
+    assert by["S03_rot"].forceplate == fp / "S03_rot.csv"
+    assert by["S03_rot"].problems == ["subject 'S03' is not in subjects.csv (ids are matched exactly; it has 's03')"]
+
+
 def test_missing_subjects_file_is_a_study_problem_not_a_crash(study) -> None:
     (study / "subjects.csv").unlink()
     lay = find_study(study)

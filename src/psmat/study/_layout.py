@@ -6,7 +6,9 @@ DIR/subjects.csv          subject, weight_kg, height_cm, age, sex, ...
 DIR/sessions/*.h5         mat sessions; metadata holds subject and trial (a recording that was
                           not closed, *.h5.journal alone, is listed with a status saying that
                           ``psmat repair`` finishes it)
-DIR/forceplate/*.csv      force-platform CoP, same stem as the session it belongs to
+DIR/forceplate/*.csv      force-platform CoP, same stem as the session it belongs to (also .tsv,
+                          .txt; a stem that differs only in case is taken, as Windows would; two
+                          files for one session are a problem, neither is used)
 DIR/calibration/*.json    optional, per box serial number
 DIR/events/*.csv          optional, same stem as the session: an experimenter's log of markers
                           (time_s,label on the session's host clock, psmat.balance.load_events_csv)
@@ -243,14 +245,19 @@ def find_study(root: str | os.PathLike[str]) -> StudyLayout:
         problems += found.problems
     else:
         problems.append(f"{sub_csv} not found: no body weights")
-    plates = {p.stem: p for p in sorted((root / "forceplate").glob("*")) if p.suffix.lower() in (".csv", ".tsv", ".txt")}
+    plates = _companions(root / "forceplate", (".csv", ".tsv", ".txt"))
     cal = {p.stem: p for p in sorted((root / "calibration").glob("*.json"))}
-    logs = {p.stem: p for p in sorted((root / "events").glob("*")) if p.suffix.lower() == ".csv"}
+    logs = _companions(root / "events", (".csv",))
     items = []
     for s in sorted({*sessions.glob("*.h5"), *journal_only(sessions)}):  # journal-only: never skipped silently
         subject, trial, problem, simulated, not_closed, serial, circuit = _session_meta(s)
-        item = StudyItem(s.stem, s, plates.get(s.stem), subject, trial, simulated=simulated, not_closed=not_closed,
-                         events=logs.get(s.stem), serial=serial, circuit=circuit)
+        plate, plate_problem = _companion(s.stem, plates, "force-platform")
+        log, log_problem = _companion(s.stem, logs, "events")
+        item = StudyItem(s.stem, s, plate, subject, trial, simulated=simulated, not_closed=not_closed,
+                         events=log, serial=serial, circuit=circuit)
+        if log_problem:  # which markers are right is not known: none are used
+            item.problems.append(f"events file not used, no conditions: {log_problem}")
+            item.events_unusable = item.problems[-1]
         if item.events is not None and (bad := events_problem(item.events, None if problem else s)):
             item.problems.append(bad)
             item.events_unusable = bad
@@ -264,10 +271,14 @@ def find_study(root: str | os.PathLike[str]) -> StudyLayout:
             elif subject in refused:
                 item.problems.append(refused[subject])
             elif subject not in subjects:
-                item.problems.append(f"subject {subject!r} is not in subjects.csv")
+                alike = [k for k in subjects if k.casefold() == subject.casefold()]
+                item.problems.append(f"subject {subject!r} is not in subjects.csv" + (
+                    f" (ids are matched exactly; it has {', '.join(map(repr, alike))})" if alike else ""))
             if trial is None:
                 item.problems.append("session metadata has no trial")
-        if item.forceplate is None:
+        if plate_problem:
+            item.problems.append(plate_problem)
+        elif item.forceplate is None:
             item.problems.append(f"no force-platform file forceplate/{s.stem}.csv")
         items.append(item)
     if not items:
@@ -275,6 +286,27 @@ def find_study(root: str | os.PathLike[str]) -> StudyLayout:
     told = {refused[i.subject] for i in items if i.subject in refused}  # said by their sessions, not twice
     problems = [p for p in problems if p not in told]
     return StudyLayout(root, subjects, items, cal, problems, refused)
+
+
+def _companions(folder: Path, suffixes: tuple[str, ...]) -> dict[str, list[Path]]:
+    """The files of ``folder`` whose suffix is one of ``suffixes`` (any case), by their stem in lower case."""
+    found: dict[str, list[Path]] = {}
+    for p in sorted(folder.glob("*")):
+        if p.suffix.lower() in suffixes and p.is_file():
+            found.setdefault(p.stem.casefold(), []).append(p)
+    return found
+
+
+def _companion(stem: str, found: dict[str, list[Path]], what: str) -> tuple[Path | None, str | None]:
+    """The ``what`` file of the session ``stem`` among ``found`` (:func:`_companions`): the one of that
+    stem, else the one whose stem differs from it only in case (Windows, where a study's files are
+    often gathered, does not tell them apart); (None, why) when two or more could be it."""
+    alike = found.get(stem.casefold(), [])
+    same = [p for p in alike if p.stem == stem] or alike
+    if len(same) > 1:
+        return None, (f"{len(same)} {what} files for session {stem}: {', '.join(p.name for p in same)}; "
+                      "which one belongs to it is not known: keep one")
+    return (same[0] if same else None), None
 
 
 def events_problem(path: Path, session: Path | None = None) -> str | None:
@@ -289,8 +321,6 @@ def events_problem(path: Path, session: Path | None = None) -> str | None:
 
     try:
         marks = load_events_csv(path)
-    except UnicodeDecodeError as exc:
-        return f"events file not used, no conditions: {path} is not UTF-8 text (offset {exc.start})"
     except (ValueError, OSError) as exc:
         return f"events file not used, no conditions: {' '.join(str(exc).split())}"
     span = None if session is None or not marks else host_time_span(session)
