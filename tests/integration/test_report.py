@@ -27,7 +27,7 @@ from psmat.balance import descriptors
 from psmat.cli import main
 from psmat.io import import_pressure, load_session
 from psmat.process import session_pressure
-from psmat.balance import descriptor_unit, ispgr
+from psmat.balance import POOR_ALIGNMENT_R, descriptor_unit, ispgr
 from psmat.report import ReportItem, write_report
 from psmat.synth import simulate_study
 
@@ -309,6 +309,22 @@ def test_markers_in_seconds_from_the_start_without_the_flag_label_nothing(study,
     assert not _tables(page, "condition")
     assert ("markers not used (markers given with the report (the session&#x27;s host clock): none within 1 h of the "
             "recording, so on another clock; seconds from the first frame are --events-from-start)") in text
+
+
+def test_another_recordings_platform_file_is_said_to_align_poorly(study, tmp_path) -> None:
+    """The rotation trial's page given the left-leg trial's platform file (a mix-up of names): their
+    traces share no sway, and the page says so above the numbers that would otherwise read as a result."""
+    session = study / "sessions" / "V01_rotation.h5"
+    out = write_report(tmp_path / "mixup.html", [ReportItem(session, platform=study / "forceplate" / "V01_left-leg.csv")],
+                       params={"preset": None})
+    text = Path(out).read_text(encoding="utf-8")
+    r = float(next(row[1] for t in _parse(text).tables for row in t if row and row[0] == "correlation at the lag"))
+    assert r < POOR_ALIGNMENT_R
+    assert (f"Poor alignment: the correlation at the best lag is {r:.2f}, below 0.6: the traces share no sway. Is "
+            "V01_left-leg.csv this session&#x27;s platform file?") in text
+    own = write_report(tmp_path / "own.html", [ReportItem(session, platform=study / "forceplate" / "V01_rotation.csv")],
+                       params={"preset": None})
+    assert "Poor alignment" not in Path(own).read_text(encoding="utf-8")
 
 
 def test_ispgr_and_descriptor_units_by_hand() -> None:

@@ -5,13 +5,17 @@ aligned traces the figures draw, and a study's calibration file for the session'
 
 from __future__ import annotations
 
+import csv
+import shutil
+
 import numpy as np
 import pytest
 
 from psmat import Calibration, Circuit, twin
 from psmat.io import SessionWriter, bds_trial
 from psmat.sensor import THESIS_TABLE_2_11, MPICreep
-from psmat.study import COLUMNS, process_trial
+from psmat.balance import POOR_ALIGNMENT_R
+from psmat.study import COLUMNS, process_trial, run_study
 
 LAG_TRUE = None  # set by the fixture: platform clock minus mat clock (s)
 
@@ -185,3 +189,36 @@ def test_frames_iecm_did_not_converge_are_counted_in_the_rows_not_warned(tmp_pat
     # the same frames under Newton: the open cell held at the bound, every frame a solution
     rows = process_trial(session, None, "S01", "right", None, {"variants": [], "method": "newton"})
     assert rows[0]["frames_unconverged"] == 0
+
+
+def test_a_platform_file_of_another_recording_is_a_poor_alignment_not_a_result(trial, tmp_path) -> None:
+    """Another recording's platform file (a mix-up of names) shares no sway with the mat: before, its lag,
+    Eu and metrics entered the summary as the session's. Now every row says so and keeps its numbers,
+    and the summary leaves them out (status not "ok")."""
+    session, plate, weight_kg, lag = trial
+    other = bds_trial(11)  # another volunteer's recording, on the platform clock of this trial's file
+    t0 = float(np.loadtxt(plate, delimiter=",", skiprows=1, max_rows=1)[0])
+    keep = other.t <= other.t[0] + 12.0
+    wrong = tmp_path / "S01_left.csv"
+    np.savetxt(wrong, np.c_[other.t[keep] - other.t[0] + t0, other.cop_ml_cm[keep], other.cop_ap_cm[keep],
+                            other.fz_n[keep]], delimiter=",", header="time,x,y,Fz", comments="")
+    params = {"variants": ["PROP", "SCHC"]}
+    rows = process_trial(session, wrong, "S01", "right", weight_kg, params)
+    assert rows[0]["r_align"] < POOR_ALIGNMENT_R
+    for r in rows:
+        assert r["status"] == (f"poor alignment: r {rows[0]['r_align']:.2f} < 0.6 at the best lag: is S01_left.csv "
+                               "this session's platform file?")
+        assert np.isfinite(r["sd_ml_cm"])
+    assert all(r["status"] == "ok" for r in process_trial(session, plate, "S01", "right", weight_kg, params))
+    # a study run says so among its problems (its sessions' lines), and its summary has no such row
+    root = tmp_path / "study"
+    (root / "sessions").mkdir(parents=True)
+    (root / "forceplate").mkdir()
+    shutil.copy(session, root / "sessions" / "S01_right.h5")
+    shutil.copy(wrong, root / "forceplate" / "S01_right.csv")
+    (root / "subjects.csv").write_text(f"subject,weight_kg\nS01,{weight_kg:.3f}\n")
+    run = run_study(root, workers=1, params=params, progress=False)
+    assert [p for p in run.problems if "poor alignment" in p] == [f"S01_right: {rows[0]['status'].replace('S01_left', 'S01_right')}"]
+    with open(run.outputs["summary"], newline="") as fh:
+        summary = list(csv.DictReader(fh))
+    assert summary and all(r["n_ok"] == "0" and r["n_failed"] == "1" for r in summary)

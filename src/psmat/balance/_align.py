@@ -24,7 +24,15 @@ from scipy import optimize
 
 from .. import _checks
 
-__all__ = ["Alignment", "align", "pearson_at_lag", "resample_standardised", "search_lag"]
+__all__ = ["Alignment", "align", "pearson_at_lag", "resample_standardised", "search_lag", "POOR_ALIGNMENT_R"]
+
+#: An alignment whose correlation (the mean of the M-L and A-P components') is below this shows no
+#: sway the two traces share: the platform file is another recording's, or the mat did not see the
+#: sway. Its lag, and the Eu and the comparisons made at it, mean nothing (:attr:`Alignment.poor`).
+#: In simulation (mats the processing does not know, BDS sway) a session's own platform file aligns at
+#: r 0.96-0.99; another recording's at 0.07-0.24 over 60 s, and up to 0.51 over 12 s (a short trace
+#: correlates more by chance at some lag).
+POOR_ALIGNMENT_R = 0.6
 
 
 @dataclass(frozen=True)
@@ -55,6 +63,11 @@ class Alignment:
     fs_hz: float
     overlap_s: float
     manual: bool = False
+
+    @property
+    def poor(self) -> bool:
+        """``r`` is below :data:`POOR_ALIGNMENT_R` (or not a number): the traces share no sway."""
+        return not self.r >= POOR_ALIGNMENT_R
 
     def to_ref_time(self, t: ArrayLike) -> NDArray[np.float64]:
         """Times of the mat's clock on the platform's clock (s)."""

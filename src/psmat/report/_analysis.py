@@ -20,8 +20,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from ..balance import (ISPGR_MIN_HZ, ISPGR_MIN_S, NEAR_S, condition_spans, cop, describe_preset, descriptors,
-                       frame_clock, inside, ispgr, off_the_clock, preprocess, romberg, romberg_role, sway)
+from ..balance import (ISPGR_MIN_HZ, ISPGR_MIN_S, NEAR_S, POOR_ALIGNMENT_R, condition_spans, cop, describe_preset,
+                       descriptors, frame_clock, inside, ispgr, off_the_clock, preprocess, romberg, romberg_role, sway)
 from ..io import load_session
 from ..process import PressureRecord, session_pressure
 from ..profile import session_profile
@@ -234,7 +234,10 @@ def analyse(item: ReportItem, p: dict[str, Any]) -> SessionAnalysis:
     plat, plat_note = None, "no force-platform file"
     if item.platform is not None:
         plat = compare_platform(Path(item.platform), t, c, p)
-        plat_note = ""
+        plat_note = "" if plat.r >= POOR_ALIGNMENT_R else (
+            f"Poor alignment: the correlation at the best lag is {plat.r:.2f}, below {POOR_ALIGNMENT_R:g}: the traces "
+            f"share no sway. Is {plat.path.name} this session's platform file? The lag, Eu and the platform's "
+            "numbers below are not comparable with the mat's.")
     return SessionAnalysis(
         label=item.label or path.name, path=path, recorded=_recorded(s, rec, duration, rate, missing),
         simulated=_simulated(meta), record=rec, cop_cm=c_raw, mean_kpa=np.nanmean(usable, axis=0),

@@ -104,8 +104,9 @@ def _conditions(a: SessionAnalysis) -> str:
 def _platform(a: SessionAnalysis) -> str:
     out = ["<h3>Force platform</h3>"]
     pf = a.platform
+    out.append(_note(a.platform_note))
     if pf is None:
-        return "".join(out) + _note(a.platform_note)
+        return "".join(out)
     out.append(_table(["", "value", "unit"], [
         ["file", pf.path.name, ""], ["platform rate", pf.rate_hz, "Hz"],
         ["lag (platform time − mat time)", pf.lag_s, "s"], ["correlation at the lag", pf.r, "1"],

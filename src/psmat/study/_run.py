@@ -77,7 +77,7 @@ from ._reports import REPORTS_DIR, ReportIndex, ReportTask, report_tasks, run_re
 from ._row_metrics import preprocessing_sentence
 from ._task import SessionTask, run_task, status_rows
 from ._timings import PoolClock, Stopwatch, TaskTime, timed
-from ._trial import COLUMNS, DEFAULT_PARAMS, Rows, Traces
+from ._trial import COLUMNS, DEFAULT_PARAMS, POOR_ALIGNMENT, Rows, Traces
 
 if TYPE_CHECKING:  # pragma: no cover
     from ._results import DrawFigures
@@ -551,6 +551,8 @@ def _session_problems(items: Sequence[StudyItem], order: Sequence[str], done: di
         problems = list(by_stem[stem].problems)
         if stem in failed and not problems:
             problems.append(done[stem].rows[0]["status"])
+        elif poor := next((r["status"] for r in done[stem].rows if POOR_ALIGNMENT in r["status"]), None):
+            problems.append(poor[poor.index(POOR_ALIGNMENT):])  # its rows are left out of the summary
         out += [f"{stem}: {p}" for p in problems]
     return out
 

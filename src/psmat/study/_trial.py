@@ -19,7 +19,7 @@ from typing import Any
 
 import numpy as np
 
-from ..balance import VARIANTS, align, condition_spans, eu, frame_clock, inside, ispgr, variant_traces
+from ..balance import POOR_ALIGNMENT_R, VARIANTS, align, condition_spans, eu, frame_clock, inside, ispgr, variant_traces
 from ._conditions import MIN_SAMPLES
 from ..sensor import MPICreep
 from ..units import n_from_kg
@@ -49,6 +49,10 @@ DEFAULT_PARAMS: dict[str, Any] = {
     "descriptors": None,  # "quijoux2021": the 72 descriptors (psmat.balance.descriptors) as extra columns
 }
 
+
+#: the status of every row of a trial whose platform file aligns with the mat at a correlation below
+#: psmat.balance.POOR_ALIGNMENT_R: the file is another recording's, or the mat did not see the sway
+POOR_ALIGNMENT = "poor alignment"
 
 Rows = list[dict[str, Any]]
 #: {"t_s": (N,) platform-clock times (s), "FP": (N, 2) cm, "<variant>": (N, 2) cm}, M-L then A-P
@@ -258,6 +262,10 @@ def _process(session: Path, forceplate: Path | None, subject: str, trial: str, w
             f = traces[v].factor
             rows.append(_row(p, subject, trial, v, status, **window, **values,
                              factor=float(np.mean(f)) if f is not None else np.nan))
+    if a.poor:  # the rows keep their numbers; their status keeps them out of the summary
+        why = (f"{POOR_ALIGNMENT}: r {a.r:.2f} < {POOR_ALIGNMENT_R:g} at the best lag: is {Path(forceplate).name} "
+               "this session's platform file?")
+        rows = [{**r, "status": why if r["status"] == "ok" else f"{r['status']}; {why}"} for r in rows]
     return rows
 
 
