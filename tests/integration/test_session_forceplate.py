@@ -258,3 +258,25 @@ def test_forceplate_rows_that_are_not_a_preamble(tmp_path: Path) -> None:
     p.write_bytes(b"t,x,y\n0,1,2\n\x00\x01\x02\n")
     with pytest.raises(ValueError, match=r"fp.csv: is not text \(byte 0x00 at offset 12\)"):
         load_forceplate_csv(p)
+
+
+def test_forceplate_export_timed_by_its_rate(tmp_path: Path) -> None:
+    """Software that writes a sample number (or nothing) and its rate above the header: before, "no
+    time column recognised" and the session had no platform. Sample k is at k / rate; a skipped
+    number keeps its gap (a lost sample); a rate given by hand wins; two stated rates are an error."""
+    p = tmp_path / "export.txt"
+    p.write_text("Platform export\nSampling rate: 1 kHz\nLow-pass filter: 10 Hz\nSample;COPx (mm);COPy (mm);Fz (N)\n"
+                 "1;12,5;-30;701\n2;13;-29,5;699,5\n4;-4,25;2;702\n")
+    r = load_forceplate_csv(p)
+    np.testing.assert_allclose(r.t, [0.001, 0.002, 0.004], rtol=1e-15)
+    np.testing.assert_allclose(r.cop_ml_cm, [1.25, 1.3, -0.425], rtol=1e-15)
+    assert r.meta["time_from"] == "'Sample' / 1000 Hz (the line 'Sampling rate: 1 kHz')" and r.meta["channels"] == {}
+    np.testing.assert_allclose(load_forceplate_csv(p, rate_hz=500).t, [0.002, 0.004, 0.008], rtol=1e-15)
+    p.write_text("Rate;100;Hz\nCOPx;COPy\n1;2\n1;2\n1;3\n")  # no counter: the row
+    assert load_forceplate_csv(p).t.tolist() == [0.0, 0.01, 0.02]
+    p.write_text("Sample rate 100 Hz\nframe rate: 50\nCOPx,COPy\n1,2\n1,2\n1,3\n")
+    with pytest.raises(ValueError, match="the lines above the header name 2 rates"):
+        load_forceplate_csv(p)
+    p.write_text("COPx,COPy\n1,2\n1,2\n1,3\n")
+    with pytest.raises(ValueError, match="no time column recognised .*give the platform's rate_hz="):
+        load_forceplate_csv(p)

@@ -256,6 +256,39 @@ def _find(header: list[str], names: Sequence[str], given: str | int | None, what
     return None
 
 
+_COUNTER = ("sample", "samples", "sampleno", "samplenr", "samplenumber", "frame", "frames", "frameno",
+            "framenr", "framenumber", "index")
+#: a line above the header that states the sampling rate: a word for sampling or rate, then the number
+_RATE_LINE = re.compile(r"(?i)\b(sampl\w*|\w*\s?rate)\b[^0-9]{0,30}?([0-9]+(?:[.,][0-9]+)?)\s*(k?hz)?\b")
+
+
+def _timed_by_rate(header: list[str], data: NDArray[np.float64], preamble: list[str], rate_hz: float | None,
+                   path: Path) -> tuple[NDArray[np.float64], str, str, int | None]:
+    """(t (s), "s", how it was timed, the counter column or None) of a table without a time column."""
+    said = ""
+    if rate_hz is None:
+        found = {}
+        for line in preamble:
+            m = _RATE_LINE.search(line)
+            if m:
+                found.setdefault(float(m.group(2).replace(",", ".")) * (1e3 if (m.group(3) or "").lower() == "khz"
+                                                                        else 1.0), line.strip())
+        if len(found) > 1:
+            raise ValueError(f"{path}: no time column, and the lines above the header name {len(found)} rates "
+                             f"({'; '.join(found.values())}): give rate_hz=")
+        if not found:
+            raise ValueError(f"{path}: no time column recognised (columns: {header}); name it with the t_column= "
+                             "argument, or give the platform's rate_hz=")
+        (rate_hz, line), = found.items()
+        said = f" (the line {line!r})"
+    if not (np.isfinite(rate_hz) and rate_hz > 0):
+        raise ValueError(f"{path}: the rate must be a positive number of Hz, got {rate_hz!r}{said}")
+    norm = [_norm(h) for h in header]
+    ik = next((norm.index(n) for n in _COUNTER if n in norm), None)
+    k = np.arange(data.shape[0], dtype=np.float64) if ik is None else data[:, ik]
+    return k / rate_hz, "s", f"{'the row' if ik is None else repr(header[ik])} / {rate_hz:g} Hz{said}", ik
+
+
 def load_forceplate_csv(
     path: str | os.PathLike[str],
     *,
@@ -267,6 +300,7 @@ def load_forceplate_csv(
     swap_axes: bool = False,
     delimiter: str | None = None,
     t_unit: str | None = None,
+    rate_hz: float | None = None,
 ) -> ForcePlateRecording:
     """Load a force-platform CoP file: columns time, x, y [, Fz (N)].
 
@@ -280,6 +314,12 @@ def load_forceplate_csv(
     in the x column header (e.g. ``x[mm]``), else cm. ``t_unit``: ``"s"``, ``"ms"`` or ``"us"``; default: the unit in the
     time column's header (``Time [ms]``, ``time_ms``), else s; ``t`` is in s either way. ``x`` is
     medial–lateral and ``y`` anterior–posterior unless ``swap_axes``.
+
+    A file with a header but no time column (platform software that writes a sample number, or
+    nothing, and states its rate above the header) is timed by its rate: ``rate_hz`` (Hz), else the
+    one line above the header that names a sampling or frame rate (``Sampling rate: 1000 Hz``,
+    ``Rate;1 kHz``); sample k is at ``k / rate`` s, k from a ``sample``/``frame`` column when there
+    is one (a skipped number keeps its gap), else the row. ``meta["time_from"]`` says which.
     """
     path = Path(path)
     if not path.is_file():
@@ -294,7 +334,9 @@ def load_forceplate_csv(
     else:
         if len(header) != data.shape[1]:
             raise ValueError(f"{path}: header has {len(header)} names but rows have {data.shape[1]} fields")
-        it = _find(header, _TIME, t_column, "time", path, arg="t_column")
+        it = _find(header, _TIME, t_column, "time", path, arg="t_column", required=False)
+        if it is None:  # timed by the rate
+            by_rate = _timed_by_rate(header, data, preamble, rate_hz, path)
         ix = _find(header, _X, x, "x", path)
         iy = _find(header, _Y, y, "y", path)
         ifz = _find(header, _FZ, fz, "Fz", path, required=False)
@@ -304,16 +346,20 @@ def load_forceplate_csv(
         s = cm_per_unit(u)
     except ValueError as exc:
         raise ValueError(f"{path}: the CoP columns: {exc}; or give unit=") from None
-    tu = t_unit or (_time_unit_of(names[it]) if header else "s")
-    try:
-        s_per = s_per_unit(tu)
-    except ValueError as exc:
-        raise ValueError(f"{path}: the time column {names[it]!r}: {exc}; or give t_unit=") from None
+    if it is None:  # (a header without a time column)
+        t, tu, time_from, ik = by_rate
+    else:
+        tu = t_unit or (_time_unit_of(names[it]) if header else "s")
+        try:
+            t = data[:, it] * s_per_unit(tu)
+        except ValueError as exc:
+            raise ValueError(f"{path}: the time column {names[it]!r}: {exc}; or give t_unit=") from None
+        time_from, ik = f"the column {names[it]!r}", it
     cx, cy = data[:, ix] * s, data[:, iy] * s
     ml, ap = (cy, cx) if swap_axes else (cx, cy)
-    used = {it, ix, iy} | ({ifz} if ifz is not None else set())
+    used = {ix, iy} | {k for k in (ik, ifz) if k is not None}
     return ForcePlateRecording(
-        t=data[:, it] * s_per,
+        t=t,
         cop_ml_cm=ml.copy(),
         cop_ap_cm=ap.copy(),
         fz_n=data[:, ifz].copy() if ifz is not None else None,
@@ -323,6 +369,7 @@ def load_forceplate_csv(
             "columns": list(names),
             "unit": u,
             "time_unit": tu,
+            "time_from": time_from,
             "swap_axes": swap_axes,
             "channels": {names[k]: data[:, k].copy() for k in range(data.shape[1]) if k not in used},
             "preamble": preamble,
