@@ -327,6 +327,27 @@ def test_another_recordings_platform_file_is_said_to_align_poorly(study, tmp_pat
     assert "Poor alignment" not in Path(own).read_text(encoding="utf-8")
 
 
+def test_a_platform_with_its_a_p_axis_reversed_is_named_and_turned(study, tmp_path) -> None:
+    plate = study / "forceplate" / "V01_rotation.csv"
+    data = np.loadtxt(plate, delimiter=",", skiprows=1)
+    turned = tmp_path / "turned.csv"
+    np.savetxt(turned, np.c_[data[:, 0], data[:, 1], -data[:, 2], data[:, 3:]], delimiter=",",
+               header="time,x,y,Fz", comments="")
+    session = study / "sessions" / "V01_rotation.h5"
+
+    def page(platform, **params):
+        out = write_report(tmp_path / "p.html", [ReportItem(session, platform=platform)], params={"preset": None, **params})
+        text = Path(out).read_text(encoding="utf-8")
+        Path(out).unlink()
+        return text, {row[0]: row[1] for t in _parse(text).tables for row in t if row and row[0].startswith(("Eu", "lag"))}
+
+    text, _ = page(turned)
+    assert ("with the platform&#x27;s axes x,-y: they lie otherwise than the mat&#x27;s (psmat report "
+            "--platform-axes=x,-y)") in text
+    (text, fixed), (_, plain) = page(turned, platform_axes="x,-y"), page(plate)
+    assert "Poor alignment" not in text and fixed == plain
+
+
 def test_ispgr_and_descriptor_units_by_hand() -> None:
     assert ispgr(30.0, 50.0) == "ok"
     assert ispgr(20.0, 40.0) == "short: 20.0 s < 25 s; rate 40 Hz < 50 Hz"

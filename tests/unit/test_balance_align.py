@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from psmat.balance import align
+from psmat.balance import align, find_platform_axes, orient_platform
 from psmat.io import bds_trial
 
 
@@ -125,3 +125,33 @@ def test_the_thesis_rates_with_gains_and_offsets(platform, rate_hz, lag, gain, o
     # below one sample: a tenth of the 10 Hz period, or of the 100 Hz one
     assert a.lag_s == pytest.approx(lag, abs=0.1 / rate_hz)
     assert a.r > 0.99
+
+
+def test_orient_platform_by_hand() -> None:
+    c = np.array([[1.0, 2.0], [3.0, -4.0]])
+    assert orient_platform(c).tolist() == c.tolist()
+    assert orient_platform(c, "x,-y").tolist() == [[1.0, -2.0], [3.0, 4.0]]
+    assert orient_platform(c, "-y,x").tolist() == [[-2.0, 1.0], [4.0, 3.0]]
+    assert orient_platform(c, "y,-x").tolist() == [[2.0, -1.0], [-4.0, -3.0]]
+    with pytest.raises(ValueError, match="platform axes must be one of"):
+        orient_platform(c, "x,z")
+
+
+@pytest.mark.parametrize("axes", ["x,-y", "-x,y", "y,x", "-y,x"])
+def test_a_platform_whose_axes_lie_otherwise_aligns_poorly_and_its_axes_are_found(platform, axes) -> None:
+    """A platform whose A-P axis points the other way from the mat's: that component correlates at about
+    -1 and cancels the other at the true lag, so the alignment is poor. Read with the axes that undo
+    it, it is the mat's view again (the same lag)."""
+    lag = 0.731
+    t, c = mat_view(platform, lag, rate_hz=50.0, start=10.0, seconds=40.0)
+    t_ref, c_ref = platform
+    # the file as the platform wrote it: the inverse of orient_platform(., axes)
+    undo = {"x,-y": "x,-y", "-x,y": "-x,y", "y,x": "y,x", "-y,x": "y,-x"}[axes]
+    written = orient_platform(c_ref, undo)
+    np.testing.assert_array_equal(orient_platform(written, axes), c_ref)
+    assert align(t_ref, written, t, c).poor
+    found, a = find_platform_axes(t_ref, written, t, c)
+    assert found == axes and not a.poor and a.lag_s == pytest.approx(lag, abs=2e-3) and a.r > 0.999
+    # another recording's sway (another BDS trial) aligns under no orientation
+    other = bds_trial(11)
+    assert find_platform_axes(other.t, other.cop_cm, t, c) is None

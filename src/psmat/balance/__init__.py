@@ -30,7 +30,8 @@ Each lives in a private module of this package (``_cop.py``, ``_sway.py``, ...);
 below are the package's API.
 """
 
-from ._align import POOR_ALIGNMENT_R, Alignment, align, pearson_at_lag, resample_standardised, search_lag
+from ._align import (PLATFORM_AXES, POOR_ALIGNMENT_R, Alignment, align, find_platform_axes, orient_platform,
+                     pearson_at_lag, resample_standardised, search_lag)
 from ._cop import cell_centres_cm, cop
 from ._conditions import (NEAR_S, UNMARKED, Condition, condition_spans, conditions, frame_clock, inside,
                           load_events_csv, off_the_clock, romberg, romberg_role)
@@ -48,7 +49,7 @@ from ._variants import (BASE_VARIANTS, EXTRA_VARIANTS, KNOWN_VARIANTS, VARIANTS,
 
 __all__ = ["cop", "cell_centres_cm", "eu", "sway", "Sway", "descriptors", "descriptor_unit", "ispgr", "ISPGR_MIN_S", "ISPGR_MIN_HZ", "preprocess",
            "prediction_ellipse_area", "mean_frequency",
-           "align", "Alignment", "POOR_ALIGNMENT_R", "search_lag", "pearson_at_lag", "resample_standardised", "scale_factor", "scale_factors",
+           "align", "Alignment", "POOR_ALIGNMENT_R", "PLATFORM_AXES", "orient_platform", "find_platform_axes", "search_lag", "pearson_at_lag", "resample_standardised", "scale_factor", "scale_factors",
            "mean_force_n", "equilibrate", "Equilibration", "Subgrid", "subgrids", "subgrid_cops", "BASE_VARIANTS",
            "VARIANTS", "EXTRA_VARIANTS", "KNOWN_VARIANTS", "VariantName", "describe", "legend_label", "VariantTrace",
            "variant_traces", "Condition", "conditions", "load_events_csv", "romberg_role", "romberg", "frame_clock",

@@ -24,7 +24,8 @@ from scipy import optimize
 
 from .. import _checks
 
-__all__ = ["Alignment", "align", "pearson_at_lag", "resample_standardised", "search_lag", "POOR_ALIGNMENT_R"]
+__all__ = ["Alignment", "align", "pearson_at_lag", "resample_standardised", "search_lag", "POOR_ALIGNMENT_R",
+           "PLATFORM_AXES", "orient_platform", "find_platform_axes"]
 
 #: An alignment whose correlation (the mean of the M-L and A-P components') is below this shows no
 #: sway the two traces share: the platform file is another recording's, or the mat did not see the
@@ -242,3 +243,34 @@ def align(t_ref: ArrayLike, cop_ref: ArrayLike, t: ArrayLike, cop: ArrayLike, *,
     min_overlap = _checks.fraction("min_overlap", min_overlap, 0.0, 1.0)
     lag, r, ov = search_lag(tr, cr, tm, cm, fs, max_lag_s=max_lag_s, min_overlap=min_overlap)
     return Alignment(lag, 0.5 * float(r[0] + r[1]), float(r[0]), float(r[1]), float(fs), ov)
+
+
+#: How a platform's axes lie on the mat's: ``"M-L,A-P"`` in terms of the platform's x and y as loaded
+#: (:func:`psmat.io.load_forceplate_csv`: x = M-L, y = A-P unless told otherwise), each reversed
+#: (``-``) or not, swapped or not. ``"x,y"``: as loaded; ``"x,-y"``: its A-P axis points the other way
+#: (towards the heels where the mat's points towards the toes); ``"y,x"``: its x is A-P.
+PLATFORM_AXES = ("x,y", "-x,y", "x,-y", "-x,-y", "y,x", "-y,x", "y,-x", "-y,-x")
+
+
+def orient_platform(cop_cm: ArrayLike, axes: str = "x,y") -> NDArray[np.float64]:
+    """A platform's CoP ``(N, 2)`` (its x, y as loaded, cm) on the mat's axes (M-L, A-P, cm), by
+    ``axes`` (one of :data:`PLATFORM_AXES`)."""
+    if axes not in PLATFORM_AXES:
+        raise ValueError(f"platform axes must be one of {', '.join(PLATFORM_AXES)}, got {axes!r}")
+    c = np.asarray(cop_cm, dtype=np.float64)
+    cols = [(-1.0 if a.startswith("-") else 1.0) * c[:, "xy".index(a[-1])] for a in axes.split(",")]
+    return np.column_stack(cols)
+
+
+def find_platform_axes(t_ref: ArrayLike, cop_ref_cm: ArrayLike, t: ArrayLike, cop_cm: ArrayLike, *,
+                       besides: str = "x,y", max_lag_s: float | None = None) -> tuple[str, Alignment] | None:
+    """The platform axes (:data:`PLATFORM_AXES`, other than ``besides``) under which the platform's CoP
+    ``cop_ref_cm`` (as loaded; times ``t_ref`` s) aligns with the mat's ``cop_cm`` (times ``t`` s) without
+    being :attr:`Alignment.poor`: the best of
+    them and its alignment, or None. For a poor alignment, it tells a platform whose axes point
+    otherwise than the mat's (its A-P reversed: that component's correlation is about -1 and cancels the
+    other's) from another recording's file (no orientation aligns)."""
+    found = [(axes, align(t_ref, orient_platform(cop_ref_cm, axes), t, cop_cm, max_lag_s=max_lag_s))
+             for axes in PLATFORM_AXES if axes != besides]
+    axes, best = max(found, key=lambda f: f[1].r)
+    return None if best.poor else (axes, best)

@@ -27,6 +27,8 @@ HELP = "write one self-contained HTML report (figures, metrics, descriptors, reg
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
+    from ..balance import PLATFORM_AXES
+
     p.add_argument("sessions", metavar="S.h5", nargs="+", help="the session files (.h5), a mat's or imported")
     p.add_argument("--platform", metavar="CSV", action="append", default=None,
                    help="a force-platform CSV of the session (once per session, in their order)")
@@ -44,6 +46,10 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                    help="a cell is loaded above this pressure (kPa, a finite number >= 0)")
     p.add_argument("--calibration", metavar="FILE", default=None,
                    help="a psmat calibrate file (JSON) of the box the mat sessions were recorded with")
+    p.add_argument("--platform-axes", choices=PLATFORM_AXES, default="x,y", metavar="AXES",
+                   help="how the platform's axes lie on the mat's: M-L,A-P in terms of its file's x and y, each "
+                        "possibly reversed (-) or swapped (x,y: as the file is; x,-y: its A-P axis points the "
+                        "other way; y,x: its x is A-P); write --platform-axes=-x,y for a leading minus")
     p.add_argument("--pdf", action="store_true", help="also print the report to OUT.pdf")
     p.add_argument("--overwrite", action="store_true", help="replace an existing report")
 
@@ -89,7 +95,7 @@ def run(args: argparse.Namespace) -> int:
             items.append(ReportItem(session=session, platform=args.platform[k] if args.platform else None,
                                     events=events, events_from_start=args.events_from_start))
         params = {"preset": None if args.preset == "none" else args.preset, "threshold_kpa": args.threshold_kpa,
-                  "calibration": args.calibration}
+                  "calibration": args.calibration, "platform_axes": args.platform_axes}
         result = write_report(out, items, title=args.title, subject=args.subject, params=params, pdf=args.pdf)
     except (ValueError, TypeError, KeyError, SessionFormatError, OSError) as exc:
         return fail(exc)

@@ -31,6 +31,8 @@ def _variant_key() -> str:
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
+    from ..balance import PLATFORM_AXES
+
     sub = p.add_subparsers(dest="action", required=True, metavar="{run,simulate}")
     r = sub.add_parser("run", help="process every session of DIR into DIR/results/ (resumable)",
                        description="Process every session of a study folder into DIR/results/; finished sessions "
@@ -64,6 +66,11 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     r.add_argument("--descriptors", choices=("quijoux2021",), default=None,
                    help="add the 72 posturography descriptors of Quijoux et al. (2021) (preset quijoux2021) to "
                         "every row of metrics.csv, on the same aligned window")
+    r.add_argument("--platform-axes", choices=PLATFORM_AXES, default="x,y", metavar="AXES",
+                   help="how the force platform's axes lie on the mat's: M-L,A-P in terms of the platform file's "
+                        "x and y, each possibly reversed (-) or swapped: x,y (as the files are), x,-y "
+                        "(its A-P axis points the other way), y,x (its x is A-P), ... A trial whose platform "
+                        "aligns poorly says which axes would align it; write --platform-axes=-x,y for a leading minus")
     r.add_argument("--reports", action="store_true",
                    help="also write one self-contained HTML report per subject, DIR/results/reports/<subject>.html "
                         "(psmat report of its sessions with their platform and events files), linked from "
@@ -100,7 +107,7 @@ def _run(args: argparse.Namespace) -> int:
         print("psmat study run: give --workers or --scheduler/--scheduler-file, not both", file=sys.stderr)
         return 1
     params: dict[str, object] = {"preprocess": None if args.preprocess == "none" else args.preprocess,
-                                 "descriptors": args.descriptors}
+                                 "descriptors": args.descriptors, "platform_axes": args.platform_axes}
     if args.variants is not None:
         from ..balance import VARIANTS
 

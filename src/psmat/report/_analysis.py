@@ -236,8 +236,10 @@ def analyse(item: ReportItem, p: dict[str, Any]) -> SessionAnalysis:
         plat = compare_platform(Path(item.platform), t, c, p)
         plat_note = "" if plat.r >= POOR_ALIGNMENT_R else (
             f"Poor alignment: the correlation at the best lag is {plat.r:.2f}, below {POOR_ALIGNMENT_R:g}: the traces "
-            f"share no sway. Is {plat.path.name} this session's platform file? The lag, Eu and the platform's "
-            "numbers below are not comparable with the mat's.")
+            + (f"share no sway. Is {plat.path.name} this session's platform file?" if plat.other_axes is None else
+               f"align at {plat.other_axes[1]:.2f} with the platform's axes {plat.other_axes[0]}: they lie otherwise "
+               f"than the mat's (psmat report --platform-axes={plat.other_axes[0]}).")
+            + " The lag, Eu and the platform's numbers below are not comparable with the mat's.")
     return SessionAnalysis(
         label=item.label or path.name, path=path, recorded=_recorded(s, rec, duration, rate, missing),
         simulated=_simulated(meta), record=rec, cop_cm=c_raw, mean_kpa=np.nanmean(usable, axis=0),

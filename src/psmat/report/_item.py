@@ -16,6 +16,7 @@ DEFAULT_PARAMS: dict[str, Any] = {
     "method": "newton",          # IECM method of a mat session's chain
     "calibration": None,         # a calibration file for the mat sessions (psmat calibrate, JSON)
     "max_lag_s": None,           # largest lag searched when aligning with a platform (s); None: any
+    "platform_axes": "x,y",      # how the platform's axes lie on the mat's (psmat.balance.PLATFORM_AXES)
     "ispgr_min_duration_s": 25.0,  # ISPGR (Scoppa et al. 2013): a trial lasts at least this (s)
     "ispgr_min_rate_hz": 50.0,   # ... sampled at least this fast (Hz)
 }

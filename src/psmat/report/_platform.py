@@ -16,7 +16,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from ..balance import align, eu, preprocess, sway
+from ..balance import align, eu, find_platform_axes, orient_platform, preprocess, sway
 from ..io import load_forceplate_csv
 
 __all__ = ["PlatformResult", "compare_platform"]
@@ -39,6 +39,8 @@ class PlatformResult:
     t_s: NDArray[np.float64]  # preprocessed common times from the overlap's start (figure), s
     mat_cm: NDArray[np.float64]  # (N, 2) the mat, preprocessed, mean removed, cm
     fp_cm: NDArray[np.float64]  # (N, 2) the platform at the same times, preprocessed, mean removed, cm
+    #: for a poor alignment, the platform axes that align it and their r (psmat.balance.find_platform_axes)
+    other_axes: tuple[str, float] | None = None
 
 
 def _metrics(t: NDArray[np.float64], c: NDArray[np.float64], preset: str | None
@@ -59,10 +61,13 @@ def compare_platform(path: Path, t_s: NDArray[np.float64], cop_cm: NDArray[np.fl
         naming the file).
     """
     fp = load_forceplate_csv(path)
-    t_fp, c_fp = fp.samples()  # the samples with a time and a CoP (a NaN one is a lost sample)
+    t_fp, c_loaded = fp.samples()  # the samples with a time and a CoP (a NaN one is a lost sample)
     if t_fp.size < 8:
         raise ValueError(f"force-platform file {path.name}: fewer than 8 samples with a time and a CoP")
+    c_fp = orient_platform(c_loaded, p["platform_axes"])
     a = align(t_fp, c_fp, t_s, cop_cm, max_lag_s=p["max_lag_s"])
+    other = (find_platform_axes(t_fp, c_loaded, t_s, cop_cm, besides=p["platform_axes"], max_lag_s=p["max_lag_s"])
+             if a.poor else None)
     lo, hi = max(t_s[0] + a.lag_s, t_fp[0]), min(t_s[-1] + a.lag_s, t_fp[-1])
     in_mat = (t_s + a.lag_s >= lo) & (t_s + a.lag_s <= hi)
     in_fp = (t_fp >= lo) & (t_fp <= hi)
@@ -78,4 +83,5 @@ def compare_platform(path: Path, t_s: NDArray[np.float64], cop_cm: NDArray[np.fl
     return PlatformResult(path=path, rate_hz=(t_fp.size - 1) / (t_fp[-1] - t_fp[0]), lag_s=a.lag_s, r=a.r,
                           overlap_s=float(hi - lo), eu_cm=eu(am, bm), eu_ml_cm=eu(am[:, 0], bm[:, 0]),
                           eu_ap_cm=eu(am[:, 1], bm[:, 1]), mat=m_mat, fp=m_fp, t_s=tp - tp[0],
-                          mat_cm=xy_mat - xy_mat.mean(axis=0), fp_cm=fp_at - fp_at.mean(axis=0))
+                          mat_cm=xy_mat - xy_mat.mean(axis=0), fp_cm=fp_at - fp_at.mean(axis=0),
+                          other_axes=None if other is None else (other[0], other[1].r))

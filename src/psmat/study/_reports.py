@@ -121,7 +121,7 @@ def report_tasks(layout: StudyLayout, tasks: Mapping[str, SessionTask], order: S
                 if len(cals) > 1 else "")
         p = ts[0].params
         params = {"preset": p["preprocess"], "method": p["method"], "max_lag_s": p["max_lag_s"],
-                  "calibration": next(iter(cals)) if len(cals) == 1 else None}
+                  "platform_axes": p["platform_axes"], "calibration": next(iter(cals)) if len(cals) == 1 else None}
         items = tuple((t.session, t.forceplate, f"{t.trial} ({Path(t.session).name})", t.events) for t in ts)
         line, row = _person(layout, subject)
         title = f"{subject}: balance study report"

@@ -19,7 +19,8 @@ from typing import Any
 
 import numpy as np
 
-from ..balance import POOR_ALIGNMENT_R, VARIANTS, align, condition_spans, eu, frame_clock, inside, ispgr, variant_traces
+from ..balance import (POOR_ALIGNMENT_R, VARIANTS, align, condition_spans, eu, find_platform_axes, frame_clock, inside,
+                       ispgr, orient_platform, variant_traces)
 from ._conditions import MIN_SAMPLES
 from ..sensor import MPICreep
 from ..units import n_from_kg
@@ -41,6 +42,8 @@ DEFAULT_PARAMS: dict[str, Any] = {
     "cell_area_cm2": None,  # cm²; None: the cell area of that geometry (pitch²)
     "window_s": None,  # None: the whole overlap of mat and platform
     "max_lag_s": None,
+    # how the platform's axes lie on the mat's (psmat.balance.PLATFORM_AXES): "x,y" as its file is loaded
+    "platform_axes": "x,y",
     "align_on": "PROP",
     "sensor": None,  # MPICreep parameters (dict); None: the thesis' Table 2.11
     # the sway metrics of every row (FP and variants) after psmat.balance.preprocess with this preset
@@ -211,7 +214,8 @@ def _process(session: Path, forceplate: Path | None, subject: str, trial: str, w
                                  else status, **cond, **values))
         return rows
     # the samples with a time and a CoP (ForcePlateRecording.samples: the others are lost samples)
-    t_fp, c_fp = load_forceplate_csv(forceplate).samples()
+    t_fp, c_loaded = load_forceplate_csv(forceplate).samples()
+    c_fp = orient_platform(c_loaded, p["platform_axes"])
     fs_fp = 1.0 / float(np.median(np.diff(t_fp)))
     ref = traces[p["align_on"]].cop_cm[0]
     ok = np.all(np.isfinite(ref), axis=1)
@@ -263,8 +267,11 @@ def _process(session: Path, forceplate: Path | None, subject: str, trial: str, w
             rows.append(_row(p, subject, trial, v, status, **window, **values,
                              factor=float(np.mean(f)) if f is not None else np.nan))
     if a.poor:  # the rows keep their numbers; their status keeps them out of the summary
-        why = (f"{POOR_ALIGNMENT}: r {a.r:.2f} < {POOR_ALIGNMENT_R:g} at the best lag: is {Path(forceplate).name} "
-               "this session's platform file?")
+        other = find_platform_axes(t_fp, c_loaded, t[ok], ref[ok], besides=p["platform_axes"], max_lag_s=p["max_lag_s"])
+        why = f"{POOR_ALIGNMENT}: r {a.r:.2f} < {POOR_ALIGNMENT_R:g} at the best lag" + (
+            f": is {Path(forceplate).name} this session's platform file?" if other is None else
+            f", {other[1].r:.2f} with the platform's axes {other[0]}: they lie otherwise than the mat's "
+            f"(study run --platform-axes={other[0]})")
         rows = [{**r, "status": why if r["status"] == "ok" else f"{r['status']}; {why}"} for r in rows]
     return rows
 
