@@ -280,3 +280,37 @@ def test_forceplate_export_timed_by_its_rate(tmp_path: Path) -> None:
     p.write_text("COPx,COPy\n1,2\n1,2\n1,3\n")
     with pytest.raises(ValueError, match="no time column recognised .*give the platform's rate_hz="):
         load_forceplate_csv(p)
+
+
+def test_times_saved_with_too_few_decimals_are_put_back_on_their_rate(tmp_path: Path) -> None:
+    """A 1 kHz platform's file saved by a spreadsheet that shows two decimals: each time repeats ten
+    times (before: "its times do not advance"). Rounded from a constant rate, they lie within q/2 of
+    a line in the sample number, and the line's times are within ~q/2 of the true ones; 100 lost
+    samples (0.1 s) stand off any line, and the file is refused with the reason."""
+    t = np.arange(3000) * 1e-3
+    p = tmp_path / "fp.csv"
+
+    def write(times: np.ndarray, decimals: int) -> None:
+        p.write_text("time,x,y\n" + "".join(f"{v:.{decimals}f},{np.sin(v):.4f},{np.cos(v):.4f}\n" for v in times))
+
+    write(t, 2)
+    r = load_forceplate_csv(p)
+    np.testing.assert_allclose(r.t, t, rtol=0, atol=0.005)  # the rounding's own bound
+    assert np.all(np.diff(r.t) > 0) and r.rate_hz == pytest.approx(1000.0, rel=1e-3)
+    assert r.meta["time_from"].startswith("the column 'time', written to 0.01 s and put back on its 99")
+    write(t, 3)  # every decimal: taken as written
+    assert load_forceplate_csv(p).meta["time_from"] == "the column 'time'"
+    write(np.r_[t[:1000], t[1100:]], 2)
+    with pytest.raises(ValueError, match=r"its times repeat \(written to 0.01 s .* export it again with every decimal"):
+        load_forceplate_csv(p)
+
+
+def test_a_time_that_goes_back_names_the_step(tmp_path: Path) -> None:
+    """Two recordings in one file (or a platform clock that started again): before, "cop_ref times must
+    increase strictly" from deep in the alignment, not naming the file."""
+    p = tmp_path / "two.csv"
+    t = np.r_[np.arange(100), np.arange(50)] * 0.01
+    p.write_text("time,x,y\n" + "".join(f"{v:.2f},{v:.3f},1\n" for v in t))
+    with pytest.raises(ValueError, match=r"two.csv: its time goes from 0.99 s back to 0 s \(1 such step\(s\)\): it "
+                                         r"holds more than one recording"):
+        load_forceplate_csv(p).samples()

@@ -118,6 +118,12 @@ class ForcePlateRecording:
         if not step > 0:
             raise ValueError(f"force-platform file {name}: its times do not advance (median step {step:g} s "
                              "between samples)")
+        back = np.flatnonzero(np.diff(t) <= 0)
+        if back.size:
+            k = int(back[0])
+            raise ValueError(f"force-platform file {name}: its time goes from {t[k]:.6g} s back to {t[k + 1]:.6g} s "
+                             f"({back.size} such step(s)): it holds more than one recording, or its clock started "
+                             "again; keep one")
         return t, c
 
     def __repr__(self) -> str:
@@ -262,6 +268,32 @@ _COUNTER = ("sample", "samples", "sampleno", "samplenr", "samplenumber", "frame"
 _RATE_LINE = re.compile(r"(?i)\b(sampl\w*|\w*\s?rate)\b[^0-9]{0,30}?([0-9]+(?:[.,][0-9]+)?)\s*(k?hz)?\b")
 
 
+def _unrounded(t: NDArray[np.float64], time_from: str, path: Path) -> tuple[NDArray[np.float64], str]:
+    """Times written with fewer decimals than the samples need (a spreadsheet saves the digits it
+    shows: a 1 kHz platform's times at 0.01 s repeat ten times each), put back on their rate.
+
+    Times that repeat but never decrease, and lie within 3/4 of their resolution q (the smallest
+    step; rounding alone leaves q/2, the fitted line's own error a little more) of one straight line
+    in the sample's number, were a constant rate rounded: the line's times replace them, each within
+    about q of the true one (as the written ones were within q/2, but not in order). Lost samples
+    shift the later times by their periods: once that passes the tolerance, or for times off any
+    line, times that repeat are an error saying why. Times that do not repeat are returned as they are.
+    """
+    ok = np.isfinite(t)
+    d = np.diff(t[ok])
+    if not (d.size and (d == 0).any() and (d >= 0).all() and (d > 0).any()):
+        return t, time_from  # (times that never advance: ForcePlateRecording.samples says so)
+    k = np.flatnonzero(ok).astype(np.float64)
+    slope, t0 = np.polyfit(k, t[ok], 1)
+    q = float(d[d > 0].min())
+    line = t0 + slope * np.arange(t.size)
+    if slope > 0 and np.abs(line[ok] - t[ok]).max() <= 0.75 * q:
+        return line, f"{time_from}, written to {q:g} s and put back on its {1 / slope:.6g} Hz"
+    raise ValueError(f"{path}: its times repeat (written to {q:g} s for samples closer than that): the time column "
+                     "was saved with too few decimals (a spreadsheet saves the digits it shows), and the samples "
+                     "are not evenly spaced to rebuild it; export it again with every decimal")
+
+
 def _timed_by_rate(header: list[str], data: NDArray[np.float64], preamble: list[str], rate_hz: float | None,
                    path: Path) -> tuple[NDArray[np.float64], str, str, int | None]:
     """(t (s), "s", how it was timed, the counter column or None) of a table without a time column."""
@@ -355,6 +387,7 @@ def load_forceplate_csv(
         except ValueError as exc:
             raise ValueError(f"{path}: the time column {names[it]!r}: {exc}; or give t_unit=") from None
         time_from, ik = f"the column {names[it]!r}", it
+        t, time_from = _unrounded(t, time_from, path)
     cx, cy = data[:, ix] * s, data[:, iy] * s
     ml, ap = (cy, cx) if swap_axes else (cx, cy)
     used = {ix, iy} | {k for k in (ik, ifz) if k is not None}
