@@ -36,6 +36,11 @@ LENGTH_UNITS_CM: dict[str, float] = {
 #: s per unit of time, by name (lower case): the times :func:`s_per_unit` knows.
 TIME_UNITS_S: dict[str, float] = {"s": 1.0, "sec": 1.0, "ms": 1e-3, "msec": 1e-3, "us": 1e-6, "µs": 1e-6,
                                   "μs": 1e-6, "min": 60.0}
+#: kg per unit of mass, by name (lower case): the masses :func:`kg_per_unit` knows (the international
+#: avoirdupois pound, 0.45359237 kg exactly; the stone, 14 lb).
+MASS_UNITS_KG: dict[str, float] = {"kg": 1.0, "kgs": 1.0, "kilogram": 1.0, "kilograms": 1.0,
+                                   "lb": 0.45359237, "lbs": 0.45359237, "pound": 0.45359237, "pounds": 0.45359237,
+                                   "st": 14 * 0.45359237, "stone": 14 * 0.45359237}
 #: Standard gravity, m/s² (CGPM 1901): N per kg of body mass.
 STANDARD_GRAVITY_M_S2: float = 9.80665
 
@@ -83,6 +88,17 @@ def cm_per_unit(unit: str) -> float:
     if key not in LENGTH_UNITS_CM:
         raise ValueError(f"unknown length unit {unit!r} (known: mm, cm, m, in)")
     return LENGTH_UNITS_CM[key]
+
+
+def kg_per_unit(unit: str) -> float:
+    """kg per one ``unit`` of mass (``"kg"``, ``"lb"``, ``"st"`` and their spelled-out names).
+
+    Case is ignored. Raises ValueError (one line naming the known units) for any other.
+    """
+    key = str(unit).strip().lower()
+    if key not in MASS_UNITS_KG:
+        raise ValueError(f"unknown mass unit {unit!r} (known: kg, lb, st)")
+    return MASS_UNITS_KG[key]
 
 
 def s_per_unit(unit: str) -> float:

@@ -198,6 +198,12 @@ def test_unit_factors_are_the_definitions() -> None:
     assert kpa_per_unit("N/cm2") == kpa_per_unit("N / cm^2") == 10.0
     assert cm_per_unit("millimeters") == 0.1 and cm_per_unit("inches") == 2.54
     assert kpa_per_unit("bar") == 100.0 and kpa_per_unit("mbar") == 0.1  # 1 bar = 10^5 Pa, by definition
+    from psmat.units import kg_per_unit
+
+    # the international avoirdupois pound (1959): 0.45359237 kg exactly; the stone, 14 lb
+    assert kg_per_unit("LB") == kg_per_unit("pounds") == 0.45359237 and kg_per_unit("st") == 14 * 0.45359237
+    with pytest.raises(ValueError, match="unknown mass unit 'oz'"):
+        kg_per_unit("oz")
     with pytest.raises(ValueError, match="unknown pressure unit 'atm'"):
         kpa_per_unit("atm")
 

@@ -62,6 +62,36 @@ def test_companion_files_gathered_on_windows(study) -> None:
     assert by["S03_rot"].problems == ["subject 'S03' is not in subjects.csv (ids are matched exactly; it has 's03')"]
 
 
+@pytest.mark.parametrize("text, weights", [
+    ("Subject,Weight (kg),Height (cm)\nS01,70.5,170\nS02,58,160\n", {"S01": 70.5, "S02": 58.0}),
+    ("subject;Body weight [lb]\nS01;155,4\nS02;127,868\n", {"S01": 155.4 * 0.45359237, "S02": 127.868 * 0.45359237}),
+    ("Participant ID,mass_kg\nS01,70.5\n", {"S01": 70.5}),
+    ("subject,weight_st\nS01,11\n", {"S01": 11 * 14 * 0.45359237}),  # the stone: 14 lb
+])
+def test_a_subjects_header_as_people_write_it(tmp_path, text, weights) -> None:
+    """Capitals, units in brackets, pounds (before: "needs a column 'subject'" for "Subject", and a
+    file in pounds could not be used). 1 lb = 0.45359237 kg exactly (international avoirdupois pound)."""
+    p = tmp_path / "subjects.csv"
+    p.write_text(text)
+    got = read_subjects(p)
+    assert set(got) == set(weights)
+    for sid, kg in weights.items():
+        assert got[sid].weight_kg == pytest.approx(kg, rel=1e-12)
+
+
+@pytest.mark.parametrize("text, match", [
+    ("subject,weight\nS01,70\n", "the column 'weight' names no unit: call it weight_kg or weight_lb"),
+    ("subject,weight_kg,weight_lb\nS01,70,154\n", "needs one column 'weight_kg'"),
+    ("ID,weight_kg\nS01,70\n", "needs one column 'subject'"),
+    ("subject,weight_lb\nS01,1200\n", "weight_lb of 'S01' is 1200 = 544.311 kg; expected kg in"),
+])
+def test_a_subjects_header_that_leaves_the_weight_unknown(tmp_path, text, match) -> None:
+    p = tmp_path / "subjects.csv"
+    p.write_text(text)
+    with pytest.raises(ValueError, match=match):
+        read_subjects(p)
+
+
 def test_missing_subjects_file_is_a_study_problem_not_a_crash(study) -> None:
     (study / "subjects.csv").unlink()
     lay = find_study(study)

@@ -23,12 +23,13 @@ from __future__ import annotations
 import csv
 import io
 import os
+import re
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from .._text import NotTextError, read_text
-from ..units import n_from_kg
+from ..units import MASS_UNITS_KG, kg_per_unit, n_from_kg
 
 if TYPE_CHECKING:  # pragma: no cover
     from ..circuit import Circuit
@@ -154,14 +155,15 @@ def scan_subjects(path: str | os.PathLike[str]) -> SubjectsFile:
             fh.seek(0)
             reader = csv.DictReader(fh, restkey="\0extra", delimiter=delim)
             names = [(n or "").strip() for n in (reader.fieldnames or [])]
-            for need in ("subject", "weight_kg"):
-                if need not in names:
-                    return SubjectsFile({}, {}, [f"{path}: needs a column {need!r}, has {names}"])
+            try:
+                sname, wname, kg_per = _subject_columns(names)
+            except ValueError as exc:
+                return SubjectsFile({}, {}, [f"{path}: {exc}"])
             for row in reader:
                 k = reader.line_num
                 extra = row.pop("\0extra", None)
                 row = {(a or "").strip(): (b or "").strip() for a, b in row.items()}
-                sid = row.pop("subject")
+                sid = row.pop(sname)
                 if not sid:
                     refuse("", k, "empty subject id: the row is left out")
                     continue
@@ -173,14 +175,15 @@ def scan_subjects(path: str | os.PathLike[str]) -> SubjectsFile:
                 if extra:
                     refuse(sid, k, f"{len(names) + len(extra)} fields for {len(names)} columns: the row is left out")
                     continue
-                text = row.pop("weight_kg")
+                text = row.pop(wname)
                 try:
-                    w = float(text.replace(",", ".") if delim != "," else text)
+                    w = float(text.replace(",", ".") if delim != "," else text) * kg_per
                 except ValueError:
-                    refuse(sid, k, f"weight_kg of {sid!r} is not a number ({text!r}): the row is left out")
+                    refuse(sid, k, f"{wname} of {sid!r} is not a number ({text!r}): the row is left out")
                     continue
                 if not 0 < w < 500:
-                    refuse(sid, k, f"weight_kg of {sid!r} is {w:g}; expected kg in (0, 500): the row is left out")
+                    refuse(sid, k, f"{wname} of {sid!r} is {text}" + (f" = {w:g} kg" if kg_per != 1 else "")
+                           + "; expected kg in (0, 500): the row is left out")
                     continue
                 if sid not in refused:
                     subjects[sid] = Subject(sid, w, row)
@@ -189,6 +192,42 @@ def scan_subjects(path: str | os.PathLike[str]) -> SubjectsFile:
     except csv.Error as exc:
         return SubjectsFile({}, {}, [f"{path} is not a readable CSV file ({exc})"])
     return SubjectsFile(subjects, refused, problems)
+
+
+_SUBJECT = ("subject", "subject_id", "participant", "participant_id")
+_WEIGHT = ("weight", "mass", "body_weight", "body_mass", "bodyweight", "bodymass")
+
+
+def _column(name: str) -> tuple[str, str | None]:
+    """A header's name and unit: ``"Weight (kg)"``, ``"weight_kg"``, ``"Body weight [lb]"`` →
+    (``"weight"``, ``"kg"``), (``"weight"``, ``"kg"``), (``"body_weight"``, ``"lb"``); ``" Subject "`` →
+    (``"subject"``, None)."""
+    n = name.strip().lower()
+    m = re.fullmatch(r"(.+?)\s*[\[(]\s*([^\])]+?)\s*[\])]", n)
+    if m:
+        return re.sub(r"[\s\-]+", "_", m.group(1)), m.group(2)
+    n = re.sub(r"[\s\-]+", "_", n)
+    base, _, unit = n.rpartition("_")
+    return (base, unit) if base and unit in MASS_UNITS_KG else (n, None)
+
+
+def _subject_columns(names: list[str]) -> tuple[str, str, float]:
+    """(the subject id's column, the body weight's column, kg per its unit) of subjects.csv's header, as
+    a person writes it (``Subject``, ``Weight (kg)``, ``weight_lb``); ValueError (one line) without them."""
+    cols = {n: _column(n) for n in names}
+    ids = [n for n, (base, unit) in cols.items() if base in _SUBJECT and unit is None]
+    weights = [n for n, (base, _) in cols.items() if base in _WEIGHT]
+    if len(ids) != 1:
+        raise ValueError(f"needs one column 'subject' (the subject's id), has {names}")
+    if len(weights) != 1:
+        raise ValueError(f"needs one column 'weight_kg' (the body weight; or weight_lb), has {names}")
+    unit = cols[weights[0]][1]
+    if unit is None:
+        raise ValueError(f"the column {weights[0]!r} names no unit: call it weight_kg or weight_lb")
+    try:
+        return ids[0], weights[0], kg_per_unit(unit)
+    except ValueError as exc:
+        raise ValueError(f"the column {weights[0]!r}: {exc}") from None
 
 
 def _session_meta(path: Path) -> tuple[str | None, str | None, str | None, bool, str | None, str | None,
