@@ -2,11 +2,14 @@
 
 Inside the sensor model pressure is in psi (the thesis fitted it in psi); at the user API
 pressure is in kPa and force in N. Every public quantity names its unit by a suffix
-(``_kpa``, ``_psi``, ``_n``, ``_kg``, ``_cm``, ``_s``, ...); these functions convert between them.
+(``_kpa``, ``_psi``, ``_n``, ``_kg``, ``_cm``, ``_s``, ...); these functions convert between them,
+and :func:`header_unit` reads the unit a column header of a lab's file names.
 """
 
 from __future__ import annotations
 
+import re
+from collections.abc import Collection
 from typing import TypeVar
 
 import numpy as np
@@ -110,3 +113,21 @@ def s_per_unit(unit: str) -> float:
     if key not in TIME_UNITS_S:
         raise ValueError(f"unknown time unit {unit!r} (known: s, ms, us, min)")
     return TIME_UNITS_S[key]
+
+
+def header_unit(header: str, bases: Collection[str]) -> tuple[str, str | None] | None:
+    """The name and unit of a column ``header`` whose name is one of ``bases`` (lower case, words
+    joined by ``_``), as people write headers: ``"Weight (kg)"``, ``"weight_kg"``, ``"Body weight [LB]"``
+    → (``"weight"``, ``"kg"``), ..., (``"body_weight"``, ``"lb"``); ``" Time "`` → (``"time"``, None);
+    a header whose name is not in ``bases`` → None. Case is ignored; spaces and hyphens are ``_``.
+    The unit is returned as written (lower case), for :func:`kg_per_unit`, :func:`s_per_unit`, ...
+    """
+    n = re.sub(r"[\s\-]+", "_", header.strip().lower())
+    m = re.fullmatch(r"(.+?)_?[\[(]_?([^\])]+?)_?[\])]", n)
+    if m:
+        base, unit = m.group(1), m.group(2)
+    elif n in bases:
+        return n, None
+    else:
+        base, _, unit = n.rpartition("_")
+    return (base, unit) if base in bases else None

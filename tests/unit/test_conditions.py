@@ -157,3 +157,15 @@ def test_markers_on_another_clock_by_hand() -> None:
     assert not off_the_clock([last + NEAR_S], first, last)  # the hour's edge is in
     assert off_the_clock([last + NEAR_S + 1.0, first - NEAR_S - 1.0], first, last)
     assert not off_the_clock([], first, last)  # no markers: nothing to judge
+
+
+def test_an_events_header_as_people_write_it(tmp_path: Path) -> None:
+    """Before: "header must be time_s,label" for Time (s),Event; and a file in ms could not be used."""
+    p = tmp_path / "ev.csv"
+    p.write_text("Time (s),Event\n0.5,eyes open\n30.25,eyes closed\n")
+    assert load_events_csv(p) == [(0.5, "eyes open"), (30.25, "eyes closed")]
+    p.write_text("time_ms;Marker\n500;eyes open\n30250;eyes closed\n")
+    assert load_events_csv(p) == [(0.5, "eyes open"), (30.25, "eyes closed")]
+    p.write_text("time [h],label\n1,a\n")
+    with pytest.raises(ValueError, match=r"line 1: unknown time unit 'h'"):
+        load_events_csv(p)

@@ -31,6 +31,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from .._text import NotTextError, read_text
+from ..units import header_unit, s_per_unit
 
 __all__ = ["Condition", "conditions", "load_events_csv", "romberg_role", "romberg", "frame_clock",
            "condition_spans", "inside", "UNMARKED", "off_the_clock", "NEAR_S"]
@@ -220,9 +221,15 @@ def inside(t_s: NDArray[np.float64], span: Condition, hi_s: float) -> NDArray[np
     return (t >= span.start_s) & ((t < span.stop_s) | ((span.stop_s >= hi_s) & (t <= span.stop_s)))
 
 
+_TIME_HEADERS = ("time", "onset")
+_LABEL_HEADERS = ("label", "event", "marker", "condition", "annotation")
+
+
 def load_events_csv(path: str | os.PathLike[str]) -> list[tuple[float, str]]:
     """Markers from a CSV file: header ``time_s,label`` (or ``time,label``), comma, semicolon or tab separated
-    (with semicolons or tabs, a time may have a decimal comma: ``12,5;eyes closed``).
+    (with semicolons or tabs, a time may have a decimal comma: ``12,5;eyes closed``). The header may be
+    written as people write it: ``Time (s)``, ``time_ms`` (converted to s), ``onset``; ``event``,
+    ``marker``, ``condition`` for the label.
 
     Parameters
     ----------
@@ -255,9 +262,15 @@ def load_events_csv(path: str | os.PathLike[str]) -> list[tuple[float, str]]:
     # a spreadsheet's text (tabs) or European CSV (semicolons) may write a decimal comma (0,5 s)
     head = lines[first]
     delim = "\t" if "\t" in head else ";" if ";" in head and "," not in head else ","
-    header = [h.strip().lower() for h in lines[first].split(delim)]
-    if header not in (["time_s", "label"], ["time", "label"]):
+    header = next(csv.reader([lines[first]], delimiter=delim))
+    t_col, l_col = (header_unit(header[0], _TIME_HEADERS), header_unit(header[1], _LABEL_HEADERS)) if len(header) == 2 \
+        else (None, None)
+    if t_col is None or l_col is None or l_col[1] is not None:
         raise ValueError(f"{p}: line {first + 1}: header must be time_s,label (or time,label), got {lines[first]!r}")
+    try:
+        s_per = s_per_unit(t_col[1] or "s")
+    except ValueError as exc:
+        raise ValueError(f"{p}: line {first + 1}: {exc}") from None
     out = []
     for n, row in enumerate(csv.reader(lines[first + 1:], delimiter=delim), start=first + 2):
         if not row or not any(c.strip() for c in row):
@@ -265,7 +278,7 @@ def load_events_csv(path: str | os.PathLike[str]) -> list[tuple[float, str]]:
         if len(row) != 2:
             raise ValueError(f"{p}: line {n}: expected 2 fields (time_s, label), got {len(row)}")
         try:
-            t = float(row[0].replace(",", ".") if delim != "," else row[0])
+            t = float(row[0].replace(",", ".") if delim != "," else row[0]) * s_per
         except ValueError:
             raise ValueError(f"{p}: line {n}: time {row[0]!r} is not a number of seconds") from None
         if not math.isfinite(t):

@@ -46,7 +46,7 @@ from .._checks import conductances, fraction, positive, positive_int
 from .._text import NotTextError, read_text
 from ..circuit import OPEN, Circuit
 from ..protocol import parse_daq_fields
-from ..units import kpa_per_unit, psi_from_kpa, s_per_unit
+from ..units import header_unit, kpa_per_unit, psi_from_kpa, s_per_unit
 from ._mpi_creep import MPICreep
 from .protocols import Protocol, Segment, segments_from_pressure
 
@@ -293,21 +293,14 @@ def _parse_number(tok: str) -> float:
 
 def _schedule_units(header: list[str], name: str, no: int) -> tuple[float, float]:
     """(s, psi) per unit of a schedule's two columns, from their header names (load_schedule_csv)."""
-
-    def split(text: str, names: tuple[str, ...], default: str) -> str | None:
-        m = re.fullmatch(r"([a-z]+)\s*(?:[_ ]\s*([^\s\[\]()]+)|[\[(]\s*([^\])]+?)\s*[\])])?", text.strip().lower())
-        if not m or m.group(1) not in names:
-            return None
-        return m.group(2) or m.group(3) or default
-
     if len(header) != 2:
         raise ValueError(f"{name}: line {no}: expected a header time_s,pressure_psi, got {','.join(header)!r}")
-    t_unit, p_unit = split(header[0], ("time", "t"), "s"), split(header[1], ("pressure", "p"), "psi")
-    if t_unit is None or p_unit is None:
+    t_col, p_col = header_unit(header[0], ("time", "t")), header_unit(header[1], ("pressure", "p"))
+    if t_col is None or p_col is None:
         raise ValueError(f"{name}: line {no}: header {','.join(header)!r} names no time and pressure column: "
                          "expected time_s,pressure_psi (or the time in ms, the pressure in kPa, bar, ...)")
     try:
-        return s_per_unit(t_unit), float(psi_from_kpa(kpa_per_unit(p_unit)))
+        return s_per_unit(t_col[1] or "s"), float(psi_from_kpa(kpa_per_unit(p_col[1] or "psi")))
     except ValueError as exc:
         raise ValueError(f"{name}: line {no}: {exc}") from None
 

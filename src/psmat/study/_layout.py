@@ -23,13 +23,12 @@ from __future__ import annotations
 import csv
 import io
 import os
-import re
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from .._text import NotTextError, read_text
-from ..units import MASS_UNITS_KG, kg_per_unit, n_from_kg
+from ..units import header_unit, kg_per_unit, n_from_kg
 
 if TYPE_CHECKING:  # pragma: no cover
     from ..circuit import Circuit
@@ -198,36 +197,22 @@ _SUBJECT = ("subject", "subject_id", "participant", "participant_id")
 _WEIGHT = ("weight", "mass", "body_weight", "body_mass", "bodyweight", "bodymass")
 
 
-def _column(name: str) -> tuple[str, str | None]:
-    """A header's name and unit: ``"Weight (kg)"``, ``"weight_kg"``, ``"Body weight [lb]"`` →
-    (``"weight"``, ``"kg"``), (``"weight"``, ``"kg"``), (``"body_weight"``, ``"lb"``); ``" Subject "`` →
-    (``"subject"``, None)."""
-    n = name.strip().lower()
-    m = re.fullmatch(r"(.+?)\s*[\[(]\s*([^\])]+?)\s*[\])]", n)
-    if m:
-        return re.sub(r"[\s\-]+", "_", m.group(1)), m.group(2)
-    n = re.sub(r"[\s\-]+", "_", n)
-    base, _, unit = n.rpartition("_")
-    return (base, unit) if base and unit in MASS_UNITS_KG else (n, None)
-
-
 def _subject_columns(names: list[str]) -> tuple[str, str, float]:
     """(the subject id's column, the body weight's column, kg per its unit) of subjects.csv's header, as
     a person writes it (``Subject``, ``Weight (kg)``, ``weight_lb``); ValueError (one line) without them."""
-    cols = {n: _column(n) for n in names}
-    ids = [n for n, (base, unit) in cols.items() if base in _SUBJECT and unit is None]
-    weights = [n for n, (base, _) in cols.items() if base in _WEIGHT]
+    ids = [n for n in names if header_unit(n, _SUBJECT) is not None]
+    weights = {n: w[1] for n in names if (w := header_unit(n, _WEIGHT)) is not None}
     if len(ids) != 1:
         raise ValueError(f"needs one column 'subject' (the subject's id), has {names}")
     if len(weights) != 1:
         raise ValueError(f"needs one column 'weight_kg' (the body weight; or weight_lb), has {names}")
-    unit = cols[weights[0]][1]
+    (name, unit), = weights.items()
     if unit is None:
-        raise ValueError(f"the column {weights[0]!r} names no unit: call it weight_kg or weight_lb")
+        raise ValueError(f"the column {name!r} names no unit: call it weight_kg or weight_lb")
     try:
-        return ids[0], weights[0], kg_per_unit(unit)
+        return ids[0], name, kg_per_unit(unit)
     except ValueError as exc:
-        raise ValueError(f"the column {weights[0]!r}: {exc}") from None
+        raise ValueError(f"the column {name!r}: {exc}") from None
 
 
 def _session_meta(path: Path) -> tuple[str | None, str | None, str | None, bool, str | None, str | None,
