@@ -92,6 +92,22 @@ def test_a_subjects_header_that_leaves_the_weight_unknown(tmp_path, text, match)
         read_subjects(p)
 
 
+def test_a_macs_companion_files_are_no_data_and_subfolders_are_said(study) -> None:
+    """A study copied by a Mac to a USB stick gets a "._NAME" AppleDouble file beside each file
+    (before: a session "._S01_right", unreadable, with its own problems, and a platform file
+    "._S01_right.csv" that made S01's two); files in subfolders were skipped unsaid."""
+    for folder, name in (("sessions", "._S01_right.h5"), ("forceplate", "._S01_right.csv"), ("sessions", ".DS_Store")):
+        (study / folder / name).write_bytes(b"\x00\x05\x16\x07\x00\x02\x00\x00Mac OS X        " + bytes(4000))
+    (study / "sessions" / "old").mkdir()
+    _session(study / "sessions" / "old" / "S05_rot.h5", "S05", "rotation")
+    lay = find_study(study)
+    by = {i.stem: i for i in lay.items}
+    assert sorted(by) == ["S01_right", "S02_left", "S03_rot", "S04_bad"]
+    assert by["S01_right"].ok and by["S01_right"].forceplate == study / "forceplate" / "S01_right.csv"
+    assert lay.problems == ["1 file(s) in subfolders are not read (sessions/old/S05_rot.h5): a study's sessions, "
+                            "platform and events files sit directly in sessions/, forceplate/ and events/"]
+
+
 def test_missing_subjects_file_is_a_study_problem_not_a_crash(study) -> None:
     (study / "subjects.csv").unlink()
     lay = find_study(study)

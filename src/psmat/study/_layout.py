@@ -269,11 +269,13 @@ def find_study(root: str | os.PathLike[str]) -> StudyLayout:
         problems += found.problems
     else:
         problems.append(f"{sub_csv} not found: no body weights")
-    plates = _companions(root / "forceplate", (".csv", ".tsv", ".txt"))
-    cal = {p.stem: p for p in sorted((root / "calibration").glob("*.json"))}
+    plates = _companions(root / "forceplate", _PLATFORM_SUFFIXES)
+    cal = {p.stem: p for p in sorted((root / "calibration").glob("*.json")) if not p.name.startswith(".")}
     logs = _companions(root / "events", (".csv",))
+    problems += _nested(root)
     items = []
-    for s in sorted({*sessions.glob("*.h5"), *journal_only(sessions)}):  # journal-only: never skipped silently
+    found = {*sessions.glob("*.h5"), *journal_only(sessions)}  # journal-only: never skipped silently
+    for s in sorted(p for p in found if not p.name.startswith(".")):  # (._NAME: see _companions)
         subject, trial, problem, simulated, not_closed, serial, circuit = _session_meta(s)
         plate, plate_problem = _companion(s.stem, plates, "force-platform")
         log, log_problem = _companion(s.stem, logs, "events")
@@ -312,13 +314,38 @@ def find_study(root: str | os.PathLike[str]) -> StudyLayout:
     return StudyLayout(root, subjects, items, cal, problems, refused)
 
 
+_PLATFORM_SUFFIXES = (".csv", ".tsv", ".txt")
+
+
 def _companions(folder: Path, suffixes: tuple[str, ...]) -> dict[str, list[Path]]:
-    """The files of ``folder`` whose suffix is one of ``suffixes`` (any case), by their stem in lower case."""
+    """The files of ``folder`` whose suffix is one of ``suffixes`` (any case), by their stem in lower case.
+
+    Hidden files are no data: ``._NAME`` is the AppleDouble file a Mac writes beside every file it
+    copies to a FAT or exFAT drive (a USB stick), ``.NAME`` a hidden one; they are left out here and
+    in ``sessions/`` and ``calibration/``.
+    """
     found: dict[str, list[Path]] = {}
     for p in sorted(folder.glob("*")):
-        if p.suffix.lower() in suffixes and p.is_file():
+        if p.suffix.lower() in suffixes and p.is_file() and not p.name.startswith("."):
             found.setdefault(p.stem.casefold(), []).append(p)
     return found
+
+
+def _nested(root: Path) -> list[str]:
+    """A problem line for the sessions, platform and events files in subfolders, which are not read
+    (a study's files sit directly in its folders: nothing is skipped unsaid)."""
+    nested = []
+    for folder, suffixes in (("sessions", (".h5",)), ("forceplate", _PLATFORM_SUFFIXES), ("events", (".csv",))):
+        top = root / folder
+        if top.is_dir():
+            nested += [p.relative_to(root).as_posix() for p in sorted(top.rglob("*"))
+                       if p.parent != top and p.suffix.lower() in suffixes and p.is_file()
+                       and not any(part.startswith(".") for part in p.relative_to(top).parts)]
+    if not nested:
+        return []
+    shown = ", ".join(nested[:3]) + (", ..." if len(nested) > 3 else "")
+    return [f"{len(nested)} file(s) in subfolders are not read ({shown}): a study's sessions, platform and "
+            "events files sit directly in sessions/, forceplate/ and events/"]
 
 
 def _companion(stem: str, found: dict[str, list[Path]], what: str) -> tuple[Path | None, str | None]:

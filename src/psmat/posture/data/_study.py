@@ -185,8 +185,10 @@ def _tasks(root: Path, params: dict[str, Any], problems: list[str]) -> list[_Tas
     from ...io.session import psmat_version
     from ...io.session import journal_only, not_closed_line, unfinished_reason
 
-    sessions = sorted((root / "sessions").glob("*.h5"))
-    unclosed = journal_only(root / "sessions")  # never skipped silently: each is a problem line
+    # hidden files (a Mac's ._NAME beside every file it copies to a USB stick) are no data, as in a
+    # balance study (psmat.study.find_study)
+    sessions = sorted(p for p in (root / "sessions").glob("*.h5") if not p.name.startswith("."))
+    unclosed = [p for p in journal_only(root / "sessions") if not p.name.startswith(".")]  # each a problem line
     problems += [f"{path.stem}: {not_closed_line(path)}" for path in unclosed]
     if not sessions:
         raise FileNotFoundError(f"{root}: no sessions/*.h5 (a posture study folder, docs/spec.md §6)"
