@@ -108,6 +108,22 @@ def test_a_macs_companion_files_are_no_data_and_subfolders_are_said(study) -> No
                             "platform and events files sit directly in sessions/, forceplate/ and events/"]
 
 
+def test_names_that_differ_only_in_case_or_separators_are_said(study) -> None:
+    """A trial typed "Right leg" in one session and "right-leg" in another is two trials in the summary
+    (each with fewer subjects); nothing merges them behind the lab's back, but the run says so."""
+    _session(study / "sessions" / "S02_right.h5", "S02", "Right leg")
+    _session(study / "sessions" / "S02_rot.h5", "s02", "rotation")
+    (study / "sessions" / "S01_right.h5").unlink()
+    _session(study / "sessions" / "S01_right.h5", "S01", "right-leg")
+    lay = find_study(study)
+    assert {i.stem: i.trial for i in lay.items}["S02_right"] == "Right leg"  # kept as written
+    assert lay.problems == [
+        "trials 'Right leg', 'right-leg' differ only in case or separators: they are kept and summarised apart; if "
+        "they are one, name them alike in the sessions' metadata",
+        "subjects 'S02', 's02' differ only in case or separators: they are kept and summarised apart; if they are "
+        "one, name them alike in the sessions' metadata"]
+
+
 def test_missing_subjects_file_is_a_study_problem_not_a_crash(study) -> None:
     (study / "subjects.csv").unlink()
     lay = find_study(study)

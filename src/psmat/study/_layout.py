@@ -23,6 +23,7 @@ from __future__ import annotations
 import csv
 import io
 import os
+import re
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -309,12 +310,27 @@ def find_study(root: str | os.PathLike[str]) -> StudyLayout:
         items.append(item)
     if not items:
         problems.append(f"{sessions} holds no *.h5 session")
+    problems += _spelled_apart([i.trial for i in items], "trials")
+    problems += _spelled_apart([i.subject for i in items], "subjects")
     told = {refused[i.subject] for i in items if i.subject in refused}  # said by their sessions, not twice
     problems = [p for p in problems if p not in told]
     return StudyLayout(root, subjects, items, cal, problems, refused)
 
 
 _PLATFORM_SUFFIXES = (".csv", ".tsv", ".txt")
+
+
+def _spelled_apart(names: list[str | None], what: str) -> list[str]:
+    """A problem line for each set of the sessions' ``names`` (trials or subjects) that differ only in
+    case, spaces, ``-`` or ``_`` (``Right-leg``, ``right leg``): the study keeps them apart, as written,
+    and summarises them apart; the line says so, so that they are renamed if they are one."""
+    groups: dict[str, set[str]] = {}
+    for n in names:
+        if n is not None:
+            groups.setdefault(re.sub(r"[\s_\-]+", "", n.casefold()), set()).add(n)
+    return [f"{what} {', '.join(map(repr, sorted(g)))} differ only in case or separators: they are kept and "
+            "summarised apart; if they are one, name them alike in the sessions' metadata"
+            for g in groups.values() if len(g) > 1]
 
 
 def _companions(folder: Path, suffixes: tuple[str, ...]) -> dict[str, list[Path]]:
