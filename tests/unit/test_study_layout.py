@@ -124,6 +124,24 @@ def test_names_that_differ_only_in_case_or_separators_are_said(study) -> None:
         "one, name them alike in the sessions' metadata"]
 
 
+def test_a_box_without_its_calibration_is_said_and_case_is_forgiven(study) -> None:
+    """calibration/<serial>.json: "box7.json" for the box "BOX7" (files gathered on Windows) is its
+    file; a box of a study with calibrations but none of its own was processed on the profile's
+    nominal circuit unsaid."""
+    for stem, serial in (("S01_left", "BOX7"), ("S02_rot", "BOX9")):
+        with SessionWriter(study / "sessions" / f"{stem}.h5", (4, 4), {"rows": 4, "cols": 4, "serial": serial},
+                           metadata={"subject": stem[:3], "trial": stem[4:]}) as w:
+            w.append(np.full((4, 4, 4), 100, np.uint16), np.arange(4) * 0.01, np.ones(4, bool))
+        (study / "forceplate" / f"{stem}.csv").write_text("time,x,y\n0,0,0\n0.01,0.1,0.2\n")
+    (study / "calibration").mkdir()
+    (study / "calibration" / "box7.json").write_text("{}")
+    lay = find_study(study)
+    by = {i.stem: i for i in lay.items}
+    assert by["S01_left"].ok and lay.calibrations["BOX7"] == study / "calibration" / "box7.json"
+    assert by["S02_rot"].problems == ["no calibration/BOX9.json for its box 'BOX9' (calibration/ has box7.json): "
+                                      "the profile's nominal circuit is used"]
+
+
 def test_missing_subjects_file_is_a_study_problem_not_a_crash(study) -> None:
     (study / "subjects.csv").unlink()
     lay = find_study(study)

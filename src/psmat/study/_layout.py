@@ -303,6 +303,15 @@ def find_study(root: str | os.PathLike[str]) -> StudyLayout:
                     f" (ids are matched exactly; it has {', '.join(map(repr, alike))})" if alike else ""))
             if trial is None:
                 item.problems.append("session metadata has no trial")
+        if serial is not None and cal and serial not in cal:  # calibrated boxes, but not this one by name
+            alike = [k for k in cal if k.casefold() == serial.casefold()]
+            if len(alike) == 1:  # a stem that differs only in case, as for the platform files
+                cal[serial] = cal[alike[0]]
+            else:
+                have = sorted({p.name for p in cal.values()})
+                item.problems.append(f"no calibration/{serial}.json for its box {serial!r} (calibration/ has "
+                                     f"{', '.join(have[:3])}{', ...' if len(have) > 3 else ''}): the profile's "
+                                     "nominal circuit is used")
         if plate_problem:
             item.problems.append(plate_problem)
         elif item.forceplate is None:
