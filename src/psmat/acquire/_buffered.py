@@ -14,6 +14,7 @@ from typing import Any, Self
 import numpy as np
 from numpy.typing import NDArray
 
+from .._atomic import no_space
 from ._errors import DeviceDisconnected
 from ._ring_buffer import FrameBatch, FrameRing
 from ._stats import DeviceStats
@@ -44,6 +45,7 @@ class BufferedSource(ABC):
         self._ring = FrameRing(buffer_frames, self.shape, self.dtype)
         self._recorder: Any = None
         self._recorder_lock = threading.Lock()
+        self._recording_error: str | None = None
 
     @property
     @abstractmethod
@@ -113,6 +115,12 @@ class BufferedSource(ABC):
         with self._recorder_lock:
             self._recorder = SessionRecorder(writer, self.kind, self.shape)
 
+    @property
+    def recording_error(self) -> str | None:
+        """Why the session writer of :meth:`record_to` was detached by an error (the disk full, ...),
+        or None: acquisition goes on without it, and a recorder must stop and say so (``psmat record``)."""
+        return self._recording_error
+
     def stop_recording(self) -> None:
         """Detach the session writer (storing the final counters); no-op without one."""
         with self._recorder_lock:
@@ -134,6 +142,7 @@ class BufferedSource(ABC):
                 except Exception as exc:  # noqa: BLE001 - a recording problem must not stop acquisition
                     self._recorder = None
                     self._last_error = f"recording stopped: {type(exc).__name__}: {exc}"
+                    self._recording_error = no_space(exc) or f"{type(exc).__name__}: {' '.join(str(exc).split())}"
         self._ring.push(frames, host, valid, seq, dev)
 
     # -- context manager -----------------------------------------------------------------

@@ -157,11 +157,9 @@ class _Source:
 
 
 def run(args: argparse.Namespace) -> int:
-    import contextlib
     import sys
 
-    from ..acquire import HostClock, open_device
-    from ..io import SessionWriter, load_session, row_counts
+    from ..io import SessionNotCompleted, load_session, row_counts
 
     try:  # the devices' profiles: the first's from --profile and the options, the others' their kind's
         kind = _profile_args.device_kind(args)
@@ -182,12 +180,41 @@ def run(args: argparse.Namespace) -> int:
         except (OSError, ValueError) as exc:  # unreadable, not JSON, not a calibration: named by the loader
             print(f"psmat record: {' '.join(str(exc).split())}", file=sys.stderr)
             return 1
+    try:
+        sources, status = _record(args, kind, prof, profiles, calibration)
+    except SessionNotCompleted as exc:  # the file could not be written (a full disk): its journals keep the frames
+        print(f"psmat record: {' '.join(str(exc).split())}; psmat repair {args.out} finishes it once the disk has "
+              "room", file=sys.stderr)
+        return 1
+    if not sources:  # stopped before the file was begun
+        return status
+    saved = load_session(args.out)  # the writer closed: count the file's rows, as psmat info does
+    for src in sources:
+        st = src.dev.stats
+        rc = row_counts(saved if src.name is None else saved.streams[src.name])
+        where = args.out if src.name is None else f"{args.out} [{src.name}]"
+        lost = "losses on the wire unknown" if rc.lost is None else f"{rc.lost} lost on the wire"
+        print(f"{where}: {rc.frames} frames recorded, {rc.invalid} invalid, {lost}, "
+              f"{st.dropped_buffer} dropped by the host buffer"
+              + (f"; ended early: {src.ended}" if src.ended and len(sources) > 1 else ""))
+    return status
+
+
+def _record(args: argparse.Namespace, kind: str, prof: Any, profiles: list[Any], calibration: Any
+            ) -> tuple[list[_Source], int]:
+    """Open the devices (or twins) and the session writer, record until the loop ends; the sources and
+    the exit status. The writer's close (leaving the block) raises SessionNotCompleted."""
+    import contextlib
+
+    from ..acquire import HostClock, open_device
+    from ..io import SessionWriter
+
     wanted = [Also(kind, args.port), *args.also]
     clock = HostClock()  # one host clock for every device's frames
     with contextlib.ExitStack() as stack:  # closed in reverse: recording stopped, writer, devices, twins
         lsl_devs = _open_lsl(stack, args.lsl, clock)  # first: a stream that is not there stops before any file
         if lsl_devs is None:
-            return 1
+            return [], 1
         ports = [w.port for w in wanted]
         if args.simulate:
             ports = [_twin(stack, pr, args.rate if k == 0 else None, k) for k, pr in enumerate(profiles)]
@@ -221,16 +248,7 @@ def run(args: argparse.Namespace) -> int:
         for src in sources:
             src.dev.start()
         status = _loop(sources, args)
-    saved = load_session(args.out)  # the writer closed: count the file's rows, as psmat info does
-    for src in sources:
-        st = src.dev.stats
-        rc = row_counts(saved if src.name is None else saved.streams[src.name])
-        where = args.out if src.name is None else f"{args.out} [{src.name}]"
-        lost = "losses on the wire unknown" if rc.lost is None else f"{rc.lost} lost on the wire"
-        print(f"{where}: {rc.frames} frames recorded, {rc.invalid} invalid, {lost}, "
-              f"{st.dropped_buffer} dropped by the host buffer"
-              + (f"; ended early: {src.ended}" if src.ended and len(sources) > 1 else ""))
-    return status
+    return sources, status
 
 
 def lsl_stream_name(name: str) -> str:
@@ -330,6 +348,10 @@ def _loop(sources: list[_Source], args: argparse.Namespace) -> int:
                         continue
                     s.frames += n
                     bar.update(n)
+                    if s.dev.recording_error:  # the file takes no more frames (a full disk): stop, say so
+                        print(f"\npsmat record: {args.out} takes no more frames ({s.dev.recording_error}): the "
+                              "recording stopped; the frames before it are kept", file=sys.stderr)
+                        return 1
                 if many:
                     bar.set_postfix_str(", ".join(f"{s.label} {s.frames}" for s in sources), refresh=False)
         except KeyboardInterrupt:

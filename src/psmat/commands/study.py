@@ -128,18 +128,28 @@ def _run(args: argparse.Namespace) -> int:
 
 
 def _simulate(args: argparse.Namespace) -> int:
+    from ..io import SessionNotCompleted
     from ..synth import simulate_study
 
     try:
         root = simulate_study(args.dir, volunteers=args.volunteers, duration_s=args.seconds, seed=args.seed,
                               rate_hz=args.rate, bds_paths=args.bds, progress=True, romberg=args.romberg)
-    except (OSError, ValueError) as exc:
-        print(f"psmat study simulate: {_line(exc)}", file=sys.stderr)
+    except (OSError, ValueError, SessionNotCompleted) as exc:
+        print(f"psmat study simulate: {_line(exc, f'make room, remove {args.dir} and run it again')}",
+              file=sys.stderr)
         return 1
     print(f"simulated study in {root}")
     return 0
 
 
-def _line(exc: BaseException) -> str:
-    """An error as one line."""
-    return " ".join(str(exc).split()) or type(exc).__name__
+def _line(exc: BaseException, again: str = "make room and run it again: what was finished is kept, and a run "
+                                            "resumes where it stopped") -> str:
+    """An error as one line (a full disk said in words, with ``again``: what to do)."""
+    from .._atomic import no_space
+
+    text = " ".join(str(exc).split()) or type(exc).__name__
+    full = no_space(exc)
+    if full and full not in text:
+        where = getattr(exc, "filename", None)
+        text = f"{f'{where}: ' if where else ''}{full} ({text})"
+    return f"{text}; {again}" if full else text

@@ -263,7 +263,7 @@ from ._reader import load_session, repair_session, replacement_journal
 from ._sample import host_time_span, sample_frames
 from ._truncated import recorded_size
 from ._unfinished import journal_only, not_closed_line, session_files, unfinished_line, unfinished_reason
-from ._writer import SessionWriter, StreamWriter
+from ._writer import SessionNotCompleted, SessionWriter, StreamWriter
 
 __all__ = [
     "COUNTER_NAMES",
@@ -277,6 +277,7 @@ __all__ = [
     "Session",
     "SessionFormatError",
     "MAX_LABEL_BYTES",
+    "SessionNotCompleted",
     "SessionWriter",
     "StreamWriter",
     "export",

@@ -18,7 +18,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ..._atomic import fsync_dir
+from ..._atomic import fsync_dir, no_space
 from ...frames import FrameBatch
 
 from . import _journal as jr
@@ -254,6 +254,12 @@ class StreamWriter:
             self._n_synced = max(self._n_synced, n)
 
 
+class SessionNotCompleted(RuntimeError):
+    """:meth:`SessionWriter.close` could not write the complete file (the disk full, the journal damaged,
+    the file read back differing): the journals were kept, and :func:`psmat.io.load_session` recovers
+    them (``psmat repair`` finishes the file)."""
+
+
 class SessionWriter(StreamWriter):
     """Write a session to ``path`` with a crash-safety journal; use as a context manager.
 
@@ -463,9 +469,9 @@ class SessionWriter(StreamWriter):
     def close(self) -> None:
         """Sync the journals, write the complete HDF5 file from them, remove them. Idempotent.
 
-        Raises RuntimeError (keeping the journals, which :func:`psmat.io.load_session`
-        recovers) if the file cannot be completed, or if the file read back differs from the
-        journals' frames (it then never replaces ``path``: :mod:`._verify`).
+        Raises :class:`SessionNotCompleted`, a RuntimeError (keeping the journals, which
+        :func:`psmat.io.load_session` recovers) if the file cannot be completed, or if the file
+        read back differs from the journals' frames (it then never replaces ``path``: :mod:`._verify`).
         """
         with self._streams_lock:
             if self._closed:
@@ -490,8 +496,9 @@ class SessionWriter(StreamWriter):
         if err is not None:
             kept = [str(p) for p in (self.jpath, *(w.jpath for w in streams.values()), ejpath) if p is not None]
             many = len(kept) > 1
-            raise RuntimeError(
-                f"{self.path}: the session could not be completed ({err}); the journal{'s' if many else ''} "
+            why = no_space(err) or err
+            raise SessionNotCompleted(
+                f"{self.path}: the session could not be completed ({why}); the journal{'s' if many else ''} "
                 f"{', '.join(kept)} {'were' if many else 'was'} kept — load_session() recovers {'them' if many else 'it'}"
             ) from err
         if ejpath is not None:
