@@ -33,6 +33,7 @@ websockets_sync = pytest.importorskip("websockets.sync.client")
 from psmat.io import journal_path, load_session  # noqa: E402
 
 from conftest import default_stop_signals  # noqa: E402
+from small_disk import small_disk  # noqa: E402
 
 URL = re.compile(r"^http://127\.0\.0\.1:(\d+)/\?token=([A-Za-z0-9_-]{43})$")
 #: element ids the page must have (the lab's contract with the browser tests and the benchmark)
@@ -327,3 +328,30 @@ def test_sigterm_while_recording_closes_the_file(tmp_path: Path) -> None:
     p = Path(started["session"])
     s = load_session(p)
     assert s.complete and s.n_frames > 0 and not journal_path(p).exists()
+
+
+def test_a_recording_that_fills_the_disk_is_said_and_its_journal_kept(tmp_path: Path) -> None:
+    """The data folder on a disk that fills: before, the page went on saying "recording ... frames"
+    while the file took nothing more, and stopping answered 500 with a traceback in the server's log.
+    Now the status says why the file stopped, stopping answers 507 with the reason, the journal keeps
+    the frames, and the server lives on."""
+    with small_disk(tmp_path / "small", 160) as data:
+        lab = Lab(data)
+        try:
+            _wait_frames(lab, 10)
+            status, started = lab.request("POST", "/api/record/start", {"subject": "S", "trial": "T", "note": ""})
+            assert status == 201, started
+            for _ in range(1200):  # the disk fills after about a thousand 16x16 frames
+                st = lab.request("GET", "/api/status")[1]
+                if st["record"]["stopped"]:
+                    break
+                time.sleep(0.05)
+            assert st["recording"] and st["record"]["stopped"] == "no space left on the disk", st
+            status, out = lab.request("POST", "/api/record/stop", {})
+            assert status == 507 and "(no space left on the disk)" in out["error"] and "journal" in out["error"], out
+            path = Path(started["session"])
+            assert journal_path(path).is_file() and not path.exists()
+            status, st = lab.request("GET", "/api/status")
+            assert status == 200 and st["recording"] is False and st["device"]["counters"]["connected"]
+        finally:
+            lab.stop()

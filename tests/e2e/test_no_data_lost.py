@@ -38,6 +38,7 @@ from psmat._atomic import OutputRefused, check_outputs, replacing
 from psmat.io import journal_path, load_session
 
 from conftest import default_stop_signals
+from small_disk import small_disk
 
 #: generous bound for a subprocess to reach a state or to end (s); never asserted as a duration
 WAIT_S = 120.0
@@ -413,24 +414,17 @@ def test_a_killed_study_run_leaves_no_worker_behind(small_study, tmp_path) -> No
 
 
 @pytest.fixture
-def small_disk(tmp_path: Path):
-    """A real full disk: a tmpfs of 160 KiB mounted for the test (mounting needs root)."""
-    d = tmp_path / "small"
-    d.mkdir()
-    r = subprocess.run(["mount", "-t", "tmpfs", "-o", "size=160k", "tmpfs", str(d)], capture_output=True, text=True)
-    if r.returncode != 0:
-        pytest.skip(f"mounting a small tmpfs needs root: {' '.join(r.stderr.split()) or 'mount failed'}")
-    try:
+def small(tmp_path: Path):
+    """A real full disk: a tmpfs of 160 KiB."""
+    with small_disk(tmp_path / "small", 160) as d:
         yield d
-    finally:
-        subprocess.run(["umount", "-l", str(d)], capture_output=True)
 
 
-def test_a_recording_that_fills_the_disk_stops_says_so_and_its_frames_are_repaired(small_disk, tmp_path) -> None:
+def test_a_recording_that_fills_the_disk_stops_says_so_and_its_frames_are_repaired(small, tmp_path) -> None:
     """Before: the reader detached the full file and went on, the progress bar counting frames that
     went nowhere for the whole --seconds, and the close ended in a traceback. Now the recording stops
     at the first frame the file cannot take, in two lines, and the journal holds every frame before it."""
-    out = small_disk / "a.h5"
+    out = small / "a.h5"
     done = _psmat("record", "--simulate", "--seconds", "60", "-o", out)
     assert done.returncode == 1 and "Traceback" not in done.stderr, done.stderr
     lines = [ln for ln in done.stderr.replace("\r", "\n").splitlines() if ln.startswith("psmat record:")]
@@ -449,9 +443,9 @@ def test_a_recording_that_fills_the_disk_stops_says_so_and_its_frames_are_repair
     assert s.n_frames > 10 and s.valid.all() and np.all(np.diff(s.seq) == 1)  # every frame before the disk filled
 
 
-def test_a_command_that_fills_the_disk_is_one_line(small_disk) -> None:
-    done = _psmat("study", "simulate", small_disk / "study", "--volunteers", "1", "--seconds", "5", "--seed", "1")
+def test_a_command_that_fills_the_disk_is_one_line(small) -> None:
+    done = _psmat("study", "simulate", small / "study", "--volunteers", "1", "--seconds", "5", "--seed", "1")
     assert done.returncode == 1 and "Traceback" not in done.stderr, done.stderr
     last = done.stderr.replace("\r", "\n").splitlines()[-1]
     assert last.startswith("psmat study simulate: ") and "no space left on the disk" in last
-    assert last.endswith(f"make room, remove {small_disk / 'study'} and run it again")
+    assert last.endswith(f"make room, remove {small / 'study'} and run it again")

@@ -44,6 +44,8 @@ from starlette.responses import JSONResponse, Response
 from starlette.routing import Route, WebSocketRoute
 from starlette.websockets import WebSocket, WebSocketDisconnect
 
+from .._atomic import no_space
+from ..io import SessionNotCompleted
 from ._replay import PlaybackUnavailable
 from ._security import PathRefused, request_token, token_matches
 from ._session import LabConflict, LabSession, trial_sway
@@ -131,6 +133,8 @@ def _status_of(exc: BaseException) -> int:
         return 501
     if isinstance(exc, (ValueError, TypeError)):
         return 400
+    if isinstance(exc, SessionNotCompleted):  # its journal keeps the frames (psmat repair)
+        return 507 if no_space(exc) else 500
     raise exc
 
 

@@ -354,7 +354,9 @@ class LabSession:
             if writer is not None:
                 rec = {"frames": int(writer.n_frames), "events": int(writer.n_events),
                        "elapsed_s": round(self._recorded_dev.clock.now() - self._rec_t0, 3),
-                       "metadata": dict(self._rec_meta)}
+                       "metadata": dict(self._rec_meta),
+                       # why the file takes no more frames (a full disk): the display goes on, the file not
+                       "stopped": getattr(self._recorded_dev, "recording_error", None)}
             return {"device": device, "source": "replay" if self.replay is not None else
                     ("live" if self.live is not None else None),
                     "rates": {**rates, "display_limit_hz": self.display_hz},

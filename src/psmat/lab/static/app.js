@@ -194,8 +194,11 @@
     }
     if (s.record) {
       const md = s.record.metadata || {};
-      $("record-state").textContent = "recording " + s.session + ": " + s.record.frames + " frames, " +
-        s.record.events + " markers, " + s.record.elapsed_s.toFixed(1) + " s";
+      $("record-state").textContent = s.record.stopped
+        ? "recording STOPPED (" + s.record.stopped + "): " + s.session + " keeps its first " + s.record.frames +
+          " frames; press Stop recording"
+        : "recording " + s.session + ": " + s.record.frames + " frames, " +
+          s.record.events + " markers, " + s.record.elapsed_s.toFixed(1) + " s";
       for (const k of ["subject", "trial", "note"]) {  // a reloaded page shows the running trial
         if (document.activeElement !== $(k) && !$(k).value && md[k]) $(k).value = md[k];
       }
