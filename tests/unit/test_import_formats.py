@@ -170,6 +170,9 @@ def test_generic_csv_european_decimal_comma_and_an_empty_value(tmp_path: Path) -
     # read as 1x4 the decimal commas must not become separators (it was 4 silent wrong values a line)
     with pytest.raises(ImportFormatError, match=r"eu\.csv:2: 2 values, expected 4"):
         read_pressure_file(f, "csv", shape=(1, 4), pitch_cm=1.0, rate_hz=10.0)
+    f.write_bytes("r0c0\tr0c1\r\n0,5\t1,25\r\n2,5\t3,75\r\n".encode("utf-16"))  # Excel's "Unicode text", European
+    r = read_pressure_file(f, "csv", shape=(1, 2), pitch_cm=1.0, rate_hz=10.0)  # (before: "'0' ... 3 values")
+    np.testing.assert_array_equal(r.pressure_kpa, np.array([[[0.5, 1.25]], [[2.5, 3.75]]], np.float32))
     f.write_text("1,,2,3\n4,5,6\n")  # a missing value must not shift the cells
     with pytest.raises(ImportFormatError, match=r"eu\.csv:1: value 2 is empty"):
         read_pressure_file(f, "csv", shape=(1, 3), pitch_cm=1.0, rate_hz=10.0)

@@ -2,7 +2,7 @@
 
 Each non-empty line is one frame: ``R·C`` numbers, the cells row by row (row 0's ``C`` cells,
 then row 1's, ...), separated by commas, semicolons, tabs or spaces (one separator a line: the
-first of ``;``, ``,``, tab found, else spaces). A line separated by semicolons may write its
+first of ``;``, tab, ``,`` found, else spaces). A line separated by semicolons or tabs may write its
 decimals with a comma (the European CSV: ``0,5;1,25``). An empty value (``1,,2``) is an error,
 never skipped (it would shift the cells). The caller gives the shape
 (``R``, ``C``), the pitch (cm) and either the frame rate (Hz: frame ``k`` at ``k / rate`` s) or a
@@ -26,13 +26,12 @@ __all__ = ["read_csv_frames"]
 
 
 def _fields(s: str, where: str) -> list[str]:
-    """A stripped line's values: split on its separator, a decimal comma read as a point after ``;``."""
-    if ";" in s:
-        fields = [f.strip().replace(",", ".") for f in s.split(";")]
+    """A stripped line's values: split on its separator, a decimal comma read as a point after ``;`` or a
+    tab (a spreadsheet's "text" in a European locale: ``0,5<tab>1,25``)."""
+    if ";" in s or "\t" in s:
+        fields = [f.strip().replace(",", ".") for f in s.split(";" if ";" in s else "\t")]
     elif "," in s:
         fields = [f.strip() for f in s.split(",")]
-    elif "\t" in s:
-        fields = [f.strip() for f in s.split("\t")]
     else:
         return s.split()
     if len(fields) > 1 and not fields[-1]:
