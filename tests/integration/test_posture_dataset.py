@@ -96,7 +96,16 @@ def test_a_study_is_cached_per_session_and_recomputes_only_what_changed(study, l
     # a changed calibration of P02's box reruns P02 only
     cal = next((study / "calibration").glob("*P02*.json"))
     cal.write_text(cal.read_text() + "\n")
-    assert load_posture_study(study, workers=1, progress=False).computed == 1
+    changed = load_posture_study(study, workers=1, progress=False)
+    assert changed.computed == 1
+    # the file renamed as Windows would not tell apart ("sim11-p02.json" for the box "SIM11-P02"): still
+    # its box's calibration, the same inputs, nothing computed again (before: no calibration file)
+    cal.rename(cal.with_name(cal.name.lower()))
+    try:
+        renamed = load_posture_study(study, workers=1, progress=False)
+        assert renamed.problems == [] and renamed.computed == 0
+    finally:
+        cal.with_name(cal.name.lower()).rename(cal)
 
 
 def test_a_mat_recorded_apart_is_aligned_to_its_imu_log(study, loaded, tmp_path) -> None:

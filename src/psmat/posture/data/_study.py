@@ -207,7 +207,10 @@ def _tasks(root: Path, params: dict[str, Any], problems: list[str]) -> list[_Tas
             continue
         device = s.device
         cal = root / "calibration" / f"{device.get('serial')}.json"
-        cal = cal if cal.is_file() else None
+        if not cal.is_file():  # a name that differs only in case (files gathered on Windows), when only one does
+            alike = [p for p in (root / "calibration").glob("*.json")
+                     if p.stem.casefold() == cal.stem.casefold() and not p.name.startswith(".")]
+            cal = alike[0] if len(alike) == 1 else None
         log = root / "imu" / f"{stem}.txt"
         log = log if log.is_file() else None
         if log is None and "imu" not in s.streams:  # known before any IECM is computed
