@@ -314,3 +314,25 @@ def test_a_time_that_goes_back_names_the_step(tmp_path: Path) -> None:
     with pytest.raises(ValueError, match=r"two.csv: its time goes from 0.99 s back to 0 s \(1 such step\(s\)\): it "
                                          r"holds more than one recording"):
         load_forceplate_csv(p).samples()
+
+
+def test_forces_and_moments_without_a_cop_give_the_published_cop(tmp_path: Path) -> None:
+    """Some platform software exports only the six channels (Fx, Fy, Fz, Mx, My, Mz): before, "no x
+    column recognised". The CoP of moments about the plate's surface, x = -My/Fz, y = Mx/Fz, is what
+    the BDS authors published as COPx, COPy (their x is A-P: swap_axes)."""
+    rec = bds_trial(3)
+    ch = rec.meta["channels"]
+    p = tmp_path / "six.csv"
+    for unit, scale in (("N.m", 1.0), ("N·mm", 1e3)):
+        six = np.c_[rec.t, ch["Fx[N]"], ch["Fy[N]"], rec.fz_n, ch["Mx[Nm]"] * scale, ch["My[Nm]"] * scale,
+                    ch["Mz[Nm]"] * scale]
+        header = f"Time [s],Fx [N],Fy [N],Fz [N],Mx [{unit}],My [{unit}],Mz [{unit}]"
+        np.savetxt(p, six, delimiter=",", header=header, comments="", fmt="%.9g", encoding="utf-8")
+        r = load_forceplate_csv(p, swap_axes=True)
+        np.testing.assert_allclose(r.cop_ml_cm, rec.cop_ml_cm, rtol=0, atol=1e-5)
+        np.testing.assert_allclose(r.cop_ap_cm, rec.cop_ap_cm, rtol=0, atol=1e-5)
+        assert r.meta["cop_from"].startswith("-My/Fz, Mx/Fz") and set(r.meta["channels"]) == {"Fx [N]", "Fy [N]",
+                                                                                              f"Mz [{unit}]"}
+    p.write_text("t,Fz,Mx [kN.m],My [kN.m]\n0,700,1,2\n0.01,700,1,2\n")
+    with pytest.raises(ValueError, match=r"the moment column 'Mx \[kN.m\]': its unit 'kn.m' is not N·m"):
+        load_forceplate_csv(p)

@@ -294,6 +294,33 @@ def _unrounded(t: NDArray[np.float64], time_from: str, path: Path) -> tuple[NDAr
                      "are not evenly spaced to rebuild it; export it again with every decimal")
 
 
+_MX, _MY = ("mx", "momentx", "mxnm"), ("my", "momenty", "mynm")
+
+
+def _cop_from_moments(header: list[str], data: NDArray[np.float64], ifz: int | None, path: Path
+                      ) -> tuple[NDArray[np.float64], NDArray[np.float64], int, int] | None:
+    """(x, y (cm), the Mx and My columns) of a file of forces and moments without a CoP column: the CoP
+    of a plate whose moments are about its surface, x = -My / Fz, y = Mx / Fz (the BDS data set's
+    own COP columns are these, to the last digit); None when the file has a CoP column or no Fz, Mx
+    and My. The moments in N·m unless their header names N·mm or N·cm; the forces in N."""
+    norm = [_norm(h) for h in header]
+    if any(n in norm for n in (*_X, *_Y)) or ifz is None:
+        return None
+    imx = next((norm.index(n) for n in _MX if n in norm), None)
+    imy = next((norm.index(n) for n in _MY if n in norm), None)
+    if imx is None or imy is None:
+        return None
+    m = re.search(r"[\[(]\s*([^\])]+?)\s*[\])]", header[imx])
+    unit = m.group(1).lower().replace(" ", "") if m else "nm"
+    lm = re.fullmatch(r"n[.·*]?(m|mm|cm)", unit)
+    if lm is None:
+        raise ValueError(f"{path}: the moment column {header[imx]!r}: its unit {unit!r} is not N·m, N·cm or N·mm")
+    s = cm_per_unit(lm.group(1))
+    with np.errstate(divide="ignore", invalid="ignore"):  # Fz = 0: off the plate, a lost sample (samples())
+        fz = data[:, ifz]
+        return -data[:, imy] / fz * s, data[:, imx] / fz * s, imx, imy
+
+
 def _timed_by_rate(header: list[str], data: NDArray[np.float64], preamble: list[str], rate_hz: float | None,
                    path: Path) -> tuple[NDArray[np.float64], str, str, int | None]:
     """(t (s), "s", how it was timed, the counter column or None) of a table without a time column."""
@@ -345,7 +372,9 @@ def load_forceplate_csv(
     unit (``"cm"``, ``"mm"``, ``"m"``, ``"in"``: :func:`psmat.units.cm_per_unit`); default: the unit
     in the x column header (e.g. ``x[mm]``), else cm. ``t_unit``: ``"s"``, ``"ms"`` or ``"us"``; default: the unit in the
     time column's header (``Time [ms]``, ``time_ms``), else s; ``t`` is in s either way. ``x`` is
-    medial–lateral and ``y`` anterior–posterior unless ``swap_axes``.
+    medial–lateral and ``y`` anterior–posterior unless ``swap_axes``. A file of forces and moments
+    without a CoP column (``Fz``, ``Mx``, ``My``: N and N·m, N·cm or N·mm) gets the CoP of moments about
+    the plate's surface, ``x = -My / Fz``, ``y = Mx / Fz`` (``meta["cop_from"]`` says so).
 
     A file with a header but no time column (platform software that writes a sample number, or
     nothing, and states its rate above the header) is timed by its rate: ``rate_hz`` (Hz), else the
@@ -357,6 +386,7 @@ def load_forceplate_csv(
     if not path.is_file():
         raise FileNotFoundError(f"force-platform file not found: {path}")
     header, data, preamble = _read_table(path, delimiter)
+    cop = None
     if header is None:
         if data.shape[1] < 3:
             raise ValueError(f"{path}: need at least 3 columns (time, x, y), got {data.shape[1]}")
@@ -369,15 +399,21 @@ def load_forceplate_csv(
         it = _find(header, _TIME, t_column, "time", path, arg="t_column", required=False)
         if it is None:  # timed by the rate
             by_rate = _timed_by_rate(header, data, preamble, rate_hz, path)
-        ix = _find(header, _X, x, "x", path)
-        iy = _find(header, _Y, y, "y", path)
         ifz = _find(header, _FZ, fz, "Fz", path, required=False)
+        cop = None if (x, y) != (None, None) else _cop_from_moments(header, data, ifz, path)
+        if cop is None:
+            ix = _find(header, _X, x, "x", path)
+            iy = _find(header, _Y, y, "y", path)
         names = header
-    u = unit or (_unit_of(names[ix]) if header else None) or "cm"
-    try:
-        s = cm_per_unit(u)
-    except ValueError as exc:
-        raise ValueError(f"{path}: the CoP columns: {exc}; or give unit=") from None
+    if cop is not None:  # (a file of forces and moments: the CoP from them, cm)
+        (cx, cy), ix, iy, u = cop[:2], cop[2], cop[3], "cm"
+    else:
+        u = unit or (_unit_of(names[ix]) if header else None) or "cm"
+        try:
+            s = cm_per_unit(u)
+        except ValueError as exc:
+            raise ValueError(f"{path}: the CoP columns: {exc}; or give unit=") from None
+        cx, cy = data[:, ix] * s, data[:, iy] * s
     if it is None:  # (a header without a time column)
         t, tu, time_from, ik = by_rate
     else:
@@ -388,7 +424,6 @@ def load_forceplate_csv(
             raise ValueError(f"{path}: the time column {names[it]!r}: {exc}; or give t_unit=") from None
         time_from, ik = f"the column {names[it]!r}", it
         t, time_from = _unrounded(t, time_from, path)
-    cx, cy = data[:, ix] * s, data[:, iy] * s
     ml, ap = (cy, cx) if swap_axes else (cx, cy)
     used = {ix, iy} | {k for k in (ik, ifz) if k is not None}
     return ForcePlateRecording(
@@ -406,6 +441,7 @@ def load_forceplate_csv(
             "swap_axes": swap_axes,
             "channels": {names[k]: data[:, k].copy() for k in range(data.shape[1]) if k not in used},
             "preamble": preamble,
+            "cop_from": "the columns" if cop is None else "-My/Fz, Mx/Fz (moments about the plate's surface)",
         },
     )
 
