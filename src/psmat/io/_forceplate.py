@@ -406,7 +406,8 @@ def load_forceplate_csv(
             iy = _find(header, _Y, y, "y", path)
         names = header
     if cop is not None:  # (a file of forces and moments: the CoP from them, cm)
-        (cx, cy), ix, iy, u = cop[:2], cop[2], cop[3], "cm"
+        cx, cy, ix, iy = cop
+        u = "cm"
     else:
         u = unit or (_unit_of(names[ix]) if header else None) or "cm"
         try:
