@@ -130,8 +130,9 @@ def scan_subjects(path: str | os.PathLike[str]) -> SubjectsFile:
     The file is text as spreadsheets save it (UTF-8 with or without a byte-order mark, UTF-16 with
     one, or Windows-1252), its fields separated by commas or, as a spreadsheet in a European locale
     writes it, by semicolons or tabs with decimal commas (``S01;67,5``); it needs the columns
-    ``subject`` and ``weight_kg`` (kg, in (0, 500)). A row whose id appears twice is refused with the
-    other: which weight is right is not known.
+    ``subject`` and ``weight_kg`` (kg, in (0, 500)), written as people write them (``Subject``,
+    ``Weight (kg)``; ``weight_lb`` in pounds: :func:`psmat.units.header_unit`). A row whose id appears
+    twice is refused with the other: which weight is right is not known.
     """
     path = Path(path)
     subjects: dict[str, Subject] = {}
