@@ -138,8 +138,15 @@ def test_a_box_without_its_calibration_is_said_and_case_is_forgiven(study) -> No
     lay = find_study(study)
     by = {i.stem: i for i in lay.items}
     assert by["S01_left"].ok and lay.calibrations["BOX7"] == study / "calibration" / "box7.json"
-    assert by["S02_rot"].problems == ["no calibration/BOX9.json for its box 'BOX9' (calibration/ has box7.json): "
-                                      "the profile's nominal circuit is used"]
+    assert by["S02_rot"].problems == ["no calibration/BOX9.json for its box 'BOX9' (calibration/ has box7.json), "
+                                      "and the session stores none: the profile's nominal circuit is used"]
+    # a session that stores its calibration is read with it: nothing to say
+    with SessionWriter(study / "sessions" / "S02_rot.h5", (4, 4), {"rows": 4, "cols": 4, "serial": "BOX9"},
+                       metadata={"subject": "S02", "trial": "rot"}, overwrite=True,
+                       calibration={"r_o_ohm": 1000.0, "r_mux_ohm": 100.0, "r_adc_ohm": 1e8, "v_ref_volt": 3.3,
+                                    "bits": 12}) as w:
+        w.append(np.full((4, 4, 4), 100, np.uint16), np.arange(4) * 0.01, np.ones(4, bool))
+    assert {i.stem: i for i in find_study(study).items}["S02_rot"].ok
 
 
 def test_missing_subjects_file_is_a_study_problem_not_a_crash(study) -> None:

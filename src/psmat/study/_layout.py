@@ -218,9 +218,9 @@ def _subject_columns(names: list[str]) -> tuple[str, str, float]:
 
 
 def _session_meta(path: Path) -> tuple[str | None, str | None, str | None, bool, str | None, str | None,
-                                       Circuit | None]:
-    """(subject, trial, problem, simulated, not closed, box serial, circuit) from a session's
-    metadata (the loader checks the file's structure and metadata but reads no frame, a third of
+                                       Circuit | None, bool]:
+    """(subject, trial, problem, simulated, not closed, box serial, circuit, whether it is a mat's session
+    that stores no calibration of its own) from a session's metadata (the loader checks the file's structure and metadata but reads no frame, a third of
     the cost: a damaged chunk is found, and noted, when the session is processed; it reads the
     journal of a recording that was not closed)."""
     from ..io import SessionFormatError, load_session
@@ -231,7 +231,7 @@ def _session_meta(path: Path) -> tuple[str | None, str | None, str | None, bool,
         s = load_session(path, frames=False)
     except (SessionFormatError, OSError) as exc:
         not_closed = not_closed_line(path) if not path.exists() else None
-        return None, None, f"unreadable session: {exc}", False, not_closed, None, None
+        return None, None, f"unreadable session: {exc}", False, not_closed, None, None, False
     meta = s.metadata
     subject = meta.get("subject")
     trial = meta.get("trial")
@@ -242,7 +242,7 @@ def _session_meta(path: Path) -> tuple[str | None, str | None, str | None, bool,
         circuit = None
     return ((None if subject is None else str(subject)), (None if trial is None else str(trial)), None,
             meta.get("simulated") is True, unfinished_reason(path, s), None if serial in (None, "") else str(serial),
-            circuit)
+            circuit, s.kind == "psm" and s.calibration is None)
 
 
 def find_study(root: str | os.PathLike[str]) -> StudyLayout:
@@ -278,7 +278,7 @@ def find_study(root: str | os.PathLike[str]) -> StudyLayout:
     items = []
     found = {*sessions.glob("*.h5"), *journal_only(sessions)}  # journal-only: never skipped silently
     for s in sorted(p for p in found if not p.name.startswith(".")):  # (._NAME: see _companions)
-        subject, trial, problem, simulated, not_closed, serial, circuit = _session_meta(s)
+        subject, trial, problem, simulated, not_closed, serial, circuit, uncalibrated = _session_meta(s)
         plate, plate_problem = _companion(s.stem, plates, "force-platform")
         log, log_problem = _companion(s.stem, logs, "events")
         item = StudyItem(s.stem, s, plate, subject, trial, simulated=simulated, not_closed=not_closed,
@@ -308,11 +308,11 @@ def find_study(root: str | os.PathLike[str]) -> StudyLayout:
             alike = [k for k in cal if k.casefold() == serial.casefold()]
             if len(alike) == 1:  # a stem that differs only in case, as for the platform files
                 cal[serial] = cal[alike[0]]
-            else:
+            elif uncalibrated:  # (a session that stores its calibration is read with it)
                 have = sorted({p.name for p in cal.values()})
                 item.problems.append(f"no calibration/{serial}.json for its box {serial!r} (calibration/ has "
-                                     f"{', '.join(have[:3])}{', ...' if len(have) > 3 else ''}): the profile's "
-                                     "nominal circuit is used")
+                                     f"{', '.join(have[:3])}{', ...' if len(have) > 3 else ''}), and the session "
+                                     "stores none: the profile's nominal circuit is used")
         if plate_problem:
             item.problems.append(plate_problem)
         elif item.forceplate is None:
