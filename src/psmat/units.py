@@ -70,16 +70,21 @@ def force_n(pressure_kpa: ArrayOrFloat, area_cm2: ArrayOrFloat) -> ArrayOrFloat:
     return pressure_kpa * area_cm2 * 0.1
 
 
+def _per_unit(table: dict[str, float], key: str, unit: str, quantity: str, known: str) -> float:
+    """``table[key]``, else ValueError (one line naming ``unit`` and the ``known`` units)."""
+    if key not in table:
+        raise ValueError(f"unknown {quantity} unit {unit!r} (known: {known})")
+    return table[key]
+
+
 def kpa_per_unit(unit: str) -> float:
     """kPa per one ``unit`` of pressure (``"kPa"``, ``"mmHg"``, ``"PSI"``, ``"N/cm2"``, ``"Pa"``, ``"MPa"``,
     ``"bar"``, ``"mbar"``).
 
     Case and spaces are ignored. Raises ValueError (one line naming the known units) for any other.
     """
-    key = "".join(str(unit).split()).lower()
-    if key not in PRESSURE_UNITS_KPA:
-        raise ValueError(f"unknown pressure unit {unit!r} (known: kPa, Pa, MPa, bar, mbar, mmHg, PSI, N/cm2)")
-    return PRESSURE_UNITS_KPA[key]
+    return _per_unit(PRESSURE_UNITS_KPA, "".join(str(unit).split()).lower(), unit, "pressure",
+                     "kPa, Pa, MPa, bar, mbar, mmHg, PSI, N/cm2")
 
 
 def cm_per_unit(unit: str) -> float:
@@ -87,10 +92,7 @@ def cm_per_unit(unit: str) -> float:
 
     Case is ignored. Raises ValueError (one line) for any other.
     """
-    key = str(unit).strip().lower()
-    if key not in LENGTH_UNITS_CM:
-        raise ValueError(f"unknown length unit {unit!r} (known: mm, cm, m, in)")
-    return LENGTH_UNITS_CM[key]
+    return _per_unit(LENGTH_UNITS_CM, str(unit).strip().lower(), unit, "length", "mm, cm, m, in")
 
 
 def kg_per_unit(unit: str) -> float:
@@ -98,10 +100,7 @@ def kg_per_unit(unit: str) -> float:
 
     Case is ignored. Raises ValueError (one line naming the known units) for any other.
     """
-    key = str(unit).strip().lower()
-    if key not in MASS_UNITS_KG:
-        raise ValueError(f"unknown mass unit {unit!r} (known: kg, lb, st)")
-    return MASS_UNITS_KG[key]
+    return _per_unit(MASS_UNITS_KG, str(unit).strip().lower(), unit, "mass", "kg, lb, st")
 
 
 def s_per_unit(unit: str) -> float:
@@ -109,10 +108,7 @@ def s_per_unit(unit: str) -> float:
 
     Case is ignored. Raises ValueError (one line naming the known units) for any other.
     """
-    key = str(unit).strip().lower()
-    if key not in TIME_UNITS_S:
-        raise ValueError(f"unknown time unit {unit!r} (known: s, ms, us, min)")
-    return TIME_UNITS_S[key]
+    return _per_unit(TIME_UNITS_S, str(unit).strip().lower(), unit, "time", "s, ms, us, min")
 
 
 def header_unit(header: str, bases: Collection[str]) -> tuple[str, str | None] | None:
