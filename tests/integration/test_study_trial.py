@@ -222,6 +222,9 @@ def test_a_platform_file_of_another_recording_is_a_poor_alignment_not_a_result(t
     with open(run.outputs["summary"], newline="") as fh:
         summary = list(csv.DictReader(fh))
     assert summary and all(r["n_ok"] == "0" and r["n_failed"] == "1" for r in summary)
+    assert "platform's axes were turned" not in (root / "results" / "report.md").read_text(encoding="utf-8")
+    with pytest.raises(ValueError, match="platform_axes must be one of x,y, -x,y"):
+        run_study(root, workers=1, params={**params, "platform_axes": "x,z"}, progress=False)
 
 
 def test_a_platform_whose_a_p_axis_points_the_other_way_is_named_and_can_be_turned(trial, tmp_path) -> None:
@@ -239,6 +242,17 @@ def test_a_platform_whose_a_p_axis_points_the_other_way_is_named_and_can_be_turn
                and r["status"].endswith("with the platform's axes x,-y: they lie otherwise than the mat's "
                                         "(study run --platform-axes=x,-y)") for r in rows)
     fixed = process_trial(session, turned, "S01", "right", weight_kg, {**params, "platform_axes": "x,-y"})
+    # a study run with those axes reads them so, and report.md says so
+    root = tmp_path / "study"
+    (root / "sessions").mkdir(parents=True)
+    (root / "forceplate").mkdir()
+    shutil.copy(session, root / "sessions" / "S01_right.h5")
+    shutil.copy(turned, root / "forceplate" / "S01_right.csv")
+    (root / "subjects.csv").write_text(f"subject,weight_kg\nS01,{weight_kg:.3f}\n")
+    run = run_study(root, workers=1, params={**params, "platform_axes": "x,-y"}, progress=False)
+    assert not [p for p in run.problems if "alignment" in p]
+    assert ("The force platform's axes were turned onto the mat's: M-L, A-P = x,-y of its files (platform_axes)."
+            in (root / "results" / "report.md").read_text(encoding="utf-8"))
     plain = process_trial(session, plate, "S01", "right", weight_kg, params)
     assert [r["status"] for r in fixed] == ["ok", "ok"]
     for a, b in zip(fixed, plain):

@@ -65,7 +65,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from ..balance import KNOWN_VARIANTS
+from ..balance import KNOWN_VARIANTS, PLATFORM_AXES
 from ._cache import SessionStore, Stored, TraceFiles, canonical_json, file_sha256, normalise_rows, result_key, \
     study_lock, write_text_atomic
 from ._dynamic import plan_dynamic
@@ -290,7 +290,7 @@ def run_study(root: str | os.PathLike[str], *, workers: int | None = None, sched
         links = {s: path.relative_to(layout.results).as_posix() for s, path in listed.items()}
         clock.end("after_sessions")
         outputs = _write_outputs(layout.results, rows, traces, problems, __version__,
-                                 "simulation" if layout.simulated else None, preprocessing_sentence(p["preprocess"]),
+                                 "simulation" if layout.simulated else None, _preprocessing(p),
                                  links, clock, _drawer(size, cluster))
         for stem in set(tasks) - set(todo_stems):
             clock.session(tasks[stem].subject, tasks[stem].trial, stem, "not closed" if stem in unclosed else "reused")
@@ -428,6 +428,15 @@ def _cell(v: Any) -> str:
     return str(v)
 
 
+def _preprocessing(p: dict[str, Any]) -> str:
+    """report.md's preprocessing sentence, and the platform's axes when they were not read as they are."""
+    text = preprocessing_sentence(p["preprocess"])
+    if p["platform_axes"] != "x,y":
+        text += (f" The force platform's axes were turned onto the mat's: M-L, A-P = {p['platform_axes']} of its "
+                 "files (platform_axes).")
+    return text
+
+
 def _checked_params(params: dict[str, Any] | None) -> dict[str, Any]:
     """The whole parameter dict (defaults filled in) as plain JSON values; ValueError if unknown."""
     import json
@@ -443,6 +452,8 @@ def _checked_params(params: dict[str, Any] | None) -> dict[str, Any]:
     for name in ("preprocess", "descriptors"):
         if p[name] not in PRESETS:
             raise ValueError(f"{name} must be one of {', '.join(map(str, PRESETS))}, got {p[name]!r}")
+    if p["platform_axes"] not in PLATFORM_AXES:
+        raise ValueError(f"platform_axes must be one of {', '.join(PLATFORM_AXES)}, got {p['platform_axes']!r}")
     try:
         return json.loads(canonical_json(p))
     except ValueError as exc:
