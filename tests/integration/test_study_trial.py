@@ -242,13 +242,19 @@ def test_a_platform_whose_a_p_axis_points_the_other_way_is_named_and_can_be_turn
                and r["status"].endswith("with the platform's axes x,-y: they lie otherwise than the mat's "
                                         "(study run --platform-axes=x,-y)") for r in rows)
     fixed = process_trial(session, turned, "S01", "right", weight_kg, {**params, "platform_axes": "x,-y"})
-    # a study run with those axes reads them so, and report.md says so
+    # a study whose platform lies so in every trial is told once, first; run with those axes it reads
+    # them so, and report.md says so
     root = tmp_path / "study"
     (root / "sessions").mkdir(parents=True)
     (root / "forceplate").mkdir()
-    shutil.copy(session, root / "sessions" / "S01_right.h5")
-    shutil.copy(turned, root / "forceplate" / "S01_right.csv")
+    for stem in ("S01_right", "S01_again"):
+        shutil.copy(session, root / "sessions" / f"{stem}.h5")
+        shutil.copy(turned, root / "forceplate" / f"{stem}.csv")
     (root / "subjects.csv").write_text(f"subject,weight_kg\nS01,{weight_kg:.3f}\n")
+    run = run_study(root, workers=1, params=params, progress=False)
+    told = [k for k, line in enumerate(run.problems) if "x,-y" in line]
+    assert run.problems[told[0]] == ("2 trials align only with the platform's axes x,-y: run the study again with "
+                                     "--platform-axes=x,-y") and len(told) == 3  # then each trial's own line
     run = run_study(root, workers=1, params={**params, "platform_axes": "x,-y"}, progress=False)
     assert not [p for p in run.problems if "alignment" in p]
     assert ("The force platform's axes were turned onto the mat's: M-L, A-P = x,-y of its files (platform_axes)."

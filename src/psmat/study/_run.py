@@ -77,7 +77,7 @@ from ._reports import REPORTS_DIR, ReportIndex, ReportTask, report_tasks, run_re
 from ._row_metrics import preprocessing_sentence
 from ._task import SessionTask, run_task, status_rows
 from ._timings import PoolClock, Stopwatch, TaskTime, timed
-from ._trial import COLUMNS, DEFAULT_PARAMS, POOR_ALIGNMENT, Rows, Traces
+from ._trial import COLUMNS, DEFAULT_PARAMS, POOR_ALIGNMENT, Rows, Traces, suggested_axes
 
 if TYPE_CHECKING:  # pragma: no cover
     from ._results import DrawFigures
@@ -565,7 +565,16 @@ def _session_problems(items: Sequence[StudyItem], order: Sequence[str], done: di
         elif poor := next((r["status"] for r in done[stem].rows if POOR_ALIGNMENT in r["status"]), None):
             problems.append(poor[poor.index(POOR_ALIGNMENT):])  # its rows are left out of the summary
         out += [f"{stem}: {p}" for p in problems]
-    return out
+    # a platform whose axes lie otherwise than the mat's does so in every trial: said once, first
+    axes = [a for stem in order if stem not in failed and (a := _axes_of(done[stem].rows)) is not None]
+    common = {a: axes.count(a) for a in axes}
+    return [f"{n} trials align only with the platform's axes {a}: run the study again with --platform-axes={a}"
+            for a, n in common.items() if n > 1] + out
+
+
+def _axes_of(rows: Rows) -> str | None:
+    """The platform axes a session's poor alignment names, if any (psmat.study._trial.suggested_axes)."""
+    return next((a for r in rows if (a := suggested_axes(r["status"])) is not None), None)
 
 
 def _unclosed(items: Sequence[StudyItem], tasks: Mapping[str, SessionTask]) -> dict[str, Stored]:

@@ -57,6 +57,15 @@ DEFAULT_PARAMS: dict[str, Any] = {
 #: psmat.balance.POOR_ALIGNMENT_R: the file is another recording's, or the mat did not see the sway
 POOR_ALIGNMENT = "poor alignment"
 
+_AXES_HINT = "study run --platform-axes="
+
+
+def suggested_axes(status: str) -> str | None:
+    """The platform axes a poor alignment's status names (those under which its trial aligns), or None."""
+    k = status.find(_AXES_HINT) if POOR_ALIGNMENT in status else -1
+    return None if k < 0 else status[k + len(_AXES_HINT):].split(")", 1)[0]
+
+
 Rows = list[dict[str, Any]]
 #: {"t_s": (N,) platform-clock times (s), "FP": (N, 2) cm, "<variant>": (N, 2) cm}, M-L then A-P
 Traces = dict[str, np.ndarray]
@@ -271,7 +280,7 @@ def _process(session: Path, forceplate: Path | None, subject: str, trial: str, w
         why = f"{POOR_ALIGNMENT}: r {a.r:.2f} < {POOR_ALIGNMENT_R:g} at the best lag" + (
             f": is {Path(forceplate).name} this session's platform file?" if other is None else
             f", {other[1].r:.2f} with the platform's axes {other[0]}: they lie otherwise than the mat's "
-            f"(study run --platform-axes={other[0]})")
+            f"({_AXES_HINT}{other[0]})")
         rows = [{**r, "status": why if r["status"] == "ok" else f"{r['status']}; {why}"} for r in rows]
     return rows
 
