@@ -247,8 +247,10 @@ def test_a_trial_with_markers_is_recorded_whole_while_a_client_never_reads(lab: 
     assert s.profile is not None and s.profile["name"] == "psm16"
     sway = stopped["sway"]["metrics"]
     assert sway is not None and sway["path_cm"] > 0 and sway["sd_ml_cm"] > 0 and sway["area95_cm2"] > 0
+    (lab.data / f"._{path.name}").write_bytes(b"\x00\x05\x16\x07Mac OS X" + bytes(4000))  # a Mac's copy beside it
     status, listed = lab.request("GET", "/api/sessions")
     assert path.name in [r["name"] for r in listed["sessions"]]
+    assert f"._{path.name}" not in [r["name"] for r in listed["sessions"]]  # (before: listed, and replay failed)
     status, st = lab.request("GET", "/api/status")
     assert st["recording"] is False and st["device"]["counters"]["connected"]   # the server lived on
 

@@ -326,6 +326,8 @@ class LabSession:
         rows = []
         if self.data_dir.is_dir():
             for p in self.data_dir.glob("*.h5"):
+                if p.name.startswith("."):  # hidden: a Mac's ._NAME beside a copied file is no session
+                    continue
                 try:
                     st = p.stat()
                     confine(self.data_dir, p.name)   # a symbolic link out of the folder is not listed
