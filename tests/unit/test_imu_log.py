@@ -57,6 +57,9 @@ def test_a_hand_written_line_is_read_sensor_by_sensor(tmp_path) -> None:
     assert log.n == 2  # the comment and the blank line are not samples
     np.testing.assert_allclose(log.angles_deg[0, 2], [300.12345, 310.12345, 320.12345])  # sensor 3
     np.testing.assert_allclose(log.pitch_deg[1], [120.12345, 220.12345, 320.12345, 420.12345, 520.12345])
+    path.write_bytes(f"{line}\r\n{line}\r\n".encode("utf-8-sig"))  # saved again by an editor on Windows
+    log = load_imu_log(path)  # (before: the first sample invalid, its first number "\ufeff100.12345")
+    assert log.valid.all() and log.angles_deg[0, 0, 0] == pytest.approx(100.12345)
 
 
 def test_a_malformed_line_costs_that_line_only_and_the_time_base_holds(tmp_path) -> None:

@@ -149,8 +149,9 @@ def load_imu_log(path: str | os.PathLike[str], *, rate_hz: float = 10.0) -> ImuL
     path = Path(path)
     if not path.is_file():
         raise FileNotFoundError(f"IMU log not found: {path}")
-    # a damaged byte becomes U+FFFD, which fails its line's parse: it costs that line only (docs/spec.md §6)
-    text = path.read_bytes().decode("utf-8", errors="replace")
+    # a damaged byte becomes U+FFFD, which fails its line's parse: it costs that line only (docs/spec.md §6);
+    # a byte-order mark (a log opened and saved by an editor on Windows) is no part of the first line
+    text = path.read_bytes().decode("utf-8-sig", errors="replace")
     lines = [(k + 1, ln.split()) for k, ln in enumerate(text.splitlines())
              if ln.strip() and not ln.lstrip().startswith("#")]
     if not lines:
