@@ -155,6 +155,9 @@ def test_calibration_save_load_round_trip(tmp_path):
     per_pair = Calibration("x", 123e3, np.arange(6.0).reshape(2, 3) + 140, date="2024-01-01")
     per_pair.save(path)
     np.testing.assert_array_equal(Calibration.load(path).r_mux, per_pair.r_mux)
+    # the file saved again by an editor on Windows, with a byte-order mark (before: "Unexpected UTF-8 BOM")
+    path.write_bytes(path.read_bytes().decode().encode("utf-8-sig"))
+    np.testing.assert_array_equal(Calibration.load(path).r_mux, per_pair.r_mux)
 
 
 def test_a_calibration_is_applied_to_a_circuit():

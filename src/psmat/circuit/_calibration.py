@@ -339,7 +339,8 @@ class Calibration:
         """
         raw = Path(path).read_bytes()
         try:
-            d = json.loads(raw.decode("utf-8"), parse_constant=_reject_constant)
+            # (a byte-order mark, from an editor on Windows, is no part of the JSON: RFC 8259 §8.1)
+            d = json.loads(raw.decode("utf-8-sig"), parse_constant=_reject_constant)
         except ValueError as exc:  # JSONDecodeError and UnicodeDecodeError are ValueErrors
             raise ValueError(f"{path}: not a valid calibration JSON file: {exc}") from exc
         try:
