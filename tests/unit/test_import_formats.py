@@ -105,6 +105,10 @@ def test_xsensor_unit_from_the_average_pressure_field_and_a_midnight_crossing(tm
     assert r.source_unit == "mmHg"
     np.testing.assert_allclose(r.pressure_kpa, hand_kpa(MMHG_KPA), rtol=1e-6)
     np.testing.assert_allclose(r.t_s, [0.0, 0.02, 0.04], atol=1e-9)
+    # the same with a German locale's dates, DD.MM.YYYY, always day first (before: "is not a date")
+    g = xsensor_file(tmp_path / "de.csv", unit="mmHg", drop="Units:", times=("23:59:59.980", "00:00:00.000",
+                     "00:00:00.020"), dates=("31.03.2024", "01.04.2024", "01.04.2024"))
+    np.testing.assert_allclose(read_pressure_file(g).t_s, [0.0, 0.02, 0.04], atol=1e-9)
 
 
 def test_generic_csv_with_rate_and_with_a_time_column(tmp_path: Path) -> None:

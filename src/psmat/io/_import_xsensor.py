@@ -3,8 +3,8 @@
 The layout read here (as XSENSOR's software writes it; the field names are those of its export):
 each frame is a block of ``Name:,value`` lines, then the frame's ``Rows`` lines of ``Columns``
 values separated by commas. psmat uses ``Frame:`` (starts a block), ``Date:`` and ``Time:``
-(when the frame was taken: date ``YYYY-MM-DD``, ``DD/MM/YYYY`` or ``MM/DD/YYYY`` — read as
-``YYYY-MM-DD`` or, with slashes, month first unless the first number exceeds 12 — and time of day
+(when the frame was taken: date ``YYYY-MM-DD``, ``DD/MM/YYYY``, ``DD.MM.YYYY`` or ``MM/DD/YYYY`` — read as
+``YYYY-MM-DD``, with dots day first, with slashes month first unless the first number exceeds 12 — and time of day
 ``HH:MM:SS[.fff]``), ``Rows:``, ``Columns:``, ``Sensel Width (cm):``, ``Sensel Height (cm):``
 and ``Units:`` (``mmHg``, ``PSI``, ``kPa``, ``N/cm2``; when absent, the unit in parentheses of
 ``Average Pressure (UNIT):`` or ``Peak Pressure (UNIT):``). Other fields (``Sensor:``, ``COP Row:``,
@@ -40,10 +40,13 @@ def _date(text: str, where: str) -> _dt.date:
     try:
         if "-" in t:
             return _dt.date.fromisoformat(t[:10])
+        if "." in t:  # DD.MM.YYYY, a German locale's: always day first
+            d, mo, y = (int(x) for x in t.split("."))
+            return _dt.date(y, mo, d)
         a, b, y = (int(x) for x in t.split("/"))
         return _dt.date(y, b, a) if a > 12 else _dt.date(y, a, b)
     except (ValueError, TypeError):
-        raise ImportFormatError(f"{where}: date {t!r} is not YYYY-MM-DD, DD/MM/YYYY or MM/DD/YYYY") from None
+        raise ImportFormatError(f"{where}: date {t!r} is not YYYY-MM-DD, DD/MM/YYYY, DD.MM.YYYY or MM/DD/YYYY") from None
 
 
 def _time_s(text: str, where: str) -> float:
