@@ -274,6 +274,8 @@ def test_forceplate_export_timed_by_its_rate(tmp_path: Path) -> None:
     np.testing.assert_allclose(load_forceplate_csv(p, rate_hz=500).t, [0.002, 0.004, 0.008], rtol=1e-15)
     p.write_text("Rate;100;Hz\nCOPx;COPy\n1;2\n1;2\n1;3\n")  # no counter: the row
     assert load_forceplate_csv(p).t.tolist() == [0.0, 0.01, 0.02]
+    p.write_text("Frame rate: 50\nRate of force development 120 N/s\nCOPx;COPy\n1;2\n1;2\n1;3\n")  # not a sampling rate
+    assert load_forceplate_csv(p).t.tolist() == [0.0, 0.02, 0.04]
     p.write_text("Sample rate 100 Hz\nframe rate: 50\nCOPx,COPy\n1,2\n1,2\n1,3\n")
     with pytest.raises(ValueError, match="the lines above the header name 2 rates"):
         load_forceplate_csv(p)

@@ -265,7 +265,7 @@ def _find(header: list[str], names: Sequence[str], given: str | int | None, what
 _COUNTER = ("sample", "samples", "sampleno", "samplenr", "samplenumber", "frame", "frames", "frameno",
             "framenr", "framenumber", "index")
 #: a line above the header that states the sampling rate: a word for sampling or rate, then the number
-_RATE_LINE = re.compile(r"(?i)\b(sampl\w*|\w*\s?rate)\b[^0-9]{0,30}?([0-9]+(?:[.,][0-9]+)?)\s*(k?hz)?\b")
+_RATE_LINE = re.compile(r"(?i)\b(sampl\w*|\w*\s?rate)\b[^0-9]{0,30}?([0-9]+(?:[.,][0-9]+)?)[\s;,:]*(k?hz)?\b")
 
 
 def _unrounded(t: NDArray[np.float64], time_from: str, path: Path) -> tuple[NDArray[np.float64], str]:
@@ -329,7 +329,8 @@ def _timed_by_rate(header: list[str], data: NDArray[np.float64], preamble: list[
         found = {}
         for line in preamble:
             m = _RATE_LINE.search(line)
-            if m:
+            # a sampling or frame rate, or a number in Hz: not any "rate" ("rate of force development 120 N/s")
+            if m and (m.group(3) or re.search(r"(?i)sampl|frame|captur|acqui", m.group(1))):
                 found.setdefault(float(m.group(2).replace(",", ".")) * (1e3 if (m.group(3) or "").lower() == "khz"
                                                                         else 1.0), line.strip())
         if len(found) > 1:
