@@ -179,3 +179,32 @@ def test_simulate_serves_csv_that_open_device_reads(tmp_path: Path) -> None:
     assert batch.frames.shape == (40, 8, 12) and int(batch.frames[batch.valid].max()) <= 2**BITS - 1
     # the quiet scene: two feet on an 8x12 mat load some cells, the rest read the unloaded level
     assert len(np.unique(batch.frames[batch.valid])) > 10
+
+
+def test_a_12_bit_board_recorded_as_10_bits_is_told_why_its_frames_are_invalid(tmp_path: Path) -> None:
+    """A csv mat on a 12-bit board recorded without --bits (the csv default, 10 bits): before, the
+    summary said only "N invalid". Now the reasons say what to check, and with --bits 12 none is
+    out of range."""
+    proc = subprocess.Popen([sys.executable, "-m", "psmat", "simulate", "--profile", "psm16", "--protocol", "csv",
+                             "--rate", "100"], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                            preexec_fn=default_stop_signals)
+    try:
+        port = proc.stdout.readline().strip()
+        assert port, proc.communicate()
+        runs = {}
+        for bits in ([], ["--bits", "12"]):
+            done = subprocess.run([sys.executable, "-m", "psmat", "record", port, "--protocol", "csv", "--shape",
+                                   "16x16", *bits, "--seconds", "2", "-o", str(tmp_path / f"b{len(bits)}.h5")],
+                                  capture_output=True, text=True, timeout=GUARD_S)
+            assert done.returncode == 0, done.stderr
+            runs[bool(bits)] = done.stdout
+    finally:
+        proc.send_signal(signal.SIGTERM)
+        proc.communicate(timeout=GUARD_S)
+    why = [ln for ln in runs[False].splitlines() if ln.startswith("  invalid rows by reason")]
+    assert len(why) == 1 and ": range " in why[0]
+    assert why[0].split(": range ")[1].split(":")[0].isdigit()
+    assert "counts above 1023, the most 10 bits hold: is the board's ADC wider (--bits)?" in why[0]
+    assert "range" not in runs[True]  # (at most a first partial line, reason "count", is invalid then)
+    s10, s12 = load_session(tmp_path / "b0.h5"), load_session(tmp_path / "b2.h5")
+    assert not s10.valid.any() and s12.valid.sum() >= s12.n_frames - 1

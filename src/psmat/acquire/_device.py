@@ -192,7 +192,7 @@ class Device(BufferedSource):
                            dropped_buffer=self._ring.dropped, skipped_bytes=c["skipped"], replies=c["replies"],
                            reconnects=self._reconnects, ignored=self._ignored, mismatched=c["mismatched"],
                            bytes_in=c["bytes_in"], buffered=len(self._ring), connected=self._connected,
-                           last_error=self._last_error)
+                           last_error=self._last_error, invalid_reasons=self._decoder.invalid_reasons)
 
     def __repr__(self) -> str:
         state = "closed" if self._closed else ("started" if self._started else "open")

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 __all__ = ["DeviceStats"]
 
@@ -42,6 +42,10 @@ class DeviceStats:
         Whether the port is open and readable now.
     last_error : str or None
         The last link or recording problem, as text.
+    invalid_reasons : dict of str to int
+        ``invalid`` by reason, for a csv mat (:data:`psmat.protocol.CSV_REASONS`: ``range``, a count
+        above what its bits hold; ``count``, another number of counts than the shape's; ...); empty
+        otherwise.
     """
 
     frames: int
@@ -57,3 +61,4 @@ class DeviceStats:
     buffered: int
     connected: bool
     last_error: str | None
+    invalid_reasons: dict[str, int] = field(default_factory=dict)

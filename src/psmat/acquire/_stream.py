@@ -89,6 +89,7 @@ class StreamDecoder:
         self.shape = tuple(shape)
         self.bits = int(bits)
         self._base = dict.fromkeys(_COUNTERS, 0)
+        self._base_reasons: dict[str, int] = {}
         self._mismatched_valid = 0
         self._mismatched_invalid = 0
         self._pending_protocol: int | None = None
@@ -117,6 +118,15 @@ class StreamDecoder:
         out["mismatched"] = self._mismatched_valid + self._mismatched_invalid
         return out
 
+    @property
+    def invalid_reasons(self) -> dict[str, int]:
+        """Invalid rows by reason, cumulative (a csv mat's decoder: :data:`psmat.protocol.CSV_REASONS`;
+        empty for the binary protocols, whose invalid rows all failed their checksum)."""
+        out = dict(self._base_reasons)
+        for k, n in getattr(self._dec, "reasons", {}).items():
+            out[k] = out.get(k, 0) + n
+        return {k: n for k, n in out.items() if n}
+
     def _current(self) -> dict[str, int]:
         d = self._dec
         if self.kind == "daq":
@@ -128,6 +138,7 @@ class StreamDecoder:
         cur = self._current()
         for k in _COUNTERS:
             self._base[k] += cur[k]
+        self._base_reasons = self.invalid_reasons
 
     # -- decoding ------------------------------------------------------------------------
     def expect_protocol_switch(self, protocol: int) -> None:

@@ -197,7 +197,20 @@ def run(args: argparse.Namespace) -> int:
         print(f"{where}: {rc.frames} frames recorded, {rc.invalid} invalid, {lost}, "
               f"{st.dropped_buffer} dropped by the host buffer"
               + (f"; ended early: {src.ended}" if src.ended and len(sources) > 1 else ""))
+        if rc.invalid and st.invalid_reasons:
+            print(f"  invalid rows by reason, since the port opened: {_invalid_why(st.invalid_reasons, src.dev)}")
     return status
+
+
+def _invalid_why(reasons: dict[str, int], dev: Any) -> str:
+    """``range 2990: ...; count 3: ...``: a csv mat's invalid rows by reason, most first, the usual slips
+    said (a board whose ADC is wider than the profile's bits, another shape)."""
+    bits, (rows, cols) = getattr(dev, "bits", 0), dev.shape[:2]
+    said = {"range": f"counts above {2 ** bits - 1}, the most {bits} bits hold: is the board's ADC wider (--bits)?",
+            "count": f"lines of another number of counts than {rows}x{cols}: is --shape right?",
+            "token": "a field that is not a count"}
+    return "; ".join(f"{k} {n}" + (f": {said[k]}" if k in said else "")
+                     for k, n in sorted(reasons.items(), key=lambda kv: -kv[1]))
 
 
 def _record(args: argparse.Namespace, kind: str, prof: Any, profiles: list[Any], calibration: Any
