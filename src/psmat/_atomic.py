@@ -29,7 +29,7 @@ from pathlib import Path
 from typing import IO, Any
 
 __all__ = ["TMP_PREFIX", "OutputRefused", "check_outputs", "replacing", "open_atomic", "write_text_atomic",
-           "same_file", "fsync_dir", "fsync_file", "remove_temporaries", "no_space"]
+           "same_file", "fsync_dir", "fsync_file", "remove_temporaries", "no_space", "causes"]
 
 #: the name of every temporary file begins so (a study run removes those a killed run left)
 TMP_PREFIX = ".tmp-"
@@ -41,13 +41,19 @@ def no_space(exc: BaseException | None) -> str | None:
     """``"no space left on the disk"`` (or ``"the disk quota is used up"``) when ``exc``, or an error
     that caused it, is the operating system's ENOSPC (EDQUOT); else None. A full disk is the person's
     to fix, in one line, not a traceback (``psmat.cli``)."""
-    seen = set()
-    while exc is not None and id(exc) not in seen:
-        seen.add(id(exc))
-        if isinstance(exc, OSError) and exc.errno in (errno.ENOSPC, getattr(errno, "EDQUOT", errno.ENOSPC)):
-            return "no space left on the disk" if exc.errno == errno.ENOSPC else "the disk quota is used up"
-        exc = exc.__cause__ or exc.__context__
+    for e in causes(exc):
+        if isinstance(e, OSError) and e.errno in (errno.ENOSPC, getattr(errno, "EDQUOT", errno.ENOSPC)):
+            return "no space left on the disk" if e.errno == errno.ENOSPC else "the disk quota is used up"
     return None
+
+
+def causes(exc: BaseException | None) -> list[BaseException]:
+    """``exc`` and the errors that caused it (``__cause__``, else ``__context__``), each once."""
+    out: list[BaseException] = []
+    while exc is not None and all(exc is not e for e in out):
+        out.append(exc)
+        exc = exc.__cause__ or exc.__context__
+    return out
 
 
 class OutputRefused(Exception):

@@ -148,11 +148,11 @@ def main(argv: list[str] | None = None) -> int:
     except Exception as exc:
         # a device that cannot be opened or vanishes, or a full disk, is the person's problem to fix,
         # not a bug: one clear line instead of a traceback (anything else still raises)
-        from ._atomic import no_space
+        from ._atomic import causes, no_space
 
         full = no_space(exc)
         if full:  # psmat's own message says where (SessionNotCompleted), else the file the system names
-            where = next((e.filename for e in _chain(exc) if getattr(e, "filename", None)), None)
+            where = next((e.filename for e in causes(exc) if getattr(e, "filename", None)), None)
             said = str(exc) if full in str(exc) else f"{where or 'a file it writes'}: {full}"
             print(f"psmat {args.command}: {' '.join(said.split())}; make room and run it again (a file it "
                   "replaces is left as it was)", file=sys.stderr)
@@ -161,15 +161,6 @@ def main(argv: list[str] | None = None) -> int:
             raise
         print(f"psmat {args.command}: {exc}", file=sys.stderr)
         return 1
-
-
-def _chain(exc: BaseException | None) -> list[BaseException]:
-    """``exc`` and the errors that caused it."""
-    out: list[BaseException] = []
-    while exc is not None and exc not in out:
-        out.append(exc)
-        exc = exc.__cause__ or exc.__context__
-    return out
 
 
 def _is_device_error(exc: BaseException) -> bool:

@@ -234,7 +234,7 @@ def analyse(item: ReportItem, p: dict[str, Any]) -> SessionAnalysis:
     plat, plat_note = None, "no force-platform file"
     if item.platform is not None:
         plat = compare_platform(Path(item.platform), t, c, p)
-        plat_note = "" if plat.r >= POOR_ALIGNMENT_R else (
+        plat_note = "" if not plat.poor else (
             f"Poor alignment: the correlation at the best lag is {plat.r:.2f}, below {POOR_ALIGNMENT_R:g}: the traces "
             + (f"share no sway. Is {plat.path.name} this session's platform file?" if plat.other_axes is None else
                f"align at {plat.other_axes[1]:.2f} with the platform's axes {plat.other_axes[0]}: they lie otherwise "

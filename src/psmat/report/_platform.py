@@ -39,6 +39,8 @@ class PlatformResult:
     t_s: NDArray[np.float64]  # preprocessed common times from the overlap's start (figure), s
     mat_cm: NDArray[np.float64]  # (N, 2) the mat, preprocessed, mean removed, cm
     fp_cm: NDArray[np.float64]  # (N, 2) the platform at the same times, preprocessed, mean removed, cm
+    #: the alignment is poor (psmat.balance.Alignment.poor: the traces share no sway)
+    poor: bool = False
     #: for a poor alignment, the platform axes that align it and their r (psmat.balance.find_platform_axes)
     other_axes: tuple[str, float] | None = None
 
@@ -84,4 +86,4 @@ def compare_platform(path: Path, t_s: NDArray[np.float64], cop_cm: NDArray[np.fl
                           overlap_s=float(hi - lo), eu_cm=eu(am, bm), eu_ml_cm=eu(am[:, 0], bm[:, 0]),
                           eu_ap_cm=eu(am[:, 1], bm[:, 1]), mat=m_mat, fp=m_fp, t_s=tp - tp[0],
                           mat_cm=xy_mat - xy_mat.mean(axis=0), fp_cm=fp_at - fp_at.mean(axis=0),
-                          other_axes=None if other is None else (other[0], other[1].r))
+                          poor=a.poor, other_axes=None if other is None else (other[0], other[1].r))
