@@ -106,6 +106,18 @@ def test_a_study_is_cached_per_session_and_recomputes_only_what_changed(study, l
         assert renamed.problems == [] and renamed.computed == 0
     finally:
         cal.with_name(cal.name.lower()).rename(cal)
+    # two spellings, neither the box's exactly: which is its own is not known, and the run says so
+    # (before: neither, silently, and the session's stored calibration used)
+    twin, other = cal.with_name(cal.name.lower()), cal.with_name(cal.name.capitalize())
+    twin.write_bytes(cal.read_bytes())
+    cal.rename(other)
+    try:
+        both = load_posture_study(study, workers=1, progress=False)
+    finally:
+        twin.unlink()
+        other.rename(cal)
+    assert both.problems == [f"P02_d1: 2 calibration files for box {cal.stem}: {other.name}, {twin.name}; which one "
+                             "belongs to it is not known: keep one (neither is used)"]
 
 
 def test_a_mat_recorded_apart_is_aligned_to_its_imu_log(study, loaded, tmp_path) -> None:
@@ -114,8 +126,7 @@ def test_a_mat_recorded_apart_is_aligned_to_its_imu_log(study, loaded, tmp_path)
 
     s = load_session(study / "sessions" / "P02_d1.h5")
     mat_only = tmp_path / "P02_d1.h5"
-    with SessionWriter(mat_only, s.frame_shape, device=s.device, calibration=s.calibration,
-                       metadata=s.metadata) as w:
+    with SessionWriter(mat_only, s.frame_shape, device=s.device, metadata=s.metadata) as w:  # no calibration
         w.append(s.counts, s.host_time_s, s.valid, seq=s.seq, device_time_us=s.device_time_us)
     imu = s.streams["imu"]
     log = tmp_path / "P02_d1.txt"
@@ -129,8 +140,16 @@ def test_a_mat_recorded_apart_is_aligned_to_its_imu_log(study, loaded, tmp_path)
     # a Mac copying the study to a USB stick writes an AppleDouble "._NAME" beside each file: no data
     # (before: an unreadable session among the problems)
     (apart / "sessions" / "._P02_d1.h5").write_bytes(b"\x00\x05\x16\x07\x00\x02\x00\x00Mac OS X" + bytes(4000))
+    # a study with calibrations, none of them this box's, and a session that stores none: said, as in a
+    # balance study (before: the nominal circuit, unsaid)
+    (apart / "calibration").mkdir()
+    p01 = next((study / "calibration").glob("*P01*.json"))
+    (apart / "calibration" / p01.name).write_bytes(p01.read_bytes())
     found = load_posture_study(apart, workers=1, progress=False)
-    assert found.problems == [] and len(found.recordings) == 1
+    box = s.device["serial"]
+    assert found.problems == [f"P02_d1: no calibration/{box}.json for its box {box!r}, and the session stores "
+                              "none: the profile's nominal circuit is used"]
+    assert len(found.recordings) == 1
     r = found.recordings[0]
     # t_imu = t_mat + lag: the log's 0 is the IMU's first sample, at host time imu.host_time_s[0]
     assert r.meta["aligned_by"].startswith("cross-correlation")
@@ -139,3 +158,13 @@ def test_a_mat_recorded_apart_is_aligned_to_its_imu_log(study, loaded, tmp_path)
     n = min(r.n_samples, together.n_samples)
     shift = int(np.argmin(np.abs(together.t_s - r.t_s[0])))
     np.testing.assert_allclose(r.angles_rad[:n - shift], together.angles_rad[shift:n], atol=np.deg2rad(1e-4))
+    # the log as a Windows tool names it ("P02_D1.TXT") is still the session's (before: "no IMU data"),
+    # and a log left in a subfolder is said, not skipped unsaid
+    (apart / "imu" / log.name).rename(apart / "imu" / "P02_D1.TXT")
+    (apart / "imu" / "old").mkdir()
+    write_imu_log(apart / "imu" / "old" / "P02_d2.txt", imu.counts[:10])
+    again = load_posture_study(apart, workers=1, progress=False)
+    assert again.problems == ["1 file(s) in subfolders are not read (imu/old/P02_d2.txt): a study's files sit "
+                              "directly in sessions/ and imu/", found.problems[0]]
+    assert again.computed == 0 and len(again.recordings) == 1  # the same log's bytes: read from the cache
+    np.testing.assert_array_equal(again.recordings[0].angles_rad, r.angles_rad)

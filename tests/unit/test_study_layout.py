@@ -91,8 +91,8 @@ def test_a_macs_companion_files_are_no_data_and_subfolders_are_said(study) -> No
     by = {i.stem: i for i in lay.items}
     assert sorted(by) == ["S01_right", "S02_left", "S03_rot", "S04_bad"]
     assert by["S01_right"].ok and by["S01_right"].forceplate == study / "forceplate" / "S01_right.csv"
-    assert lay.problems == ["1 file(s) in subfolders are not read (sessions/old/S05_rot.h5): a study's sessions, "
-                            "platform and events files sit directly in sessions/, forceplate/ and events/"]
+    assert lay.problems == ["1 file(s) in subfolders are not read (sessions/old/S05_rot.h5): a study's files "
+                            "sit directly in sessions/, forceplate/ and events/"]
 
 
 def test_names_that_differ_only_in_case_or_separators_are_said(study) -> None:

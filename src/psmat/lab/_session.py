@@ -21,6 +21,7 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
+from .._folders import hidden
 from ._calibrate import CalibrationWalk, parse_pairs
 from ._display import DisplayFeed
 from ._errors import LabConflict
@@ -326,7 +327,7 @@ class LabSession:
         rows = []
         if self.data_dir.is_dir():
             for p in self.data_dir.glob("*.h5"):
-                if p.name.startswith("."):  # hidden: a Mac's ._NAME beside a copied file is no session
+                if hidden(p):  # a Mac's ._NAME beside a copied file is no session
                     continue
                 try:
                     st = p.stat()

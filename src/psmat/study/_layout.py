@@ -28,6 +28,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+from .._folders import companion, data_files, hidden, nested
 from .._text import NotTextError, read_text
 from ..units import header_unit, kg_per_unit, n_from_kg
 
@@ -271,16 +272,16 @@ def find_study(root: str | os.PathLike[str]) -> StudyLayout:
         problems += found.problems
     else:
         problems.append(f"{sub_csv} not found: no body weights")
-    plates = _companions(root / "forceplate", _PLATFORM_SUFFIXES)
-    cal = {p.stem: p for p in sorted((root / "calibration").glob("*.json")) if not p.name.startswith(".")}
-    logs = _companions(root / "events", (".csv",))
-    problems += _nested(root)
+    plates = data_files(root / "forceplate", _PLATFORM_SUFFIXES)
+    cal = {p.stem: p for p in sorted((root / "calibration").glob("*.json")) if not hidden(p)}
+    logs = data_files(root / "events", (".csv",))
+    problems += nested(root, (("sessions", (".h5",)), ("forceplate", _PLATFORM_SUFFIXES), ("events", (".csv",))))
     items = []
     found = {*sessions.glob("*.h5"), *journal_only(sessions)}  # journal-only: never skipped silently
-    for s in sorted(p for p in found if not p.name.startswith(".")):  # (._NAME: see _companions)
+    for s in sorted(p for p in found if not hidden(p)):
         subject, trial, problem, simulated, not_closed, serial, circuit, uncalibrated = _session_meta(s)
-        plate, plate_problem = _companion(s.stem, plates, "force-platform")
-        log, log_problem = _companion(s.stem, logs, "events")
+        plate, plate_problem = companion(s.stem, plates, "force-platform")
+        log, log_problem = companion(s.stem, logs, "events")
         item = StudyItem(s.stem, s, plate, subject, trial, simulated=simulated, not_closed=not_closed,
                          events=log, serial=serial, circuit=circuit)
         if log_problem:  # which markers are right is not known: none are used
@@ -341,49 +342,6 @@ def _spelled_apart(names: list[str | None], what: str) -> list[str]:
     return [f"{what} {', '.join(map(repr, sorted(g)))} differ only in case or separators: they are kept and "
             "summarised apart; if they are one, name them alike in the sessions' metadata"
             for g in groups.values() if len(g) > 1]
-
-
-def _companions(folder: Path, suffixes: tuple[str, ...]) -> dict[str, list[Path]]:
-    """The files of ``folder`` whose suffix is one of ``suffixes`` (any case), by their stem in lower case.
-
-    Hidden files are no data: ``._NAME`` is the AppleDouble file a Mac writes beside every file it
-    copies to a FAT or exFAT drive (a USB stick), ``.NAME`` a hidden one; they are left out here and
-    in ``sessions/`` and ``calibration/``.
-    """
-    found: dict[str, list[Path]] = {}
-    for p in sorted(folder.glob("*")):
-        if p.suffix.lower() in suffixes and p.is_file() and not p.name.startswith("."):
-            found.setdefault(p.stem.casefold(), []).append(p)
-    return found
-
-
-def _nested(root: Path) -> list[str]:
-    """A problem line for the sessions, platform and events files in subfolders, which are not read
-    (a study's files sit directly in its folders: nothing is skipped unsaid)."""
-    nested = []
-    for folder, suffixes in (("sessions", (".h5",)), ("forceplate", _PLATFORM_SUFFIXES), ("events", (".csv",))):
-        top = root / folder
-        if top.is_dir():
-            nested += [p.relative_to(root).as_posix() for p in sorted(top.rglob("*"))
-                       if p.parent != top and p.suffix.lower() in suffixes and p.is_file()
-                       and not any(part.startswith(".") for part in p.relative_to(top).parts)]
-    if not nested:
-        return []
-    shown = ", ".join(nested[:3]) + (", ..." if len(nested) > 3 else "")
-    return [f"{len(nested)} file(s) in subfolders are not read ({shown}): a study's sessions, platform and "
-            "events files sit directly in sessions/, forceplate/ and events/"]
-
-
-def _companion(stem: str, found: dict[str, list[Path]], what: str) -> tuple[Path | None, str | None]:
-    """The ``what`` file of the session ``stem`` among ``found`` (:func:`_companions`): the one of that
-    stem, else the one whose stem differs from it only in case (Windows, where a study's files are
-    often gathered, does not tell them apart); (None, why) when two or more could be it."""
-    alike = found.get(stem.casefold(), [])
-    same = [p for p in alike if p.stem == stem] or alike
-    if len(same) > 1:
-        return None, (f"{len(same)} {what} files for session {stem}: {', '.join(p.name for p in same)}; "
-                      "which one belongs to it is not known: keep one")
-    return (same[0] if same else None), None
 
 
 def events_problem(path: Path, session: Path | None = None) -> str | None:

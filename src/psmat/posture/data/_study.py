@@ -35,6 +35,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from ..._folders import companion, data_files, hidden, nested
 from ._input_cache import read_cached, write_cached
 from ._recording import Recording
 from ._resample import mean_over_samples
@@ -185,14 +186,18 @@ def _tasks(root: Path, params: dict[str, Any], problems: list[str]) -> list[_Tas
     from ...io.session import psmat_version
     from ...io.session import journal_only, not_closed_line, unfinished_reason
 
-    # hidden files (a Mac's ._NAME beside every file it copies to a USB stick) are no data, as in a
-    # balance study (psmat.study.find_study)
-    sessions = sorted(p for p in (root / "sessions").glob("*.h5") if not p.name.startswith("."))
-    unclosed = [p for p in journal_only(root / "sessions") if not p.name.startswith(".")]  # each a problem line
+    # hidden files (a Mac's ._NAME beside every file it copies to a USB stick) are no data, a stem that
+    # differs only in case is the one meant, files in subfolders are said: as in a balance study
+    # (psmat.study.find_study; psmat._folders)
+    sessions = sorted(p for p in (root / "sessions").glob("*.h5") if not hidden(p))
+    unclosed = [p for p in journal_only(root / "sessions") if not hidden(p)]  # each a problem line
     problems += [f"{path.stem}: {not_closed_line(path)}" for path in unclosed]
     if not sessions:
         raise FileNotFoundError(f"{root}: no sessions/*.h5 (a posture study folder, docs/spec.md §6)"
                                 + (f"; {not_closed_line(unclosed[0])}" if unclosed else ""))
+    problems += nested(root, (("sessions", (".h5",)), ("imu", (".txt",))))
+    cals = data_files(root / "calibration", (".json",))
+    logs = data_files(root / "imu", (".txt",))
     tasks = []
     for path in sessions:
         stem = path.stem
@@ -205,14 +210,17 @@ def _tasks(root: Path, params: dict[str, Any], problems: list[str]) -> list[_Tas
         if why:  # left out until psmat repair finishes it
             problems.append(f"{stem}: {why}")
             continue
-        device = s.device
-        cal = root / "calibration" / f"{device.get('serial')}.json"
-        if not cal.is_file():  # a name that differs only in case (files gathered on Windows), when only one does
-            alike = [p for p in (root / "calibration").glob("*.json")
-                     if p.stem.casefold() == cal.stem.casefold() and not p.name.startswith(".")]
-            cal = alike[0] if len(alike) == 1 else None
-        log = root / "imu" / f"{stem}.txt"
-        log = log if log.is_file() else None
+        serial = str(s.device.get("serial"))
+        cal, cal_problem = companion(serial, cals, "calibration", owner="box")
+        if cal_problem:  # which one is right is not known: neither is used, and the run says so
+            problems.append(f"{stem}: {cal_problem} (neither is used)")
+        elif cal is None and cals and s.kind == "psm" and s.calibration is None:
+            problems.append(f"{stem}: no calibration/{serial}.json for its box {serial!r}, and the session "
+                            "stores none: the profile's nominal circuit is used")
+        log, log_problem = companion(stem, logs, "IMU log")
+        if log_problem:
+            problems.append(f"{stem}: {log_problem}")
+            continue
         if log is None and "imu" not in s.streams:  # known before any IECM is computed
             problems.append(f"{stem}: {NO_IMU} (imu/{stem}.txt)")
             continue
