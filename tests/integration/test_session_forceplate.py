@@ -338,3 +338,61 @@ def test_forces_and_moments_without_a_cop_give_the_published_cop(tmp_path: Path)
     p.write_text("t,Fz,Mx [kN.m],My [kN.m]\n0,700,1,2\n0.01,700,1,2\n")
     with pytest.raises(ValueError, match=r"the moment column 'Mx \[kN.m\]': its unit 'kn.m' is not N·m"):
         load_forceplate_csv(p)
+
+
+def test_clock_times_are_read_as_seconds(tmp_path: Path) -> None:
+    """Platform software that writes the time of day (``23:59:59,990``, a units row ``hh:mm:ss.sss``),
+    or a date and time: before, "'23:59:59,990' is not a number". Times of the day are seconds of the
+    day, carried on past midnight; a date and time is POSIX seconds (UTC unless it names its offset).
+    Expected values by hand: 23 h 59 min 59.99 s = 86 399.99 s; 2024-03-01 12:00 UTC = 1 709 294 400 s."""
+    p = tmp_path / "clock.csv"
+    p.write_text("Export\nStart;23:59:59\nTime;COPx (mm);COPy (mm);Fz\nhh:mm:ss.sss;mm;mm;N\n"
+                 "23:59:59,990;1;2;700\n23:59:59,995;1;2;700\n00:00:00,000;1;2;700\n00:00:00,005;1;2;700\n")
+    r = load_forceplate_csv(p)
+    np.testing.assert_allclose(r.t, 86399.99 + np.arange(4) * 0.005, rtol=0, atol=1e-9)
+    assert r.meta["time_from"] == "the clock times of the column 'Time [hh:mm:ss.sss]'" and r.meta["time_unit"] == "s"
+    assert r.meta["preamble"] == ["Export", "Start;23:59:59"]
+    np.testing.assert_allclose(r.cop_ml_cm, 0.1)
+    p.write_text("timestamp,x,y\n2024-03-01T12:00:00.000Z,1,2\n2024-03-01 12:00:00.010,1,2\n"
+                 "2024-03-01T13:00:00.020+01:00,1,2\n")
+    r = load_forceplate_csv(p)
+    np.testing.assert_allclose(r.t, 1709294400.0 + np.array([0.0, 0.01, 0.02]), rtol=0, atol=1e-6)
+    assert r.meta["time_from"] == "the clock times of the column 'timestamp'"
+    p.write_text("time,x,y\n12:00:00.00,1,2\n12:00:00.00,1,2\n12:00:00.01,1,2\n12:00:00.01,1,2\n12:00:00.02,1,2\n")
+    r = load_forceplate_csv(p)  # clock times with too few decimals: put back on their rate, as numbers are
+    assert r.meta["time_from"].startswith("the clock times of the column 'time', written to 0.01 s and put back")
+    p.write_text("time,x,y\n12:00:00,1,2\n25:61:00,1,2\n")
+    with pytest.raises(ValueError, match=r"row 3: '25:61:00' is not a number"):
+        load_forceplate_csv(p)
+
+
+@pytest.mark.parametrize("down", [False, True])
+def test_moments_about_an_origin_below_the_surface(down: bool, tmp_path: Path) -> None:
+    """Plates whose moments are about an origin below their surface (Kistler's a_z0, AMTI's z0): the
+    CoP of moments about the surface is off by z Fx / Fz. Expectation from the physics alone: a force
+    F applied at a known point r of the surface has the moment r × F (numpy's cross product) about
+    the origin; the file of F and M gives back r's x and y, in z-up axes and in Kistler's z-down axes
+    (turned 180° about x: y and z change sign)."""
+    rng = np.random.default_rng(3)
+    n, depth = 200, 0.041  # m below the surface
+    point = np.c_[rng.normal(0, 0.03, n), rng.normal(0, 0.05, n), np.full(n, depth)]  # m, z up
+    force = np.c_[rng.normal(0, 8, n), rng.normal(0, 8, n), rng.normal(700, 30, n)]  # N on the plate, z up
+    flip = np.array([1.0, -1.0, -1.0]) if down else np.ones(3)
+    r, f = point * flip, force * flip
+    m = np.cross(r, f)  # N·m about the origin
+    p = tmp_path / "six.csv"
+    np.savetxt(p, np.c_[np.arange(n) / 1000, f, m * 1000], delimiter=",", fmt="%.12g",
+               header="Time,Fx,Fy,Fz,Mx [N.mm],My [N.mm],Mz [N.mm]", comments="")
+    got = load_forceplate_csv(p, surface_z_mm=r[0, 2] * 1000)
+    np.testing.assert_allclose(got.cop_ml_cm, r[:, 0] * 100, rtol=0, atol=1e-8)
+    np.testing.assert_allclose(got.cop_ap_cm, r[:, 1] * 100, rtol=0, atol=1e-8)
+    assert got.meta["cop_from"] == f"(z Fx - My)/Fz, (Mx + z Fy)/Fz, z = {r[0, 2] * 1000:g} mm"
+    assert set(got.meta["channels"]) == {"Mz [N.mm]"}
+    surface = load_forceplate_csv(p)  # taken as moments about the surface: off by z Fx / Fz
+    np.testing.assert_allclose(surface.cop_ml_cm - r[:, 0] * 100, -r[:, 2] * f[:, 0] / f[:, 2] * 100, atol=1e-8)
+    p.write_text("Time,Fz,Mx,My\n0,700,1,2\n0.01,700,1,2\n")
+    with pytest.raises(ValueError, match="surface_z_mm needs the horizontal forces Fx and Fy"):
+        load_forceplate_csv(p, surface_z_mm=-41)
+    p.write_text("Time,x,y\n0,1,2\n0.01,1,2\n")
+    with pytest.raises(ValueError, match="surface_z_mm is for a file of forces and moments without a CoP column"):
+        load_forceplate_csv(p, surface_z_mm=-41)

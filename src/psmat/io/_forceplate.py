@@ -30,6 +30,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from .. import _checks
 from .._text import NotTextError, read_text
 from ..units import cm_per_unit, s_per_unit
 
@@ -172,12 +173,62 @@ _UNIT_FIELD = re.compile(r"[\[(]?\s*[A-Za-zµ°%/.*·^²\-]{1,8}\s*[\])]?")
 
 
 def _units_row(row: list[str]) -> bool:
-    return any(row) and all(not c or _UNIT_FIELD.fullmatch(c) for c in row)
+    return any(row) and all(not c or _UNIT_FIELD.fullmatch(c) or _CLOCK_UNIT.fullmatch(c) for c in row)
 
 
-def _read_table(path: Path, delimiter: str | None) -> tuple[list[str] | None, NDArray[np.float64], list[str]]:
-    """(header, data, preamble) of a platform's table: the header (with a units row's units in brackets), the
-    numbers (an empty field: NaN, a lost sample) and the lines above the header (the software's own notes).
+#: a time of day, ``H:MM:SS`` with any decimals (a decimal comma already a point), and an ISO date and
+#: time, ``2024-03-01 12:30:01.25`` or ``...T...``, with or without a UTC offset
+_CLOCK = re.compile(r"(\d{1,2}):([0-5]\d):([0-5]\d(?:\.\d*)?)")
+_DATE_TIME = re.compile(r"\d{4}-\d{2}-\d{2}[T ]\d{1,2}:[0-5]\d:[0-5]\d(?:\.\d*)?(?:Z|[+-]\d{2}:?\d{2})?")
+#: the units row's field over a column of clock times: ``hh:mm:ss``, ``hh:mm:ss.sss``
+_CLOCK_UNIT = re.compile(r"(?i)[\[(]?\s*hh?:mm:ss(?:[.,]s+)?\s*[\])]?")
+_DAY_S = 86400.0
+
+
+def _clock_seconds(field: str) -> float | None:
+    """The seconds of a clock time (of the day; of the POSIX epoch for a date and time, UTC unless it
+    names its offset), or None when ``field`` is neither."""
+    m = _CLOCK.fullmatch(field)
+    if m:
+        return int(m.group(1)) * 3600.0 + int(m.group(2)) * 60.0 + float(m.group(3))
+    if _DATE_TIME.fullmatch(field):
+        import datetime as _dt
+
+        try:
+            d = _dt.datetime.fromisoformat(field.replace("Z", "+00:00"))
+        except ValueError:  # (a month 13, a day 32: a malformed field, said as not a number)
+            return None
+        whole = d.replace(microsecond=0, tzinfo=d.tzinfo or _dt.timezone.utc).timestamp()
+        return whole + d.microsecond * 1e-6
+    return None
+
+
+def _clock_columns(rows: list[list[str]]) -> list[set[int]]:
+    """Turns the clock times of ``rows`` into seconds, in place (as text); per row, the columns that held one."""
+    clock: list[set[int]] = []
+    for r in rows:
+        clock.append(set())
+        for k, c in enumerate(r):
+            if ":" in c and (v := _clock_seconds(c)) is not None:
+                r[k] = repr(v)
+                clock[-1].add(k)
+    return clock
+
+
+def _past_midnight(t: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Times of the day that pass midnight (23:59:59.9, then 00:00:00.0) carried on past 24 h: a step
+    back of more than half a day is a new day, not a clock that went back."""
+    ok = np.flatnonzero(np.isfinite(t))
+    days = np.zeros_like(t)
+    days[ok[1:]] = np.cumsum(np.diff(t[ok]) < -_DAY_S / 2)
+    return t + days * _DAY_S
+
+
+def _read_table(path: Path, delimiter: str | None) -> tuple[list[str] | None, NDArray[np.float64], list[str], set[int]]:
+    """(header, data, preamble, clock) of a platform's table: the header (with a units row's units in
+    brackets), the numbers (an empty field: NaN, a lost sample), the lines above the header (the
+    software's own notes) and the columns of clock times (``12:30:01.250``, read as seconds of the day,
+    carried past midnight; a date and time as POSIX seconds).
 
     The header is the first row of names followed by numbers (or by a units row, ``s;mm;mm;N``, and
     numbers); the rows above it are a preamble (the software's name, the subject, the rate...), kept
@@ -203,6 +254,7 @@ def _read_table(path: Path, delimiter: str | None) -> tuple[list[str] | None, ND
         rows = [ln.split() for ln in lines]
     if delimiter != ",":  # tabs, semicolons or spaces: a decimal comma read as a point (the European CSV)
         rows = [[c.replace(",", ".") for c in r] for r in rows]
+    clocks = _clock_columns(rows)
     width = len(rows[-1])
     header: list[str] | None = None
     start = at = 0  # the first data row; the header's row
@@ -222,7 +274,7 @@ def _read_table(path: Path, delimiter: str | None) -> tuple[list[str] | None, ND
                 start, at = i + 2, i
                 break
     preamble = lines[:at]
-    rows = rows[start:]
+    rows, clock = rows[start:], set().union(*clocks[start:])  # (clock times in the data, not the preamble)
     if not rows:
         raise ValueError(f"{path}: no data rows")
     width = len(rows[0])
@@ -236,7 +288,10 @@ def _read_table(path: Path, delimiter: str | None) -> tuple[list[str] | None, ND
         except ValueError:
             bad = next(c for c in r if c and not _numeric([c]))
             raise ValueError(f"{path}: row {k + 1 + start}: {bad!r} is not a number") from None
-    return header, data, preamble
+    for k in clock:
+        if np.nanmax(data[:, k]) < _DAY_S:  # times of the day (not dates and times)
+            data[:, k] = _past_midnight(data[:, k])
+    return header, data, preamble, clock
 
 
 def _find(header: list[str], names: Sequence[str], given: str | int | None, what: str, path: Path, required: bool = True,
@@ -295,19 +350,26 @@ def _unrounded(t: NDArray[np.float64], time_from: str, path: Path) -> tuple[NDAr
 
 
 _MX, _MY = ("mx", "momentx", "mxnm"), ("my", "momenty", "mynm")
+_FX, _FY = ("fx", "forcex", "fxn"), ("fy", "forcey", "fyn")
 
 
-def _cop_from_moments(header: list[str], data: NDArray[np.float64], ifz: int | None, path: Path
-                      ) -> tuple[NDArray[np.float64], NDArray[np.float64], int, int] | None:
-    """(x, y (cm), the Mx and My columns) of a file of forces and moments without a CoP column: the CoP
-    of a plate whose moments are about its surface, x = -My / Fz, y = Mx / Fz (the BDS data set's
-    own COP columns are these, to the last digit); None when the file has a CoP column or no Fz, Mx
-    and My. The moments in N·m unless their header names N·mm or N·cm; the forces in N."""
+def _cop_from_moments(header: list[str], data: NDArray[np.float64], ifz: int | None, surface_z_mm: float,
+                      path: Path) -> tuple[NDArray[np.float64], NDArray[np.float64], list[int]] | None:
+    """(x, y (cm), the columns used) of a file of forces and moments without a CoP column; None when the
+    file has a CoP column or no Fz, Mx and My.
+
+    A force F applied at r = (x, y, z) of the plate's axes has the moment M = r × F about their
+    origin: Mx = y Fz − z Fy, My = z Fx − x Fz, so
+
+        x = (z Fx − My) / Fz,   y = (Mx + z Fy) / Fz,
+
+    with z the height of the surface, ``surface_z_mm`` (0: moments about the surface, x = -My / Fz,
+    y = Mx / Fz, as the BDS data set's own COP columns are, to the last digit). The moments in N·m
+    unless their header names N·mm or N·cm; the forces in N."""
     norm = [_norm(h) for h in header]
     if any(n in norm for n in (*_X, *_Y)) or ifz is None:
         return None
-    imx = next((norm.index(n) for n in _MX if n in norm), None)
-    imy = next((norm.index(n) for n in _MY if n in norm), None)
+    imx, imy, ifx, ify = (next((norm.index(n) for n in names if n in norm), None) for names in (_MX, _MY, _FX, _FY))
     if imx is None or imy is None:
         return None
     m = re.search(r"[\[(]\s*([^\])]+?)\s*[\])]", header[imx])
@@ -316,9 +378,15 @@ def _cop_from_moments(header: list[str], data: NDArray[np.float64], ifz: int | N
     if lm is None:
         raise ValueError(f"{path}: the moment column {header[imx]!r}: its unit {unit!r} is not N·m, N·cm or N·mm")
     s = cm_per_unit(lm.group(1))
+    mx, my, used = data[:, imx] * s, data[:, imy] * s, [imx, imy]  # N·cm
+    if surface_z_mm != 0.0:
+        if ifx is None or ify is None:
+            raise ValueError(f"{path}: surface_z_mm needs the horizontal forces Fx and Fy (columns: {header})")
+        z = surface_z_mm * 0.1  # cm
+        mx, my, used = mx + z * data[:, ify], my - z * data[:, ifx], used + [ifx, ify]
     with np.errstate(divide="ignore", invalid="ignore"):  # Fz = 0: off the plate, a lost sample (samples())
         fz = data[:, ifz]
-        return -data[:, imy] / fz * s, data[:, imx] / fz * s, imx, imy
+        return -my / fz, mx / fz, used
 
 
 def _timed_by_rate(header: list[str], data: NDArray[np.float64], preamble: list[str], rate_hz: float | None,
@@ -361,6 +429,7 @@ def load_forceplate_csv(
     delimiter: str | None = None,
     t_unit: str | None = None,
     rate_hz: float | None = None,
+    surface_z_mm: float = 0.0,
 ) -> ForcePlateRecording:
     """Load a force-platform CoP file: columns time, x, y [, Fz (N)].
 
@@ -375,7 +444,14 @@ def load_forceplate_csv(
     time column's header (``Time [ms]``, ``time_ms``), else s; ``t`` is in s either way. ``x`` is
     medial–lateral and ``y`` anterior–posterior unless ``swap_axes``. A file of forces and moments
     without a CoP column (``Fz``, ``Mx``, ``My``: N and N·m, N·cm or N·mm) gets the CoP of moments about
-    the plate's surface, ``x = -My / Fz``, ``y = Mx / Fz`` (``meta["cop_from"]`` says so).
+    the plate's surface, ``x = -My / Fz``, ``y = Mx / Fz`` (``meta["cop_from"]`` says so); for moments
+    about an origin off the surface, ``surface_z_mm`` is the surface's height in the axes of the
+    moments (mm: Kistler's a_z0, negative for its z-down axes), and ``x = (z Fx - My) / Fz``,
+    ``y = (Mx + z Fy) / Fz`` (M = r × F at r = (x, y, z)).
+
+    A time column of clock times (``23:59:59,990``, ``12:30:01.25``) is read as seconds of the day,
+    carried on past midnight; an ISO date and time (``2024-03-01T12:30:01.250Z``) as POSIX seconds,
+    UTC unless it names its offset.
 
     A file with a header but no time column (platform software that writes a sample number, or
     nothing, and states its rate above the header) is timed by its rate: ``rate_hz`` (Hz), else the
@@ -384,9 +460,10 @@ def load_forceplate_csv(
     is one (a skipped number keeps its gap), else the row. ``meta["time_from"]`` says which.
     """
     path = Path(path)
+    surface_z = _checks.finite("surface_z_mm", surface_z_mm)
     if not path.is_file():
         raise FileNotFoundError(f"force-platform file not found: {path}")
-    header, data, preamble = _read_table(path, delimiter)
+    header, data, preamble, clock = _read_table(path, delimiter)
     cop = None
     if header is None:
         if data.shape[1] < 3:
@@ -401,13 +478,17 @@ def load_forceplate_csv(
         if it is None:  # timed by the rate
             by_rate = _timed_by_rate(header, data, preamble, rate_hz, path)
         ifz = _find(header, _FZ, fz, "Fz", path, required=False)
-        cop = None if (x, y) != (None, None) else _cop_from_moments(header, data, ifz, path)
+        cop = None if (x, y) != (None, None) else _cop_from_moments(header, data, ifz, surface_z, path)
         if cop is None:
             ix = _find(header, _X, x, "x", path)
             iy = _find(header, _Y, y, "y", path)
         names = header
+    if surface_z != 0.0 and cop is None:
+        raise ValueError(f"{path}: surface_z_mm is for a file of forces and moments without a CoP column "
+                         f"(Fx, Fy, Fz, Mx, My; columns: {names})")
     if cop is not None:  # (a file of forces and moments: the CoP from them, cm)
-        cx, cy, ix, iy = cop
+        cx, cy, from_moments = cop
+        ix, iy = from_moments[:2]
         u = "cm"
     else:
         u = unit or (_unit_of(names[ix]) if header else None) or "cm"
@@ -419,15 +500,19 @@ def load_forceplate_csv(
     if it is None:  # (a header without a time column)
         t, tu, time_from, ik = by_rate
     else:
-        tu = t_unit or (_time_unit_of(names[it]) if header else "s")
-        try:
-            t = data[:, it] * s_per_unit(tu)
-        except ValueError as exc:
-            raise ValueError(f"{path}: the time column {names[it]!r}: {exc}; or give t_unit=") from None
-        time_from, ik = f"the column {names[it]!r}", it
+        if it in clock:  # clock times, read as s
+            t, tu, time_from = data[:, it], "s", f"the clock times of the column {names[it]!r}"
+        else:
+            tu = t_unit or (_time_unit_of(names[it]) if header else "s")
+            try:
+                t = data[:, it] * s_per_unit(tu)
+            except ValueError as exc:
+                raise ValueError(f"{path}: the time column {names[it]!r}: {exc}; or give t_unit=") from None
+            time_from = f"the column {names[it]!r}"
+        ik = it
         t, time_from = _unrounded(t, time_from, path)
     ml, ap = (cy, cx) if swap_axes else (cx, cy)
-    used = {ix, iy} | {k for k in (ik, ifz) if k is not None}
+    used = {ix, iy, *(cop[2] if cop is not None else ())} | {k for k in (ik, ifz) if k is not None}
     return ForcePlateRecording(
         t=t,
         cop_ml_cm=ml.copy(),
@@ -443,7 +528,8 @@ def load_forceplate_csv(
             "swap_axes": swap_axes,
             "channels": {names[k]: data[:, k].copy() for k in range(data.shape[1]) if k not in used},
             "preamble": preamble,
-            "cop_from": "the columns" if cop is None else "-My/Fz, Mx/Fz (moments about the plate's surface)",
+            "cop_from": ("the columns" if cop is None else "-My/Fz, Mx/Fz (moments about the plate's surface)"
+                         if surface_z == 0.0 else f"(z Fx - My)/Fz, (Mx + z Fy)/Fz, z = {surface_z:g} mm"),
         },
     )
 
