@@ -381,3 +381,45 @@ def test_cal_hold_asks_for_the_wire_position_of_a_logical_cell() -> None:
             assert dev.cal_resume().status == Status.OK
         assert [c for c in fake.commands if c[0] == Opcode.CAL_HOLD] == [(Opcode.CAL_HOLD, 12 << 8 | 0),
                                                                           (Opcode.CAL_HOLD, 0xFFFFFFFF)]
+
+
+def test_a_port_that_cannot_be_opened_says_why(tmp_path) -> None:
+    """The first day with a mat on Linux: the port is named wrong, or this user is not in the group that
+    owns it (a new user is not in ``dialout``). Before, pyserial's "[Errno 13] could not open port ...:
+    [Errno 13] Permission denied" without what to do. A real pty with the modes of a serial port
+    (``crw-rw----``): as root, opened with the effective user id of ``nobody`` (the kernel's own check);
+    as another user, its owner bits cleared."""
+    import grp
+
+    from serial.tools import list_ports
+
+    list_ports.comports()  # (imported before any change of user id)
+    missing = str(tmp_path / "ttyUSB9")
+    with pytest.raises(serial.SerialException) as info:
+        open_device(missing)
+    assert str(info.value).startswith(f"{missing}: no such port; ")
+    assert ("serial ports here: " in str(info.value)) == bool(list_ports.comports())
+    master, slave = os.openpty()
+    port = os.ttyname(slave)
+    root = os.geteuid() == 0
+    try:
+        if root:  # owned by a group nobody is not in, as /dev/ttyACM0 by dialout
+            os.chown(port, -1, next(g for g in range(20, 10000) if g not in (*os.getgroups(), 65534)))
+        group = grp.getgrgid(os.stat(port).st_gid).gr_name
+        os.chmod(port, 0o660 if root else 0o060)
+        if root:  # nobody, and the group nogroup; the real ids stay root's
+            os.setegid(65534)
+            os.seteuid(65534)
+        try:
+            with pytest.raises(serial.SerialException) as info:
+                open_device(port)
+        finally:
+            if root:
+                os.seteuid(0)
+                os.setegid(0)
+    finally:
+        os.close(slave)
+        os.close(master)
+    assert str(info.value) == (f"{port}: permission denied: this user may not open it; the group {group!r} may: "
+                               f"`sudo usermod -aG {group} $USER`, then log out and in again")
+    assert info.value.errno == 13

@@ -89,8 +89,11 @@ def open_port(port: str, baudrate: int, timeout_s: float = READ_TIMEOUT_S) -> An
         ser.open()
     except serial.SerialException as exc:
         if exc.errno in (errno.EAGAIN, errno.EWOULDBLOCK):   # the flock is held elsewhere
-            raise serial.SerialException(exc.errno, f"{port} is in use by another program (its exclusive lock "
-                                                    "is held)") from None
+            raise _said(exc.errno, f"{port} is in use by another program (its exclusive lock is held)") from None
+        if exc.errno == errno.ENOENT:
+            raise _said(exc.errno, f"{port}: no such port; {ports_here()}") from None
+        if exc.errno == errno.EACCES:
+            raise _said(exc.errno, f"{port}: permission denied{_group_hint(port)}") from None
         raise
     if not is_url(port):
         try:
@@ -100,6 +103,40 @@ def open_port(port: str, baudrate: int, timeout_s: float = READ_TIMEOUT_S) -> An
                 ser.close()
                 raise
     return ser
+
+
+def _said(code: int, line: str) -> serial.SerialException:
+    """A SerialException that reads as ``line`` alone (no "[Errno N]") and keeps its ``errno``."""
+    exc = serial.SerialException(line)
+    exc.errno = code
+    return exc
+
+
+def ports_here() -> str:
+    """The serial ports of this computer as one clause (pyserial's ``list_ports``; psmat boxes marked)."""
+    from serial.tools import list_ports
+
+    from ._discover import is_psmat_port
+
+    found = sorted(list_ports.comports(), key=lambda p: p.device)
+    if not found:
+        return "this computer has no serial port now: is the board plugged in, with a USB cable that carries data?"
+    return "serial ports here: " + ", ".join(
+        f"{p.device} ({p.description if p.description not in (None, '', 'n/a') else 'no description'}{', a psmat box' if is_psmat_port(p.vid, p.pid, p.product, p.manufacturer) else ''})"
+        for p in found)
+
+
+def _group_hint(port: str) -> str:
+    """Why a device file cannot be opened, where it says: the group that may (on Linux a serial port
+    belongs to ``dialout`` or ``uucp``, which a new user is not in)."""
+    try:
+        import grp
+
+        group = grp.getgrgid(os.stat(port).st_gid).gr_name
+    except (ImportError, OSError, KeyError):
+        return ""
+    return (f": this user may not open it; the group {group!r} may: `sudo usermod -aG {group} $USER`, then log "
+            "out and in again")
 
 
 def _check_url(port: str) -> None:
