@@ -208,3 +208,52 @@ def test_a_12_bit_board_recorded_as_10_bits_is_told_why_its_frames_are_invalid(t
     assert "range" not in runs[True]  # (at most a first partial line, reason "count", is invalid then)
     s10, s12 = load_session(tmp_path / "b0.h5"), load_session(tmp_path / "b2.h5")
     assert not s10.valid.any() and s12.valid.sum() >= s12.n_frames - 1
+
+
+@pytest.mark.parametrize("noise", [False, True])
+def test_a_board_that_sends_no_frame_is_told_what_to_check(noise: bool, tmp_path: Path) -> None:
+    """A do-it-yourself mat that sends nothing (its sketch not uploaded, another port), or bytes that
+    form no line of counts (a board at another baud rate: what a UART reads then has no digits and
+    no line ends where the text had them). Before, "0 frames recorded, 0 invalid" and nothing else.
+    A real pty plays the board; the bytes written are noise without a digit."""
+    from psmat.profile import load_profile
+
+    master, slave = os.openpty()
+    tty.setraw(slave)
+    port = os.ttyname(slave)
+    attrs = termios.tcgetattr(slave)
+    attrs[4] = attrs[5] = termios.B9600  # the recorder configures it: then it reads
+    termios.tcsetattr(slave, termios.TCSANOW, attrs)
+    proc = subprocess.Popen([sys.executable, "-m", "psmat", "record", port, "--protocol", "csv", "--shape",
+                             f"{R}x{C}", "--seconds", "3", "-o", str(tmp_path / "none.h5")],
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, preexec_fn=default_stop_signals)
+    written = 0
+    try:
+        _wait(lambda: proc.poll() is not None or termios.tcgetattr(slave)[5] == termios.B115200,
+              "the recorder never configured the port")
+        rng = np.random.default_rng(5)
+        alphabet = np.array([b for b in range(256) if not (0x30 <= b <= 0x39)], np.uint8)  # no digit
+        while noise and proc.poll() is None:
+            if _queued(slave) < 4096:
+                chunk = rng.choice(alphabet, 300).tobytes()
+                written += os.write(master, chunk)
+            time.sleep(0.02)
+        stdout, stderr = proc.communicate(timeout=GUARD_S)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.communicate()
+        os.close(master)
+        os.close(slave)
+    assert proc.returncode == 0, stderr
+    assert "0 frames recorded, 0 invalid" in stdout
+    told = [ln.strip() for ln in stdout.splitlines() if ln.startswith("  ")]
+    if not noise:
+        assert told == [f"no byte came from {port}: is the board running and sending (a do-it-yourself mat: its "
+                        "sketch uploaded, Serial.begin called), and is this its port?"]
+        return
+    baud = load_profile("arduino16").baudrate
+    assert len(told) == 1 and told[0].endswith(
+        f" bytes came from {port} and none formed a frame of the csv protocol: does the board send at {baud} baud "
+        "(its Serial.begin rate; a profile's baudrate), and speak --protocol csv?")
+    assert 0 < int(told[0].split()[0]) <= written

@@ -199,7 +199,22 @@ def run(args: argparse.Namespace) -> int:
               + (f"; ended early: {src.ended}" if src.ended and len(sources) > 1 else ""))
         if rc.invalid and st.invalid_reasons:
             print(f"  invalid rows by reason, since the port opened: {_invalid_why(st.invalid_reasons, src.dev)}")
+        if st.frames + st.invalid == 0 and (silent := _nothing_why(st.bytes_in, src.dev)):
+            print(f"  {silent}")
     return status
+
+
+def _nothing_why(bytes_in: int, dev: Any) -> str | None:
+    """Why a serial device gave no frame at all, valid or not, with what to check (None for an LSL stream)."""
+    if not hasattr(dev, "baudrate"):
+        return None
+    port = dev.port
+    if bytes_in == 0:
+        return (f"no byte came from {port}: is the board running and sending (a do-it-yourself mat: its sketch "
+                "uploaded, Serial.begin called), and is this its port?")
+    proto = dev.protocol if dev.protocol == "csv" else f"v{dev.protocol}"
+    return (f"{bytes_in} bytes came from {port} and none formed a frame of the {proto} protocol: does the board send "
+            f"at {dev.baudrate} baud (its Serial.begin rate; a profile's baudrate), and speak --protocol {proto}?")
 
 
 def _invalid_why(reasons: dict[str, int], dev: Any) -> str:
@@ -208,7 +223,7 @@ def _invalid_why(reasons: dict[str, int], dev: Any) -> str:
     bits, (rows, cols) = getattr(dev, "bits", 0), dev.shape[:2]
     said = {"range": f"counts above {2 ** bits - 1}, the most {bits} bits hold: is the board's ADC wider (--bits)?",
             "count": f"lines of another number of counts than {rows}x{cols}: is --shape right?",
-            "token": "a field that is not a count"}
+            "token": "a field that is not a count (text among the counts, or a board at another baud rate)"}
     return "; ".join(f"{k} {n}" + (f": {said[k]}" if k in said else "")
                      for k, n in sorted(reasons.items(), key=lambda kv: -kv[1]))
 
