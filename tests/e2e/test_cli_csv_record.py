@@ -10,6 +10,7 @@
 
 from __future__ import annotations
 
+import contextlib
 import fcntl
 import os
 import signal
@@ -105,24 +106,37 @@ def _wait(cond, what: str) -> None:
         time.sleep(0.02)
 
 
-def test_record_a_csv_mat_on_a_pty_keeps_every_frame_in_order(tmp_path: Path) -> None:
-    rng = np.random.default_rng(2026)
-    items, expected = _sequence(rng, rounds=3)
+@contextlib.contextmanager
+def _recorder_on_a_pty(*options: str):
+    """``psmat record PTY --protocol csv OPTIONS`` on a real pty pair, yielded as (process, master, slave) once
+    the recorder has configured the port (pyserial flushes the input queue right after it does: the board
+    writes after that); the process killed and the pty closed on the way out."""
     master, slave = os.openpty()
     tty.setraw(slave)
     attrs = termios.tcgetattr(slave)
     attrs[4] = attrs[5] = termios.B9600  # the recorder opens it at 115200 Bd: that says it is configured
     termios.tcsetattr(slave, termios.TCSANOW, attrs)
-    out = tmp_path / "diy.h5"
     proc = subprocess.Popen([sys.executable, "-m", "psmat", "record", os.ttyname(slave), "--protocol", "csv",
-                             "--shape", f"{R}x{C}", "--seconds", "120", "-o", str(out)],
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                             *options], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
                             preexec_fn=default_stop_signals)
     try:
-        # pyserial flushes the input queue right after it configures the port: write after that
         _wait(lambda: proc.poll() is not None or termios.tcgetattr(slave)[5] == termios.B115200,
               "the recorder never configured the port")
         assert proc.poll() is None, proc.communicate()
+        yield proc, master, slave
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.communicate()
+        os.close(master)
+        os.close(slave)
+
+
+def test_record_a_csv_mat_on_a_pty_keeps_every_frame_in_order(tmp_path: Path) -> None:
+    rng = np.random.default_rng(2026)
+    items, expected = _sequence(rng, rounds=3)
+    out = tmp_path / "diy.h5"
+    with _recorder_on_a_pty("--shape", f"{R}x{C}", "--seconds", "120", "-o", str(out)) as (proc, master, slave):
         time.sleep(0.5)
 
         def play() -> None:  # a modest rate, each item in two writes cut at a random byte
@@ -141,12 +155,6 @@ def test_record_a_csv_mat_on_a_pty_keeps_every_frame_in_order(tmp_path: Path) ->
         time.sleep(1.0)  # the last chunk decoded and journalled
         proc.send_signal(signal.SIGTERM)
         stdout, stderr = proc.communicate(timeout=GUARD_S)
-    finally:
-        if proc.poll() is None:
-            proc.kill()
-            proc.communicate()
-        os.close(master)
-        os.close(slave)
     assert proc.returncode == 0, stderr
     s = load_session(out)
     assert s.complete and s.counts.shape == (len(expected), R, C), (s.counts.shape, len(expected), stderr)
@@ -218,33 +226,17 @@ def test_a_board_that_sends_no_frame_is_told_what_to_check(noise: bool, tmp_path
     A real pty plays the board; the bytes written are noise without a digit."""
     from psmat.profile import load_profile
 
-    master, slave = os.openpty()
-    tty.setraw(slave)
-    port = os.ttyname(slave)
-    attrs = termios.tcgetattr(slave)
-    attrs[4] = attrs[5] = termios.B9600  # the recorder configures it: then it reads
-    termios.tcsetattr(slave, termios.TCSANOW, attrs)
-    proc = subprocess.Popen([sys.executable, "-m", "psmat", "record", port, "--protocol", "csv", "--shape",
-                             f"{R}x{C}", "--seconds", "3", "-o", str(tmp_path / "none.h5")],
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, preexec_fn=default_stop_signals)
     written = 0
-    try:
-        _wait(lambda: proc.poll() is not None or termios.tcgetattr(slave)[5] == termios.B115200,
-              "the recorder never configured the port")
+    options = ("--shape", f"{R}x{C}", "--seconds", "3", "-o", str(tmp_path / "none.h5"))
+    with _recorder_on_a_pty(*options) as (proc, master, slave):
+        port = os.ttyname(slave)
         rng = np.random.default_rng(5)
         alphabet = np.array([b for b in range(256) if not (0x30 <= b <= 0x39)], np.uint8)  # no digit
         while noise and proc.poll() is None:
             if _queued(slave) < 4096:
-                chunk = rng.choice(alphabet, 300).tobytes()
-                written += os.write(master, chunk)
+                written += os.write(master, rng.choice(alphabet, 300).tobytes())
             time.sleep(0.02)
         stdout, stderr = proc.communicate(timeout=GUARD_S)
-    finally:
-        if proc.poll() is None:
-            proc.kill()
-            proc.communicate()
-        os.close(master)
-        os.close(slave)
     assert proc.returncode == 0, stderr
     assert "0 frames recorded, 0 invalid" in stdout
     told = [ln.strip() for ln in stdout.splitlines() if ln.startswith("  ")]
