@@ -10,7 +10,7 @@ from __future__ import annotations
 from collections.abc import Sequence
 from pathlib import Path
 
-__all__ = ["hidden", "data_files", "companion", "nested"]
+__all__ = ["hidden", "data_files", "companion", "nested", "WORKBOOKS", "workbook_hint"]
 
 
 def hidden(path: Path) -> bool:
@@ -63,3 +63,18 @@ def nested(root: Path, folders: Sequence[tuple[str, tuple[str, ...]]]) -> list[s
     where = ", ".join(where[:-1]) + f" and {where[-1]}" if len(where) > 1 else where[0]
     return [f"{len(found)} file(s) in subfolders are not read ({shown}): a study's files sit directly in "
             f"{where}"]
+
+
+#: a spreadsheet program's own files, which psmat does not read: a table is saved as CSV for it
+WORKBOOKS = (".xlsx", ".xls", ".xlsm", ".ods", ".numbers")
+
+
+def workbook_hint(folder: Path, stem: str, shown: str = "") -> str:
+    """``"; forceplate/S01.xlsx is a spreadsheet workbook ...: save it as CSV"`` when ``folder`` holds a
+    workbook of ``stem`` (any case) where a CSV was looked for, else ``""``; ``shown`` is the folder as the
+    line names it (``"forceplate/"``; ``""``: the name alone)."""
+    books = data_files(folder, WORKBOOKS).get(stem.casefold(), [])
+    if not books:
+        return ""
+    return (f"; {shown}{books[0].name} is a spreadsheet workbook, which psmat does not read: save it as CSV "
+            "(File > Save As > CSV) beside it")

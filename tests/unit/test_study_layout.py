@@ -143,6 +143,33 @@ def test_missing_subjects_file_is_a_study_problem_not_a_crash(study) -> None:
     assert all("not in subjects.csv" in " ".join(i.problems) for i in lay.items if i.stem != "S04_bad")
 
 
+def test_a_subjects_file_as_a_lab_saves_it(study) -> None:
+    """"Subjects.CSV" (Windows), a tab-separated "subjects.txt" (a spreadsheet's "Text (tab-delimited)"):
+    read (before: "subjects.csv not found: no body weights"). Two of them: which holds the subjects is not
+    known, and the run says so. A spreadsheet's own workbook, here or for a platform file, is not read, and
+    the line says to save it as CSV (before: only "not found")."""
+    text = (study / "subjects.csv").read_text()
+    (study / "subjects.csv").rename(study / "Subjects.CSV")
+    lay = find_study(study)
+    assert lay.problems == [] and lay.subjects["S01"].weight_kg == 70.5
+    (study / "Subjects.CSV").unlink()
+    (study / "subjects.txt").write_text(text.replace(",", "\t"))
+    lay = find_study(study)
+    assert lay.problems == [] and lay.subjects["S02"].weight_kg == 58
+    (study / "subjects.csv").write_text(text)
+    assert find_study(study).problems == ["2 subjects files (subjects.csv, subjects.txt): which one holds the study's "
+                                          "subjects is not known: keep one; no body weights"]
+    (study / "subjects.csv").unlink()
+    (study / "subjects.txt").unlink()
+    (study / "subjects.xlsx").write_bytes(b"PK\x03\x04" + bytes(100))
+    (study / "forceplate" / "S02_left.XLSX").write_bytes(b"PK\x03\x04" + bytes(100))
+    lay = find_study(study)
+    book = "is a spreadsheet workbook, which psmat does not read: save it as CSV (File > Save As > CSV) beside it"
+    assert lay.problems == [f"{study / 'subjects.csv'} not found: no body weights; subjects.xlsx {book}"]
+    by = {i.stem: i for i in lay.items}
+    assert by["S02_left"].problems[-1] == f"no force-platform file forceplate/S02_left.csv; forceplate/S02_left.XLSX {book}"
+
+
 @pytest.mark.parametrize("text, match", [
     ("subject,height_cm\nS01,170\n", "weight_kg"),
     ("subject,weight_kg\nS01,heavy\n", "not a number"),

@@ -28,7 +28,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from .._folders import companion, data_files, hidden, nested
+from .._folders import companion, data_files, hidden, nested, workbook_hint
 from .._text import NotTextError, read_text
 from ..units import header_unit, kg_per_unit, n_from_kg
 
@@ -265,13 +265,18 @@ def find_study(root: str | os.PathLike[str]) -> StudyLayout:
     problems: list[str] = []
     subjects: dict[str, Subject] = {}
     refused: dict[str, str] = {}
-    sub_csv = root / "subjects.csv"
-    if sub_csv.is_file():
+    # subjects.csv, or as a spreadsheet or Windows names it: Subjects.CSV, subjects.txt (tab-separated)
+    tables = data_files(root, (".csv", ".tsv", ".txt"))
+    sub_csv, two = companion("subjects", tables, "subjects")
+    if sub_csv is not None:
         found = scan_subjects(sub_csv)  # a bad row costs its own subject only
         subjects, refused = found.subjects, found.refused
         problems += found.problems
+    elif two:
+        problems.append(f"{len(tables['subjects'])} subjects files ({', '.join(p.name for p in tables['subjects'])}): "
+                        "which one holds the study's subjects is not known: keep one; no body weights")
     else:
-        problems.append(f"{sub_csv} not found: no body weights")
+        problems.append(f"{root / 'subjects.csv'} not found: no body weights{workbook_hint(root, 'subjects')}")
     plates = data_files(root / "forceplate", _PLATFORM_SUFFIXES)
     cal = {p.stem: p for p in sorted((root / "calibration").glob("*.json")) if not hidden(p)}
     logs = data_files(root / "events", (".csv",))
@@ -317,7 +322,8 @@ def find_study(root: str | os.PathLike[str]) -> StudyLayout:
         if plate_problem:
             item.problems.append(plate_problem)
         elif item.forceplate is None:
-            item.problems.append(f"no force-platform file forceplate/{s.stem}.csv")
+            item.problems.append(f"no force-platform file forceplate/{s.stem}.csv"
+                                 + workbook_hint(root / "forceplate", s.stem, "forceplate/"))
         items.append(item)
     if not items:
         problems.append(f"{sessions} holds no *.h5 session")
