@@ -168,6 +168,11 @@ def test_a_subjects_file_as_a_lab_saves_it(study) -> None:
     assert lay.problems == [f"{study / 'subjects.csv'} not found: no body weights; subjects.xlsx {book}"]
     by = {i.stem: i for i in lay.items}
     assert by["S02_left"].problems[-1] == f"no force-platform file forceplate/S02_left.csv; forceplate/S02_left.XLSX {book}"
+    (study / "events").mkdir()
+    (study / "events" / "S01_right.ods").write_bytes(b"PK\x03\x04" + bytes(100))  # an experimenter's log
+    by = {i.stem: i for i in find_study(study).items}
+    assert by["S01_right"].problems[0] == f"events file not used, no conditions: events/S01_right.ods {book}"
+    assert by["S01_right"].events_unusable == by["S01_right"].problems[0]
 
 
 @pytest.mark.parametrize("text, match", [

@@ -289,6 +289,8 @@ def find_study(root: str | os.PathLike[str]) -> StudyLayout:
         log, log_problem = companion(s.stem, logs, "events")
         item = StudyItem(s.stem, s, plate, subject, trial, simulated=simulated, not_closed=not_closed,
                          events=log, serial=serial, circuit=circuit)
+        if log is None and not log_problem and (book := workbook_hint(root / "events", s.stem, "events/")):
+            log_problem = book[2:]  # an experimenter's log kept as a workbook
         if log_problem:  # which markers are right is not known: none are used
             item.problems.append(f"events file not used, no conditions: {log_problem}")
             item.events_unusable = item.problems[-1]
