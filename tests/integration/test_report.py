@@ -327,6 +327,24 @@ def test_another_recordings_platform_file_is_said_to_align_poorly(study, tmp_pat
     assert "Poor alignment" not in Path(own).read_text(encoding="utf-8")
 
 
+def test_a_platform_file_in_mm_read_as_cm_is_said_above_its_numbers(study, tmp_path) -> None:
+    """A platform file whose header names no unit, written in mm: read as cm, ten times the mat's sway
+    (before: its numbers beside the mat's as a result). The page says which unit fits."""
+    plate = study / "forceplate" / "V01_rotation.csv"
+    data = np.loadtxt(plate, delimiter=",", skiprows=1)
+    in_mm = tmp_path / "in_mm.csv"
+    np.savetxt(in_mm, np.c_[data[:, 0], data[:, 1:3] * 10, data[:, 3:]], delimiter=",", header="time,x,y,Fz",
+               comments="")
+    session = study / "sessions" / "V01_rotation.h5"
+    out = write_report(tmp_path / "mm.html", [ReportItem(session, platform=in_mm)], params={"preset": None})
+    text = Path(out).read_text(encoding="utf-8")
+    said = text.split("The platform&#x27;s CoP spreads ")[1].split(" times the mat&#x27;s (about 1 expected): is "
+                                                                 "in_mm.csv in mm, read as cm? Name the unit")
+    assert len(said) == 2 and float(said[0]) > 4
+    own = write_report(tmp_path / "own.html", [ReportItem(session, platform=plate)], params={"preset": None})
+    assert "CoP spreads" not in Path(own).read_text(encoding="utf-8")
+
+
 def test_a_platform_with_its_a_p_axis_reversed_is_named_and_turned(study, tmp_path) -> None:
     plate = study / "forceplate" / "V01_rotation.csv"
     data = np.loadtxt(plate, delimiter=",", skiprows=1)

@@ -264,3 +264,48 @@ def test_a_platform_whose_a_p_axis_points_the_other_way_is_named_and_can_be_turn
     for a, b in zip(fixed, plain):
         for k in ("lag_s", "r_align", "eu_cm", "sd_ml_cm", "sd_ap_cm", "path_cm"):
             assert a[k] == pytest.approx(b[k], rel=1e-9, abs=1e-12), k
+
+
+def test_a_platform_file_read_in_another_unit_is_said_not_summarised(trial, tmp_path) -> None:
+    """A platform whose software writes mm under a header without units ("x,y"): read as cm, its CoP
+    moves ten times the mat's, and its sway metrics and Eu were ten times too large while the
+    alignment, a correlation, stayed good (before: entered the summary). Now the rows keep their
+    numbers under a status that names the unit that fits; the file's header naming mm gives the
+    plain rows back. The same in m: a hundredth."""
+    session, plate, weight_kg, lag = trial
+    data = np.loadtxt(plate, delimiter=",", skiprows=1)
+    params = {"variants": ["PROP"]}
+    plain = process_trial(session, plate, "S01", "right", weight_kg, params)
+    status = {}
+    for unit, k in (("mm", 10.0), ("m", 0.01)):
+        written = tmp_path / f"S01_right_{unit}.csv"
+        np.savetxt(written, np.c_[data[:, 0], data[:, 1:3] * k, data[:, 3]], delimiter=",", header="time,x,y,Fz",
+                   comments="", fmt="%.10g")
+        rows = process_trial(session, written, "S01", "right", weight_kg, params)
+        ratio = rows[0]["sd_ml_cm"] / plain[0]["sd_ml_cm"]
+        assert ratio == pytest.approx(k, rel=1e-6)  # (the slip itself: the rows are ten times the plain ones)
+        head = rows[0]["status"].split(" times the mat's")[0]
+        spread = float(head.split()[-1])
+        assert head.startswith("platform spread: its CoP spreads ") and (spread > 4 if k > 1 else spread < 0.25)
+        status[unit] = rows[0]["status"]
+        assert all(r["status"] == rows[0]["status"] for r in rows) and rows[0]["status"].endswith(
+            f"is {written.name} in {unit}, read as cm? (name the unit in its CoP columns' header, e.g. x [{unit}])")
+        named = tmp_path / f"named_{unit}.csv"
+        np.savetxt(named, np.c_[data[:, 0], data[:, 1:3] * k, data[:, 3]], delimiter=",", comments="", fmt="%.10g",
+                   header=f"time,x [{unit}],y [{unit}],Fz")
+        fixed = process_trial(session, named, "S01", "right", weight_kg, params)
+        assert all(r["status"] == "ok" for r in fixed)
+        assert fixed[0]["sd_ml_cm"] == pytest.approx(plain[0]["sd_ml_cm"], rel=1e-6)
+    # a study run lists it among the problems, and its summary leaves it out
+    root = tmp_path / "study"
+    (root / "sessions").mkdir(parents=True)
+    (root / "forceplate").mkdir()
+    shutil.copy(session, root / "sessions" / "S01_right.h5")
+    shutil.copy(tmp_path / "S01_right_mm.csv", root / "forceplate" / "S01_right.csv")
+    (root / "subjects.csv").write_text(f"subject,weight_kg\nS01,{weight_kg:.3f}\n")
+    run = run_study(root, workers=1, params=params, progress=False)
+    assert [p for p in run.problems if "platform spread" in p] == [
+        "S01_right: " + status["mm"].replace("S01_right_mm.csv", "S01_right.csv")]
+    with open(run.outputs["summary"], newline="") as fh:
+        summary = list(csv.DictReader(fh))
+    assert summary and all(r["n_ok"] == "0" for r in summary)

@@ -17,7 +17,8 @@
   on another clock than the recording's), :func:`condition_spans`
   (the conditions inside an analysed window) and :func:`inside` (the samples of one);
 * :func:`align` — the time alignment of the mat with a force platform (:class:`Alignment`),
-  built on :func:`search_lag`, psmat's one cross-correlation search;
+  built on :func:`search_lag`, psmat's one cross-correlation search; :func:`check_spread` — whether the
+  platform's CoP moves as far as the mat's (a platform file read in another unit: :class:`SpreadCheck`);
 * :func:`scale_factor` — the SCHC factor of eq. 3.3; :func:`scale_factors` — the full mat's and
   its emulated 8×8 mats' at once;
 * :func:`equilibrate` — a per-cell gain map learned from a standing trial (beyond the thesis:
@@ -43,6 +44,7 @@ from ._eu import eu
 from ._ispgr import ISPGR_MIN_HZ, ISPGR_MIN_S, ispgr
 from ._preprocess import describe_preset, preprocess
 from ._scale import mean_force_n, scale_factor, scale_factors
+from ._spread import SPREAD_MISMATCH, SpreadCheck, check_spread
 from ._sway import Sway, mean_frequency, prediction_ellipse_area, sway
 from ._variants import (BASE_VARIANTS, EXTRA_VARIANTS, KNOWN_VARIANTS, VARIANTS, VariantName, VariantTrace, describe,
                         legend_label, variant_traces)
@@ -53,4 +55,5 @@ __all__ = ["cop", "cell_centres_cm", "eu", "sway", "Sway", "descriptors", "descr
            "mean_force_n", "equilibrate", "Equilibration", "Subgrid", "subgrids", "subgrid_cops", "BASE_VARIANTS",
            "VARIANTS", "EXTRA_VARIANTS", "KNOWN_VARIANTS", "VariantName", "describe", "legend_label", "VariantTrace",
            "variant_traces", "Condition", "conditions", "load_events_csv", "romberg_role", "romberg", "frame_clock",
-           "condition_spans", "inside", "UNMARKED", "describe_preset", "off_the_clock", "NEAR_S"]
+           "condition_spans", "inside", "UNMARKED", "describe_preset", "off_the_clock", "NEAR_S",
+           "check_spread", "SpreadCheck", "SPREAD_MISMATCH"]

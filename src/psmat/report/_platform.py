@@ -16,7 +16,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from ..balance import align, eu, find_platform_axes, orient_platform, preprocess, sway
+from ..balance import SpreadCheck, align, check_spread, eu, find_platform_axes, orient_platform, preprocess, sway
 from ..io import load_forceplate_csv
 
 __all__ = ["PlatformResult", "compare_platform"]
@@ -43,6 +43,8 @@ class PlatformResult:
     poor: bool = False
     #: for a poor alignment, the platform axes that align it and their r (psmat.balance.find_platform_axes)
     other_axes: tuple[str, float] | None = None
+    #: how far the platform's CoP spreads against the mat's (psmat.balance.check_spread: a file read in another unit)
+    spread: SpreadCheck | None = None
 
 
 def _metrics(t: NDArray[np.float64], c: NDArray[np.float64], preset: str | None
@@ -86,4 +88,5 @@ def compare_platform(path: Path, t_s: NDArray[np.float64], cop_cm: NDArray[np.fl
                           overlap_s=float(hi - lo), eu_cm=eu(am, bm), eu_ml_cm=eu(am[:, 0], bm[:, 0]),
                           eu_ap_cm=eu(am[:, 1], bm[:, 1]), mat=m_mat, fp=m_fp, t_s=tp - tp[0],
                           mat_cm=xy_mat - xy_mat.mean(axis=0), fp_cm=fp_at - fp_at.mean(axis=0),
-                          poor=a.poor, other_axes=None if other is None else (other[0], other[1].r))
+                          poor=a.poor, other_axes=None if other is None else (other[0], other[1].r),
+                          spread=check_spread(c_fp[in_fp], mat, fp.meta["unit"]))

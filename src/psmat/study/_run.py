@@ -77,7 +77,7 @@ from ._reports import REPORTS_DIR, ReportIndex, ReportTask, report_tasks, run_re
 from ._row_metrics import preprocessing_sentence
 from ._task import SessionTask, run_task, status_rows
 from ._timings import PoolClock, Stopwatch, TaskTime, timed
-from ._trial import COLUMNS, DEFAULT_PARAMS, POOR_ALIGNMENT, Rows, Traces, suggested_axes
+from ._trial import COLUMNS, DEFAULT_PARAMS, SUSPECT, Rows, Traces, suggested_axes
 
 if TYPE_CHECKING:  # pragma: no cover
     from ._results import DrawFigures
@@ -562,8 +562,9 @@ def _session_problems(items: Sequence[StudyItem], order: Sequence[str], done: di
         problems = list(by_stem[stem].problems)
         if stem in failed and not problems:
             problems.append(done[stem].rows[0]["status"])
-        elif poor := next((r["status"] for r in done[stem].rows if POOR_ALIGNMENT in r["status"]), None):
-            problems.append(poor[poor.index(POOR_ALIGNMENT):])  # its rows are left out of the summary
+        elif suspect := next((st[st.index(k):] for r in done[stem].rows for k in SUSPECT if k in (st := r["status"])),
+                             None):
+            problems.append(suspect)  # a poor alignment or a platform spread: its rows are left out of the summary
         out += [f"{stem}: {p}" for p in problems]
     # a platform whose axes lie otherwise than the mat's does so in every trial: said once, first
     axes = [a for stem in order if stem not in failed and (a := _axes_of(done[stem].rows)) is not None]

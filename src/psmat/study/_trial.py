@@ -19,8 +19,8 @@ from typing import Any
 
 import numpy as np
 
-from ..balance import (POOR_ALIGNMENT_R, VARIANTS, align, condition_spans, eu, find_platform_axes, frame_clock, inside,
-                       ispgr, orient_platform, variant_traces)
+from ..balance import (POOR_ALIGNMENT_R, SPREAD_MISMATCH, VARIANTS, align, check_spread, condition_spans, eu,
+                       find_platform_axes, frame_clock, inside, ispgr, orient_platform, variant_traces)
 from ._conditions import MIN_SAMPLES
 from ..sensor import MPICreep
 from ..units import n_from_kg
@@ -56,6 +56,11 @@ DEFAULT_PARAMS: dict[str, Any] = {
 #: the status of every row of a trial whose platform file aligns with the mat at a correlation below
 #: psmat.balance.POOR_ALIGNMENT_R: the file is another recording's, or the mat did not see the sway
 POOR_ALIGNMENT = "poor alignment"
+#: the status of every row of a trial whose platform CoP spreads beyond psmat.balance.SPREAD_MISMATCH
+#: times the mat's either way (psmat.balance.check_spread): its file read in another unit, or not this trial's
+PLATFORM_SPREAD = "platform spread"
+#: the statuses that keep a trial's rows out of the summary while they keep their numbers, each a problem of the run
+SUSPECT = (POOR_ALIGNMENT, PLATFORM_SPREAD)
 
 _AXES_HINT = "study run --platform-axes="
 
@@ -223,7 +228,8 @@ def _process(session: Path, forceplate: Path | None, subject: str, trial: str, w
                                  else status, **cond, **values))
         return rows
     # the samples with a time and a CoP (ForcePlateRecording.samples: the others are lost samples)
-    t_fp, c_loaded = load_forceplate_csv(forceplate).samples()
+    plate = load_forceplate_csv(forceplate)
+    t_fp, c_loaded = plate.samples()
     c_fp = orient_platform(c_loaded, p["platform_axes"])
     fs_fp = 1.0 / float(np.median(np.diff(t_fp)))
     ref = traces[p["align_on"]].cop_cm[0]
@@ -275,6 +281,15 @@ def _process(session: Path, forceplate: Path | None, subject: str, trial: str, w
             f = traces[v].factor
             rows.append(_row(p, subject, trial, v, status, **window, **values,
                              factor=float(np.mean(f)) if f is not None else np.nan))
+    spread = check_spread(c_fp[in_fp], ref[ok & in_mat], plate.meta["unit"])
+    if spread.off and not a.poor:  # the rows keep their numbers; their status keeps them out of the summary
+        name = Path(forceplate).name
+        why = (f"{PLATFORM_SPREAD}: its CoP spreads {spread.ratio:.3g} times the mat's ({p['align_on']}; about 1 "
+               f"expected, flagged beyond {SPREAD_MISMATCH:g} either way): " + (
+                   f"is {name} in {spread.fits}, read as {spread.read_as}? (name the unit in its CoP columns' header, "
+                   f"e.g. x [{spread.fits}])" if spread.fits else
+                   f"is {name}'s unit ({spread.read_as}) right, and is it this session's platform file?"))
+        rows = [{**r, "status": why if r["status"] == "ok" else f"{r['status']}; {why}"} for r in rows]
     if a.poor:  # the rows keep their numbers; their status keeps them out of the summary
         other = find_platform_axes(t_fp, c_loaded, t[ok], ref[ok], besides=p["platform_axes"], max_lag_s=p["max_lag_s"])
         why = f"{POOR_ALIGNMENT}: r {a.r:.2f} < {POOR_ALIGNMENT_R:g} at the best lag" + (
