@@ -46,6 +46,11 @@ MASS_UNITS_KG: dict[str, float] = {"kg": 1.0, "kgs": 1.0, "kilogram": 1.0, "kilo
                                    "st": 14 * 0.45359237, "stone": 14 * 0.45359237}
 #: Standard gravity, m/s² (CGPM 1901): N per kg of body mass.
 STANDARD_GRAVITY_M_S2: float = 9.80665
+#: N per unit of force, by name (lower case): the forces :func:`n_per_unit` knows (the kilogram-force,
+#: one kg under standard gravity; the pound-force, one pound under it).
+FORCE_UNITS_N: dict[str, float] = {"n": 1.0, "newton": 1.0, "newtons": 1.0, "kn": 1e3,
+                                   "kgf": STANDARD_GRAVITY_M_S2, "kp": STANDARD_GRAVITY_M_S2,
+                                   "lbf": 0.45359237 * STANDARD_GRAVITY_M_S2}
 
 ArrayOrFloat = TypeVar("ArrayOrFloat", float, np.ndarray)
 
@@ -101,6 +106,14 @@ def kg_per_unit(unit: str) -> float:
     Case is ignored. Raises ValueError (one line naming the known units) for any other.
     """
     return _per_unit(MASS_UNITS_KG, str(unit).strip().lower(), unit, "mass", "kg, lb, st")
+
+
+def n_per_unit(unit: str) -> float:
+    """N per one ``unit`` of force (``"N"``, ``"kN"``, ``"kgf"`` or ``"kp"``, ``"lbf"``).
+
+    Case is ignored. Raises ValueError (one line naming the known units) for any other.
+    """
+    return _per_unit(FORCE_UNITS_N, str(unit).strip().lower(), unit, "force", "N, kN, kgf, lbf")
 
 
 def s_per_unit(unit: str) -> float:

@@ -339,7 +339,7 @@ def test_a_platform_file_in_mm_read_as_cm_is_said_above_its_numbers(study, tmp_p
     out = write_report(tmp_path / "mm.html", [ReportItem(session, platform=in_mm)], params={"preset": None})
     text = Path(out).read_text(encoding="utf-8")
     said = text.split("The platform&#x27;s CoP spreads ")[1].split(" times the mat&#x27;s (about 1 expected): is "
-                                                                 "in_mm.csv in mm, read as cm? Name the unit")
+                                                                 "in_mm.csv in mm, read as cm? (name the unit")
     assert len(said) == 2 and float(said[0]) > 4
     own = write_report(tmp_path / "own.html", [ReportItem(session, platform=plate)], params={"preset": None})
     assert "CoP spreads" not in Path(own).read_text(encoding="utf-8")

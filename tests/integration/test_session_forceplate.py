@@ -396,3 +396,28 @@ def test_moments_about_an_origin_below_the_surface(down: bool, tmp_path: Path) -
     p.write_text("Time,x,y\n0,1,2\n0.01,1,2\n")
     with pytest.raises(ValueError, match="surface_z_mm is for a file of forces and moments without a CoP column"):
         load_forceplate_csv(p, surface_z_mm=-41)
+
+
+def test_force_units_named_in_the_header_are_converted(tmp_path: Path) -> None:
+    """Six channels written in kgf and kN·m (a platform's software may): the CoP of moments is a ratio of
+    a moment to a force, so each must be in its unit (before: kgf taken as N, the CoP 9.81 times too
+    small). Hand values: 1 kgf = 9.80665 N; a point force of 700 N at x = 2 cm, y = -3 cm has
+    My = -x Fz = -14 N·m and Mx = y Fz = -21 N·m. A column in %BW is kept as written."""
+    p = tmp_path / "kgf.csv"
+    fz_kgf = 700 / 9.80665
+    p.write_text(f"time,Fz [kgf],Mx [kN.m],My [kN.m]\n0,{fz_kgf!r},-0.021,-0.014\n0.01,{fz_kgf!r},-0.021,-0.014\n")
+    with pytest.raises(ValueError, match=r"the moment column 'Mx \[kN.m\]'"):  # kN·m: not offered
+        load_forceplate_csv(p)
+    p.write_text(f"time,Fz [kgf],Mx [N.m],My [N.m]\n0,{fz_kgf!r},-21,-14\n0.01,{fz_kgf!r},-21,-14\n")
+    r = load_forceplate_csv(p)
+    np.testing.assert_allclose(r.cop_ml_cm, 2.0, rtol=1e-12)
+    np.testing.assert_allclose(r.cop_ap_cm, -3.0, rtol=1e-12)
+    np.testing.assert_allclose(r.fz_n, 700.0, rtol=1e-12)
+    assert r.meta["fz_unit"] == "N"
+    p.write_text("time,x,y,Fz [%BW]\n0,1,2,100\n0.01,1,2,99\n")
+    r = load_forceplate_csv(p)
+    assert r.fz_n.tolist() == [100, 99] and r.meta["fz_unit"] == "as written in 'Fz [%BW]', no force unit"
+    p.write_text("time,Fz [furlong],Mx,My\n0,700,1,2\n0.01,700,1,2\n")
+    with pytest.raises(ValueError, match=r"the force column 'Fz \[furlong\]': unknown force unit 'furlong' "
+                                         r"\(known: N, kN, kgf, lbf\)"):
+        load_forceplate_csv(p)

@@ -44,7 +44,7 @@ from ._eu import eu
 from ._ispgr import ISPGR_MIN_HZ, ISPGR_MIN_S, ispgr
 from ._preprocess import describe_preset, preprocess
 from ._scale import mean_force_n, scale_factor, scale_factors
-from ._spread import SPREAD_MISMATCH, SpreadCheck, check_spread
+from ._spread import SPREAD_MISMATCH, SpreadCheck, check_spread, spread_question
 from ._sway import Sway, mean_frequency, prediction_ellipse_area, sway
 from ._variants import (BASE_VARIANTS, EXTRA_VARIANTS, KNOWN_VARIANTS, VARIANTS, VariantName, VariantTrace, describe,
                         legend_label, variant_traces)
@@ -56,4 +56,4 @@ __all__ = ["cop", "cell_centres_cm", "eu", "sway", "Sway", "descriptors", "descr
            "VARIANTS", "EXTRA_VARIANTS", "KNOWN_VARIANTS", "VariantName", "describe", "legend_label", "VariantTrace",
            "variant_traces", "Condition", "conditions", "load_events_csv", "romberg_role", "romberg", "frame_clock",
            "condition_spans", "inside", "UNMARKED", "describe_preset", "off_the_clock", "NEAR_S",
-           "check_spread", "SpreadCheck", "SPREAD_MISMATCH"]
+           "check_spread", "SpreadCheck", "SPREAD_MISMATCH", "spread_question"]

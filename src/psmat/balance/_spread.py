@@ -21,7 +21,7 @@ from numpy.typing import ArrayLike
 from .. import _checks
 from ..units import LENGTH_UNITS_CM, cm_per_unit
 
-__all__ = ["SPREAD_MISMATCH", "SpreadCheck", "check_spread"]
+__all__ = ["SPREAD_MISMATCH", "SpreadCheck", "check_spread", "spread_question"]
 
 #: the platform's spread over the mat's beyond which (or below whose inverse) the platform file is
 #: taken to be in another unit than it was read in, or not this trial's
@@ -91,3 +91,15 @@ def check_spread(cop_ref_cm: ArrayLike, cop_cm: ArrayLike, read_as: str = "cm") 
         near = [u for u in _UNITS if abs(math.log(LENGTH_UNITS_CM[u] / written)) < math.log(1.6)]
         fits = next((u for u in near if LENGTH_UNITS_CM[u] != cm_per_unit(read_as)), None)
     return SpreadCheck(ratio, read_as, fits)
+
+
+def spread_question(name: str, check: SpreadCheck, meta: dict[str, object]) -> str:
+    """What to ask of the platform file ``name`` whose spread is off (``meta``: its
+    ``ForcePlateRecording.meta``): its unit, or, for a CoP from forces and moments, their units."""
+    if meta.get("cop_from", "the columns") != "the columns":
+        return (f"are {name}'s forces in N and its moments in the unit their header names (N·m unless N·cm or "
+                "N·mm), and is it this session's platform file?")
+    if check.fits:
+        return (f"is {name} in {check.fits}, read as {check.read_as}? (name the unit in its CoP columns' header, "
+                f"e.g. x [{check.fits}])")
+    return f"is {name}'s unit ({check.read_as}) right, and is it this session's platform file?"

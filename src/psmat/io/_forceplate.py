@@ -32,7 +32,7 @@ from numpy.typing import NDArray
 
 from .. import _checks
 from .._text import NotTextError, read_text
-from ..units import cm_per_unit, s_per_unit
+from ..units import cm_per_unit, n_per_unit, s_per_unit
 
 __all__ = [
     "ForcePlateRecording",
@@ -63,7 +63,9 @@ class ForcePlateRecording:
     cop_ml_cm, cop_ap_cm : ndarray (T,)
         Centre of pressure, medial–lateral and anterior–posterior (cm).
     fz_n : ndarray (T,) or None
-        Vertical force (N), if the file has it.
+        Vertical force (N), if the file has it (its header's unit, kN, kgf or lbf, converted; a unit that
+        is no force, such as %BW, kept as written and said in ``meta["fz_unit"]``: only its share of the
+        median is used, :meth:`samples`).
     meta : dict
         Source file, trial information, other channels (``meta["channels"]``: name → array).
     """
@@ -353,6 +355,20 @@ _MX, _MY = ("mx", "momentx", "mxnm"), ("my", "momenty", "mynm")
 _FX, _FY = ("fx", "forcex", "fxn"), ("fy", "forcey", "fyn")
 
 
+def _newtons(header: list[str] | None, k: int, path: Path, strict: bool = True) -> float | None:
+    """N per unit of the force column ``k``: the unit its header names in brackets (``Fz [kgf]``), else N.
+    A unit that is no force (``%BW``, ``N/kg``): an error, or None when not ``strict``."""
+    m = re.search(r"[\[(]\s*([^\])]+?)\s*[\])]", header[k]) if header else None
+    if m is None:
+        return 1.0
+    try:
+        return n_per_unit(m.group(1).replace(" ", ""))
+    except ValueError as exc:
+        if not strict:
+            return None
+        raise ValueError(f"{path}: the force column {header[k]!r}: {exc}") from None
+
+
 def _cop_from_moments(header: list[str], data: NDArray[np.float64], ifz: int | None, surface_z_mm: float,
                       path: Path) -> tuple[NDArray[np.float64], NDArray[np.float64], list[int]] | None:
     """(x, y (cm), the columns used) of a file of forces and moments without a CoP column; None when the
@@ -365,7 +381,7 @@ def _cop_from_moments(header: list[str], data: NDArray[np.float64], ifz: int | N
 
     with z the height of the surface, ``surface_z_mm`` (0: moments about the surface, x = -My / Fz,
     y = Mx / Fz, as the BDS data set's own COP columns are, to the last digit). The moments in N·m
-    unless their header names N·mm or N·cm; the forces in N."""
+    unless their header names N·mm or N·cm; the forces in N unless theirs names kN, kgf or lbf."""
     norm = [_norm(h) for h in header]
     if any(n in norm for n in (*_X, *_Y)) or ifz is None:
         return None
@@ -383,9 +399,10 @@ def _cop_from_moments(header: list[str], data: NDArray[np.float64], ifz: int | N
         if ifx is None or ify is None:
             raise ValueError(f"{path}: surface_z_mm needs the horizontal forces Fx and Fy (columns: {header})")
         z = surface_z_mm * 0.1  # cm
-        mx, my, used = mx + z * data[:, ify], my - z * data[:, ifx], used + [ifx, ify]
+        fx, fy = data[:, ifx] * _newtons(header, ifx, path), data[:, ify] * _newtons(header, ify, path)
+        mx, my, used = mx + z * fy, my - z * fx, used + [ifx, ify]
     with np.errstate(divide="ignore", invalid="ignore"):  # Fz = 0: off the plate, a lost sample (samples())
-        fz = data[:, ifz]
+        fz = data[:, ifz] * _newtons(header, ifz, path)
         return -my / fz, mx / fz, used
 
 
@@ -512,12 +529,14 @@ def load_forceplate_csv(
         ik = it
         t, time_from = _unrounded(t, time_from, path)
     ml, ap = (cy, cx) if swap_axes else (cx, cy)
+    # (Fz in N; in a unit that is no force, %BW, as written: only its share of the median is used)
+    fz_scale = None if ifz is None else _newtons(header, ifz, path, strict=False)
     used = {ix, iy, *(cop[2] if cop is not None else ())} | {k for k in (ik, ifz) if k is not None}
     return ForcePlateRecording(
         t=t,
         cop_ml_cm=ml.copy(),
         cop_ap_cm=ap.copy(),
-        fz_n=data[:, ifz].copy() if ifz is not None else None,
+        fz_n=None if ifz is None else data[:, ifz] * (fz_scale or 1.0),
         meta={
             "source": str(path),
             "format": "csv",
@@ -528,6 +547,7 @@ def load_forceplate_csv(
             "swap_axes": swap_axes,
             "channels": {names[k]: data[:, k].copy() for k in range(data.shape[1]) if k not in used},
             "preamble": preamble,
+            "fz_unit": "N" if ifz is None or fz_scale is not None else f"as written in {names[ifz]!r}, no force unit",
             "cop_from": ("the columns" if cop is None else "-My/Fz, Mx/Fz (moments about the plate's surface)"
                          if surface_z == 0.0 else f"(z Fx - My)/Fz, (Mx + z Fy)/Fz, z = {surface_z:g} mm"),
         },

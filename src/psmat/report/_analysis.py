@@ -21,7 +21,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..balance import (ISPGR_MIN_HZ, ISPGR_MIN_S, NEAR_S, POOR_ALIGNMENT_R, condition_spans, cop, describe_preset,
-                       descriptors, frame_clock, inside, ispgr, off_the_clock, preprocess, romberg, romberg_role, sway)
+                       descriptors, frame_clock, inside, ispgr, off_the_clock, preprocess, romberg, romberg_role,
+                       spread_question, sway)
 from ..io import load_session
 from ..process import PressureRecord, session_pressure
 from ..profile import session_profile
@@ -241,11 +242,9 @@ def analyse(item: ReportItem, p: dict[str, Any]) -> SessionAnalysis:
                f"than the mat's (psmat report --platform-axes={plat.other_axes[0]}).")
             + " The lag, Eu and the platform's numbers below are not comparable with the mat's.")
         if not plat.poor and plat.spread is not None and plat.spread.off:
-            k, name = plat.spread, plat.path.name
-            plat_note = (f"The platform's CoP spreads {k.ratio:.3g} times the mat's (about 1 expected): "
-                         + (f"is {name} in {k.fits}, read as {k.read_as}? Name the unit in its CoP columns' header "
-                            f"(x [{k.fits}])." if k.fits else f"is {name}'s unit ({k.read_as}) right?")
-                         + " Eu and the platform's numbers below are not comparable with the mat's.")
+            plat_note = (f"The platform's CoP spreads {plat.spread.ratio:.3g} times the mat's (about 1 expected): "
+                         f"{spread_question(plat.path.name, plat.spread, plat.meta)} Eu and the platform's numbers "
+                         "below are not comparable with the mat's.")
     return SessionAnalysis(
         label=item.label or path.name, path=path, recorded=_recorded(s, rec, duration, rate, missing),
         simulated=_simulated(meta), record=rec, cop_cm=c_raw, mean_kpa=np.nanmean(usable, axis=0),

@@ -20,7 +20,8 @@ from typing import Any
 import numpy as np
 
 from ..balance import (POOR_ALIGNMENT_R, SPREAD_MISMATCH, VARIANTS, align, check_spread, condition_spans, eu,
-                       find_platform_axes, frame_clock, inside, ispgr, orient_platform, variant_traces)
+                       find_platform_axes, frame_clock, inside, ispgr, orient_platform, spread_question,
+                       variant_traces)
 from ._conditions import MIN_SAMPLES
 from ..sensor import MPICreep
 from ..units import n_from_kg
@@ -284,11 +285,8 @@ def _process(session: Path, forceplate: Path | None, subject: str, trial: str, w
     spread = check_spread(c_fp[in_fp], ref[ok & in_mat], plate.meta["unit"])
     if spread.off and not a.poor:  # the rows keep their numbers; their status keeps them out of the summary
         name = Path(forceplate).name
-        why = (f"{PLATFORM_SPREAD}: its CoP spreads {spread.ratio:.3g} times the mat's ({p['align_on']}; about 1 "
-               f"expected, flagged beyond {SPREAD_MISMATCH:g} either way): " + (
-                   f"is {name} in {spread.fits}, read as {spread.read_as}? (name the unit in its CoP columns' header, "
-                   f"e.g. x [{spread.fits}])" if spread.fits else
-                   f"is {name}'s unit ({spread.read_as}) right, and is it this session's platform file?"))
+        why = f"{PLATFORM_SPREAD}: its CoP spreads {spread.ratio:.3g} times the mat's ({p['align_on']}; about 1 " \
+              f"expected, flagged beyond {SPREAD_MISMATCH:g} either way): {spread_question(name, spread, plate.meta)}"
         rows = [{**r, "status": why if r["status"] == "ok" else f"{r['status']}; {why}"} for r in rows]
     if a.poor:  # the rows keep their numbers; their status keeps them out of the summary
         other = find_platform_axes(t_fp, c_loaded, t[ok], ref[ok], besides=p["platform_axes"], max_lag_s=p["max_lag_s"])
