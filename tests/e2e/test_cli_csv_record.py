@@ -249,3 +249,37 @@ def test_a_board_that_sends_no_frame_is_told_what_to_check(noise: bool, tmp_path
         f" bytes came from {port} and none formed a frame of the csv protocol: does the board send at {baud} baud "
         "(its Serial.begin rate; a profile's baudrate), and speak --protocol csv?")
     assert 0 < int(told[0].split()[0]) <= written
+
+
+def test_a_10_bit_board_recorded_as_12_bits_is_told_its_adc_is_narrower(tmp_path: Path) -> None:
+    """An Arduino Uno's 10-bit ADC recorded under 12 bits: its counts fit (no invalid row), but an empty
+    cell, 1023, reads as a loaded one, and the whole mat looked pressed with nothing said. Now the
+    recording and psmat info say so; recorded with its own 10 bits, nothing is said."""
+    proc = subprocess.Popen([sys.executable, "-m", "psmat", "simulate", "--protocol", "csv", "--rate", "100"],
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, preexec_fn=default_stop_signals)
+    try:
+        port = proc.stdout.readline().strip()
+        assert port, proc.communicate()
+        runs = {}
+        for bits in ("12", "10"):
+            done = subprocess.run([sys.executable, "-m", "psmat", "record", port, "--protocol", "csv", "--shape",
+                                   "16x16", "--bits", bits, "--seconds", "2", "-o", str(tmp_path / f"b{bits}.h5")],
+                                  capture_output=True, text=True, timeout=GUARD_S)
+            assert done.returncode == 0, done.stderr
+            runs[bits] = done.stdout
+    finally:
+        proc.send_signal(signal.SIGTERM)
+        proc.communicate(timeout=GUARD_S)
+    s12 = load_session(tmp_path / "b12.h5")
+    top = int(s12.counts[s12.valid].max())
+    assert 0 < top <= 1023 and s12.valid.all()
+    told = [ln.strip() for ln in runs["12"].splitlines() if ln.startswith("  no count above")]
+    # an open cell: V_ref through R_o (2200 ohm) into the ADC's input resistance (the arduino16 profile's 1e8 ohm)
+    empty = round(4095 * 1e8 / (1e8 + 2200))
+    assert told == [f"no count above {top} in {s12.n_frames} valid frames, where an empty cell reads {empty} of 4095 "
+                    "(12 bits): is the board's ADC 10-bit? Every cell then reads as loaded: record with --bits 10 "
+                    "(or a profile with bits = 10)"]
+    assert "no count above" not in runs["10"]
+    info = subprocess.run([sys.executable, "-m", "psmat", "info", str(tmp_path / "b12.h5")], capture_output=True,
+                          text=True, timeout=GUARD_S)
+    assert info.returncode == 0 and f"psmat info: {told[0]}" in info.stderr

@@ -411,3 +411,18 @@ def test_sigma_G_open_cell_is_finite():
     s = voltage_sigma_G(0.0)
     # dV/dG at G = 0: V_ref R_o / (1 + R_o/R_adc)^2
     assert s == pytest.approx(1e-3 * (1 + R_O / R_ADC_IMPROVED) ** 2 / (V_REF * R_O), rel=1e-12)
+
+
+def test_counts_that_fit_a_narrower_adc_are_named() -> None:
+    """The thesis' divider reads an empty cell at the top of the range (4094 of 4095): a recording whose
+    counts never reach half of it came from an ADC 2^k times narrower, k the power of two of the ratio.
+    A mirrored divider (an open cell reads 0 V) says nothing of the width."""
+    from psmat.circuit import narrower_adc
+
+    c = Circuit(bits=12)
+    assert narrower_adc(1023, c) == 10 and narrower_adc(2046, c) == 11 and narrower_adc(255, c) == 8
+    assert narrower_adc(4094, c) is None and narrower_adc(2048, c) is None  # half the range: a 12-bit board
+    # below half the range but not at a narrower ADC's top: a mat loaded everywhere, said nothing of
+    assert narrower_adc(1500, c) is None and narrower_adc(900, c) is None
+    assert narrower_adc(63, c) is None  # a 6-bit "ADC": made-up counts, not a board
+    assert narrower_adc(1023, Circuit(bits=12, sensor_side="high")) is None

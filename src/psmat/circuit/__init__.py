@@ -11,10 +11,12 @@ short-circuit recordings.
 
 from ._calibration import Calibration, OpenCircuitStats, ShortCircuitStats
 from ._circuit import FIRST_PROTOTYPE_R_ADC, IMPROVED_PROTOTYPE_R_ADC, OK, OPEN, SHORT, Circuit
+from ._adc_width import MIN_ADC_BITS, narrower_adc
 from ._estimate import estimate_r_adc, estimate_r_mux, from_open_circuit, from_recordings, from_short_circuit
 
 __all__ = [
     "Circuit", "OK", "SHORT", "OPEN", "FIRST_PROTOTYPE_R_ADC", "IMPROVED_PROTOTYPE_R_ADC",
     "Calibration", "OpenCircuitStats", "ShortCircuitStats",
     "estimate_r_adc", "estimate_r_mux", "from_open_circuit", "from_short_circuit", "from_recordings",
+    "narrower_adc", "MIN_ADC_BITS",
 ]

@@ -23,6 +23,7 @@ def run(args: argparse.Namespace) -> int:
     from .._atomic import OutputRefused, check_outputs, replacing
     from ..io import SessionFormatError, export_csv, info, load_session, stream_csv_path
     from ..io.session import session_files, unfinished_line
+    from ._adc import adc_line
 
     try:
         s = load_session(args.session)  # docs/spec.md §6: every loader error is one SessionFormatError
@@ -42,4 +43,6 @@ def run(args: argparse.Namespace) -> int:
     line = unfinished_line(args.session, s)
     if line:
         print(f"psmat info: {line}", file=sys.stderr)
+    if narrow := adc_line(s):
+        print(f"psmat info: {narrow}", file=sys.stderr)
     return 0

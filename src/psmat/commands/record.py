@@ -160,6 +160,7 @@ def run(args: argparse.Namespace) -> int:
     import sys
 
     from ..io import SessionNotCompleted, load_session, row_counts
+    from ._adc import adc_line
 
     try:  # the devices' profiles: the first's from --profile and the options, the others' their kind's
         kind = _profile_args.device_kind(args)
@@ -201,6 +202,8 @@ def run(args: argparse.Namespace) -> int:
             print(f"  invalid rows by reason, since the port opened: {_invalid_why(st.invalid_reasons, src.dev)}")
         if st.frames + st.invalid == 0 and (silent := _nothing_why(st.bytes_in, src.dev)):
             print(f"  {silent}")
+        if narrow := adc_line(saved if src.name is None else saved.streams[src.name]):
+            print(f"  {narrow}")
     return status
 
 
