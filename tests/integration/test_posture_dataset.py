@@ -168,3 +168,19 @@ def test_a_mat_recorded_apart_is_aligned_to_its_imu_log(study, loaded, tmp_path)
                               "directly in sessions/ and imu/", found.problems[0]]
     assert again.computed == 0 and len(again.recordings) == 1  # the same log's bytes: read from the cache
     np.testing.assert_array_equal(again.recordings[0].angles_rad, r.angles_rad)
+
+
+def test_a_session_from_a_narrower_adc_is_refused_with_the_reason(study, tmp_path) -> None:
+    """A cushion read by a 10-bit board under its 12-bit profile: every empty cell would read as a loaded
+    one and the network would learn from that (before: unsaid). The session is refused in one line, before
+    its IMUs are looked for."""
+    from psmat.io import SessionWriter, load_session
+    from psmat.posture.data import session_recording
+
+    s = load_session(study / "sessions" / "P01_d1.h5")
+    ten = tmp_path / "P01_d1.h5"
+    with SessionWriter(ten, s.frame_shape, device=s.device, calibration=s.calibration, metadata=s.metadata) as w:
+        w.append((s.counts >> 2).astype(np.uint16), s.host_time_s, s.valid, seq=s.seq, device_time_us=s.device_time_us)
+    with pytest.raises(ValueError, match=r"^P01_d1.h5: no count above 10\d\d in \d+ valid frames, where an empty cell "
+                                         r"reads \d+ of 4095 \(12 bits\): is the board's ADC 10-bit\?"):
+        session_recording(ten)

@@ -309,3 +309,24 @@ def test_a_platform_file_read_in_another_unit_is_said_not_summarised(trial, tmp_
     with open(run.outputs["summary"], newline="") as fh:
         summary = list(csv.DictReader(fh))
     assert summary and all(r["n_ok"] == "0" for r in summary)
+
+
+def test_a_session_from_a_narrower_adc_is_an_error_not_a_result(trial, tmp_path) -> None:
+    """The trial's counts as a 10-bit board sends them, stored under the session's 12 bits (its profile's):
+    every empty cell would read as a loaded one and the rows would be garbage with a misleading status
+    (a poor alignment). Now the session's rows say why, one line."""
+    from psmat.io import load_session
+
+    session, plate, weight_kg, lag = trial
+    s = load_session(session)
+    ten = tmp_path / "S01_right.h5"
+    with SessionWriter(ten, (16, 16), s.device, metadata=s.metadata) as w:
+        w.append((s.counts >> 2).astype(np.uint16), s.host_time_s, s.valid)
+    top = int((s.counts >> 2).max())
+    # an open cell of the nominal box: V_ref through R_o (2200 ohm) into the ADC's 6.9 Mohm (thesis §2.4)
+    empty = round(4095 * 6.9e6 / (6.9e6 + 2200))
+    rows = process_trial(ten, plate, "S01", "right", weight_kg, {"variants": ["PROP"]})
+    assert top >= 1000 and all(r["status"] == (
+        f"error: ValueError: no count above {top} in {s.n_frames} valid frames, where an empty cell reads "
+        f"{empty} of 4095 (12 bits): is the board's ADC 10-bit? Every cell then reads as loaded: "
+        "record with --bits 10 (or a profile with bits = 10)") for r in rows)

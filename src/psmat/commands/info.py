@@ -23,7 +23,7 @@ def run(args: argparse.Namespace) -> int:
     from .._atomic import OutputRefused, check_outputs, replacing
     from ..io import SessionFormatError, export_csv, info, load_session, stream_csv_path
     from ..io.session import session_files, unfinished_line
-    from ._adc import adc_line
+    from ..process import adc_line
 
     try:
         s = load_session(args.session)  # docs/spec.md §6: every loader error is one SessionFormatError

@@ -160,7 +160,7 @@ def run(args: argparse.Namespace) -> int:
     import sys
 
     from ..io import SessionNotCompleted, load_session, row_counts
-    from ._adc import adc_line
+    from ..process import adc_line
 
     try:  # the devices' profiles: the first's from --profile and the options, the others' their kind's
         kind = _profile_args.device_kind(args)

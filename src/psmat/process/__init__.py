@@ -20,6 +20,8 @@ removed, docs/spec.md §3) → g ─ :meth:`MPICreep.inverse` (hysteresis and cr
   session through :func:`process_loaded`, an imported ``"pressure"`` session as stored), with one
   line saying how (:class:`PressureRecord`); :func:`session_pressure_calibration` is the mat's
   pressure calibration the chain uses for a session.
+* :func:`adc_line` says when a session's counts fit a narrower ADC than its circuit's (a 10-bit
+  board under a 12-bit profile: every empty cell would read as a loaded one).
 
 Readings the chain cannot use are handled one way everywhere, never turned into silent
 infinities:
@@ -38,6 +40,7 @@ infinities:
 """
 
 from ..units import PSI_KPA
+from ._adc import adc_line
 from ._chain import Processed, Processor, open_floor, process_counts
 from ._clock import SessionClock, session_clock
 from ._pressure import PressureRecord, session_pressure
@@ -45,4 +48,4 @@ from ._session import process_loaded, process_session, session_circuit, session_
 
 __all__ = ["Processed", "Processor", "process_counts", "process_loaded", "process_session", "session_circuit",
            "session_pressure", "session_pressure_calibration", "PressureRecord", "session_clock", "SessionClock",
-           "open_floor", "PSI_KPA"]
+           "open_floor", "PSI_KPA", "adc_line"]

@@ -174,7 +174,7 @@ def _process(session: Path, forceplate: Path | None, subject: str, trial: str, w
              p: dict[str, Any], names: tuple[str, ...], calibration: Path | None, found: Traces,
              events: list[tuple[float, str]] | None) -> Rows:
     from ..io import load_forceplate_csv, load_session
-    from ..process import process_loaded
+    from ..process import adc_line, process_loaded
     from ..profile import session_profile
 
     s = load_session(session)
@@ -182,6 +182,8 @@ def _process(session: Path, forceplate: Path | None, subject: str, trial: str, w
         raise ValueError(f"a {s.kind!r} session, not a mat (psm) session")
     if s.n_frames < 8:
         raise ValueError(f"{s.n_frames} frames: too short")
+    if narrow := adc_line(s, calibration):  # processed so, every empty cell would read as a loaded one
+        raise ValueError(narrow)
     sensor = MPICreep(**p["sensor"]) if p["sensor"] else MPICreep.thesis()
     with warnings.catch_warnings():  # counted in the rows, not warned once per session per worker
         warnings.filterwarnings("ignore", message=r"IECM \(", category=RuntimeWarning)

@@ -143,6 +143,10 @@ def session_recording(path: str | os.PathLike[str], *, calibration: str | os.Pat
     s = load_session(path)
     if s.kind != "psm":
         raise ValueError(f"{Path(path).name}: the session's root stream is {s.kind!r}, not the mat ('psm')")
+    from ...process import adc_line
+
+    if narrow := adc_line(s, calibration):  # processed so, every empty cell would read as a loaded one
+        raise ValueError(f"{Path(path).name}: {narrow}")
     meta: dict[str, Any] = {"session": Path(path).name, "simulated": s.metadata.get("simulated") is True}
     t_mat, g = _mat_g(s, None if calibration is None else Path(calibration), p["method"])
     if imu_log is not None:

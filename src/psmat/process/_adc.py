@@ -1,23 +1,34 @@
-"""One line for a mat session whose counts fit a narrower ADC than its circuit's (psmat.circuit.narrower_adc),
-said by ``psmat record`` after a recording and by ``psmat info``."""
+"""One line for a mat session whose counts fit a narrower ADC than its circuit's (psmat.circuit.narrower_adc):
+said by ``psmat record`` after a recording and by ``psmat info``, and a study's error for the session
+(processed, every empty cell would read as a loaded one)."""
 
 from __future__ import annotations
 
+import os
 from typing import Any
 
+from ._session import session_circuit
 
-def adc_line(session: Any) -> str | None:
+
+def adc_line(session: Any, calibration: str | os.PathLike[str] | None = None) -> str | None:
     """``no count above 1023 in N valid frames, where an empty cell reads 4094 of 4095 (12 bits): is the
-    board's ADC 10-bit? ...``, or None (counts that fit, no valid frame, not a mat)."""
+    board's ADC 10-bit? ...``, or None (counts that fit, no valid frame, not a mat).
+
+    Parameters
+    ----------
+    session : psmat.io.Session
+        A loaded session (its frames read).
+    calibration : path, optional
+        The box's calibration file, as :func:`session_circuit` takes it.
+    """
     import numpy as np
 
     from ..circuit import narrower_adc
-    from ..process import session_circuit
 
     if session.kind != "psm" or not np.any(session.valid):
         return None
     try:
-        circuit = session_circuit(session)
+        circuit = session_circuit(session, calibration=calibration)
     except ValueError:  # (a circuit the session cannot give is said where it is used)
         return None
     top = int(np.max(session.counts[session.valid]))
