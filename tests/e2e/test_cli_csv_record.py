@@ -31,6 +31,7 @@ from psmat.io import load_session
 from psmat.protocol import encode_csv
 
 from conftest import default_stop_signals
+from csv_twin import csv_twin
 
 R, C = 16, 16
 BITS = 10
@@ -193,26 +194,18 @@ def test_a_12_bit_board_recorded_as_10_bits_is_told_why_its_frames_are_invalid(t
     """A csv mat on a 12-bit board recorded without --bits (the csv default, 10 bits): before, the
     summary said only "N invalid". Now the reasons say what to check, and with --bits 12 none is
     out of range."""
-    proc = subprocess.Popen([sys.executable, "-m", "psmat", "simulate", "--profile", "psm16", "--protocol", "csv",
-                             "--rate", "100"], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-                            preexec_fn=default_stop_signals)
-    try:
-        port = proc.stdout.readline().strip()
-        assert port, proc.communicate()
-        runs = {}
+    runs = {}
+    with csv_twin("--profile", "psm16") as port:
         for bits in ([], ["--bits", "12"]):
             done = subprocess.run([sys.executable, "-m", "psmat", "record", port, "--protocol", "csv", "--shape",
                                    "16x16", *bits, "--seconds", "2", "-o", str(tmp_path / f"b{len(bits)}.h5")],
                                   capture_output=True, text=True, timeout=GUARD_S)
             assert done.returncode == 0, done.stderr
             runs[bool(bits)] = done.stdout
-    finally:
-        proc.send_signal(signal.SIGTERM)
-        proc.communicate(timeout=GUARD_S)
     why = [ln for ln in runs[False].splitlines() if ln.startswith("  invalid rows by reason")]
     assert len(why) == 1 and ": range " in why[0]
     assert why[0].split(": range ")[1].split(":")[0].isdigit()
-    assert "counts above 1023, the most 10 bits hold: is the board's ADC wider (--bits)?" in why[0]
+    assert "counts above 1023, the most 10 bits hold: is the board's ADC wider (the profile's bits, --bits)?" in why[0]
     assert "range" not in runs[True]  # (at most a first partial line, reason "count", is invalid then)
     s10, s12 = load_session(tmp_path / "b0.h5"), load_session(tmp_path / "b2.h5")
     assert not s10.valid.any() and s12.valid.sum() >= s12.n_frames - 1
@@ -255,21 +248,14 @@ def test_a_10_bit_board_recorded_as_12_bits_is_told_its_adc_is_narrower(tmp_path
     """An Arduino Uno's 10-bit ADC recorded under 12 bits: its counts fit (no invalid row), but an empty
     cell, 1023, reads as a loaded one, and the whole mat looked pressed with nothing said. Now the
     recording and psmat info say so; recorded with its own 10 bits, nothing is said."""
-    proc = subprocess.Popen([sys.executable, "-m", "psmat", "simulate", "--protocol", "csv", "--rate", "100"],
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, preexec_fn=default_stop_signals)
-    try:
-        port = proc.stdout.readline().strip()
-        assert port, proc.communicate()
-        runs = {}
+    runs = {}
+    with csv_twin() as port:
         for bits in ("12", "10"):
             done = subprocess.run([sys.executable, "-m", "psmat", "record", port, "--protocol", "csv", "--shape",
                                    "16x16", "--bits", bits, "--seconds", "2", "-o", str(tmp_path / f"b{bits}.h5")],
                                   capture_output=True, text=True, timeout=GUARD_S)
             assert done.returncode == 0, done.stderr
             runs[bits] = done.stdout
-    finally:
-        proc.send_signal(signal.SIGTERM)
-        proc.communicate(timeout=GUARD_S)
     s12 = load_session(tmp_path / "b12.h5")
     top = int(s12.counts[s12.valid].max())
     assert 0 < top <= 1023 and s12.valid.all()

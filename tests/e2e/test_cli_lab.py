@@ -33,6 +33,7 @@ websockets_sync = pytest.importorskip("websockets.sync.client")
 from psmat.io import journal_path, load_session  # noqa: E402
 
 from conftest import default_stop_signals  # noqa: E402
+from csv_twin import csv_twin  # noqa: E402
 from small_disk import small_disk  # noqa: E402
 
 URL = re.compile(r"^http://127\.0\.0\.1:(\d+)/\?token=([A-Za-z0-9_-]{43})$")
@@ -44,9 +45,9 @@ PAGE_IDS = ("raw", "pressure", "cop", "rates", "subject", "trial", "note", "reco
 class Lab:
     """A running ``psmat lab`` subprocess: its address, token and data folder."""
 
-    def __init__(self, data: Path, *extra: str) -> None:
+    def __init__(self, data: Path, *extra: str, source: tuple[str, ...] = ("--simulate",)) -> None:
         self.data = data
-        self.proc = subprocess.Popen([sys.executable, "-m", "psmat", "lab", "--simulate", "--no-browser", "--port", "0",
+        self.proc = subprocess.Popen([sys.executable, "-m", "psmat", "lab", *source, "--no-browser", "--port", "0",
                                       "--data", str(data), *extra], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
                                      text=True, preexec_fn=default_stop_signals)
         line = self.proc.stdout.readline().strip()
@@ -357,3 +358,23 @@ def test_a_recording_that_fills_the_disk_is_said_and_its_journal_kept(tmp_path: 
             assert status == 200 and st["recording"] is False and st["device"]["counters"]["connected"]
         finally:
             lab.stop()
+
+
+def test_a_wider_board_under_the_profile_is_said_while_the_mat_runs(tmp_path: Path) -> None:
+    """A 12-bit board (the psm16 twin speaking csv on a real pty) read with the 10-bit arduino16 profile:
+    every frame is an invalid row. The status lists the reasons with what to check, as psmat record says
+    after a recording (before: only the counters)."""
+    with csv_twin("--profile", "psm16", rate_hz=50) as port:
+        lab = Lab(tmp_path / "data", source=(port, "--profile", "arduino16"))
+        try:
+            for _ in range(600):
+                st = lab.request("GET", "/api/status")[1]
+                if st["device"]["counters"]["invalid"] >= 20:
+                    break
+                time.sleep(0.05)
+            warnings = lab.request("GET", "/api/status")[1]["device"]["warnings"]
+        finally:
+            lab.stop()
+    assert len(warnings) == 1 and warnings[0].startswith("invalid rows by reason, since the port opened: range ")
+    assert "counts above 1023, the most 10 bits hold: is the board's ADC wider (the profile's bits, --bits)?" \
+        in warnings[0]

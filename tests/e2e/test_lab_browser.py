@@ -91,6 +91,7 @@ def test_the_page_connects_and_draws_frames(lab) -> None:
         ".getImageData(0, 0, c.width, c.height).data; const s = new Set();"
         " for (let i = 0; i < d.length; i += 4) s.add((d[i] << 16) | (d[i + 1] << 8) | d[i + 2]); return s.size; })()")
     assert colours > 2
+    assert browser.evaluate("document.querySelector('#warnings').hidden") is True  # the twin: nothing went wrong
 
 
 def test_a_click_on_record_records_the_trial_with_its_marker(lab) -> None:
@@ -188,3 +189,27 @@ def test_the_calibration_panel_walks_through_the_first_step(lab) -> None:
             pytest.fail("the server's calibration walk-through never ended after Cancel")
         time.sleep(0.05)
     assert not (data / "calibration").exists()   # cancelled: no file
+
+
+def test_the_page_says_what_the_device_counters_say_went_wrong(tmp_path) -> None:
+    """A do-it-yourself mat (the 10-bit arduino16 twin on a real pty) read under a 12-bit profile: its
+    counts fit, every empty cell reads as a loaded one, and the page drew a pressed mat with nothing
+    said. Now the page lists what psmat record would say after the recording, while the mat runs."""
+    from csv_twin import csv_twin
+    from psmat.bench.lab_page import LabServer
+    from psmat.profile import load_profile
+
+    exe = chromium_or_skip()
+    wide = tmp_path / "arduino16-12bit.toml"
+    wide.write_text(load_profile("arduino16").to_toml().replace("bits = 10", "bits = 12"), encoding="utf-8")
+    with csv_twin(rate_hz=20) as port, \
+            LabServer([port, "--profile", str(wide), "--no-browser", "--port", "0", "--data", str(tmp_path / "d")],
+                      timeout_s=GUARD_S) as server, Chromium(exe, timeout_s=GUARD_S) as browser:
+        browser.navigate(server.url)
+        shown = browser.wait_for("(() => { const w = document.querySelector('#warnings');"
+                                 " return !w.hidden && w.textContent; })()", timeout_s=GUARD_S)
+        items = browser.evaluate("[...document.querySelectorAll('#warnings li')].map(li => li.textContent)")
+    assert len(items) == 1 and items[0] in shown
+    assert items[0].startswith("no count above 10") and items[0].endswith(
+        "(12 bits): is the board's ADC 10-bit? Every cell then reads as loaded: record with --bits 10 (or a "
+        "profile with bits = 10)")

@@ -160,6 +160,7 @@ def run(args: argparse.Namespace) -> int:
     import sys
 
     from ..io import SessionNotCompleted, load_session, row_counts
+    from ..acquire import invalid_line, silence_line
     from ..process import adc_line
 
     try:  # the devices' profiles: the first's from --profile and the options, the others' their kind's
@@ -198,37 +199,13 @@ def run(args: argparse.Namespace) -> int:
         print(f"{where}: {rc.frames} frames recorded, {rc.invalid} invalid, {lost}, "
               f"{st.dropped_buffer} dropped by the host buffer"
               + (f"; ended early: {src.ended}" if src.ended and len(sources) > 1 else ""))
-        if rc.invalid and st.invalid_reasons:
-            print(f"  invalid rows by reason, since the port opened: {_invalid_why(st.invalid_reasons, src.dev)}")
-        if st.frames + st.invalid == 0 and (silent := _nothing_why(st.bytes_in, src.dev)):
+        if rc.invalid and (why := invalid_line(st.invalid_reasons, src.dev)):
+            print(f"  {why}")
+        if st.frames + st.invalid == 0 and (silent := silence_line(st.bytes_in, src.dev)):
             print(f"  {silent}")
         if narrow := adc_line(saved if src.name is None else saved.streams[src.name]):
             print(f"  {narrow}")
     return status
-
-
-def _nothing_why(bytes_in: int, dev: Any) -> str | None:
-    """Why a serial device gave no frame at all, valid or not, with what to check (None for an LSL stream)."""
-    if not hasattr(dev, "baudrate"):
-        return None
-    port = dev.port
-    if bytes_in == 0:
-        return (f"no byte came from {port}: is the board running and sending (a do-it-yourself mat: its sketch "
-                "uploaded, Serial.begin called), and is this its port?")
-    proto = dev.protocol if dev.protocol == "csv" else f"v{dev.protocol}"
-    return (f"{bytes_in} bytes came from {port} and none formed a frame of the {proto} protocol: does the board send "
-            f"at {dev.baudrate} baud (its Serial.begin rate; a profile's baudrate), and speak --protocol {proto}?")
-
-
-def _invalid_why(reasons: dict[str, int], dev: Any) -> str:
-    """``range 2990: ...; count 3: ...``: a csv mat's invalid rows by reason, most first, the usual slips
-    said (a board whose ADC is wider than the profile's bits, another shape)."""
-    bits, (rows, cols) = getattr(dev, "bits", 0), dev.shape[:2]
-    said = {"range": f"counts above {2 ** bits - 1}, the most {bits} bits hold: is the board's ADC wider (--bits)?",
-            "count": f"lines of another number of counts than {rows}x{cols}: is --shape right?",
-            "token": "a field that is not a count (text among the counts, or a board at another baud rate)"}
-    return "; ".join(f"{k} {n}" + (f": {said[k]}" if k in said else "")
-                     for k, n in sorted(reasons.items(), key=lambda kv: -kv[1]))
 
 
 def _record(args: argparse.Namespace, kind: str, prof: Any, profiles: list[Any], calibration: Any

@@ -84,6 +84,10 @@ class DisplayFeed:
         self.skipped = 0
         self.updates = 0
         self.message: str | None = None
+        #: the largest count of every valid frame received, and how many (psmat.process.adc_hint)
+        self.max_count: int | None = None
+        self.valid_frames = 0
+        self.started_s = time.monotonic()
         self._cost_s = 2e-3
         self._t_prev: float | None = None
         self._rx, self._proc, self._shown = SlidingRate(), SlidingRate(), SlidingRate()
@@ -151,6 +155,9 @@ class DisplayFeed:
         candidates = np.flatnonzero(valid)
         if candidates.size == 0:
             return None
+        top = int(frames[candidates].max())  # every valid frame, shown or skipped: an empty cell's reading
+        self.max_count = top if self.max_count is None else max(self.max_count, top)
+        self.valid_frames += int(candidates.size)
         fit = min(max(1, int(_BUDGET * self.period_s / max(self._cost_s, 1e-6))), 50)
         if candidates.size > fit:
             self.skipped += int(candidates.size - fit)

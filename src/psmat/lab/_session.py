@@ -350,7 +350,7 @@ class LabSession:
                 device = {"kind": dev.kind, "shape": list(dev.shape), "protocol": str(dev.protocol),
                           "port": str(self.replay.path) if self.replay is not None else self.live_label,
                           "profile": getattr(prof, "name", None), "description": _jsonable(dev.description or {}),
-                          "counters": _counters(dev.stats)}
+                          "counters": _counters(dev.stats), "warnings": _warnings(dev, feed, prof)}
             rates = feed.rates if feed is not None else {"received_hz": None, "processed_hz": None,
                                                          "displayed_hz": None}
             rec = None
@@ -405,6 +405,30 @@ def _detach(dev: Any) -> None:
         if int(getattr(s, "frames", 0)) + int(getattr(s, "invalid", 0)) > c0 or not getattr(s, "connected", True):
             return
         time.sleep(0.005)
+
+
+#: how long a device may give no frame at all before the page says what to check (s)
+_SILENT_S = 3.0
+
+
+def _warnings(dev: Any, feed: DisplayFeed | None, profile: Any) -> list[str]:
+    """What the device's counters and frames say went wrong, a line each, with what to check (as
+    ``psmat record`` says after a recording): invalid rows by reason, no frame at all, counts of a
+    narrower ADC than the profile's."""
+    from ..acquire import invalid_line, silence_line
+    from ..process import adc_hint
+
+    st, out = dev.stats, []
+    if int(getattr(st, "invalid", 0)) and (why := invalid_line(dict(getattr(st, "invalid_reasons", {}) or {}), dev)):
+        out.append(why)
+    silent = int(getattr(st, "frames", 0)) + int(getattr(st, "invalid", 0)) == 0
+    if silent and feed is not None and time.monotonic() - feed.started_s >= _SILENT_S and \
+            (why := silence_line(int(getattr(st, "bytes_in", 0)), dev)):
+        out.append(why)
+    if feed is not None and feed.max_count is not None and getattr(profile, "kind", None) == "psm" and \
+            (why := adc_hint(feed.max_count, feed.valid_frames, profile.circuit())):
+        out.append(why)
+    return out
 
 
 def _counters(stats: Any) -> dict[str, Any]:

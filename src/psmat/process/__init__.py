@@ -40,7 +40,7 @@ infinities:
 """
 
 from ..units import PSI_KPA
-from ._adc import adc_line
+from ._adc import adc_hint, adc_line
 from ._chain import Processed, Processor, open_floor, process_counts
 from ._clock import SessionClock, session_clock
 from ._pressure import PressureRecord, session_pressure
@@ -48,4 +48,4 @@ from ._session import process_loaded, process_session, session_circuit, session_
 
 __all__ = ["Processed", "Processor", "process_counts", "process_loaded", "process_session", "session_circuit",
            "session_pressure", "session_pressure_calibration", "PressureRecord", "session_clock", "SessionClock",
-           "open_floor", "PSI_KPA", "adc_line"]
+           "open_floor", "PSI_KPA", "adc_line", "adc_hint"]

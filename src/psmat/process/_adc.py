@@ -5,9 +5,12 @@ said by ``psmat record`` after a recording and by ``psmat info``, and a study's 
 from __future__ import annotations
 
 import os
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from ._session import session_circuit
+
+if TYPE_CHECKING:  # pragma: no cover
+    from ..circuit import Circuit
 
 
 def adc_line(session: Any, calibration: str | os.PathLike[str] | None = None) -> str | None:
@@ -23,19 +26,26 @@ def adc_line(session: Any, calibration: str | os.PathLike[str] | None = None) ->
     """
     import numpy as np
 
-    from ..circuit import narrower_adc
-
     if session.kind != "psm" or not np.any(session.valid):
         return None
     try:
         circuit = session_circuit(session, calibration=calibration)
     except ValueError:  # (a circuit the session cannot give is said where it is used)
         return None
-    top = int(np.max(session.counts[session.valid]))
-    bits = narrower_adc(top, circuit)
+    return adc_hint(int(np.max(session.counts[session.valid])), int(np.sum(session.valid)), circuit)
+
+
+def adc_hint(max_count: int, n_frames: int, circuit: Circuit) -> str | None:
+    """The line of :func:`adc_line` for counts that reached at most ``max_count`` over ``n_frames`` valid
+    frames read with ``circuit`` (the lab app keeps the running maximum of a live device); None when they fit."""
+    import numpy as np
+
+    from ..circuit import narrower_adc
+
+    bits = narrower_adc(max_count, circuit)
     if bits is None:
         return None
     empty = int(np.asarray(circuit.counts(np.zeros((1, 1))))[0, 0])
-    return (f"no count above {top} in {int(np.sum(session.valid))} valid frames, where an empty cell reads {empty} of "
+    return (f"no count above {max_count} in {n_frames} valid frames, where an empty cell reads {empty} of "
             f"{circuit.full_scale} ({circuit.bits} bits): is the board's ADC {bits}-bit? Every cell then reads as "
             f"loaded: record with --bits {bits} (or a profile with bits = {bits})")

@@ -192,6 +192,10 @@
       $("device").textContent = s.device.kind + " " + s.device.shape.join("x") + " on " + s.device.port +
         (s.device.profile ? " (" + s.device.profile + ")" : "");
     }
+    // what the device's counters say went wrong, with what to check (as psmat record says it)
+    const warnings = (s.device && s.device.warnings) || [];
+    $("warnings").replaceChildren(...warnings.map((w) => Object.assign(document.createElement("li"), {textContent: w})));
+    $("warnings").hidden = warnings.length === 0;
     if (s.record) {
       const md = s.record.metadata || {};
       $("record-state").textContent = s.record.stopped

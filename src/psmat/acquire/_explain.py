@@ -1,0 +1,39 @@
+"""What a serial device's counters say went wrong, in one line each, with what to check: the csv
+decoder's invalid rows by reason, and a device that gave no frame at all. Said by ``psmat record``
+after a recording and shown by the lab app while the device runs."""
+
+from __future__ import annotations
+
+from typing import Any
+
+__all__ = ["invalid_line", "silence_line"]
+
+
+def invalid_line(reasons: dict[str, int], dev: Any) -> str | None:
+    """``invalid rows by reason, since the port opened: range 2990: ...; count 3: ...``: a csv mat's invalid
+    rows by reason, most first, the usual slips said (a board whose ADC is wider than the profile's bits,
+    another shape, another baud rate); None without any."""
+    if not any(reasons.values()):
+        return None
+    bits, (rows, cols) = int(getattr(dev, "bits", 0) or 0), dev.shape[:2]
+    said = {"range": f"counts above {2 ** bits - 1}, the most {bits} bits hold: is the board's ADC wider (the "
+                     "profile's bits, --bits)?",
+            "count": f"lines of another number of counts than {rows}x{cols}: is the shape right (--shape)?",
+            "token": "a field that is not a count (text among the counts, or a board at another baud rate)"}
+    return "invalid rows by reason, since the port opened: " + "; ".join(
+        f"{k} {n}" + (f": {said[k]}" if k in said else "")
+        for k, n in sorted(reasons.items(), key=lambda kv: -kv[1]) if n)
+
+
+def silence_line(bytes_in: int, dev: Any) -> str | None:
+    """Why a serial device gave no frame at all, valid or not, with what to check (None for an LSL stream,
+    which has no port of its own)."""
+    if not hasattr(dev, "baudrate"):
+        return None
+    port = dev.port
+    if bytes_in == 0:
+        return (f"no byte came from {port}: is the board running and sending (a do-it-yourself mat: its sketch "
+                "uploaded, Serial.begin called), and is this its port?")
+    proto = dev.protocol if dev.protocol == "csv" else f"v{dev.protocol}"
+    return (f"{bytes_in} bytes came from {port} and none formed a frame of the {proto} protocol: does the board send "
+            f"at {dev.baudrate} baud (its Serial.begin rate; a profile's baudrate), and speak --protocol {proto}?")

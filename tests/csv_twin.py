@@ -1,0 +1,28 @@
+"""A simulated do-it-yourself mat speaking the csv protocol on a real pseudo-terminal, for the tests
+that read it: ``psmat simulate --protocol csv`` in a child process, its port yielded, stopped by SIGTERM."""
+
+from __future__ import annotations
+
+import contextlib
+import signal
+import subprocess
+import sys
+from collections.abc import Iterator
+
+from conftest import default_stop_signals
+
+
+@contextlib.contextmanager
+def csv_twin(*options: str, rate_hz: float = 100.0) -> Iterator[str]:
+    """The port of ``psmat simulate --protocol csv --rate RATE_HZ OPTIONS`` (``--profile psm16``: a 12-bit board;
+    none: the 10-bit arduino16)."""
+    proc = subprocess.Popen([sys.executable, "-m", "psmat", "simulate", "--protocol", "csv", "--rate", f"{rate_hz:g}",
+                             *options], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                            preexec_fn=default_stop_signals)
+    try:
+        port = proc.stdout.readline().strip()
+        assert port, proc.communicate()
+        yield port
+    finally:
+        proc.send_signal(signal.SIGTERM)
+        proc.communicate(timeout=60)
