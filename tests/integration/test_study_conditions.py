@@ -156,7 +156,7 @@ def test_a_bad_events_file_is_one_problem_and_the_whole_trial_rows_stay(plain_st
     report = _run(root)
     assert report.failed == 0 and report.computed == 1
     assert report.problems == [f"V01_right-leg: events file not used, no conditions: {path}: line 3: time 'soon' "
-                               "is not a number of seconds"]
+                               "is not a number of seconds, nor a clock time (10:32:15, 2024-03-01T10:32:15+01:00)"]
     rows = [r for r in _rows(root) if r["trial"] == "right-leg"]
     assert [(r["variant"], r["condition"], r["status"]) for r in rows] == [(v, "", "ok") for v in ("FP", *VARIANTS)]
     assert np.isfinite([float(r["velocity_cm_s"]) for r in rows]).all()
@@ -185,3 +185,47 @@ def test_markers_on_another_clock_are_one_problem_not_a_silent_trial(plain_study
     again = _run(root)
     assert again.problems == [] and {r["condition"] for r in _rows(root) if r["trial"] == "right-leg"} == {
         "", "unmarked", "eyes open", "eyes closed"}  # unmarked: the first 0.5 s, before the first marker
+
+
+def test_a_log_written_by_the_clock_on_the_wall_cuts_the_same_conditions(plain_study, tmp_path, monkeypatch) -> None:
+    """An experimenter's log with the time of day (``10:32:15.250``), as a person reads it off the wall or
+    a watch: before, "is not a number of seconds", and host times since 1970 are no one's to write by
+    hand. The session is recorded on a computer three hours east of UTC (it stores its offset), the log
+    written on its local clock, once as times of day and once as dates and times without an offset:
+    the same conditions as the log on the host clock. Expected times by hand: local = host + 3 h."""
+    import datetime as dt
+    import time
+
+    from psmat.io import SessionWriter
+
+    root = tmp_path / "study"
+    shutil.copytree(plain_study, root)
+    path = root / "sessions" / "V01_right-leg.h5"
+    s = load_session(path)
+    monkeypatch.setenv("TZ", "XYZ-3")  # POSIX: three hours east of UTC
+    time.tzset()
+    try:
+        with SessionWriter(path, s.frame_shape, device=s.device, calibration=s.calibration, metadata=s.metadata,
+                           profile=s.profile, overwrite=True) as w:
+            w.append(s.counts, s.host_time_s, s.valid, seq=s.seq, device_time_us=s.device_time_us)
+    finally:
+        monkeypatch.delenv("TZ")
+        time.tzset()
+    assert load_session(path).utc_offset_s == 3 * 3600
+    t0 = float(s.host_time_s[0])
+    marks = [(round(t0, 3) + 0.5, "eyes open"), (round(t0, 3) + 15.25, "eyes closed")]
+
+    def local(t: float, date: bool) -> str:
+        d = dt.datetime.fromtimestamp(t, dt.timezone.utc) + dt.timedelta(hours=3)
+        return d.strftime("%Y-%m-%d %H:%M:%S.%f" if date else "%H:%M:%S.%f")
+
+    runs = {}
+    for how in ("host", "day", "date"):
+        _write_events(root, "time,label\n" + "".join(
+            (f"{t!r}" if how == "host" else local(t, how == "date")) + f",{label}\n" for t, label in marks))
+        report = _run(root)
+        assert report.problems == [], how
+        runs[how] = [(r["variant"], r["condition"], r["duration_s"], r["path_cm"]) for r in _rows(root)
+                     if r["trial"] == "right-leg"]
+    assert {c for _, c, _, _ in runs["host"]} == {"", "unmarked", "eyes open", "eyes closed"}
+    assert runs["day"] == runs["host"] and runs["date"] == runs["host"]

@@ -31,6 +31,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from .._text import NotTextError, read_text
+from .._wallclock import DAY_S, ClockTime, parse_clock
 from ..units import header_unit, s_per_unit
 
 __all__ = ["Condition", "conditions", "load_events_csv", "romberg_role", "romberg", "frame_clock",
@@ -225,16 +226,29 @@ _TIME_HEADERS = ("time", "onset")
 _LABEL_HEADERS = ("label", "event", "marker", "condition", "annotation")
 
 
-def load_events_csv(path: str | os.PathLike[str]) -> list[tuple[float, str]]:
+def load_events_csv(path: str | os.PathLike[str], *, utc_offset_s: float | None = None,
+                    near_s: float | None = None) -> list[tuple[float, str]]:
     """Markers from a CSV file: header ``time_s,label`` (or ``time,label``), comma, semicolon or tab separated
     (with semicolons or tabs, a time may have a decimal comma: ``12,5;eyes closed``). The header may be
     written as people write it: ``Time (s)``, ``time_ms`` (converted to s), ``onset``; ``event``,
     ``marker``, ``condition`` for the label.
 
+    A time may also be written by the clock on the wall (:func:`psmat._wallclock.parse_clock`): a date and
+    time with its offset from UTC (``2024-03-01T10:32:15+01:00``) is exact; without it
+    (``2024-03-01 10:32:15``) it is on the recording computer's clock, ``utc_offset_s`` east of UTC; a
+    time of day (``10:32:15``) is also on the day of the recording, the one that puts it nearest
+    ``near_s`` (a host time of the recording, s). Each is returned as a host time (s since 1970 UTC,
+    as ``Session.host_time_s``).
+
     Parameters
     ----------
     path : path
         The file (UTF-8, UTF-16 with its byte-order mark, or Windows-1252). Blank lines are skipped; labels keep their inner spaces, outer ones are stripped.
+    utc_offset_s : float, optional
+        The recording computer's offset from UTC (s east; ``Session.utc_offset_s``); needed by wall-clock
+        times without their offset.
+    near_s : float, optional
+        A host time of the recording (s, e.g. its first frame's); needed by times of day.
 
     Returns
     -------
@@ -280,7 +294,11 @@ def load_events_csv(path: str | os.PathLike[str]) -> list[tuple[float, str]]:
         try:
             t = float(row[0].replace(",", ".") if delim != "," else row[0]) * s_per
         except ValueError:
-            raise ValueError(f"{p}: line {n}: time {row[0]!r} is not a number of seconds") from None
+            clock = parse_clock(row[0])
+            if clock is None:
+                raise ValueError(f"{p}: line {n}: time {row[0]!r} is not a number of seconds, nor a clock time "
+                                 "(10:32:15, 2024-03-01T10:32:15+01:00)") from None
+            t = _host_time(clock, utc_offset_s, near_s, f"{p}: line {n}: time {row[0]!r}")
         if not math.isfinite(t):
             raise ValueError(f"{p}: line {n}: time {row[0]!r} is not finite")
         label = row[1].strip()
@@ -288,6 +306,24 @@ def load_events_csv(path: str | os.PathLike[str]) -> list[tuple[float, str]]:
             raise ValueError(f"{p}: line {n}: empty label")
         out.append((t, label))
     return out
+
+
+def _host_time(clock: ClockTime, utc_offset_s: float | None, near_s: float | None, where: str) -> float:
+    """A wall-clock time as a host time (s since 1970 UTC), or ValueError saying what it needs."""
+    if clock.kind == "aware":
+        return clock.seconds
+    if utc_offset_s is None:
+        raise ValueError(f"{where} is the clock on the wall without its offset from UTC, and the recording does "
+                         "not store its computer's (a session written before psmat stored it): write the "
+                         "times with their offset (2024-03-01T10:32:15+01:00) or as seconds on the host clock")
+    if clock.kind == "naive":
+        return clock.seconds - float(utc_offset_s)
+    if near_s is None:
+        raise ValueError(f"{where} is a time of day: which day is not known without the recording")
+    local = near_s + float(utc_offset_s)  # the recording, on the wall's clock
+    day = math.floor(local / DAY_S) * DAY_S
+    best = min((day + k * DAY_S + clock.seconds for k in (-1, 0, 1)), key=lambda x: abs(x - local))
+    return best - float(utc_offset_s)
 
 
 def romberg_role(label: str) -> Literal["EO", "EC"] | None:

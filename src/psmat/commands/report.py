@@ -10,7 +10,9 @@ it into with the Romberg quotients when an eyes-open and an eyes-closed one exis
 Several sessions make one page, in the order given; ``--platform`` and ``--events`` are then
 given once per session, in the same order. ``--events FILE`` replaces the session's markers by a
 CSV ``time_s,label`` on the session's host clock (``psmat export S.h5 --what events`` writes
-one), or in seconds from the first frame with ``--events-from-start``. The page holds its figures
+one) or read off the wall (``10:32:15``, ``2024-03-01 10:32:15``: on the recording computer's clock,
+whose offset from UTC the session stores), or in seconds from the first frame with
+``--events-from-start``. The page holds its figures
 itself (nothing is fetched from elsewhere); ``--pdf`` prints it with headless Chromium, else
 WeasyPrint, and says so when neither is installed. A bad input is one line and exit status 1.
 """
@@ -68,6 +70,7 @@ def run(args: argparse.Namespace) -> int:
     from ..io import SessionFormatError
     from ..io.session import session_files
     from ..report import ReportItem, write_report
+    from ..study import session_events
 
     def fail(msg: object) -> int:
         print(f"psmat report: {' '.join(str(msg).split())}", file=sys.stderr)
@@ -91,7 +94,9 @@ def run(args: argparse.Namespace) -> int:
     items = []
     try:
         for k, session in enumerate(args.sessions):
-            events = load_events_csv(args.events[k]) if args.events else None
+            # on the session's host clock (wall-clock times by its computer's offset), or from its first frame
+            events = None if not args.events else load_events_csv(args.events[k]) if args.events_from_start \
+                else session_events(Path(args.events[k]), Path(session))
             items.append(ReportItem(session=session, platform=args.platform[k] if args.platform else None,
                                     events=events, events_from_start=args.events_from_start))
         params = {"preset": None if args.preset == "none" else args.preset, "threshold_kpa": args.threshold_kpa,

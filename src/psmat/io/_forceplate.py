@@ -32,6 +32,7 @@ from numpy.typing import NDArray
 
 from .. import _checks
 from .._text import NotTextError, read_text
+from .._wallclock import DAY_S, parse_clock
 from ..units import cm_per_unit, n_per_unit, s_per_unit
 
 __all__ = [
@@ -178,31 +179,16 @@ def _units_row(row: list[str]) -> bool:
     return any(row) and all(not c or _UNIT_FIELD.fullmatch(c) or _CLOCK_UNIT.fullmatch(c) for c in row)
 
 
-#: a time of day, ``H:MM:SS`` with any decimals (a decimal comma already a point), and an ISO date and
-#: time, ``2024-03-01 12:30:01.25`` or ``...T...``, with or without a UTC offset
-_CLOCK = re.compile(r"(\d{1,2}):([0-5]\d):([0-5]\d(?:\.\d*)?)")
-_DATE_TIME = re.compile(r"\d{4}-\d{2}-\d{2}[T ]\d{1,2}:[0-5]\d:[0-5]\d(?:\.\d*)?(?:Z|[+-]\d{2}:?\d{2})?")
 #: the units row's field over a column of clock times: ``hh:mm:ss``, ``hh:mm:ss.sss``
 _CLOCK_UNIT = re.compile(r"(?i)[\[(]?\s*hh?:mm:ss(?:[.,]s+)?\s*[\])]?")
-_DAY_S = 86400.0
 
 
 def _clock_seconds(field: str) -> float | None:
-    """The seconds of a clock time (of the day; of the POSIX epoch for a date and time, UTC unless it
-    names its offset), or None when ``field`` is neither."""
-    m = _CLOCK.fullmatch(field)
-    if m:
-        return int(m.group(1)) * 3600.0 + int(m.group(2)) * 60.0 + float(m.group(3))
-    if _DATE_TIME.fullmatch(field):
-        import datetime as _dt
-
-        try:
-            d = _dt.datetime.fromisoformat(field.replace("Z", "+00:00"))
-        except ValueError:  # (a month 13, a day 32: a malformed field, said as not a number)
-            return None
-        whole = d.replace(microsecond=0, tzinfo=d.tzinfo or _dt.timezone.utc).timestamp()
-        return whole + d.microsecond * 1e-6
-    return None
+    """The seconds of a clock time (:func:`psmat._wallclock.parse_clock`: of the day; since 1970 for a date
+    and time, on the file's clock or, with its offset, in UTC), or None when ``field`` is neither. Any
+    clock serves: the platform's lag to the mat is searched."""
+    t = parse_clock(field)
+    return None if t is None else t.seconds
 
 
 def _clock_columns(rows: list[list[str]]) -> list[set[int]]:
@@ -222,8 +208,8 @@ def _past_midnight(t: NDArray[np.float64]) -> NDArray[np.float64]:
     back of more than half a day is a new day, not a clock that went back."""
     ok = np.flatnonzero(np.isfinite(t))
     days = np.zeros_like(t)
-    days[ok[1:]] = np.cumsum(np.diff(t[ok]) < -_DAY_S / 2)
-    return t + days * _DAY_S
+    days[ok[1:]] = np.cumsum(np.diff(t[ok]) < -DAY_S / 2)
+    return t + days * DAY_S
 
 
 def _read_table(path: Path, delimiter: str | None) -> tuple[list[str] | None, NDArray[np.float64], list[str], set[int]]:
@@ -291,7 +277,7 @@ def _read_table(path: Path, delimiter: str | None) -> tuple[list[str] | None, ND
             bad = next(c for c in r if c and not _numeric([c]))
             raise ValueError(f"{path}: row {k + 1 + start}: {bad!r} is not a number") from None
     for k in clock:
-        if np.nanmax(data[:, k]) < _DAY_S:  # times of the day (not dates and times)
+        if np.nanmax(data[:, k]) < DAY_S:  # times of the day (not dates and times)
             data[:, k] = _past_midnight(data[:, k])
     return header, data, preamble, clock
 

@@ -26,7 +26,7 @@ from ._cache import file_sha256, result_key, study_lock
 from ._cluster import Cluster, on_cluster, security
 from ._dynamic import DynamicPlan, correct_session, dynamic_rows, fit_correction, plan_dynamic, session_stats
 from ._figures import median_session
-from ._layout import StudyItem, StudyLayout, Subject, find_study, read_subjects
+from ._layout import StudyItem, StudyLayout, Subject, find_study, read_subjects, session_events
 from ._order import expected_work, most_work_first
 from ._plain import Expect, decode_result, digest, encode_result, first_line, parse_json
 from ._results import write_results
@@ -40,4 +40,4 @@ __all__ = ["Subject", "StudyItem", "StudyLayout", "find_study", "read_subjects",
            "on_cluster", "security", "file_sha256", "result_key", "study_lock", "Expect", "encode_result",
            "decode_result", "digest", "first_line", "parse_json", "dynamic_rows", "fit_correction", "write_results",
            "session_stats", "plan_dynamic", "correct_session", "DynamicPlan", "summary_rows", "pairwise_rows",
-           "index_rows", "median_session", "thesis_tables", "expected_work", "most_work_first"]
+           "index_rows", "median_session", "thesis_tables", "expected_work", "most_work_first", "session_events"]

@@ -359,14 +359,14 @@ def events_problem(path: Path, session: Path | None = None) -> str | None:
     (:func:`psmat.balance.off_the_clock`, against the host times of its first and last frames,
     :func:`psmat.io.session.host_time_span`).
     """
-    from ..balance import NEAR_S, load_events_csv, off_the_clock
+    from ..balance import NEAR_S, off_the_clock
     from ..io.session import host_time_span
 
+    span = None if session is None else host_time_span(session)
     try:
-        marks = load_events_csv(path)
+        marks = session_events(path, session, span)
     except (ValueError, OSError) as exc:
         return f"events file not used, no conditions: {' '.join(str(exc).split())}"
-    span = None if session is None or not marks else host_time_span(session)
     times = [t for t, _ in marks]
     if span is not None and off_the_clock(times, *span):
         return (f"events file not used, no conditions: none of the {len(marks)} markers of {path} "
@@ -374,6 +374,20 @@ def events_problem(path: Path, session: Path | None = None) -> str | None:
                 f"({span[0]:.6f}-{span[1]:.6f} s on the session's host clock); write their times on that clock "
                 "(the time_s of psmat's own markers), not from the start of the recording")
     return None
+
+
+def session_events(path: Path, session: Path | None, span: tuple[float, float] | None = None
+                   ) -> list[tuple[float, str]]:
+    """The markers of the events file ``path`` as host times of ``session``: wall-clock times on its
+    computer's clock (its ``utc_offset_s``) and day (its first frame, ``span[0]``, else read),
+    :func:`psmat.balance.load_events_csv`; raises as it does."""
+    from ..balance import load_events_csv
+    from ..io.session import host_time_span, utc_offset_of
+
+    if session is None:
+        return load_events_csv(path)
+    span = span if span is not None else host_time_span(session)
+    return load_events_csv(path, utc_offset_s=utc_offset_of(session), near_s=None if span is None else span[0])
 
 
 def describe(layout: StudyLayout) -> dict[str, Any]:

@@ -71,7 +71,7 @@ from ._cache import SessionStore, Stored, TraceFiles, canonical_json, file_sha25
 from ._dynamic import plan_dynamic
 from ._dynamic_tasks import Answer, DynamicTask, RunDynamic, dynamic_tasks, run_dynamic
 from ._figure_tasks import FigureTask, draw_figure
-from ._layout import StudyItem, StudyLayout, find_study
+from ._layout import StudyItem, StudyLayout, find_study, session_events
 from ._order import most_work_first
 from ._reports import REPORTS_DIR, ReportIndex, ReportTask, report_tasks, run_report
 from ._row_metrics import preprocessing_sentence
@@ -510,18 +510,17 @@ def _task(item: StudyItem, layout: StudyLayout, params: dict[str, Any], version:
         inputs["events_unusable"] = True
     return SessionTask(item.stem, str(item.session), None if item.forceplate is None else str(item.forceplate),
                        subject, trial, weight, None if cal is None else str(cal), params, result_key(inputs), inputs,
-                       notes, () if item.events_unusable else _events(item.events))
+                       notes, () if item.events_unusable else _events(item.events, item.session))
 
 
-def _events(path: Path | None) -> tuple[tuple[float, str], ...] | None:
-    """The markers of a study's events file (None: none, the session's own are used); a file that
-    cannot be read gives no markers (:func:`psmat.study.find_study` lists its problem)."""
-    from ..balance import load_events_csv
-
+def _events(path: Path | None, session: Path) -> tuple[tuple[float, str], ...] | None:
+    """The markers of a study's events file as host times of its session (None: none, the session's own
+    are used); a file that cannot be read gives no markers (:func:`psmat.study.find_study` lists its
+    problem)."""
     if path is None:
         return None
     try:
-        return tuple(load_events_csv(path))
+        return tuple(session_events(path, session))
     except (ValueError, OSError):
         return ()
 

@@ -260,7 +260,7 @@ from ._layout import (
 )
 from ._products import save_product, save_products
 from ._reader import load_session, repair_session, replacement_journal
-from ._sample import host_time_span, sample_frames
+from ._sample import host_time_span, sample_frames, utc_offset_of
 from ._truncated import recorded_size
 from ._unfinished import journal_only, not_closed_line, session_files, unfinished_line, unfinished_reason
 from ._writer import SessionNotCompleted, SessionWriter, StreamWriter
@@ -293,7 +293,7 @@ __all__ = [
     "replacement_journal",
     "row_counts",
     "sample_frames",
-    "host_time_span",
+    "host_time_span", "utc_offset_of",
     "save_product",
     "save_products",
     "session_files",

@@ -287,6 +287,8 @@ def _write_file(tmp: Path, devices: Mapping[str, StreamBlocks], products: Mappin
         put_attr(f, "format", FORMAT_NAME)
         put_attr(f, "format_version", STREAMS_FORMAT_VERSION if len(devices) > 1 else FORMAT_VERSION)
         put_attr(f, "created_utc", header.created_utc)
+        if header.utc_offset_s is not None:  # (docs/spec.md §6: wall-clock times of the recording computer)
+            f.attrs["utc_offset_s"] = np.int32(header.utc_offset_s)
         put_attr(f, "psmat_version", psmat_version())
         put_attr(f, "complete", np.uint8(0))
         put_attr(f, "closed_utc", utc_now())

@@ -35,7 +35,7 @@ from numpy.typing import NDArray
 
 from ...frames import FrameBatch
 
-from ._layout import (COUNTER_NAMES, FORMAT_NAME, FORMAT_VERSION, KINDS, MAX_CHUNK_FRAMES,
+from ._layout import (COUNTER_NAMES, FORMAT_NAME, FORMAT_VERSION, KINDS, MAX_CHUNK_FRAMES, MAX_UTC_OFFSET_S,
                              STREAMS_FORMAT_VERSION, Header, SessionFormatError, check_stream_name, frame_shape_of,
                              stream_journal_candidates)
 
@@ -91,6 +91,8 @@ def encode_header(h: Header, session: str, stream: str | None = None) -> bytes:
     }
     if h.profile is not None:  # absent in the journals of a psmat before profiles: they load with None
         doc["profile"] = h.profile
+    if h.utc_offset_s is not None:  # absent in the journals of a psmat before it stored the offset
+        doc["utc_offset_s"] = h.utc_offset_s
     if stream is not None:
         doc["stream"] = stream
     hb = json.dumps(doc, allow_nan=True).encode("utf-8")
@@ -369,7 +371,9 @@ def _header_fields(doc: Any) -> tuple[Header, int, np.dtype, str | None, str | N
     h = Header(kind=kind, frame_shape=fshape, device=_dict(doc, "device") or {},
                calibration=_dict(doc, "calibration", none_ok=True), metadata=_dict(doc, "metadata") or {},
                created_utc=created, chunk_frames=_int(doc, "chunk_frames", 1, MAX_CHUNK_FRAMES),
-               profile=_dict(doc, "profile", none_ok=True) if "profile" in doc else None)
+               profile=_dict(doc, "profile", none_ok=True) if "profile" in doc else None,
+               utc_offset_s=_int(doc, "utc_offset_s", -MAX_UTC_OFFSET_S, MAX_UTC_OFFSET_S) if "utc_offset_s" in doc
+               else None)
     p = payload_bytes(h)
     rec = record_dtype(p)
     if "payload_bytes" in doc and _int(doc, "payload_bytes", 0, 2**62) != p:

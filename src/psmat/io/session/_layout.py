@@ -142,6 +142,8 @@ class Header:
     created_utc: str
     chunk_frames: int = 256
     profile: dict[str, Any] | None = None
+    #: the recording computer's offset from UTC when the session began (s east of UTC; None: not stored)
+    utc_offset_s: int | None = None
 
     @property
     def spec(self) -> KindSpec:
@@ -207,6 +209,10 @@ class Session:
     events : list of (float, str)
         Markers of the recording: (host time in s, on the clock of ``host_time_s``; label),
         sorted by time; ``[]`` when none. Only the root session has them.
+    utc_offset_s : int or None
+        The recording computer's offset from UTC when the session began (s east of UTC: 3600 in
+        Madrid in winter), which turns its wall-clock times into host times (an experimenter's log
+        written with the clock on the wall); None in files written before psmat stored it.
     products : dict[str, Product]
     counters : dict[str, int]
         Reader error counters (:data:`COUNTER_NAMES`); empty when they were lost to damage.
@@ -244,6 +250,7 @@ class Session:
     streams: dict[str, Session] = field(default_factory=dict)
     profile: dict[str, Any] | None = None
     events: list[tuple[float, str]] = field(default_factory=list)
+    utc_offset_s: int | None = None
 
     @property
     def frames(self) -> NDArray[Any]:
@@ -287,6 +294,16 @@ class Session:
 # ====================================================================== JSON and attributes
 def utc_now() -> str:
     return _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="milliseconds")
+
+
+#: the largest offset from UTC a computer's clock may keep (s): UTC-12 ... UTC+14 with room
+MAX_UTC_OFFSET_S = 18 * 3600
+
+
+def local_utc_offset_s() -> int:
+    """This computer's offset from UTC now (s east of UTC), as its time zone says (daylight saving included)."""
+    off = _dt.datetime.now().astimezone().utcoffset()
+    return int(off.total_seconds()) if off is not None else 0
 
 
 def psmat_version() -> str:

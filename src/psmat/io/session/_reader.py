@@ -23,6 +23,7 @@ from ._journal import Journal, format_ranges, stream_journals
 from ._build import write_session_file
 from ._layout import (
     COUNTER_NAMES,
+    MAX_UTC_OFFSET_S,
     FORMAT_NAME,
     KINDS,
     PER_FRAME,
@@ -172,7 +173,8 @@ def repair_session(path: str | os.PathLike[str], *, replace_finished: bool = Fal
 
 def _header(s: Session, created: str) -> Header:
     return Header(kind=s.kind, frame_shape=s.frame_shape, device=s.device, calibration=s.calibration,
-                  metadata=s.metadata, created_utc=created or utc_now(), profile=s.profile)
+                  metadata=s.metadata, created_utc=created or utc_now(), profile=s.profile,
+                  utc_offset_s=s.utc_offset_s)
 
 
 def _block(s: Session) -> FrameBatch:
@@ -224,8 +226,24 @@ def _from_journal(path: Path, jpath: Path, why: str) -> Session:
                  profile=h.profile, events=sorted(events, key=lambda e: e[0]),
                  counters=j.counters or dict.fromkeys(COUNTER_NAMES, 0),
                  version=STREAMS_FORMAT_VERSION if streams else j.format_version,
-                 created=h.created_utc, complete=False, recovered=True, notes=notes)
+                 created=h.created_utc, complete=False, recovered=True, notes=notes, utc_offset_s=h.utc_offset_s)
     return _add_streams(s, streams, lost)
+
+
+def _utc_offset(attrs: Any, notes: list[str]) -> int | None:
+    """The file's ``utc_offset_s`` (s east of UTC), None when it has none (older files) or a value that is
+    no offset a clock keeps (noted)."""
+    v = attrs.get("utc_offset_s")
+    if v is None:
+        return None
+    try:
+        off = int(np.asarray(v).item())
+    except (TypeError, ValueError):
+        off = None
+    if off is None or abs(off) > MAX_UTC_OFFSET_S:
+        notes.append(f"utc_offset_s {v!r} is not an offset from UTC in s: left out")
+        return None
+    return off
 
 
 def _session(path: Path, kind: str, b: FrameBatch, **kw: Any) -> Session:
@@ -320,7 +338,7 @@ def _read_open(f: h5py.File, path: Path, notes: list[str], cut: tuple[int, int] 
         products=read_products(f, notes),
         counters=_counters(f, notes),
         version=version, created=created,
-        complete=complete, recovered=False, notes=notes,
+        complete=complete, recovered=False, notes=notes, utc_offset_s=_utc_offset(a, notes),
     )
     streams: dict[str, Session] = {}
     lost: list[str] = []

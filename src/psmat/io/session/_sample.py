@@ -14,7 +14,7 @@ import h5py
 import numpy as np
 from numpy.typing import NDArray
 
-from ._layout import KINDS, attr_str
+from ._layout import KINDS, MAX_UTC_OFFSET_S, attr_str
 
 __all__ = ["sample_frames", "host_time_span"]
 
@@ -55,3 +55,16 @@ def host_time_span(path: str | os.PathLike[str]) -> tuple[float, float] | None:
     if head.size == 0 or tail.size == 0:
         return None
     return float(head[0]), float(tail[-1])
+
+
+def utc_offset_of(path: str | os.PathLike[str]) -> int | None:
+    """The recording computer's offset from UTC stored in a session file (s east of UTC,
+    ``Session.utc_offset_s``), read without loading the session; None when the file has none (written
+    before psmat stored it), holds no valid one, or cannot be read."""
+    try:
+        with h5py.File(path, "r") as f:
+            v = f.attrs.get("utc_offset_s")
+            off = None if v is None else int(np.asarray(v).item())
+    except (OSError, KeyError, ValueError, TypeError):
+        return None
+    return off if off is not None and abs(off) <= MAX_UTC_OFFSET_S else None

@@ -26,6 +26,7 @@ from ._build import write_session_file
 from ._events import EventsJournal, check_event, sort_events
 from ._layout import (
     COUNTER_NAMES,
+    local_utc_offset_s,
     MAX_CHUNK_FRAMES,
     Header,
     StreamBlocks,
@@ -346,7 +347,8 @@ class SessionWriter(StreamWriter):
         header = Header(kind=kind, frame_shape=fshape, device=_device(device, kind, fshape),
                         calibration=as_dict(calibration, "calibration"),
                         metadata=as_dict(metadata, "metadata") or {}, created_utc=utc_now(),
-                        chunk_frames=int(chunk_frames), profile=as_dict(profile, "profile"))
+                        chunk_frames=int(chunk_frames), profile=as_dict(profile, "profile"),
+                        utc_offset_s=local_utc_offset_s())
         if overwrite:
             _remove_interrupted(self.path)
         self._overwrite = bool(overwrite)
