@@ -13,7 +13,7 @@ import h5py
 import pytest
 
 from psmat.balance import load_events_csv
-from psmat.io import SessionWriter, load_session, repair_session
+from psmat.io import info, load_session, repair_session
 
 EAST_3H = "XYZ-3"  # a POSIX TZ three hours east of UTC
 WRITE = ("import numpy as np, os, sys\n"
@@ -33,11 +33,13 @@ def test_the_offset_is_stored_closed_recovered_and_repaired(tmp_path: Path) -> N
     _write(closed, EAST_3H, close=True)
     _write(killed, EAST_3H, close=False)
     assert load_session(closed).utc_offset_s == 3 * 3600
+    assert "(the recording computer at UTC+03:00)" in info(load_session(closed))
     assert not killed.exists() and load_session(killed).utc_offset_s == 3 * 3600  # from the journal's header
     assert repair_session(killed).utc_offset_s == 3 * 3600 and load_session(killed).complete
     west = tmp_path / "west.h5"
     _write(west, "XYZ+5", close=True)  # five hours west
     assert load_session(west).utc_offset_s == -5 * 3600
+    assert "(the recording computer at UTC-05:00)" in info(load_session(west))
     # a file written before psmat stored it: not known, never taken for UTC
     with h5py.File(west, "r+") as f:
         del f.attrs["utc_offset_s"]

@@ -141,7 +141,10 @@ def info(session: Session | str | os.PathLike[str]) -> str:
         state += ", frames recovered from the journal"
     lines.append(f"  kind          {s.kind}, frame shape {s.frame_shape}, format v{s.format_version} ({state})")
     if s.created_utc:
-        lines.append(f"  created       {s.created_utc}")
+        off = s.utc_offset_s
+        lines.append(f"  created       {s.created_utc}" + ("" if off is None else
+                     f" (the recording computer at UTC{'+' if off >= 0 else '-'}{abs(off) // 3600:02d}:"
+                     f"{abs(off) % 3600 // 60:02d})"))
     lines += _frame_lines(s, "  ")
     if s.calibration is None:
         lines.append("  calibration   (none)")
