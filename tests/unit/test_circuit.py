@@ -425,4 +425,7 @@ def test_counts_that_fit_a_narrower_adc_are_named() -> None:
     # below half the range but not at a narrower ADC's top: a mat loaded everywhere, said nothing of
     assert narrower_adc(1500, c) is None and narrower_adc(900, c) is None
     assert narrower_adc(63, c) is None  # a 6-bit "ADC": made-up counts, not a board
+    # no loaded cell: an empty mat, or made-up uniform counts, says nothing of the width
+    assert narrower_adc(1000, c, min_count=1000) is None and narrower_adc(1023, c, min_count=1010) is None
+    assert narrower_adc(1023, c, min_count=300) == 10
     assert narrower_adc(1023, Circuit(bits=12, sensor_side="high")) is None

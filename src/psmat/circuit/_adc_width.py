@@ -24,7 +24,7 @@ __all__ = ["narrower_adc", "MIN_ADC_BITS"]
 MIN_ADC_BITS = 8
 
 
-def narrower_adc(max_count: int, circuit: Circuit) -> int | None:
+def narrower_adc(max_count: int, circuit: Circuit, min_count: int | None = None) -> int | None:
     """The ADC width (bits) that a recording whose counts never exceed ``max_count`` was made with, when
     it is narrower than ``circuit.bits``; None when the counts fit the circuit.
 
@@ -34,6 +34,10 @@ def narrower_adc(max_count: int, circuit: Circuit) -> int | None:
         The largest count of a recording (every cell, every valid frame).
     circuit : Circuit
         The circuit the recording is read with (its ``bits`` and its open count, g = 0).
+    min_count : int, optional
+        The smallest count of the recording: a mat under a body has loaded cells far below its empty
+        ones, and counts that stay above half of ``max_count`` (an empty mat, or made-up uniform
+        counts) say nothing of the width.
 
     Returns
     -------
@@ -48,6 +52,8 @@ def narrower_adc(max_count: int, circuit: Circuit) -> int | None:
     full = circuit.full_scale
     open_count = int(np.asarray(circuit.counts(np.zeros((1, 1))))[0, 0])
     if open_count < 0.75 * full or not 0 <= max_count < full / 2:
+        return None
+    if min_count is not None and min_count > max_count / 2:
         return None
     b = circuit.bits - max(1, round(math.log2((open_count + 1) / (max_count + 1))))
     narrow_open = open_count / full * ((1 << b) - 1) if b >= 1 else 0.0

@@ -199,7 +199,7 @@ def run(args: argparse.Namespace) -> int:
         print(f"{where}: {rc.frames} frames recorded, {rc.invalid} invalid, {lost}, "
               f"{st.dropped_buffer} dropped by the host buffer"
               + (f"; ended early: {src.ended}" if src.ended and len(sources) > 1 else ""))
-        if rc.invalid and (why := invalid_line(st.invalid_reasons, src.dev)):
+        if rc.invalid and (why := invalid_line(st.invalid_reasons, src.dev, st.frames + st.invalid)):
             print(f"  {why}")
         if st.frames + st.invalid == 0 and (silent := silence_line(st.bytes_in, src.dev)):
             print(f"  {silent}")

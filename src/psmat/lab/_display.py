@@ -84,8 +84,9 @@ class DisplayFeed:
         self.skipped = 0
         self.updates = 0
         self.message: str | None = None
-        #: the largest count of every valid frame received, and how many (psmat.process.adc_hint)
+        #: the largest and smallest count of every valid frame received, and how many (psmat.process.adc_hint)
         self.max_count: int | None = None
+        self.min_count: int | None = None
         self.valid_frames = 0
         self.started_s = time.monotonic()
         self._cost_s = 2e-3
@@ -155,8 +156,9 @@ class DisplayFeed:
         candidates = np.flatnonzero(valid)
         if candidates.size == 0:
             return None
-        top = int(frames[candidates].max())  # every valid frame, shown or skipped: an empty cell's reading
+        top, low = int(frames[candidates].max()), int(frames[candidates].min())  # every valid frame, shown or not
         self.max_count = top if self.max_count is None else max(self.max_count, top)
+        self.min_count = low if self.min_count is None else min(self.min_count, low)
         self.valid_frames += int(candidates.size)
         fit = min(max(1, int(_BUDGET * self.period_s / max(self._cost_s, 1e-6))), 50)
         if candidates.size > fit:

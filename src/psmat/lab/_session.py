@@ -419,14 +419,15 @@ def _warnings(dev: Any, feed: DisplayFeed | None, profile: Any) -> list[str]:
     from ..process import adc_hint
 
     st, out = dev.stats, []
-    if int(getattr(st, "invalid", 0)) and (why := invalid_line(dict(getattr(st, "invalid_reasons", {}) or {}), dev)):
+    rows = int(getattr(st, "frames", 0)) + int(getattr(st, "invalid", 0))
+    if why := invalid_line(dict(getattr(st, "invalid_reasons", {}) or {}), dev, rows):
         out.append(why)
-    silent = int(getattr(st, "frames", 0)) + int(getattr(st, "invalid", 0)) == 0
+    silent = rows == 0
     if silent and feed is not None and time.monotonic() - feed.started_s >= _SILENT_S and \
             (why := silence_line(int(getattr(st, "bytes_in", 0)), dev)):
         out.append(why)
     if feed is not None and feed.max_count is not None and getattr(profile, "kind", None) == "psm" and \
-            (why := adc_hint(feed.max_count, feed.valid_frames, profile.circuit())):
+            (why := adc_hint(feed.max_count, int(feed.min_count or 0), feed.valid_frames, profile.circuit())):
         out.append(why)
     return out
 

@@ -32,17 +32,18 @@ def adc_line(session: Any, calibration: str | os.PathLike[str] | None = None) ->
         circuit = session_circuit(session, calibration=calibration)
     except ValueError:  # (a circuit the session cannot give is said where it is used)
         return None
-    return adc_hint(int(np.max(session.counts[session.valid])), int(np.sum(session.valid)), circuit)
+    counts = session.counts[session.valid]
+    return adc_hint(int(np.max(counts)), int(np.min(counts)), int(np.sum(session.valid)), circuit)
 
 
-def adc_hint(max_count: int, n_frames: int, circuit: Circuit) -> str | None:
-    """The line of :func:`adc_line` for counts that reached at most ``max_count`` over ``n_frames`` valid
-    frames read with ``circuit`` (the lab app keeps the running maximum of a live device); None when they fit."""
+def adc_hint(max_count: int, min_count: int, n_frames: int, circuit: Circuit) -> str | None:
+    """The line of :func:`adc_line` for counts between ``min_count`` and ``max_count`` over ``n_frames`` valid
+    frames read with ``circuit`` (the lab app keeps the running extremes of a live device); None when they fit."""
     import numpy as np
 
     from ..circuit import narrower_adc
 
-    bits = narrower_adc(max_count, circuit)
+    bits = narrower_adc(max_count, circuit, min_count)
     if bits is None:
         return None
     empty = int(np.asarray(circuit.counts(np.zeros((1, 1))))[0, 0])

@@ -1,0 +1,32 @@
+"""What a serial device's counters say went wrong (psmat.acquire.invalid_line, silence_line): the lines
+psmat record prints after a recording and the lab page shows while the mat runs."""
+
+from __future__ import annotations
+
+from types import SimpleNamespace
+
+from psmat.acquire import invalid_line, silence_line
+
+DIY = SimpleNamespace(bits=10, shape=(16, 16), port="/dev/ttyUSB0", protocol="csv", baudrate=115200)
+
+
+def test_invalid_rows_by_reason_most_first_with_what_to_check() -> None:
+    line = invalid_line({"range": 300, "count": 2, "token": 0}, DIY, rows=1000)
+    assert line == ("invalid rows by reason, since the port opened: range 300: counts above 1023, the most 10 bits "
+                    "hold: is the board's ADC wider (the profile's bits, --bits)?; count 2: lines of another number "
+                    "of counts than 16x16: is the shape right (--shape)?")
+
+
+def test_one_cut_first_line_or_a_noisy_percent_is_no_setting_to_check() -> None:
+    """The first line after the port opens is often cut (reason count): one invalid row says nothing, nor do
+    fewer than 1 % of the rows; without the row count every reason is said."""
+    assert invalid_line({"count": 1}, DIY, rows=20) is None
+    assert invalid_line({"count": 9}, DIY, rows=1000) is None and invalid_line({"count": 10}, DIY, rows=1000)
+    assert invalid_line({"count": 1}, DIY) is not None and invalid_line({}, DIY) is None
+
+
+def test_a_silent_port_and_one_that_sends_no_frame() -> None:
+    assert silence_line(0, DIY).startswith("no byte came from /dev/ttyUSB0: is the board running")
+    assert silence_line(500, DIY).startswith("500 bytes came from /dev/ttyUSB0 and none formed a frame of the csv "
+                                             "protocol: does the board send at 115200 baud")
+    assert silence_line(0, SimpleNamespace(port="lsl:mat")) is None  # an LSL stream has no serial line
