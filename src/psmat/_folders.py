@@ -70,11 +70,11 @@ WORKBOOKS = (".xlsx", ".xls", ".xlsm", ".ods", ".numbers")
 
 
 def workbook_hint(folder: Path, stem: str, shown: str = "") -> str:
-    """``"; forceplate/S01.xlsx is a spreadsheet workbook ...: save it as CSV"`` when ``folder`` holds a
+    """``"forceplate/S01.xlsx is a spreadsheet workbook ...: save it as CSV ..."`` when ``folder`` holds a
     workbook of ``stem`` (any case) where a CSV was looked for, else ``""``; ``shown`` is the folder as the
     line names it (``"forceplate/"``; ``""``: the name alone)."""
     books = data_files(folder, WORKBOOKS).get(stem.casefold(), [])
     if not books:
         return ""
-    return (f"; {shown}{books[0].name} is a spreadsheet workbook, which psmat does not read: save it as CSV "
+    return (f"{shown}{books[0].name} is a spreadsheet workbook, which psmat does not read: save it as CSV "
             "(File > Save As > CSV) beside it")

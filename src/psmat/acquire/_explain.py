@@ -22,10 +22,10 @@ def invalid_line(reasons: dict[str, int], dev: Any, rows: int | None = None) -> 
     invalid = sum(reasons.values())
     if not invalid or (rows is not None and (invalid <= 1 or invalid < NOISE_SHARE * rows)):
         return None
-    bits, (rows, cols) = int(getattr(dev, "bits", 0) or 0), dev.shape[:2]
+    bits, (n_rows, n_cols) = int(getattr(dev, "bits", 0) or 0), dev.shape[:2]
     said = {"range": f"counts above {2 ** bits - 1}, the most {bits} bits hold: is the board's ADC wider (the "
                      "profile's bits, --bits)?",
-            "count": f"lines of another number of counts than {rows}x{cols}: is the shape right (--shape)?",
+            "count": f"lines of another number of counts than {n_rows}x{n_cols}: is the shape right (--shape)?",
             "token": "a field that is not a count (text among the counts, or a board at another baud rate)"}
     return "invalid rows by reason, since the port opened: " + "; ".join(
         f"{k} {n}" + (f": {said[k]}" if k in said else "")

@@ -121,9 +121,12 @@ def ports_here() -> str:
     found = sorted(list_ports.comports(), key=lambda p: p.device)
     if not found:
         return "this computer has no serial port now: is the board plugged in, with a USB cable that carries data?"
-    return "serial ports here: " + ", ".join(
-        f"{p.device} ({p.description if p.description not in (None, '', 'n/a') else 'no description'}{', a psmat box' if is_psmat_port(p.vid, p.pid, p.product, p.manufacturer) else ''})"
-        for p in found)
+    said = []
+    for p in found:
+        what = p.description if p.description not in (None, "", "n/a") else "no description"
+        box = ", a psmat box" if is_psmat_port(p.vid, p.pid, p.product, p.manufacturer) else ""
+        said.append(f"{p.device} ({what}{box})")
+    return "serial ports here: " + ", ".join(said)
 
 
 def _group_hint(port: str) -> str:

@@ -384,7 +384,7 @@ def _cop_from_moments(header: list[str], data: NDArray[np.float64], ifz: int | N
     if surface_z_mm != 0.0:
         if ifx is None or ify is None:
             raise ValueError(f"{path}: surface_z_mm needs the horizontal forces Fx and Fy (columns: {header})")
-        z = surface_z_mm * 0.1  # cm
+        z = surface_z_mm * cm_per_unit("mm")  # cm
         fx, fy = data[:, ifx] * _newtons(header, ifx, path), data[:, ify] * _newtons(header, ify, path)
         mx, my, used = mx + z * fy, my - z * fx, used + [ifx, ify]
     with np.errstate(divide="ignore", invalid="ignore"):  # Fz = 0: off the plate, a lost sample (samples())

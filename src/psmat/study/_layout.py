@@ -276,7 +276,8 @@ def find_study(root: str | os.PathLike[str]) -> StudyLayout:
         problems.append(f"{len(tables['subjects'])} subjects files ({', '.join(p.name for p in tables['subjects'])}): "
                         "which one holds the study's subjects is not known: keep one; no body weights")
     else:
-        problems.append(f"{root / 'subjects.csv'} not found: no body weights{workbook_hint(root, 'subjects')}")
+        book = workbook_hint(root, "subjects")
+        problems.append(f"{root / 'subjects.csv'} not found: no body weights" + (f"; {book}" if book else ""))
     plates = data_files(root / "forceplate", _PLATFORM_SUFFIXES)
     cal = {p.stem: p for p in sorted((root / "calibration").glob("*.json")) if not hidden(p)}
     logs = data_files(root / "events", (".csv",))
@@ -289,8 +290,8 @@ def find_study(root: str | os.PathLike[str]) -> StudyLayout:
         log, log_problem = companion(s.stem, logs, "events")
         item = StudyItem(s.stem, s, plate, subject, trial, simulated=simulated, not_closed=not_closed,
                          events=log, serial=serial, circuit=circuit)
-        if log is None and not log_problem and (book := workbook_hint(root / "events", s.stem, "events/")):
-            log_problem = book[2:]  # an experimenter's log kept as a workbook
+        if log is None and not log_problem:  # an experimenter's log kept as a workbook
+            log_problem = workbook_hint(root / "events", s.stem, "events/") or None
         if log_problem:  # which markers are right is not known: none are used
             item.problems.append(f"events file not used, no conditions: {log_problem}")
             item.events_unusable = item.problems[-1]
@@ -324,8 +325,8 @@ def find_study(root: str | os.PathLike[str]) -> StudyLayout:
         if plate_problem:
             item.problems.append(plate_problem)
         elif item.forceplate is None:
-            item.problems.append(f"no force-platform file forceplate/{s.stem}.csv"
-                                 + workbook_hint(root / "forceplate", s.stem, "forceplate/"))
+            book = workbook_hint(root / "forceplate", s.stem, "forceplate/")
+            item.problems.append(f"no force-platform file forceplate/{s.stem}.csv" + (f"; {book}" if book else ""))
         items.append(item)
     if not items:
         problems.append(f"{sessions} holds no *.h5 session")

@@ -300,6 +300,15 @@ def utc_now() -> str:
 MAX_UTC_OFFSET_S = 18 * 3600
 
 
+def utc_offset_value(v: Any) -> int | None:
+    """A stored ``utc_offset_s`` (s east of UTC) as an int, or None when it is none an offset a clock keeps."""
+    try:
+        off = int(np.asarray(v).item())
+    except (TypeError, ValueError):
+        return None
+    return off if abs(off) <= MAX_UTC_OFFSET_S else None
+
+
 def local_utc_offset_s() -> int:
     """This computer's offset from UTC now (s east of UTC), as its time zone says (daylight saving included)."""
     off = _dt.datetime.now().astimezone().utcoffset()

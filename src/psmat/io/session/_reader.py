@@ -23,7 +23,7 @@ from ._journal import Journal, format_ranges, stream_journals
 from ._build import write_session_file
 from ._layout import (
     COUNTER_NAMES,
-    MAX_UTC_OFFSET_S,
+    utc_offset_value,
     FORMAT_NAME,
     KINDS,
     PER_FRAME,
@@ -236,13 +236,9 @@ def _utc_offset(attrs: Any, notes: list[str]) -> int | None:
     v = attrs.get("utc_offset_s")
     if v is None:
         return None
-    try:
-        off = int(np.asarray(v).item())
-    except (TypeError, ValueError):
-        off = None
-    if off is None or abs(off) > MAX_UTC_OFFSET_S:
+    off = utc_offset_value(v)
+    if off is None:
         notes.append(f"utc_offset_s {v!r} is not an offset from UTC in s: left out")
-        return None
     return off
 
 

@@ -14,7 +14,7 @@ import h5py
 import numpy as np
 from numpy.typing import NDArray
 
-from ._layout import KINDS, MAX_UTC_OFFSET_S, attr_str
+from ._layout import KINDS, attr_str, utc_offset_value
 
 __all__ = ["sample_frames", "host_time_span"]
 
@@ -64,7 +64,6 @@ def utc_offset_of(path: str | os.PathLike[str]) -> int | None:
     try:
         with h5py.File(path, "r") as f:
             v = f.attrs.get("utc_offset_s")
-            off = None if v is None else int(np.asarray(v).item())
     except (OSError, KeyError, ValueError, TypeError):
         return None
-    return off if off is not None and abs(off) <= MAX_UTC_OFFSET_S else None
+    return None if v is None else utc_offset_value(v)

@@ -138,13 +138,12 @@ def session_recording(path: str | os.PathLike[str], *, calibration: str | os.Pat
         Overrides of :data:`DEFAULT_PARAMS`.
     """
     from ...io import load_session
+    from ...process import adc_line
 
     p = {**DEFAULT_PARAMS, **(params or {})}
     s = load_session(path)
     if s.kind != "psm":
         raise ValueError(f"{Path(path).name}: the session's root stream is {s.kind!r}, not the mat ('psm')")
-    from ...process import adc_line
-
     if narrow := adc_line(s, calibration):  # processed so, every empty cell would read as a loaded one
         raise ValueError(f"{Path(path).name}: {narrow}")
     meta: dict[str, Any] = {"session": Path(path).name, "simulated": s.metadata.get("simulated") is True}
