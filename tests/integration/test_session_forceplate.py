@@ -255,6 +255,15 @@ def test_forceplate_rows_that_are_not_a_preamble(tmp_path: Path) -> None:
     p.write_text("t,x,y,Fz\n0,1,2,700\n0.01,,,3\n0.02,1.5,2.5,690\n")
     r = load_forceplate_csv(p)
     assert np.isnan(r.cop_ml_cm[1]) and r.samples()[0].tolist() == [0.0, 0.02]
+    # empty fields at the end of a row are missing values too (before: "row 3 has 1 fields, expected 3");
+    # a delimiter that ends every line adds no field, the European way included
+    p.write_text("t,x,y\n0,1,2\n0.01,,\n0.02,1.5,2.5\n")
+    r = load_forceplate_csv(p)
+    assert r.meta["columns"] == ["t", "x", "y"] and r.samples()[0].tolist() == [0.0, 0.02]
+    p.write_text("t;x;y;\n0;1,5;2;\n0,01;;;\n0,02;1;3;\n")
+    r = load_forceplate_csv(p)
+    assert r.meta["columns"] == ["t", "x", "y"] and r.samples()[0].tolist() == [0.0, 0.02]
+    np.testing.assert_allclose(r.cop_ml_cm[[0, 2]], [1.5, 1.0])
     p.write_bytes(b"t,x,y\n0,1,2\n\x00\x01\x02\n")
     with pytest.raises(ValueError, match=r"fp.csv: is not text \(byte 0x00 at offset 12\)"):
         load_forceplate_csv(p)

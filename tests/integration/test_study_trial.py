@@ -330,3 +330,27 @@ def test_a_session_from_a_narrower_adc_is_an_error_not_a_result(trial, tmp_path)
         f"error: ValueError: no count above {top} in {s.n_frames} valid frames, where an empty cell reads "
         f"{empty} of 4095 (12 bits): is the board's ADC 10-bit? Every cell then reads as loaded: "
         "record with --bits 10 (or a profile with bits = 10)") for r in rows)
+
+
+def test_a_platform_that_writes_0_0_off_the_plate_loses_those_samples(trial, tmp_path) -> None:
+    """A platform without Fz whose software writes (0, 0) while no one stands on it, its origin at a corner
+    (the CoP 20 cm from it): before, the second the subject stepped off joined the trace, and the trial
+    aligned poorly ("is FILE this session's platform file?"). Now such samples, far outside the trace, are
+    lost samples: the rows are those of the same file with that second's fields left empty."""
+    session, plate, weight_kg, lag = trial
+    data = np.loadtxt(plate, delimiter=",", skiprows=1)
+    xy = data[:, 1:3] + 20.0
+    off = (data[:, 0] >= data[0, 0] + 5.0) & (data[:, 0] < data[0, 0] + 6.0)  # one second off the plate
+    zeros, empty = tmp_path / "zeros.csv", tmp_path / "empty.csv"
+    np.savetxt(zeros, np.c_[data[:, 0], np.where(off[:, None], 0.0, xy)], delimiter=",", header="time,x,y",
+               comments="", fmt="%.10g")
+    empty.write_text("time,x,y\n" + "".join(f"{t:.10g},,\n" if o else f"{t:.10g},{x:.10g},{y:.10g}\n"
+                                             for t, (x, y), o in zip(data[:, 0], xy, off)))
+    params = {"variants": ["PROP"]}
+    rows, ref = (process_trial(session, f, "S01", "right", weight_kg, params) for f in (zeros, empty))
+    assert all(r["status"] == "ok" for r in rows)
+    for a, b in zip(rows, ref, strict=True):
+        assert a.keys() == b.keys()
+        for k in a:
+            same = a[k] == b[k] or (isinstance(a[k], float) and np.isnan(a[k]) and np.isnan(b[k]))
+            assert same, (a["variant"], k, a[k], b[k])

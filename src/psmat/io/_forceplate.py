@@ -98,7 +98,10 @@ class ForcePlateRecording:
         A sample without (NaN: a platform's software writes one where Fz fell below its threshold,
         the subject off the plate, or a dropout) is left out as a lost sample, and so is one whose
         vertical force, where the file has it, is below :data:`FZ_SHARE` of the recording's median
-        (CoP = moment / Fz is undefined without a load: such software writes 0 or noise there); the
+        (CoP = moment / Fz is undefined without a load: such software writes 0 or noise there). In a
+        file without Fz, a sample at exactly (0, 0) that lies more than :data:`ZERO_MADS` median
+        absolute deviations of the trace from its median, on an axis, is what such software writes
+        while no one stands on a plate whose origin is off the feet (a corner): a lost sample too. The
         others keep their times.
 
         Raises
@@ -114,6 +117,8 @@ class ForcePlateRecording:
             fz = np.abs(np.asarray(self.fz_n, np.float64))  # a platform may count downward force negative
             if np.isfinite(fz).any():
                 ok &= fz >= FZ_SHARE * float(np.nanmedian(fz))  # NaN compares False: lost too
+        else:
+            ok &= ~_off_the_plate(c, ok)
         if ok.sum() < 2:
             raise ValueError(f"force-platform file {name} has {int(ok.sum())} sample(s) with a time and a CoP; "
                              "it needs at least 2")
@@ -133,6 +138,23 @@ class ForcePlateRecording:
     def __repr__(self) -> str:
         src = self.meta.get("source", "")
         return f"ForcePlateRecording(n={self.n}, rate_hz={self.rate_hz:.3g}, fz={'yes' if self.fz_n is not None else 'no'}, source={src!r})"
+
+
+#: median absolute deviations of a trace beyond which a sample at exactly (0, 0) is not the body's
+#: CoP but a platform's fill while no one stands on it (ForcePlateRecording.samples)
+ZERO_MADS = 10.0
+
+
+def _off_the_plate(c: NDArray[np.float64], ok: NDArray[np.bool_]) -> NDArray[np.bool_]:
+    """The samples at exactly (0, 0) far outside the rest of the trace (:data:`ZERO_MADS`)."""
+    zero = ok & np.all(c == 0.0, axis=1)
+    rest = c[ok & ~zero]
+    if not zero.any() or len(rest) < 2:
+        return np.zeros(len(c), bool)
+    med = np.median(rest, axis=0)
+    mad = np.median(np.abs(rest - med), axis=0)
+    far = np.any(np.abs(med) > ZERO_MADS * mad, axis=0)  # the origin, from the trace, on either axis
+    return zero if bool(far) else np.zeros(len(c), bool)
 
 
 # ---------------------------------------------------------------------- generic CSV
@@ -173,6 +195,13 @@ def _numeric(row: list[str]) -> bool:
 
 #: a field of a units row under the header: ``s``, ``mm``, ``[N]``, ``(N.m)``, ``µs``, ``%``
 _UNIT_FIELD = re.compile(r"[\[(]?\s*[A-Za-zµ°%/.*·^²\-]{1,8}\s*[\])]?")
+
+
+def _without_trailing_empties(row: list[str]) -> list[str]:
+    k = len(row)
+    while k and not row[k - 1]:
+        k -= 1
+    return row[:k]
 
 
 def _units_row(row: list[str]) -> bool:
@@ -235,13 +264,15 @@ def _read_table(path: Path, delimiter: str | None) -> tuple[list[str] | None, ND
         delimiter = "\t" if "\t" in probe else ";" if ";" in probe else "," if "," in probe else None
     if delimiter:
         rows = [[c.strip() for c in r] for r in csv.reader(io.StringIO("\n".join(lines)), delimiter=delimiter)]
-        for r in rows:  # a delimiter that ends every line adds no field
-            while r and not r[-1]:
-                r.pop()
     else:
         rows = [ln.split() for ln in lines]
     if delimiter != ",":  # tabs, semicolons or spaces: a decimal comma read as a point (the European CSV)
         rows = [[c.replace(",", ".") for c in r] for r in rows]
+    if delimiter:  # a delimiter that ends every line adds no field; an empty last field of one row is a missing value
+        trail = [len(r) - len(_without_trailing_empties(r)) for r in rows]
+        numbers = [k for r, k in zip(rows, trail) if _numeric(r)]
+        common = min(numbers) if numbers else min(trail)
+        rows = [r[:len(r) - min(k, common)] for r, k in zip(rows, trail)]
     clocks = _clock_columns(rows)
     width = len(rows[-1])
     header: list[str] | None = None
