@@ -268,12 +268,12 @@ def _read_table(path: Path, delimiter: str | None) -> tuple[list[str] | None, ND
         rows = [ln.split() for ln in lines]
     if delimiter != ",":  # tabs, semicolons or spaces: a decimal comma read as a point (the European CSV)
         rows = [[c.replace(",", ".") for c in r] for r in rows]
+    clocks = _clock_columns(rows)
     if delimiter:  # a delimiter that ends every line adds no field; an empty last field of one row is a missing value
         trail = [len(r) - len(_without_trailing_empties(r)) for r in rows]
         numbers = [k for r, k in zip(rows, trail) if _numeric(r)]
         common = min(numbers) if numbers else min(trail)
         rows = [r[:len(r) - min(k, common)] for r, k in zip(rows, trail)]
-    clocks = _clock_columns(rows)
     width = len(rows[-1])
     header: list[str] | None = None
     start = at = 0  # the first data row; the header's row
