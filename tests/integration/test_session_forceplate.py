@@ -264,9 +264,9 @@ def test_forceplate_rows_that_are_not_a_preamble(tmp_path: Path) -> None:
     r = load_forceplate_csv(p)
     assert r.meta["columns"] == ["t", "x", "y"] and r.samples()[0].tolist() == [0.0, 0.02]
     np.testing.assert_allclose(r.cop_ml_cm[[0, 2]], [1.5, 1.0])
-    p.write_text("Export;\nTime;x;y;\n12:00:00,00;1,5;2;\n12:00:00,01;;;\n12:00:00,02;1;3;\n")  # clock times too
+    p.write_text("Export\nTime;x;y;\n12:00:00,00;1,5;2;\n12:00:00,01;;;\n12:00:00,02;1;3;\n")  # clock times too
     r = load_forceplate_csv(p)
-    assert r.meta["columns"] == ["Time", "x", "y"] and r.meta["preamble"] == ["Export;"]
+    assert r.meta["columns"] == ["Time", "x", "y"] and r.meta["preamble"] == ["Export"]
     np.testing.assert_allclose(r.samples()[0] - 43200.0, [0.0, 0.02], atol=1e-9)
     p.write_bytes(b"t,x,y\n0,1,2\n\x00\x01\x02\n")
     with pytest.raises(ValueError, match=r"fp.csv: is not text \(byte 0x00 at offset 12\)"):
