@@ -93,10 +93,10 @@ def check_spread(cop_ref_cm: ArrayLike, cop_cm: ArrayLike, read_as: str = "cm") 
     return SpreadCheck(ratio, read_as, fits)
 
 
-def spread_question(name: str, check: SpreadCheck, meta: dict[str, object]) -> str:
-    """What to ask of the platform file ``name`` whose spread is off (``meta``: its
-    ``ForcePlateRecording.meta``): its unit, or, for a CoP from forces and moments, their units."""
-    if meta.get("cop_from", "the columns") != "the columns":
+def spread_question(name: str, check: SpreadCheck, cop_from: str = "the columns") -> str:
+    """What to ask of the platform file ``name`` whose spread is off (``cop_from``: its
+    ``ForcePlateRecording.meta["cop_from"]``): its unit, or, for a CoP from forces and moments, their units."""
+    if cop_from != "the columns":
         return (f"are {name}'s forces in N and its moments in the unit their header names (N·m unless N·cm or "
                 "N·mm), and is it this session's platform file?")
     if check.fits:

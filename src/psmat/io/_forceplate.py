@@ -212,22 +212,16 @@ def _units_row(row: list[str]) -> bool:
 _CLOCK_UNIT = re.compile(r"(?i)[\[(]?\s*hh?:mm:ss(?:[.,]s+)?\s*[\])]?")
 
 
-def _clock_seconds(field: str) -> float | None:
-    """The seconds of a clock time (:func:`psmat._wallclock.parse_clock`: of the day; since 1970 for a date
-    and time, on the file's clock or, with its offset, in UTC), or None when ``field`` is neither. Any
-    clock serves: the platform's lag to the mat is searched."""
-    t = parse_clock(field)
-    return None if t is None else t.seconds
-
-
 def _clock_columns(rows: list[list[str]]) -> list[set[int]]:
-    """Turns the clock times of ``rows`` into seconds, in place (as text); per row, the columns that held one."""
+    """Turns the clock times of ``rows`` into seconds, in place (as text; :func:`psmat._wallclock.parse_clock`: of
+    the day, or since 1970 for a date and time; any clock serves, the platform's lag to the mat is searched);
+    per row, the columns that held one."""
     clock: list[set[int]] = []
     for r in rows:
         clock.append(set())
         for k, c in enumerate(r):
-            if ":" in c and (v := _clock_seconds(c)) is not None:
-                r[k] = repr(v)
+            if ":" in c and (v := parse_clock(c)) is not None:
+                r[k] = repr(v.seconds)
                 clock[-1].add(k)
     return clock
 

@@ -243,7 +243,7 @@ def analyse(item: ReportItem, p: dict[str, Any]) -> SessionAnalysis:
             + " The lag, Eu and the platform's numbers below are not comparable with the mat's.")
         if not plat.poor and plat.spread is not None and plat.spread.off:
             plat_note = (f"The platform's CoP spreads {plat.spread.ratio:.3g} times the mat's (about 1 expected): "
-                         f"{spread_question(plat.path.name, plat.spread, plat.meta)} Eu and the platform's numbers "
+                         f"{spread_question(plat.path.name, plat.spread, plat.cop_from)} Eu and the platform's numbers "
                          "below are not comparable with the mat's.")
     return SessionAnalysis(
         label=item.label or path.name, path=path, recorded=_recorded(s, rec, duration, rate, missing),

@@ -9,7 +9,7 @@ own samples within the overlap after the report's one preprocessing.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -45,8 +45,8 @@ class PlatformResult:
     other_axes: tuple[str, float] | None = None
     #: how far the platform's CoP spreads against the mat's (psmat.balance.check_spread: a file read in another unit)
     spread: SpreadCheck | None = None
-    #: the platform file's ForcePlateRecording.meta (its unit, how its CoP was found)
-    meta: dict[str, Any] = field(default_factory=dict)
+    #: how the platform file's CoP was found (ForcePlateRecording.meta["cop_from"])
+    cop_from: str = "the columns"
 
 
 def _metrics(t: NDArray[np.float64], c: NDArray[np.float64], preset: str | None
@@ -91,4 +91,4 @@ def compare_platform(path: Path, t_s: NDArray[np.float64], cop_cm: NDArray[np.fl
                           eu_ap_cm=eu(am[:, 1], bm[:, 1]), mat=m_mat, fp=m_fp, t_s=tp - tp[0],
                           mat_cm=xy_mat - xy_mat.mean(axis=0), fp_cm=fp_at - fp_at.mean(axis=0),
                           poor=a.poor, other_axes=None if other is None else (other[0], other[1].r),
-                          spread=check_spread(c_fp[in_fp], mat, fp.meta["unit"]), meta=fp.meta)
+                          spread=check_spread(c_fp[in_fp], mat, fp.meta["unit"]), cop_from=fp.meta["cop_from"])

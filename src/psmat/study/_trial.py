@@ -288,7 +288,7 @@ def _process(session: Path, forceplate: Path | None, subject: str, trial: str, w
     if spread.off and not a.poor:  # the rows keep their numbers; their status keeps them out of the summary
         name = Path(forceplate).name
         why = f"{PLATFORM_SPREAD}: its CoP spreads {spread.ratio:.3g} times the mat's ({p['align_on']}; about 1 " \
-              f"expected, flagged beyond {SPREAD_MISMATCH:g} either way): {spread_question(name, spread, plate.meta)}"
+              f"expected, flagged beyond {SPREAD_MISMATCH:g} either way): {spread_question(name, spread, plate.meta['cop_from'])}"
         rows = [{**r, "status": why if r["status"] == "ok" else f"{r['status']}; {why}"} for r in rows]
     if a.poor:  # the rows keep their numbers; their status keeps them out of the summary
         other = find_platform_axes(t_fp, c_loaded, t[ok], ref[ok], besides=p["platform_axes"], max_lag_s=p["max_lag_s"])
