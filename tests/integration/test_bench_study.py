@@ -160,6 +160,27 @@ def test_scaling_runs_each_count_from_scratch_with_the_same_metrics(tmp_path) ->
     assert s["pool_fit"]["parallel_s"] == pytest.approx(p) and s["pool_fit"]["serial_s"] == pytest.approx(
         one["wall_s"] - p)
     assert "pool: least-squares fit T(n) = S + P/n: S = " in text
+    # the session tasks' CPU per session: the session stage's CPU over the sessions it computed
+    m = re.search(r"^the session tasks' CPU time per session \(s, in their workers\): pool 1: ([\d.]+) s, "
+                  r"pool 2: ([\d.]+) s$", text, re.M)
+    assert m, text
+    for run_, shown in zip((one, two), m.groups()):
+        assert float(shown) == pytest.approx(run_["stages"]["sessions"]["cpu_s"] / 3, abs=0.006)
+    # the load probe, before the runs: one session in 1 and then 2 processes at once, its ceiling the
+    # ratio of the two medians (by hand), printed before the first run and again under the table
+    load = s["load"]
+    assert load["session"].endswith("V01_left-leg.h5") and [x["processes"] for x in load["runs"]] == [1, 2]
+    # (whether the two ran at once depends on this machine's load: the flag is tested below by hand)
+    assert all(1 <= x["distinct_processes"] <= x["processes"] for x in load["runs"])
+    assert all(0 < x["wall_s"] and 0 < x["cpu_s"] for x in load["runs"])
+    assert load["ceiling"]["1"] == 1.0 and load["ceiling"]["2"] == pytest.approx(
+        load["runs"][0]["wall_s"] / load["runs"][1]["wall_s"])
+    probe = re.findall(r"^ +(\d) at once: ([\d.]+) s wall, ([\d.]+) s CPU; ceiling on efficiency against 1: "
+                       r"([\d.]+)(?:  \(not all at once: .*\))?$", text, re.M)
+    assert len(probe) == 4 and probe[:2] == probe[2:] and text.index("at once") < text.index("run done")
+    for (n, wall, cpu, ceiling), x in zip(probe, load["runs"]):
+        assert (float(wall), float(cpu)) == pytest.approx((x["wall_s"], x["cpu_s"]), abs=0.006)
+        assert float(ceiling) == pytest.approx(load["ceiling"][n], abs=0.006)
     # 1 and 2 workers are not the goal's 2 and 16: the efficiency without a met/MISSED mark
     assert s["pool_goal_efficiency"] is None
     assert "pool: 2->16 goal not measured here: counts 1,2; efficiency at 2 workers against 1: " in text
@@ -196,6 +217,19 @@ def test_the_counts_and_the_goal_mark() -> None:
     s["usable_cpus"] = 2
     text = format_scaling(s)
     assert "0.47 (MISSED)" in text
+    assert "ceiling" not in text  # no probe, no ceiling
+    # a probe that found one session 1.25x slower with 16 processes at once: a ceiling of 0.8, and the
+    # measured 0.47 is 0.59 of it (by hand: 0.47 / 0.8 = 0.5875)
+    s["load"] = {"session": "/s/V01_left-leg.h5", "ceiling": {2: 1.0, 16: 0.8},
+                 "runs": [{"processes": 2, "wall_s": 4.0, "cpu_s": 3.9, "distinct_processes": 2, "overlapped": True},
+                          {"processes": 16, "wall_s": 5.0, "cpu_s": 4.9, "distinct_processes": 15,
+                           "overlapped": True}]}
+    text = format_scaling(s)
+    assert "   2 at once: 4.00 s wall, 3.90 s CPU; ceiling on efficiency against 2: 1.00\n" in text
+    # one process ran two of the 16 sessions: flagged
+    assert "  16 at once: 5.00 s wall, 4.90 s CPU; ceiling on efficiency against 2: 0.80  (not all at once" in text
+    assert "pool: 2->16 efficiency 0.47 against this machine's ceiling 0.80: 0.59 of what its cores under load " \
+           "allow" in text
     assert "warning: 16 workers exceed the 2 CPUs this process may use: their efficiency measures " \
            "oversubscription, not scaling" in text
 
@@ -213,7 +247,7 @@ def test_scaling_options_refused_in_one_line(capsys) -> None:
 
 def test_scaling_on_a_local_dask_cluster_too(tmp_path) -> None:
     pytest.importorskip("distributed")
-    text, r = _scaling(["--scaling", "1,2", "--dask"], tmp_path)
+    text, r = _scaling(["--scaling", "1,2", "--dask", "--no-load-probe"], tmp_path)
     pool, dask = _check_rows(text, "pool", [1, 2]), _check_rows(text, "Dask LocalCluster", [1, 2])
     s = r["scaling"]
     assert [(x["kind"], x["workers"], x["computed"]) for x in s["runs"]] == [
@@ -253,7 +287,7 @@ def test_bench_dask_workers_start_without_the_malloc_trim_variable(monkeypatch) 
 
 
 def test_dask_only_runs_the_clusters_counts_alone(tmp_path) -> None:
-    text, r = _scaling(["--scaling", "1", "--dask-only"], tmp_path)
+    text, r = _scaling(["--scaling", "1", "--dask-only", "--no-load-probe"], tmp_path)
     assert [m.group(1) for m in ROW.finditer(text)] == ["Dask LocalCluster"]  # no pool's run
     assert [(x["kind"], x["workers"], x["computed"]) for x in r["scaling"]["runs"]] == [("dask", 1, 3)]
     assert "speed-up over the pool" not in text and "pool:" not in text

@@ -49,8 +49,13 @@ workers at least 80 % parallel efficiency — marked met or MISSED when 2 and 16
 after. ``metrics.csv`` must be byte-identical across every run; a count above this process's
 CPUs is run but flagged, its efficiency then measuring oversubscription
 (:mod:`psmat.bench.study_scaling`). ``--dask-only`` runs the LocalCluster's counts alone, so that
-the two kinds can be measured in two sittings (``--dir`` keeps the study for the second). On a
-16-core machine:
+the two kinds can be measured in two sittings (``--dir`` keeps the study for the second).
+
+Before the runs, a **load probe** (:mod:`psmat.bench.load_probe`; ``--no-load-probe`` skips it)
+times one session processed by n processes at once, for each count n: the ratio of its time at
+the smallest count to its time at n is the efficiency that this machine's cores under load allow
+a perfectly parallel study, the ceiling beside which the runs' efficiency is read. The session
+tasks' CPU time per session is printed for each run too. On a 16-core machine:
 
     python -m psmat.bench study --scaling 2,4,8,16 --dask
 """
@@ -69,19 +74,12 @@ from typing import Any
 
 from .machine import machine_info
 from .study_scaling import stage_times
+from .study_task import process_one, session_args
 from .study_order import format_orders, replay_orders
 
 __all__ = ["main", "run", "parallel_fraction"]
 
 TARGET_S = 180.0  # docs/spec.md §10: a thesis-size study in <= 180 s on 2 cores
-
-
-def _pool_task(item: tuple[str, str | None, str, str, float | None]) -> int:
-    """One session by the baseline: the per-session function, nothing written; its row count."""
-    from ..study import process_trial
-
-    session, plate, subject, trial, weight = item
-    return len(process_trial(session, plate, subject, trial, weight))
 
 
 def _frames(layout: Any) -> int:
@@ -92,11 +90,11 @@ def _frames(layout: Any) -> int:
 
 def run(volunteers: int = 42, seconds: float = 60.0, rate_hz: float = 100.0, workers: int = 2, seed: int = 0,
         study_dir: str | None = None, baseline: bool = True, scaling: list[int] | None = None,
-        dask: bool = False, pool: bool = True) -> dict[str, Any]:
+        dask: bool = False, pool: bool = True, load_probe: bool = True) -> dict[str, Any]:
     """Simulate (or reuse) a study and time its processing; the figures as a dict. With
     ``scaling`` (worker counts) its runs at each count instead (``workers`` and ``baseline``
-    unused; ``dask``: on a LocalCluster too, and with ``pool`` False only there), under ``"scaling"``
-    (:func:`psmat.bench.study_scaling.run_scaling`)."""
+    unused; ``dask``: on a LocalCluster too, and with ``pool`` False only there; ``load_probe``: the
+    machine's ceiling measured first), under ``"scaling"`` (:func:`psmat.bench.study_scaling.run_scaling`)."""
     from ..study import find_study
     from ..study import run_study
     from ..synth import simulate_study
@@ -124,7 +122,7 @@ def run(volunteers: int = 42, seconds: float = 60.0, rate_hz: float = 100.0, wor
             from .study_scaling import run_scaling
 
             out["workers"] = None
-            out["scaling"] = run_scaling(root, scaling, dask=dask, pool=pool)
+            out["scaling"] = run_scaling(root, scaling, dask=dask, pool=pool, load_probe=load_probe)
             return out
 
         shutil.rmtree(root / "results", ignore_errors=True)
@@ -141,12 +139,10 @@ def run(volunteers: int = 42, seconds: float = 60.0, rate_hz: float = 100.0, wor
         out["resume_computed"] = again.computed
 
         if baseline:
-            items = [(str(i.session), None if i.forceplate is None else str(i.forceplate), i.subject or "",
-                      i.trial or "", None if i.subject not in layout.subjects else layout.subjects[i.subject].weight_kg)
-                     for i in layout.items]
+            items = session_args(layout)
             t0 = time.perf_counter()
             with mp.get_context("spawn").Pool(workers) as pool:
-                rows = sum(pool.map(_pool_task, items, chunksize=1))
+                rows = sum(pool.map(process_one, items, chunksize=1))
                 pool.close()  # the workers exit on their own (the with-block alone terminates them)
                 pool.join()
             out["baseline_s"] = time.perf_counter() - t0
@@ -255,6 +251,10 @@ def build_parser(prog: str = "python -m psmat.bench study") -> argparse.Argument
     p.add_argument("--dask-only", action="store_true",
                    help="with --scaling: the LocalCluster's runs alone, without the pool's (to split a "
                         "measurement in two sittings)")
+    p.add_argument("--no-load-probe", action="store_true",
+                   help="with --scaling: skip the probe of how much slower one session runs with every count "
+                        "of processes at once (the machine's own ceiling on efficiency; two sessions' time per "
+                        "count)")
     p.add_argument("--seed", type=int, default=0, help="seed of the simulated study")
     p.add_argument("--dir", metavar="PATH", default=None,
                    help="keep the simulated study here, reused when it matches (default: a temporary folder)")
@@ -302,7 +302,7 @@ def main(argv: list[str] | None = None, prog: str = "python -m psmat.bench study
         print(f"{prog}: {exc}", file=sys.stderr)
         return 1
     r = run(a.volunteers, a.seconds, a.rate, a.workers, a.seed, a.dir, not a.no_baseline, scaling,
-            a.dask or a.dask_only, not a.dask_only)
+            a.dask or a.dask_only, not a.dask_only, not a.no_load_probe)
     print(format_report(r))
     if a.json:
         write_text_atomic(a.json, json.dumps(r, indent=2, default=str))

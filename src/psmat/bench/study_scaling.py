@@ -264,7 +264,7 @@ def _name(r: dict[str, Any]) -> str:
 
 
 def run_scaling(root: str | os.PathLike[str], counts: Sequence[int], dask: bool = False,
-                progress: bool = True, pool: bool = True) -> dict[str, Any]:
+                progress: bool = True, pool: bool = True, load_probe: bool = True) -> dict[str, Any]:
     """Run the study in ``root`` from scratch at each worker count, on the pool and with ``dask``
     on a LocalCluster; the runs, fits, goal and checks as plain data (:func:`format_scaling`).
 
@@ -281,6 +281,9 @@ def run_scaling(root: str | os.PathLike[str], counts: Sequence[int], dask: bool 
     pool : bool
         False: the LocalCluster's runs only (with ``dask``), say to measure the two kinds in two
         sittings on a machine lent for a few minutes.
+    load_probe : bool
+        First measure how much slower one session runs with each count of processes at once
+        (:func:`psmat.bench.load_probe.probe_load`: the machine's own ceiling), under ``"load"``.
     """
     root = Path(root)
     counts = list(counts)
@@ -288,6 +291,13 @@ def run_scaling(root: str | os.PathLike[str], counts: Sequence[int], dask: bool 
     out: dict[str, Any] = {"counts": counts, "usable_cpus": cpus, "problems": []}
     if not pool and not dask:
         raise ValueError("nothing to run: the pool's runs left out and no Dask runs asked for")
+    if load_probe:
+        from ..study import find_study
+        from .load_probe import format_probe, probe_load
+        from .study_task import session_args
+
+        out["load"] = probe_load(session_args(find_study(root))[0], counts)
+        print("\n".join(format_probe(out["load"])), flush=True)
     kinds = {}
     if pool:
         runs = []
@@ -363,6 +373,20 @@ def format_scaling(s: dict[str, Any], sessions: int | None = None) -> str:
             lines.append(f"{KINDS[kind]}: {lo}->{hi} goal not measured here: counts "
                          f"{','.join(map(str, s['counts']))}; efficiency at {mine[-1]['workers']} workers against "
                          f"{mine[0]['workers']}: {mine[-1]['efficiency']:.2f}")
+    per = [f"{KINDS[r['kind']]} {r['workers']}: {r['stages']['sessions']['cpu_s'] / r['computed']:.2f} s"
+           for r in runs if r.get("stages") and r.get("computed")]
+    if per:
+        lines.append(f"the session tasks' CPU time per session (s, in their workers): {', '.join(per)}")
+    if s.get("load") is not None:
+        from .load_probe import format_probe
+
+        lines += format_probe(s["load"])
+        ceiling = s["load"]["ceiling"].get(hi) if s["load"]["runs"][0]["processes"] == lo else None
+        for kind in kinds:
+            eff = s[f"{kind}_goal_efficiency"]
+            if eff is not None and ceiling is not None:
+                lines.append(f"{KINDS[kind]}: {lo}->{hi} efficiency {eff:.2f} against this machine's ceiling "
+                             f"{ceiling:.2f}: {eff / ceiling:.2f} of what its cores under load allow")
     if "dask" in kinds and "pool" in kinds:
         by = {r["workers"]: r["wall_s"] for r in runs if r["kind"] == "pool"}
         ratios = ", ".join(f"{n}: {by[n] / r['wall_s']:.2f}" for r in runs if r["kind"] == "dask"
