@@ -378,3 +378,32 @@ def test_a_wider_board_under_the_profile_is_said_while_the_mat_runs(tmp_path: Pa
     assert len(warnings) == 1 and warnings[0].startswith("invalid rows by reason, since the port opened: range ")
     assert "counts above 1023, the most 10 bits hold: is the board's ADC wider (the profile's bits, --bits)?" \
         in warnings[0]
+
+
+def test_the_bits_the_warning_names_are_an_option_of_the_lab(tmp_path: Path) -> None:
+    """The lab's ADC lines say which --bits to use; the lab took no --bits (only a profile file did).
+    The same 12-bit board read with the 10-bit arduino16 profile and --bits 12: its frames are valid,
+    nothing is said, and the device reads with the 12-bit profile."""
+    with csv_twin("--profile", "psm16", rate_hz=50) as port:
+        lab = Lab(tmp_path / "data", "--bits", "12", source=(port, "--profile", "arduino16"))
+        try:
+            st = _wait_frames(lab, 40)
+        finally:
+            lab.stop()
+    counters = st["device"]["counters"]
+    # at most the first line, cut where the port opened mid-line, is invalid (not one row per frame)
+    assert counters["frames"] >= 40 and counters["invalid"] <= 1, counters
+    assert st["device"]["warnings"] == []
+
+
+def test_a_replay_refuses_the_options_of_a_live_mat_in_one_line(tmp_path: Path) -> None:
+    session = tmp_path / "s.h5"
+    subprocess.run([sys.executable, "-m", "psmat", "record", "--simulate", "--seconds", "1", "--out", str(session)],
+                   check=True, capture_output=True, timeout=120)
+    for extra in (["--bits", "10"], ["--shape", "8x8", "--protocol", "csv"]):
+        r = subprocess.run([sys.executable, "-m", "psmat", "lab", "--replay", str(session), "--no-browser", "--port",
+                            "0", "--data", str(tmp_path / "d"), *extra], capture_output=True, text=True, timeout=60)
+        assert r.returncode == 1 and r.stdout == "" and len(r.stderr.strip().splitlines()) == 1, r.stderr
+        assert r.stderr.startswith(f"psmat lab: {', '.join(x for x in extra if x.startswith('--'))}: a replay's "
+                                   f"shape, protocol, ADC bits and rate are the session's ({session}); leave")
+    assert not (tmp_path / "d").exists()  # refused before the data folder is made

@@ -1,7 +1,7 @@
 """``--profile NAME|FILE`` and the device options it supplies defaults for (docs/spec.md §5 "Device profiles").
 
-One rule for every command that opens or simulates a device (``record``, ``view``, ``simulate``,
-``demo``, ``calibrate``): the device is described by a profile; an option given on the command
+One rule for every command that opens or simulates a device (``record``, ``view``, ``lab``,
+``simulate``, ``demo``, ``calibrate``): the device is described by a profile; an option given on the command
 line overrides that one field of it.
 
 * no ``--profile``: the shipped profile of the device kind (``psm16`` for a mat, ``imu``,
