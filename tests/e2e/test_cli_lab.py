@@ -407,3 +407,69 @@ def test_a_replay_refuses_the_options_of_a_live_mat_in_one_line(tmp_path: Path) 
         assert r.stderr.startswith(f"psmat lab: {', '.join(x for x in extra if x.startswith('--'))}: a replay's "
                                    f"shape, protocol, ADC bits and rate are the session's ({session}); leave")
     assert not (tmp_path / "d").exists()  # refused before the data folder is made
+
+
+def _status_until(lab: Lab, ok, what: str) -> dict:
+    """The lab's status once ``ok(status)`` holds (a hang guard, not a time expectation)."""
+    for _ in range(1200):
+        st = lab.request("GET", "/api/status")[1]
+        if ok(st):
+            return st
+        time.sleep(0.05)
+    raise AssertionError(f"{what}: {st}")
+
+
+def test_a_cable_pulled_and_put_back_is_reopened_and_said(tmp_path: Path) -> None:
+    """A mat's USB cable pulled during a trial and put back: the board's port vanishes, then comes back at
+    the same path (as udev's /dev/serial/by-id link does). Before, the lab's device was gone for good: no
+    frame until the lab was restarted. Now the port is re-opened, the page says the port is lost while it
+    is and when and for how long it was after, and the recording running keeps the frames on both sides."""
+    link = tmp_path / "ttyMAT"
+
+    def recorded(st: dict) -> int:
+        return int((st.get("record") or {}).get("frames", 0))
+
+    with csv_twin(rate_hz=50) as first:
+        os.symlink(first, link)
+        lab = Lab(tmp_path / "data", source=(str(link), "--profile", "arduino16"))
+        try:
+            _wait_frames(lab, 10)
+            status, started = lab.request("POST", "/api/record/start", {"subject": "P01", "trial": "t", "note": ""})
+            assert status == 201, started
+            _status_until(lab, lambda st: recorded(st) >= 20, "the recording took no frame")
+        except BaseException:
+            lab.stop()
+            raise
+    try:   # the first board is gone (its simulator stopped: the pty closed) and its link points nowhere
+        lost = _status_until(lab, lambda st: not st["device"]["counters"]["connected"], "the port was never lost")
+        warning = _status_until(lab, lambda st: any(" is lost since " in w for w in st["device"]["warnings"]),
+                                "no line while the port is lost")["device"]["warnings"]
+        assert [w for w in warning if w.startswith(f"{link} is lost since ")] and any(
+            "is the board's USB cable plugged in and the board powered? Frames resume when it is back" in w
+            for w in warning), warning
+        assert lost["recording"] is True
+        before = recorded(lab.request("GET", "/api/status")[1])
+        with csv_twin(rate_hz=50) as second:
+            tmp = tmp_path / "new-link"
+            os.symlink(second, tmp)
+            os.replace(tmp, link)   # the board is back, at the same path
+            back = _status_until(lab, lambda st: st["device"]["counters"]["reconnects"] == 1
+                                 and recorded(st) >= before + 20, "not re-opened, or nothing recorded after")
+            status, stopped = lab.request("POST", "/api/record/stop", {})
+            assert status == 200, stopped
+    finally:
+        lab.stop()
+    said = [w for w in back["device"]["warnings"] if w.startswith(f"{link} was lost and found again 1 time since it "
+                                                                  "opened, the last at ")]
+    assert len(said) == 1 and said[0].endswith(" s: a recording running then has no frames for that time"), \
+        back["device"]["warnings"]
+    lost_at, away_s = back["device"]["counters"]["last_gap"]
+    assert away_s > 0 and back["device"]["counters"]["connected"] and back["device"]["counters"]["lost_at"] is None
+    s = load_session(Path(stopped["session"]))
+    assert s.complete and s.n_frames == stopped["frames"] >= before + 20
+    # the frames of both boards, those of the first received before the port was lost, the second's after it
+    # was found again (away_s later)
+    t = s.host_time_s
+    first_board, second_board = t[t <= lost_at], t[t > lost_at]
+    assert len(first_board) == before >= 20 and len(second_board) >= 20
+    assert second_board[0] >= lost_at + away_s   # one clock, the frames' host clock

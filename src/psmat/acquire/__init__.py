@@ -30,7 +30,7 @@ from ._clock import HostClock
 from ._device import CSV_BAUDRATE, Device, DeviceStats, open_device
 from ._discover import FoundPort, find_devices, is_psmat_port
 from ._errors import AcquireError, CommandRejected, CommandTimeout, DeviceDisconnected
-from ._explain import invalid_line, silence_line
+from ._explain import invalid_line, link_line, silence_line
 from ._identify import IDENTIFY_FIELDS
 from ..io import frame_times  # (psmat.io: frames of one serial chunk, spread)
 from ._lsl import LslClock, PressureOutlets
@@ -47,5 +47,5 @@ __all__ = [
     "is_psmat_port", "IDENTIFY_FIELDS", "open_port", "read_chunk", "close_port", "CSV_BAUDRATE",
     "open_playback", "PlaybackDevice",
     "LslClock", "PressureOutlets", "frame_times", "LslInlet", "LslChunk", "LslDevice", "open_lsl",
-    "invalid_line", "silence_line",
+    "invalid_line", "silence_line", "link_line",
 ]

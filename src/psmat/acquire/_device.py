@@ -158,6 +158,8 @@ class Device(BufferedSource):
         self._last_row_buffered = False         # the last decoded row went to the buffer
         self._reconnects = 0
         self._last_error: str | None = None
+        self._lost_at: float | None = None      # when the port was lost (self.clock), while it is
+        self._last_gap: tuple[float, float] | None = None   # (lost at, s away) of the last reconnection
 
     # -- properties ----------------------------------------------------------------------
     @property
@@ -192,7 +194,8 @@ class Device(BufferedSource):
                            dropped_buffer=self._ring.dropped, skipped_bytes=c["skipped"], replies=c["replies"],
                            reconnects=self._reconnects, ignored=self._ignored, mismatched=c["mismatched"],
                            bytes_in=c["bytes_in"], buffered=len(self._ring), connected=self._connected,
-                           last_error=self._last_error, invalid_reasons=self._decoder.invalid_reasons)
+                           last_error=self._last_error, invalid_reasons=self._decoder.invalid_reasons,
+                           lost_at=self._lost_at, last_gap=self._last_gap)
 
     def __repr__(self) -> str:
         state = "closed" if self._closed else ("started" if self._started else "open")
@@ -544,6 +547,7 @@ class Device(BufferedSource):
     def _lost(self, exc: BaseException) -> None:
         self._last_error = f"{type(exc).__name__}: {exc}"
         self._connected = False
+        self._lost_at = self.clock.now()
         with self._write_lock:
             self._close_port()
         try:
@@ -572,6 +576,9 @@ class Device(BufferedSource):
             with self._write_lock:
                 self._ser = ser
                 self._connected = True
+            if self._lost_at is not None:
+                self._last_gap = (self._lost_at, max(0.0, self.clock.now() - self._lost_at))
+            self._lost_at = None
             self._reconnects += 1
             if self._started:
                 try:

@@ -46,6 +46,12 @@ class DeviceStats:
         ``invalid`` by reason, for a csv mat (:data:`psmat.protocol.CSV_REASONS`: ``range``, a count
         above what its bits hold; ``count``, another number of counts than the shape's; ...); empty
         otherwise.
+    lost_at : float or None
+        While the port is lost (a device that reconnects): when it was lost (s since 1970, on the
+        device's host clock, that of its frames' ``host_time_s``); None while connected.
+    last_gap : tuple of float or None
+        The last time the port was lost and found again: (when it was lost, s since 1970 on the same
+        clock; how long it stayed away, s); None if it never came back after being lost.
     """
 
     frames: int
@@ -62,3 +68,5 @@ class DeviceStats:
     connected: bool
     last_error: str | None
     invalid_reasons: dict[str, int] = field(default_factory=dict)
+    lost_at: float | None = None
+    last_gap: tuple[float, float] | None = None

@@ -98,8 +98,10 @@ def _start_source(args: argparse.Namespace, lab: Any, stack: Any) -> None:
         port = twin.port
         print(f"psmat lab: simulated mat ({prof.name}, {args.scene}, {prof.protocol}, {twin.rate_hz:g} Hz) on {port}",
               file=sys.stderr, flush=True)
+    # a lab runs all day: a cable pulled and put back (the board's port back at the same path) is re-opened,
+    # however long it stayed away, and the page says so (psmat.acquire.link_line)
     dev = open_device(port, "psm", prof.protocol, tuple(prof.shape), baudrate=prof.baudrate, bits=prof.bits,
-                      row_order=prof.row_order, col_order=prof.col_order)
+                      row_order=prof.row_order, col_order=prof.col_order, reconnect=True, reconnect_attempts=None)
     stack.callback(dev.close)
     dev.start()
     lab.attach_live(dev, prof, f"{port}{' (twin)' if args.simulate else ''}", simulated=bool(args.simulate),

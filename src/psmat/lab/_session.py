@@ -413,12 +413,14 @@ _SILENT_S = 3.0
 
 def _warnings(dev: Any, feed: DisplayFeed | None, profile: Any) -> list[str]:
     """What the device's counters and frames say went wrong, a line each, with what to check (as
-    ``psmat record`` says after a recording): invalid rows by reason, no frame at all, counts of a
-    narrower ADC than the profile's."""
-    from ..acquire import invalid_line, silence_line
+    ``psmat record`` says after a recording): a port lost (and found again), invalid rows by reason, no
+    frame at all, counts of a narrower ADC than the profile's."""
+    from ..acquire import invalid_line, link_line, silence_line
     from ..process import adc_hint
 
     st, out = dev.stats, []
+    if why := link_line(st, dev):
+        out.append(why)
     rows = int(getattr(st, "frames", 0)) + int(getattr(st, "invalid", 0))
     if why := invalid_line(dict(getattr(st, "invalid_reasons", {}) or {}), dev, rows):
         out.append(why)
