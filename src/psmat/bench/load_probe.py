@@ -19,6 +19,7 @@ from __future__ import annotations
 import multiprocessing as mp
 import statistics
 from collections.abc import Sequence
+from pathlib import Path
 from typing import Any
 
 from .study_task import SessionArgs, timed_one
@@ -65,7 +66,7 @@ def probe_load(args: SessionArgs, counts: Sequence[int]) -> dict[str, Any]:
 def format_probe(p: dict[str, Any]) -> list[str]:
     """The probe's lines: one session's time at each count and the ceiling it sets."""
     first = p["runs"][0]["processes"]
-    lines = [f"the machine under load: one session ({p['session'].rsplit('/', 1)[-1]}) processed by n processes at "
+    lines = [f"the machine under load: one session ({Path(p['session']).name}) processed by n processes at "
              f"once, the median of their times (s), not part of the runs:"]
     for r in p["runs"]:
         n = r["processes"]
