@@ -473,3 +473,33 @@ def test_a_cable_pulled_and_put_back_is_reopened_and_said(tmp_path: Path) -> Non
     first_board, second_board = t[t <= lost_at], t[t > lost_at]
     assert len(first_board) == before >= 20 and len(second_board) >= 20
     assert second_board[0] >= lost_at + away_s   # one clock, the frames' host clock
+
+
+def test_the_rate_is_asked_of_a_box_and_refused_for_a_csv_mat(tmp_path: Path) -> None:
+    """--rate with a live PORT was silently ignored (only the twin's rate took it). Now a v1/v2 box is asked
+    for it: its frames come at that rate by the box's own clock (device time 20 000 µs apart at 50 Hz, the
+    twin serving 100 Hz until asked); a csv mat, which takes no commands, is refused in one line."""
+    from csv_twin import box_twin
+
+    with box_twin(rate_hz=100) as port:
+        lab = Lab(tmp_path / "data", "--rate", "50", source=(port,))
+        try:
+            _wait_frames(lab, 10)
+            status, started = lab.request("POST", "/api/record/start", {"subject": "P01", "trial": "t", "note": ""})
+            assert status == 201, started
+            _status_until(lab, lambda st: int((st.get("record") or {}).get("frames", 0)) >= 30, "nothing recorded")
+            status, stopped = lab.request("POST", "/api/record/stop", {})
+            assert status == 200, stopped
+        finally:
+            lab.stop()
+    s = load_session(Path(stopped["session"]))
+    assert s.n_frames >= 30 and set(np.diff(s.device_time_us).tolist()) == {20_000}
+    assert s.device["rate"] == 50   # what the box was set to, stored with the session
+    with csv_twin(rate_hz=50) as port:
+        r = subprocess.run([sys.executable, "-m", "psmat", "lab", port, "--protocol", "csv", "--rate", "50",
+                            "--no-browser", "--port", "0", "--data", str(tmp_path / "d")],
+                           capture_output=True, text=True, timeout=60)
+    assert r.returncode == 1 and r.stdout == "" and r.stderr == (
+        "psmat lab: a csv mat takes no commands: it keeps its own rate (--rate only with --simulate or a v1/v2 "
+        "box)\n")
+    assert not (tmp_path / "d").exists()

@@ -53,7 +53,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--scene", default="sway",
                    help="with --simulate: the twin's scene, sway, quiet, single-leg or sitting")
     p.add_argument("--rate", type=_args.rate_hz, default=None,
-                   help="with --simulate: the twin's frame rate (Hz; default: the profile's)")
+                   help="frame rate (Hz): with --simulate the twin's; with PORT asked of a v1/v2 box, a whole "
+                        "number 1 ... 1000, as psmat record does (a csv mat takes no commands); default: the "
+                        "profile's for the twin, the box's own for a box")
     p.add_argument("--speed", type=_args.speed, default=1.0,
                    help="with --replay: recorded seconds played per second (2 = twice as fast)")
     p.add_argument("--data", default="psmat_data", metavar="DIR",
@@ -103,6 +105,8 @@ def _start_source(args: argparse.Namespace, lab: Any, stack: Any) -> None:
     dev = open_device(port, "psm", prof.protocol, tuple(prof.shape), baudrate=prof.baudrate, bits=prof.bits,
                       row_order=prof.row_order, col_order=prof.col_order, reconnect=True, reconnect_attempts=None)
     stack.callback(dev.close)
+    if args.rate is not None and not args.simulate:
+        dev.set_rate(args.rate)   # a whole number of frames/s, or ValueError; a csv mat was refused before
     dev.start()
     lab.attach_live(dev, prof, f"{port}{' (twin)' if args.simulate else ''}", simulated=bool(args.simulate),
                     set_fixture=(lambda mode: setattr(fixture, "mode", mode)) if args.simulate else None)
@@ -128,6 +132,14 @@ def run(args: argparse.Namespace) -> int:
         if fixed:
             err(f"{', '.join(fixed)}: a replay's shape, protocol, ADC bits and rate are the session's "
                 f"({args.replay}); leave {'them' if len(fixed) > 1 else 'it'} out")
+            return 1
+    if args.rate is not None and args.device_port:
+        try:
+            csv = _profile_args.resolve(args, "psm").protocol == "csv"
+        except ValueError:
+            csv = False   # said when the source is opened
+        if csv:
+            err("a csv mat takes no commands: it keeps its own rate (--rate only with --simulate or a v1/v2 box)")
             return 1
     try:
         import uvicorn
