@@ -503,3 +503,51 @@ def test_the_rate_is_asked_of_a_box_and_refused_for_a_csv_mat(tmp_path: Path) ->
         "psmat lab: a csv mat takes no commands: it keeps its own rate (--rate only with --simulate or a v1/v2 "
         "box)\n")
     assert not (tmp_path / "d").exists()
+
+
+def test_a_box_found_again_is_asked_for_the_rate_again(tmp_path: Path) -> None:
+    """A box that lost power with its cable starts again at its own rate: before, the lab re-opened it and
+    sent START only, and a recording asked for 50 Hz went on at 100 Hz after the gap, unsaid. Now the rate
+    asked is asked again: after the restart the device clock's frames are 20 000 µs apart again."""
+    from csv_twin import box_twin
+
+    link = tmp_path / "ttyPSM"
+
+    def recorded(st: dict) -> int:
+        return int((st.get("record") or {}).get("frames", 0))
+
+    with box_twin(rate_hz=100) as first:
+        os.symlink(first, link)
+        lab = Lab(tmp_path / "data", "--rate", "50", source=(str(link),))
+        try:
+            _wait_frames(lab, 10)
+            status, started = lab.request("POST", "/api/record/start", {"subject": "P01", "trial": "t", "note": ""})
+            assert status == 201, started
+            _status_until(lab, lambda st: recorded(st) >= 20, "the recording took no frame")
+        except BaseException:
+            lab.stop()
+            raise
+    try:
+        _status_until(lab, lambda st: not st["device"]["counters"]["connected"], "the port was never lost")
+        before = recorded(lab.request("GET", "/api/status")[1])
+        with box_twin(rate_hz=100) as second:   # powered up again: 100 Hz until asked
+            os.symlink(second, tmp_path / "new-link")
+            os.replace(tmp_path / "new-link", link)
+            # the twin's pty keeps what it sent before the port was opened again (64 KiB: at most ~125 frames):
+            # wait past them
+            _status_until(lab, lambda st: st["device"]["counters"]["reconnects"] == 1 and recorded(st) >= before + 170,
+                          "not re-opened, or nothing recorded after")
+            status, stopped = lab.request("POST", "/api/record/stop", {})
+            assert status == 200, stopped
+    finally:
+        lab.stop()
+    s = load_session(Path(stopped["session"]))
+    steps = np.diff(s.device_time_us)
+    restart = np.flatnonzero(steps <= 0)   # the second box's clock starts again
+    assert len(restart) == 1 and restart[0] + 1 == before
+    assert set(steps[:restart[0]].tolist()) == {20_000}
+    # after: what the box sent at its own 100 Hz before the rate asked again took effect (the frames it sent
+    # while the port was closed, which the twin's pty kept), then the rate asked, to the end
+    after = steps[restart[0] + 1:].tolist()
+    asked = next((i for i, x in enumerate(after) if x != 10_000), len(after))
+    assert set(after[asked:]) == {20_000} and len(after) - asked >= 30

@@ -158,6 +158,7 @@ class Device(BufferedSource):
         self._last_row_buffered = False         # the last decoded row went to the buffer
         self._reconnects = 0
         self._last_error: str | None = None
+        self._rate_asked: int | None = None     # the rate set_rate gave the device, given again on reconnect
         self._lost_at: float | None = None      # when the port was lost (self.clock), while it is
         self._last_gap: tuple[float, float] | None = None   # (lost at, s away) of the last reconnection
 
@@ -428,6 +429,7 @@ class Device(BufferedSource):
             raise ValueError(f"rate must be an integer 1 ... 1000 frames/s, got {hz!r}")
         reply = self.send_command(Opcode.SET_RATE, int(hz))
         learn(self.description, "rate", int(hz))
+        self._rate_asked = int(hz)
         return reply
 
     def set_protocol(self, protocol: int) -> Reply:
@@ -580,6 +582,11 @@ class Device(BufferedSource):
                 self._last_gap = (self._lost_at, max(0.0, self.clock.now() - self._lost_at))
             self._lost_at = None
             self._reconnects += 1
+            if self._rate_asked is not None:   # a box that lost power starts again at its own rate
+                try:
+                    self._write(encode_command(Opcode.SET_RATE, self._rate_asked))
+                except AcquireError as exc:
+                    self._last_error = f"rate after reconnect: {exc}"
             if self._started:
                 try:
                     self._send_start(wait=False)   # the reader cannot wait for its own replies
