@@ -25,6 +25,10 @@ def test_one_cut_first_line_or_a_noisy_percent_is_no_setting_to_check() -> None:
     assert invalid_line({"count": 1}, DIY, rows=20) is None
     assert invalid_line({"count": 9}, DIY, rows=1000) is None and invalid_line({"count": 10}, DIY, rows=1000)
     assert invalid_line({"count": 1}, DIY) is not None and invalid_line({}, DIY) is None
+    # a port re-opened after it was lost: its first line may be cut again, one more allowed per opening
+    assert invalid_line({"count": 2}, DIY, rows=100) is not None
+    assert invalid_line({"count": 2}, DIY, rows=100, openings=2) is None
+    assert invalid_line({"count": 3}, DIY, rows=100, openings=2) is not None
 
 
 def test_a_silent_port_and_one_that_sends_no_frame() -> None:
