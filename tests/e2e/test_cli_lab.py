@@ -31,6 +31,7 @@ pytest.importorskip("uvicorn")
 websockets_sync = pytest.importorskip("websockets.sync.client")
 
 from psmat.io import journal_path, load_session  # noqa: E402
+from psmat.process import session_clock  # noqa: E402
 
 from conftest import default_stop_signals  # noqa: E402
 from csv_twin import csv_twin  # noqa: E402
@@ -448,6 +449,8 @@ def test_a_cable_pulled_and_put_back_is_reopened_and_said(tmp_path: Path) -> Non
             "is the board's USB cable plugged in and the board powered? Frames resume when it is back" in w
             for w in warning), warning
         assert lost["recording"] is True
+        _status_until(lab, lambda st: st["time_s"] - (st["device"]["counters"]["lost_at"] or st["time_s"]) >= 3.0,
+                      "the port came back by itself")   # out for 3 s at least, as a cable pulled is
         before = recorded(lab.request("GET", "/api/status")[1])
         with csv_twin(rate_hz=50) as second:
             tmp = tmp_path / "new-link"
@@ -475,6 +478,9 @@ def test_a_cable_pulled_and_put_back_is_reopened_and_said(tmp_path: Path) -> Non
     first_board, second_board = t[t <= lost_at], t[t > lost_at]
     assert len(first_board) == before >= 20 and len(second_board) >= 20
     assert second_board[0] >= lost_at + away_s   # one clock, the frames' host clock
+    # processed, the time out is one long period, not a stretch of every period (50 Hz: 0.02 s)
+    clock = session_clock(s)
+    assert clock.periods_s.max() >= 1.0 and np.median(clock.periods_s) == pytest.approx(0.02, rel=0.2)
 
 
 def test_the_rate_is_asked_of_a_box_and_refused_for_a_csv_mat(tmp_path: Path) -> None:

@@ -189,6 +189,52 @@ def test_the_host_clock_spreads_the_frames_of_one_read_evenly(counts, tmp_path) 
     np.testing.assert_allclose(clock.periods_s, step, rtol=1e-9)
 
 
+def test_a_stretch_without_frames_cuts_the_host_clock(counts, tmp_path) -> None:
+    """A csv mat whose cable was out for 3 s in the middle (no frame taken, or all lost): one line through
+    the first and last stamps gave every frame a period of (span + 3 s) / 59, 0.07 s for 0.02. Each part
+    is now placed back from its last stamp at the streaming period, and the period at the cut is the time
+    between the parts."""
+    path = tmp_path / "gap.h5"
+    true = 0.02 * np.arange(T) + np.where(np.arange(T) >= 30, 3.0, 0.0)   # 50 Hz, 3 s out after frame 29
+    host = 1000.0 + true   # one frame per read
+    with SessionWriter(path, SHAPE, {"rows": SHAPE[0], "cols": SHAPE[1]}) as w:
+        w.append(counts, host, np.ones(T, bool))
+    clock = session_clock(load_session(path))
+    # one frame a read: the streaming period is 0.02 s, and each part back from its last stamp gives the
+    # frames' own times (by hand); the period at the cut is the 3 s out plus one frame's
+    np.testing.assert_allclose(clock.t_s, host, rtol=0, atol=1e-9)
+    np.testing.assert_allclose(np.delete(clock.periods_s, 30), 0.02, rtol=1e-6)
+    assert clock.periods_s[30] == pytest.approx(3.02)
+
+
+def test_a_burst_after_the_gap_is_placed_before_its_arrival(counts, tmp_path) -> None:
+    """Reads of four frames every 80 ms (20 ms a frame), 4 s out after frame 23, then a read of 16 frames
+    held in a buffer (taken in the 0.32 s before it arrived) and reads of four again: the burst does not
+    fill half the step, so the recording is cut there, and the burst's frames are placed before their
+    arrival at the streaming period: every frame at its own time."""
+    path = tmp_path / "burst.h5"
+    true = 0.02 * np.arange(T) + np.where(np.arange(T) >= 24, 4.0, 0.0)
+    reads = np.r_[np.arange(24) // 4, 6 + (np.arange(24, 40) - 24) // 16, 7 + (np.arange(40, T) - 40) // 4]
+    host = 1000.0 + np.array([true[reads == r].max() for r in reads])   # each read stamped at its last frame
+    with SessionWriter(path, SHAPE, {"rows": SHAPE[0], "cols": SHAPE[1]}) as w:
+        w.append(counts, host, np.ones(T, bool))
+    clock = session_clock(load_session(path))
+    np.testing.assert_allclose(clock.t_s, 1000.0 + true, rtol=0, atol=1e-9)
+
+
+def test_frames_held_back_and_arriving_together_keep_one_line(counts, tmp_path) -> None:
+    """The reader stalled 1.55 s while the board's frames waited in a buffer: they arrive together after the
+    step and fill it, so nothing was lost and the frames stay on one line (as before the gap rule)."""
+    path = tmp_path / "stall.h5"
+    true = 0.05 * np.arange(T)   # 20 Hz
+    host = true.copy()
+    host[20:50] = 2.5            # frames 20-49 held back, all arriving at 2.5 s (frame 50's own time)
+    with SessionWriter(path, SHAPE, {"rows": SHAPE[0], "cols": SHAPE[1]}) as w:
+        w.append(counts, host, np.ones(T, bool))
+    clock = session_clock(load_session(path))
+    np.testing.assert_allclose(clock.t_s, true, rtol=0, atol=1e-9)
+
+
 @pytest.mark.parametrize("host, match", [
     (np.full(T, 5.0), "frame times do not advance"),
     (np.r_[np.nan * np.ones(T - 1), 5.0], "fewer than two of the session's 60 frames carry a time stamp"),
