@@ -478,9 +478,20 @@ def test_a_cable_pulled_and_put_back_is_reopened_and_said(tmp_path: Path) -> Non
     first_board, second_board = t[t <= lost_at], t[t > lost_at]
     assert len(first_board) == before >= 20 and len(second_board) >= 20
     assert second_board[0] >= lost_at + away_s   # one clock, the frames' host clock
-    # processed, the time out is one long period, not a stretch of every period (50 Hz: 0.02 s)
+    # processed, the time out is one long period, not a stretch of every period: 50 Hz is 0.02 s (a twin
+    # that falls behind on a busy machine drops ticks: more), where one line through the first and the last
+    # stamp gave every period (3 s + the frames' time) / frames, 0.06 s or more
     clock = session_clock(s)
-    assert clock.periods_s.max() >= 1.0 and np.median(clock.periods_s) == pytest.approx(0.02, rel=0.2)
+    assert clock.gaps == 1 and clock.periods_s.max() >= 1.0 and np.median(clock.periods_s) < 0.04
+
+
+def _at_the_rate_asked(steps: list[int]) -> None:
+    """Device-clock steps (µs) that end at the 50 Hz asked: the last 30 are mostly 20 000 µs. Before them
+    may come frames at the twin's own 100 Hz (10 000 µs): it streams from power-up, and what it sent before
+    the rate was asked waits in its pty until the reader drains it (on a busy machine, into the recording).
+    Every step is whole periods: a twin that falls behind on a busy machine drops ticks, keeping its grid."""
+    assert len(steps) >= 30 and all(x > 0 and x % 10_000 == 0 for x in steps), steps
+    assert int(np.median(steps[-30:])) == 20_000, steps
 
 
 def test_the_rate_is_asked_of_a_box_and_refused_for_a_csv_mat(tmp_path: Path) -> None:
@@ -495,13 +506,14 @@ def test_the_rate_is_asked_of_a_box_and_refused_for_a_csv_mat(tmp_path: Path) ->
             _wait_frames(lab, 10)
             status, started = lab.request("POST", "/api/record/start", {"subject": "P01", "trial": "t", "note": ""})
             assert status == 201, started
-            _status_until(lab, lambda st: int((st.get("record") or {}).get("frames", 0)) >= 30, "nothing recorded")
+            # past what the twin's pty kept from before the rate was asked (64 KiB: at most ~125 frames)
+            _status_until(lab, lambda st: int((st.get("record") or {}).get("frames", 0)) >= 160, "nothing recorded")
             status, stopped = lab.request("POST", "/api/record/stop", {})
             assert status == 200, stopped
         finally:
             lab.stop()
     s = load_session(Path(stopped["session"]))
-    assert s.n_frames >= 30 and set(np.diff(s.device_time_us).tolist()) == {20_000}
+    _at_the_rate_asked(np.diff(s.device_time_us).tolist())
     assert s.device["rate"] == 50   # what the box was set to, stored with the session
     with csv_twin(rate_hz=50) as port:
         r = subprocess.run([sys.executable, "-m", "psmat", "lab", port, "--protocol", "csv", "--rate", "50",
@@ -531,7 +543,7 @@ def test_a_box_found_again_is_asked_for_the_rate_again(tmp_path: Path) -> None:
             _wait_frames(lab, 10)
             status, started = lab.request("POST", "/api/record/start", {"subject": "P01", "trial": "t", "note": ""})
             assert status == 201, started
-            _status_until(lab, lambda st: recorded(st) >= 20, "the recording took no frame")
+            _status_until(lab, lambda st: recorded(st) >= 160, "the recording took no frame")
         except BaseException:
             lab.stop()
             raise
@@ -553,9 +565,7 @@ def test_a_box_found_again_is_asked_for_the_rate_again(tmp_path: Path) -> None:
     steps = np.diff(s.device_time_us)
     restart = np.flatnonzero(steps <= 0)   # the second box's clock starts again
     assert len(restart) == 1 and restart[0] + 1 == before
-    assert set(steps[:restart[0]].tolist()) == {20_000}
-    # after: what the box sent at its own 100 Hz before the rate asked again took effect (the frames it sent
-    # while the port was closed, which the twin's pty kept), then the rate asked, to the end
-    after = steps[restart[0] + 1:].tolist()
-    asked = next((i for i, x in enumerate(after) if x != 10_000), len(after))
-    assert set(after[asked:]) == {20_000} and len(after) - asked >= 30
+    # on each side what the box sent at its own 100 Hz before the rate asked (again) took effect, kept in
+    # the twin's pty, then the rate asked
+    _at_the_rate_asked(steps[:restart[0]].tolist())
+    _at_the_rate_asked(steps[restart[0] + 1:].tolist())

@@ -200,6 +200,18 @@ def test_a_stretch_without_frames_cuts_the_host_clock(counts, tmp_path) -> None:
     with SessionWriter(path, SHAPE, {"rows": SHAPE[0], "cols": SHAPE[1]}) as w:
         w.append(counts, host, np.ones(T, bool))
     clock = session_clock(load_session(path))
+    assert clock.gaps == 1 and clock.source == "host"
+    # psmat info says it: the step and the time of day it ended on the recording computer's clock (1003.62 s
+    # since 1970 is 00:16:43 UTC, shifted by the offset from UTC the writer stored, this machine's)
+    import time
+
+    from psmat.io import info
+
+    off = load_session(path).utc_offset_s
+    assert off is not None
+    shown = time.strftime("%H:%M:%S", time.gmtime(16 * 60 + 43 + off))   # 00:16:43 UTC, at the stored offset
+    assert f"  gaps          1 stretch of the host clock without frames: 3.02 s before {shown} (the processing cuts " \
+           "the clock there; the rate above counts it)" in info(path)
     # one frame a read: the streaming period is 0.02 s, and each part back from its last stamp gives the
     # frames' own times (by hand); the period at the cut is the 3 s out plus one frame's
     np.testing.assert_allclose(clock.t_s, host, rtol=0, atol=1e-9)

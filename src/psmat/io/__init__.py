@@ -31,7 +31,8 @@ from ._forceplate import (
 )
 from ._import import (IMPORT_FORMATS, ImportedFrames, ImportFormatError, detect_format, import_pressure,
                       read_pressure_file)
-from ._frame_times import clock_restarts, frame_times, run_end_period_s
+from ._frame_times import GAP_MIN_S, GAP_PERIODS, clock_restarts, frame_times, host_gaps, run_end_period_s, \
+    streaming_period_s
 from ._imu_log import ImuLog, load_imu_log, write_imu_log
 from .session import (
     COUNTER_NAMES,
@@ -60,7 +61,7 @@ from .session import (
 
 __all__ = [
     "frame_times",
-    "clock_restarts",
+    "clock_restarts", "host_gaps", "streaming_period_s", "GAP_MIN_S", "GAP_PERIODS",
     "run_end_period_s",
     "IMPORT_FORMATS",
     "ImportedFrames",

@@ -6,7 +6,9 @@ timer — form a run of equal times. :func:`frame_times` spreads such a run back
 by the device clock where every frame of the run has one, else by the device's frame period when
 it is given, never back past the run before. :func:`run_end_period_s` estimates that period from
 the frames that are at their arrival (each run's last). :func:`clock_restarts` finds where a device
-clock started again (a box that restarted: its stamps go back).
+clock started again (a box that restarted: its stamps go back). :func:`host_gaps` finds where the
+host stamps have a stretch in which no frame was taken or every frame was lost (docs/spec.md §5),
+:func:`streaming_period_s` the frame period while frames stream.
 """
 
 from __future__ import annotations
@@ -14,7 +16,15 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-__all__ = ["frame_times", "run_end_period_s", "clock_restarts"]
+__all__ = ["frame_times", "run_end_period_s", "clock_restarts", "host_gaps", "streaming_period_s", "GAP_MIN_S",
+           "GAP_PERIODS"]
+
+#: a host-clock step shorter than this (s) is never a gap in the frames (:func:`host_gaps`)
+GAP_MIN_S = 1.0
+#: ... nor one shorter than this many streaming periods
+GAP_PERIODS = 20
+#: the frames stamped within this long (s) after a step arrived with it
+_BURST_S = 0.1
 
 
 def _runs(host: NDArray[np.float64]) -> tuple[NDArray[np.intp], NDArray[np.intp]]:
@@ -114,3 +124,47 @@ def clock_restarts(device_time_us: ArrayLike) -> NDArray[np.intp]:
     dev = np.asarray(device_time_us, np.int64).reshape(-1)
     known = np.flatnonzero(dev >= 0)
     return known[1:][dev[known[1:]] < dev[known[:-1]]]
+
+
+def streaming_period_s(host_time_s: ArrayLike) -> float:
+    """The frame period while frames stream (s): the median over the reads (runs of equal host times)
+    of the time since the read before over the frames this one brought, so that a gap or a burst is one
+    read among many; with fewer than 10 reads, the mean period through the first and the last stamp.
+    Unknown stamps (NaN) are passed over; NaN with fewer than two known."""
+    host = np.asarray(host_time_s, np.float64).reshape(-1)
+    known = np.flatnonzero(np.isfinite(host))
+    if known.size < 2:
+        return float("nan")
+    hs = host[known]
+    ends = np.r_[np.flatnonzero(np.diff(hs) > 0), hs.size - 1]   # the last frame of each read
+    if ends.size < 11:
+        return float((hs[-1] - hs[0]) / (known[-1] - known[0]))
+    return float(np.median(np.diff(hs[ends]) / np.diff(known[ends])))
+
+
+def host_gaps(host_time_s: ArrayLike) -> NDArray[np.intp]:
+    """The frames after a stretch of the host clock in which no frame was taken or every frame was lost
+    (a cable pulled and put back, a board stalled): a step between two stamps longer than
+    :data:`GAP_MIN_S` and :data:`GAP_PERIODS` streaming periods (:func:`streaming_period_s`), after which
+    the frames that arrived with it (within 0.1 s) would not fill half of it. Frames held back in a buffer
+    arrive together and fill the step: no gap. Unknown stamps (NaN) are passed over; each returned index
+    (a frame with a stamp) starts a new part.
+
+    Parameters
+    ----------
+    host_time_s : (T,) float
+        Arrival times (s), non-decreasing where known.
+    """
+    host = np.asarray(host_time_s, np.float64).reshape(-1)
+    known = np.flatnonzero(np.isfinite(host))
+    period = streaming_period_s(host)
+    if known.size < 2 or not period > 0:
+        return np.zeros(0, np.intp)
+    hs = host[known]
+    jumps = np.diff(hs)
+    out = []
+    for j in np.flatnonzero(jumps > max(GAP_MIN_S, GAP_PERIODS * period)):
+        with_it = int(np.searchsorted(hs, hs[j + 1] + _BURST_S, side="right") - (j + 1))
+        if with_it * period < jumps[j] / 2:   # the frames that arrived with it do not fill the step
+            out.append(known[j + 1])
+    return np.asarray(out, np.intp)

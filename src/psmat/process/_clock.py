@@ -16,8 +16,8 @@ device's when the box stamps its frames (v2, ``device_time_us``), else the host'
   as evenly spaced on the line through the first and the last stamped frame (the recording's
   mean period); a host clock cannot see a single lost frame (neither can v1 or csv framing).
   It can see a stretch of time in which no frame was taken or every frame was lost (a cable
-  pulled and put back, a board stalled): a step between two stamps longer than
-  :data:`GAP_MIN_S` and :data:`GAP_PERIODS` mean periods, after which fewer frames arrived at once
+  pulled and put back, a board stalled; :func:`psmat.io.host_gaps`): a step between two stamps longer
+  than 1 s and 20 streaming periods, after which fewer frames arrived at once
   than half that step would have held (frames held back in a buffer arrive together and fill the
   step; frames never taken or lost do not). There the recording is cut, and each part's frames
   are placed back from its last stamp at the streaming period (the median over the reads of the
@@ -33,14 +33,7 @@ from typing import Any, Literal
 import numpy as np
 from numpy.typing import NDArray
 
-__all__ = ["SessionClock", "session_clock", "GAP_MIN_S", "GAP_PERIODS"]
-
-#: a host-clock step shorter than this (s) is never a gap in the frames (module docstring)
-GAP_MIN_S = 1.0
-#: ... nor one shorter than this many mean frame periods
-GAP_PERIODS = 20
-#: the frames stamped within this long (s) after a step arrived with it
-_BURST_S = 0.1
+__all__ = ["SessionClock", "session_clock"]
 
 
 @dataclass(frozen=True)
@@ -61,6 +54,9 @@ class SessionClock:
     restarts : int
         Times the device clock started again (its stamps went back): its segments were placed on
         the host clock (module docstring).
+    gaps : int
+        Stretches of the host clock without frames where the recording was cut
+        (:func:`psmat.io.host_gaps`; module docstring).
     """
 
     t_s: NDArray[np.float64]
@@ -68,6 +64,7 @@ class SessionClock:
     source: Literal["device", "host"]
     filled: int
     restarts: int = 0
+    gaps: int = 0
 
     @property
     def step_s(self) -> float:
@@ -107,8 +104,9 @@ def session_clock(session: Any) -> SessionClock:
     if known.size < 2:
         raise ValueError(f"fewer than two of the session's {T} frames carry a time stamp: no frame period")
     k = np.arange(T)
+    gaps = 0
     if source == "host":
-        t, step = _host_seconds(t, known, k)
+        t, step, gaps = _host_seconds(t, known, k)
     else:
         step = float(np.median(np.diff(t[known]) / np.diff(known)))
         t = np.interp(k, known, t[known])
@@ -122,47 +120,30 @@ def session_clock(session: Any) -> SessionClock:
         j = int(np.flatnonzero(periods <= 0)[0])
         raise ValueError(f"the session's {source} clock does not advance at frame {j} ({float(t[j - 1])!r} s, then "
                          f"{float(t[j])!r} s)")
-    return SessionClock(t, periods, source, int(T - known.size), restarts)
+    return SessionClock(t, periods, source, int(T - known.size), restarts, gaps)
 
 
 def _host_seconds(h: NDArray[np.float64], known: NDArray[np.intp],
-                  k: NDArray[np.intp]) -> tuple[NDArray[np.float64], float]:
-    """The frames' times from the host stamps ``h`` (NaN unknown; ``known`` their indices, ``k`` all):
-    evenly spaced between the first and the last stamp of each part between gaps (module docstring),
-    and the mean period of the whole (s)."""
-    hs = h[known]
-    step = float((hs[-1] - hs[0]) / (known[-1] - known[0]))
-    cuts = [0]
-    if step > 0:
-        period = _read_period(hs, known, step)
-        jumps = np.diff(hs)
-        for j in np.flatnonzero(jumps > max(GAP_MIN_S, GAP_PERIODS * period)):
-            with_it = int(np.searchsorted(hs, hs[j + 1] + _BURST_S, side="right") - (j + 1))
-            if with_it * period < jumps[j] / 2:  # the frames that arrived with it do not fill the step
-                cuts.append(int(j + 1))
-    if len(cuts) == 1:
-        return hs[0] + (k - known[0]) * step, step
+                  k: NDArray[np.intp]) -> tuple[NDArray[np.float64], float, int]:
+    """The frames' times from the host stamps ``h`` (NaN unknown; ``known`` their indices, ``k`` all), the
+    first frame's period (s) and the gaps cut (module docstring)."""
+    from ..io import host_gaps, streaming_period_s
+
+    step = float((h[known[-1]] - h[known[0]]) / (known[-1] - known[0]))
+    cuts = host_gaps(h) if step > 0 else np.zeros(0, np.intp)
+    if cuts.size == 0:
+        return h[known[0]] + (k - known[0]) * step, step, 0
     # each part back from its last stamp at the streaming period: its first read may be a burst of
     # frames taken before they arrived (held in a buffer while the port was away), which a line from
     # its first stamp would place after their arrival
+    period = streaming_period_s(h)
     t = np.empty(k.size)
-    bounds = [*cuts, hs.size]
-    for n, (a, b) in enumerate(zip(bounds[:-1], bounds[1:])):
-        first = 0 if n == 0 else known[a - 1] + 1
-        last = k.size if b == hs.size else known[b]
-        t[first:last] = hs[b - 1] - (known[b - 1] - k[first:last]) * period
-    return t, period
-
-
-def _read_period(hs: NDArray[np.float64], known: NDArray[np.intp], step: float) -> float:
-    """The frame period while frames stream (s): the median over the reads of the time since the read
-    before over the frames this one brought (a gap or a burst is one read among many), or ``step``
-    (the whole recording's mean) with fewer than 10 reads."""
-    ends = np.flatnonzero(np.diff(hs) > 0)   # the last frame of each read but the last read
-    ends = np.r_[ends, hs.size - 1]
-    if ends.size < 11:
-        return step
-    return float(np.median(np.diff(hs[ends]) / np.diff(known[ends])))
+    starts = np.r_[0, cuts]
+    stops = np.r_[cuts, k.size]
+    for a, b in zip(starts, stops):
+        last = known[(known >= a) & (known < b)][-1]   # the part's last stamped frame
+        t[a:b] = h[last] - (last - k[a:b]) * period
+    return t, period, int(cuts.size)
 
 
 def _device_seconds(dev_us: NDArray[np.int64], host_s: NDArray[np.float64]) -> tuple[NDArray[np.float64], int]:

@@ -11,7 +11,7 @@ from typing import Any
 
 import numpy as np
 
-from .._frame_times import clock_restarts
+from .._frame_times import clock_restarts, host_gaps
 from ._counts import row_counts
 from ._layout import COUNTER_NAMES, Session
 from ._reader import load_session
@@ -111,8 +111,26 @@ def _frame_lines(s: Session, pad: str) -> list[str]:
             lines.append(f"{pad}device clock  {span:.3f} s span"
                          + (f" in {len(segments)} segments (it started again {len(segments) - 1} time(s))"
                             if len(segments) > 1 else ""))
+    if s.device_time_us is None or not (np.asarray(s.device_time_us) >= 0).any():
+        gaps = host_gaps(s.host_time_s)   # on the host clock: stretches without frames (docs/spec.md §5)
+        if gaps.size:
+            off = getattr(s, "utc_offset_s", None)
+            said = ", ".join(f"{float(s.host_time_s[g] - s.host_time_s[g - 1]):.2f} s before "
+                             f"{_time_of_day(float(s.host_time_s[g]), off)}" for g in gaps)
+            lines.append(f"{pad}gaps          {gaps.size} stretch{'es' if gaps.size > 1 else ''} of the host clock "
+                         f"without frames: {said} (the processing cuts the clock there; the rate above counts "
+                         f"{'them' if gaps.size > 1 else 'it'})")
     lines.append(f"{pad}device        {_kv(s.device)}")
     return lines
+
+
+def _time_of_day(t: float, utc_offset_s: int | None) -> str:
+    """``t`` (s since 1970) as the recording computer's time of day, or UTC's (said) without its offset."""
+    import time
+
+    if utc_offset_s is None:
+        return time.strftime("%H:%M:%S UTC", time.gmtime(t))
+    return time.strftime("%H:%M:%S", time.gmtime(t + utc_offset_s))
 
 
 def _v1_limit(s: Session) -> str:
