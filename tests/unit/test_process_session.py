@@ -210,7 +210,7 @@ def test_a_stretch_without_frames_cuts_the_host_clock(counts, tmp_path) -> None:
     off = load_session(path).utc_offset_s
     assert off is not None
     shown = time.strftime("%H:%M:%S", time.gmtime(16 * 60 + 43 + off))   # 00:16:43 UTC, at the stored offset
-    assert f"  gaps          1 stretch of the host clock without frames: 3.02 s before {shown} (the processing cuts " \
+    assert f"  gaps          1 stretch of the host clock without frames: 3.02 s up to {shown} (the processing cuts " \
            "the clock there; the rate above counts it)" in info(path)
     # one frame a read: the streaming period is 0.02 s, and each part back from its last stamp gives the
     # frames' own times (by hand); the period at the cut is the 3 s out plus one frame's

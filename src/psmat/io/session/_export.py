@@ -5,6 +5,7 @@ from __future__ import annotations
 import csv
 import math
 import os
+import time
 from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
@@ -112,11 +113,13 @@ def _frame_lines(s: Session, pad: str) -> list[str]:
                          + (f" in {len(segments)} segments (it started again {len(segments) - 1} time(s))"
                             if len(segments) > 1 else ""))
     if s.device_time_us is None or not (np.asarray(s.device_time_us) >= 0).any():
-        gaps = host_gaps(s.host_time_s)   # on the host clock: stretches without frames (docs/spec.md §5)
+        host = np.asarray(s.host_time_s, np.float64)
+        gaps = host_gaps(host)   # on the host clock: stretches without frames (docs/spec.md §5)
         if gaps.size:
-            off = getattr(s, "utc_offset_s", None)
-            said = ", ".join(f"{float(s.host_time_s[g] - s.host_time_s[g - 1]):.2f} s before "
-                             f"{_time_of_day(float(s.host_time_s[g]), off)}" for g in gaps)
+            known = np.flatnonzero(np.isfinite(host))
+            before = known[np.searchsorted(known, gaps) - 1]   # the stamped frame before each gap
+            said = ", ".join(f"{float(host[g] - host[b]):.2f} s up to {_time_of_day(float(host[g]), s.utc_offset_s)}"
+                             for g, b in zip(gaps, before))
             lines.append(f"{pad}gaps          {gaps.size} stretch{'es' if gaps.size > 1 else ''} of the host clock "
                          f"without frames: {said} (the processing cuts the clock there; the rate above counts "
                          f"{'them' if gaps.size > 1 else 'it'})")
@@ -126,8 +129,6 @@ def _frame_lines(s: Session, pad: str) -> list[str]:
 
 def _time_of_day(t: float, utc_offset_s: int | None) -> str:
     """``t`` (s since 1970) as the recording computer's time of day, or UTC's (said) without its offset."""
-    import time
-
     if utc_offset_s is None:
         return time.strftime("%H:%M:%S UTC", time.gmtime(t))
     return time.strftime("%H:%M:%S", time.gmtime(t + utc_offset_s))
