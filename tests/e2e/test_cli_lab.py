@@ -22,6 +22,7 @@ import time
 import urllib.error
 import urllib.request
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
@@ -420,27 +421,35 @@ def _status_until(lab: Lab, ok, what: str) -> dict:
     raise AssertionError(f"{what}: {st}")
 
 
+def _recorded(st: dict) -> int:
+    """Frames in the running recording, from a status."""
+    return int((st.get("record") or {}).get("frames", 0))
+
+
+def _recording_behind_a_link(tmp_path: Path, twin: Any, link: Path, frames: int, *args: str) -> Lab:
+    """A lab reading the board of the context ``twin`` through the symlink ``link`` (as udev's by-id name),
+    recording, with ``frames`` recorded; the board is then stopped (its pty closed) on leaving ``twin``."""
+    with twin as port:
+        os.symlink(port, link)
+        lab = Lab(tmp_path / "data", *args, source=(str(link),))
+        try:
+            _wait_frames(lab, 10)
+            status, started = lab.request("POST", "/api/record/start", {"subject": "P01", "trial": "t", "note": ""})
+            assert status == 201, started
+            _status_until(lab, lambda st: _recorded(st) >= frames, "the recording took no frame")
+        except BaseException:
+            lab.stop()
+            raise
+    return lab
+
+
 def test_a_cable_pulled_and_put_back_is_reopened_and_said(tmp_path: Path) -> None:
     """A mat's USB cable pulled during a trial and put back: the board's port vanishes, then comes back at
     the same path (as udev's /dev/serial/by-id link does). Before, the lab's device was gone for good: no
     frame until the lab was restarted. Now the port is re-opened, the page says the port is lost while it
     is and when and for how long it was after, and the recording running keeps the frames on both sides."""
     link = tmp_path / "ttyMAT"
-
-    def recorded(st: dict) -> int:
-        return int((st.get("record") or {}).get("frames", 0))
-
-    with csv_twin(rate_hz=50) as first:
-        os.symlink(first, link)
-        lab = Lab(tmp_path / "data", source=(str(link), "--profile", "arduino16"))
-        try:
-            _wait_frames(lab, 10)
-            status, started = lab.request("POST", "/api/record/start", {"subject": "P01", "trial": "t", "note": ""})
-            assert status == 201, started
-            _status_until(lab, lambda st: recorded(st) >= 20, "the recording took no frame")
-        except BaseException:
-            lab.stop()
-            raise
+    lab = _recording_behind_a_link(tmp_path, csv_twin(rate_hz=50), link, 20, "--profile", "arduino16")
     try:   # the first board is gone (its simulator stopped: the pty closed) and its link points nowhere
         lost = _status_until(lab, lambda st: not st["device"]["counters"]["connected"], "the port was never lost")
         warning = _status_until(lab, lambda st: any(" is lost since " in w for w in st["device"]["warnings"]),
@@ -451,13 +460,13 @@ def test_a_cable_pulled_and_put_back_is_reopened_and_said(tmp_path: Path) -> Non
         assert lost["recording"] is True
         _status_until(lab, lambda st: st["time_s"] - (st["device"]["counters"]["lost_at"] or st["time_s"]) >= 3.0,
                       "the port came back by itself")   # out for 3 s at least, as a cable pulled is
-        before = recorded(lab.request("GET", "/api/status")[1])
+        before = _recorded(lab.request("GET", "/api/status")[1])
         with csv_twin(rate_hz=50) as second:
             tmp = tmp_path / "new-link"
             os.symlink(second, tmp)
             os.replace(tmp, link)   # the board is back, at the same path
             back = _status_until(lab, lambda st: st["device"]["counters"]["reconnects"] == 1
-                                 and recorded(st) >= before + 20, "not re-opened, or nothing recorded after")
+                                 and _recorded(st) >= before + 20, "not re-opened, or nothing recorded after")
             status, stopped = lab.request("POST", "/api/record/stop", {})
             assert status == 200, stopped
     finally:
@@ -532,30 +541,16 @@ def test_a_box_found_again_is_asked_for_the_rate_again(tmp_path: Path) -> None:
     from csv_twin import box_twin
 
     link = tmp_path / "ttyPSM"
-
-    def recorded(st: dict) -> int:
-        return int((st.get("record") or {}).get("frames", 0))
-
-    with box_twin(rate_hz=100) as first:
-        os.symlink(first, link)
-        lab = Lab(tmp_path / "data", "--rate", "50", source=(str(link),))
-        try:
-            _wait_frames(lab, 10)
-            status, started = lab.request("POST", "/api/record/start", {"subject": "P01", "trial": "t", "note": ""})
-            assert status == 201, started
-            _status_until(lab, lambda st: recorded(st) >= 160, "the recording took no frame")
-        except BaseException:
-            lab.stop()
-            raise
+    lab = _recording_behind_a_link(tmp_path, box_twin(rate_hz=100), link, 160, "--rate", "50")
     try:
         _status_until(lab, lambda st: not st["device"]["counters"]["connected"], "the port was never lost")
-        before = recorded(lab.request("GET", "/api/status")[1])
+        before = _recorded(lab.request("GET", "/api/status")[1])
         with box_twin(rate_hz=100) as second:   # powered up again: 100 Hz until asked
             os.symlink(second, tmp_path / "new-link")
             os.replace(tmp_path / "new-link", link)
             # the twin's pty keeps what it sent before the port was opened again (64 KiB: at most ~125 frames):
             # wait past them
-            _status_until(lab, lambda st: st["device"]["counters"]["reconnects"] == 1 and recorded(st) >= before + 170,
+            _status_until(lab, lambda st: st["device"]["counters"]["reconnects"] == 1 and _recorded(st) >= before + 170,
                           "not re-opened, or nothing recorded after")
             status, stopped = lab.request("POST", "/api/record/stop", {})
             assert status == 200, stopped

@@ -19,8 +19,8 @@ import argparse
 from dataclasses import replace
 from typing import Any
 
-__all__ = ["add_profile_argument", "profile", "resolve", "device_kind", "twin_rate_hz", "DEFAULT_FOR_KIND",
-           "CSV_PROFILE"]
+__all__ = ["add_profile_argument", "add_mat_overrides", "profile", "resolve", "device_kind", "twin_rate_hz",
+           "DEFAULT_FOR_KIND", "CSV_PROFILE"]
 
 #: the profile of each device kind when none is named
 DEFAULT_FOR_KIND = {"psm": "psm16", "imu": "imu", "daq": "daq"}
@@ -45,6 +45,22 @@ def add_profile_argument(p: argparse.ArgumentParser) -> None:
                    help="the device's profile: a shipped name (psmat profiles lists them) or a TOML file; it gives "
                         "the shape, pitch, circuit, protocol and rate, and any option given here overrides its value "
                         "(default: psm16, the thesis' mat, or arduino16 with --protocol csv)")
+
+
+def add_mat_overrides(p: argparse.ArgumentParser, what: str = "the mat's") -> None:
+    """Add ``--protocol``, ``--bits`` and ``--shape``, the fields of a mat's profile a command line
+    overrides (``psmat record``, ``psmat lab``); ``what`` names whose frame format ``--protocol`` is."""
+    from . import _args
+
+    p.add_argument("--protocol", choices=("v1", "v2", "csv"), default=None,
+                   help=f"{what} frame format (docs/protocol.md): v1, v2, or csv (the text lines of a "
+                        "do-it-yourself mat, e.g. an Arduino: no commands); default: the profile's (without "
+                        "--profile, csv means the arduino16 mat)")
+    p.add_argument("--bits", type=_args.bits, default=None,
+                   help="ADC resolution of a csv mat: a count above 2**bits - 1 is an invalid frame (default: the "
+                        "profile's, 10 for arduino16; v1/v2 devices carry 12-bit counts)")
+    p.add_argument("--shape", type=_args.shape, default=None,
+                   help="the mat's rows x columns, e.g. 16x16 (default: the profile's, 16x16 for psm16)")
 
 
 def resolve(args: argparse.Namespace, kind: str = "psm") -> Any:

@@ -41,15 +41,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--replay", type=_args.input_file, default=None, metavar="FILE",
                    help="play a recorded session back instead of reading a mat")
     _profile_args.add_profile_argument(p)
-    p.add_argument("--protocol", choices=("v1", "v2", "csv"), default=None,
-                   help="the mat's frame format (docs/protocol.md): v1, v2, or csv (the text lines of a "
-                        "do-it-yourself mat, e.g. an Arduino); default: the profile's (without --profile, csv means "
-                        "the arduino16 mat)")
-    p.add_argument("--bits", type=_args.bits, default=None,
-                   help="ADC resolution of a csv mat: a count above 2**bits - 1 is an invalid frame (default: the "
-                        "profile's, 10 for arduino16; v1/v2 mats carry 12-bit counts)")
-    p.add_argument("--shape", type=_args.shape, default=None,
-                   help="the mat's rows x columns, e.g. 16x16 (default: the profile's, 16x16 for psm16)")
+    _profile_args.add_mat_overrides(p)
     p.add_argument("--scene", default="sway",
                    help="with --simulate: the twin's scene, sway, quiet, single-leg or sitting")
     p.add_argument("--rate", type=_args.rate_hz, default=None,

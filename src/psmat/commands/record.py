@@ -69,15 +69,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                    help="also record the Lab Streaming Layer stream NAME (its name, else its type: a force platform, "
                         "EEG) as the stream lsl_NAME of the session, on the same host clock (waits up to 5 s for it); "
                         "repeatable")
-    p.add_argument("--protocol", choices=("v1", "v2", "csv"), default=None,
-                   help="the devices' frame format (docs/protocol.md): v1, v2, or csv (the text lines of a "
-                        "do-it-yourself mat, e.g. an Arduino: no commands); default: the profile's (without "
-                        "--profile, csv means the arduino16 mat)")
-    p.add_argument("--bits", type=_args.bits, default=None,
-                   help="ADC resolution of a csv mat: a count above 2**bits - 1 is an invalid frame (default: the "
-                        "profile's, 10 for arduino16; v1/v2 devices carry 12-bit counts)")
-    p.add_argument("--shape", type=_args.shape, default=None,
-                   help="the mat's rows x columns, e.g. 16x16 (default: the profile's, 16x16 for psm16)")
+    _profile_args.add_mat_overrides(p, "the devices'")
     p.add_argument("--rate", type=_args.rate_hz, default=None,
                    help="ask the first device for this frame rate, the others keep theirs (Hz; default: the "
                         "device's own; a twin's is its profile's rate_hz)")
