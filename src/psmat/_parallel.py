@@ -19,7 +19,8 @@ T = TypeVar("T")
 R = TypeVar("R")
 
 
-def map_unordered(fn: Callable[[T], R], items: Sequence[T], workers: int | None = None) -> Iterator[R]:
+def map_unordered(fn: Callable[[T], R], items: Sequence[T], workers: int | None = None, *,
+                  keep_pool: bool = False) -> Iterator[R]:
     """``fn(item)`` for each item, yielded as each finishes.
 
     Parameters
@@ -30,10 +31,19 @@ def map_unordered(fn: Callable[[T], R], items: Sequence[T], workers: int | None 
         The tasks' arguments.
     workers : int, optional
         Processes (default: every core); at most one per item; 1 runs in this process.
+    keep_pool : bool
+        ``workers`` is the size of the pool an earlier map (or :func:`start_pool`) of this process
+        started: fewer items than that run on the whole pool, its other processes idle. Without it
+        such a map shrinks the pool to one process per item, and loky shrinks a pool by stopping
+        processes and waiting until they have exited (a map of 3 items after a pool of 8: 1.7 s
+        on the 2-core machine against 0.015 s for 8 items; a study's 7 figures after its 16
+        session processes paid this on a 16-core machine).
     """
     if not items:
         return
     n = _processes(workers, len(items))
+    if keep_pool and workers is not None and workers > 1:
+        n = workers
     if n <= 1:
         yield from map(fn, items)
         return

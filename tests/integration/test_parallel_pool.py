@@ -44,6 +44,17 @@ def test_a_smaller_map_reuses_the_processes_of_a_larger_one(sixteen_cores: None)
     assert second and second <= pool and _pool_pids() <= pool
 
 
+def test_a_smaller_map_told_to_keep_the_pool_stops_none_of_its_processes(sixteen_cores: None) -> None:
+    # a study's 7 figures after its 16 sessions: loky would stop 9 processes and wait for them
+    first = set(map_unordered(_pid, range(4), 4))
+    pool = _pool_pids()
+    assert len(pool) == 4 and first <= pool
+    ran = set(map_unordered(_pid, range(2), 4, keep_pool=True))
+    assert ran and ran <= pool
+    assert _pool_pids() == pool  # all four still there
+    assert set(map_unordered(_pid, range(1), 4, keep_pool=True)) <= pool  # one item too: on the pool
+
+
 def test_a_started_pool_is_the_one_the_map_uses(sixteen_cores: None) -> None:
     ready = start_pool(os.getpid, 3, 3)
     ready()

@@ -374,7 +374,7 @@ def _dynamic_runner(size: int, cluster: Any) -> RunDynamic:
         from .._parallel import map_unordered
 
         by_subject = {t.subject: t for t in tasks}
-        for _, (subject, answers), took in map_unordered(_work, tasks, size):
+        for _, (subject, answers), took in map_unordered(_work, tasks, size, keep_pool=True):
             yield by_subject[subject], answers, took
 
     return run
@@ -636,16 +636,17 @@ def _drawer(size: int, cluster: Any) -> DrawFigures | None:
 
 
 def _pool_drawer(size: int) -> DrawFigures:
-    """What runs the figure tasks: the same pool of this machine's processes as the sessions, at
-    most its ``size`` (joblib's loky executor is kept between the two maps, so its workers,
+    """What runs the figure tasks: the same pool of this machine's processes as the sessions, all
+    ``size`` of them (joblib's loky executor is kept between the two maps, so its workers,
     already started and with their imports done, draw the figures; a larger map would start
-    more). Used only when the sessions or pages of this run started that pool: otherwise (every
+    more, and a map sized to the 7 figures would first stop the other processes and wait for
+    them). Used only when the sessions or pages of this run started that pool: otherwise (every
     session reused) the figures to redraw are drawn in this process, as starting a pool and its
     imports costs about what drawing a study's few figures does."""
     from .._parallel import map_unordered
 
     def draw(tasks: list[FigureTask]) -> Iterator[tuple[str, bytes, TaskTime | None]]:
-        for _, (name, data), took in map_unordered(_work, tasks, size):
+        for _, (name, data), took in map_unordered(_work, tasks, size, keep_pool=True):
             yield name, data, took
 
     return draw
