@@ -67,3 +67,47 @@ def test_a_frame_missing_on_some_cells_only_falls_back_to_separate_runs(trial) -
     np.testing.assert_array_equal(v["CHC-8x8"].cop_cm[3],
                                   _cop8(inverse_over_gaps(sensor, s11.images, periods), s11))
     assert np.all(np.isfinite(v["CHC-8x8"].cop_cm[3, 50]))  # the choice that lost nothing keeps the frame
+
+
+class _Counting(MPICreep):
+    """The thesis' sensor model, counting its runs over a trial."""
+
+    runs = 0
+
+    def inverse(self, *args, **kwargs):
+        type(self).runs += 1
+        return super().inverse(*args, **kwargs)
+
+
+@pytest.mark.parametrize("quiet_cells", [False, True])
+def test_schc_pressures_are_the_model_run_at_the_reported_factor(trial, quiet_cells: bool) -> None:
+    # the variant's pressures come from its search's last run: they must be what running the model
+    # at the reported factor gives, bit for bit, with a lost frame and (here) cells that never conduct
+    g, periods, weight, sensor = trial
+    if quiet_cells:
+        g = g.copy()
+        g[:, :3, :] = np.where(np.isnan(g[:, :3, :]), np.nan, 0.0)  # three rows of cells at exactly 0 S
+    v = variant_traces(g, g, periods, weight_n=weight, sensor=sensor, pitch_cm=2.0, names=("SCHC", "SCHC-8x8"))
+    (f,) = v["SCHC"].factor
+    full = cop(inverse_over_gaps(sensor, f * g, periods), geometry=geometry_for((16, 16), pitch_cm=2.0))
+    np.testing.assert_array_equal(v["SCHC"].cop_cm[0], full)
+    for k, s in enumerate(subgrids(g, 2.0)):
+        f8 = v["SCHC-8x8"].factor[k]
+        np.testing.assert_array_equal(v["SCHC-8x8"].cop_cm[k], _cop8(inverse_over_gaps(sensor, f8 * s.images, periods), s))
+    assert np.isnan(v["SCHC"].cop_cm[0, 37]).all() and np.isfinite(v["SCHC"].cop_cm[0, 36]).all()
+
+
+def test_the_shared_searches_run_the_model_fewer_times_than_separate_ones(trial) -> None:
+    g, periods, weight, _ = trial
+    sensor = _Counting.thesis()
+    _Counting.runs = 0
+    f_full, f_sub = scale_factors(g, periods, weight, sensor, 4.0)
+    shared = _Counting.runs
+    _Counting.runs = 0
+    assert f_full == pytest.approx(scale_factor(g, periods, weight, sensor, 4.0), rel=1e-9, abs=0)
+    for s in subgrids(g):
+        assert f_sub[(s.rows0, s.cols0)] == pytest.approx(scale_factor(s.images, periods, weight, sensor, 16.0),
+                                                           rel=1e-9, abs=0)
+    separate = _Counting.runs
+    # the full mat's runs give each sub-grid its forces there: its search starts near its root
+    assert shared < separate - 8, (shared, separate)

@@ -13,10 +13,14 @@ thesis brute-forces ``f`` on [0.25, 0.75]; the left side grows with ``f`` (the i
 model is order preserving), so ``f`` is found as a root: by the secant method on
 ``log(mean force / W)`` against ``log f``, nearly a straight line (the inverse model is close to
 a power law), in 6-7 runs of the sensor model over the trial; Brent's method on the bracket
-(10-12 runs) where the secant leaves the bracket or meets a zero force.
+(10-12 runs) where the secant leaves the bracket or meets a zero force. The ``f`` returned is
+the last one the search ran the model at (within ``rtol`` of the root), so the variant's
+pressures are that run's (:meth:`_Search.pressure`), not one more run.
 """
 
 from __future__ import annotations
+
+from collections.abc import Callable
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -145,6 +149,8 @@ class _Search:
                 raise ValueError("mean_over leaves no complete frame in the mean")
         # the secant's two starting points, log f; ``run`` at them is what the search evaluates first
         self.start = [float(np.log(np.clip(f, self.lo, self.hi))) for f in (1.0, 0.5)]
+        self.kept: tuple[float, np.ndarray] | None = None  # (f, pressures) of the latest run
+        self.seen: list[Callable[[float, np.ndarray], None]] = []  # told of every run (scale_factors)
 
     def start_f(self) -> list[float]:
         """The factors of the secant's two starting evaluations, exactly as :meth:`solve` evaluates them."""
@@ -152,16 +158,36 @@ class _Search:
 
     def run(self, f: float) -> np.ndarray:
         """The sensor model at ``f·g`` over the trial's complete frames: pressures (U, n loaded cells), psi."""
-        return self.sensor.inverse(f * self.cells, self.steps)
+        pressure = self.sensor.inverse(f * self.cells, self.steps)
+        self.kept = (f, pressure)
+        for tell in self.seen:
+            tell(f, pressure)
+        return pressure
+
+    def pressure(self, f: float, shape: tuple[int, ...]) -> np.ndarray | None:
+        """The trial's pressures (T, R, C), psi, at ``f`` when the latest :meth:`run` was at exactly
+        ``f``: what :func:`psmat.sensor.inverse_over_gaps` gives for ``f·g`` (NaN on the incomplete
+        frames, 0 on the cells that never conduct, the sensor model acting cell by cell), without
+        running the model again; else None."""
+        if self.kept is None or self.kept[0] != f:
+            return None
+        out = np.full((shape[0], int(self.loaded.size)), np.nan)
+        rows = np.zeros((int(self.usable.sum()), int(self.loaded.size)))
+        rows[:, self.loaded] = self.kept[1]
+        out[self.usable] = rows
+        return out.reshape(shape)
 
     def force_n(self, pressure_psi: np.ndarray) -> float:
         """The mean force (N) of one :meth:`run`'s pressures: left side of eq. 3.3 (as :func:`_mean_force`)."""
         force = pressure_psi.sum(axis=1)
         return float(np.mean(force if self.in_mean is None else force[self.in_mean]) * PSI_PA * self.area * 1e-4)
 
-    def solve(self, known: dict[float, float] | None = None) -> float:
+    def solve(self, known: dict[float, float] | None = None, nearest: bool = False) -> float:
         """``f`` (the root of eq. 3.3); ``known`` maps a factor to its mean force (N) already computed
-        (e.g. by :meth:`force_n` of a :meth:`run` shared with another search), so it is not run again."""
+        (e.g. by :meth:`force_n` of a :meth:`run` shared with another search), so it is not run again.
+        ``nearest``: the secant starts from the two known factors nearest the root (the force
+        closest to the weight, and the next closest at least 0.1 % away in log f) instead of
+        f = 1 and 0.5."""
         known = known or {}
         w, lo, hi, rtol = self.w, self.lo, self.hi, self.rtol
 
@@ -173,6 +199,8 @@ class _Search:
                 return float(np.log((excess(float(np.exp(u))) + w) / w))
 
         start = self.start
+        if nearest:
+            start = _nearest_pair(known, w, (lo, hi)) or start
         u = _secant(log_ratio, start[0], start[1], (np.log(lo), np.log(hi)), rtol) if start[0] != start[1] else None
         if u is not None:
             return float(np.exp(u))
@@ -213,24 +241,58 @@ def scale_factors(g: ArrayLike, dt: float | ArrayLike, weight_n: float, sensor: 
     cells = _checks.real_array(g, "g", unit="S", allow_nan=True)
     if cells.ndim != 3:
         raise ValueError(f"g must be a trial of frames (T, R, C) in S, got shape {cells.shape}")
-    k = _checks.positive_int("factor", factor)
+    return _shared_searches(cells, dt, weight_n, sensor, cell_area_cm2, _checks.positive_int("factor", factor),
+                            full)[0]
+
+
+def _shared_searches(cells: np.ndarray, dt: float | ArrayLike, weight_n: float, sensor: MPICreep | None,
+                     cell_area_cm2: float | None, k: int, full: bool
+                     ) -> tuple[tuple[float | None, dict[tuple[int, int], float]], _Search, dict[tuple[int, int], _Search]]:
+    """:func:`scale_factors`, and the searches that found the factors (the full mat's, and each
+    sub-grid's by its ``(r0, c0)``), whose last runs give the variants' pressures (:meth:`_Search.pressure`).
+
+    Every run of the full mat's search gives each sub-grid its force at that ``f`` too (the sum of
+    its columns), so a sub-grid's search starts from the two of those nearest its root."""
     search = _Search(cells, dt, weight_n, sensor, cell_area_cm2, (1e-3, 1e3), 1e-10, None)
-    starts = search.start_f()
-    runs = [search.run(f) for f in starts]
-    f_full = search.solve({f: search.force_n(r) for f, r in zip(starts, runs)}) if full else None
     R, C = cells.shape[1:]
     where = np.flatnonzero(search.loaded)  # flat cell index of each loaded column of the runs
-    out: dict[tuple[int, int], float] = {}
+    subs: dict[tuple[int, int], _Search] = {}
+    shared: dict[tuple[int, int], tuple[np.ndarray, dict[float, float]]] = {}
     for r0 in range(k):
         for c0 in range(k):
-            sub = _Search(cells[:, r0::k, c0::k], dt, weight_n, search.sensor, search.area * (k * k), (1e-3, 1e3),
-                          1e-10, None)
+            sub = subs[(r0, c0)] = _Search(cells[:, r0::k, c0::k], dt, weight_n, search.sensor,
+                                           search.area * (k * k), (1e-3, 1e3), 1e-10, None)
             mine = ((where // C) % k == r0) & ((where % C) % k == c0)  # loaded cells of this sub-grid, in order
-            if not np.array_equal(sub.usable, search.usable) or int(mine.sum()) != sub.cells.shape[1]:
-                out[(r0, c0)] = sub.solve()
-                continue
-            out[(r0, c0)] = sub.solve({f: sub.force_n(r[:, mine]) for f, r in zip(starts, runs)})
-    return f_full, out
+            if np.array_equal(sub.usable, search.usable) and int(mine.sum()) == sub.cells.shape[1]:
+                shared[(r0, c0)] = (mine, {})
+
+    def tell(f: float, pressure: np.ndarray) -> None:
+        for key, (mine, forces) in shared.items():
+            forces[f] = subs[key].force_n(pressure[:, mine])
+
+    search.seen.append(tell)
+    starts = search.start_f()
+    runs = [search.run(f) for f in starts]
+    known = {f: search.force_n(r) for f, r in zip(starts, runs)}
+    del runs
+    f_full = search.solve(known) if full else None
+    search.seen.clear()
+    out = {key: (sub.solve(shared[key][1], nearest=True) if key in shared else sub.solve())
+           for key, sub in subs.items()}
+    return (f_full, out), search, subs
+
+
+def _nearest_pair(known: dict[float, float], w: float, bracket: tuple[float, float]) -> list[float] | None:
+    """log f of the two factors of ``known`` (f -> mean force, N) nearest the root of eq. 3.3 for the
+    weight ``w`` (N), in ``bracket``: the one whose force is closest to ``w`` (in log) last, the
+    next closest at least 0.1 % away before it; None without two such (a force of zero has no log)."""
+    by_gap = sorted((abs(float(np.log(force / w))), float(np.log(f))) for f, force in known.items()
+                    if force > 0 and np.isfinite(force) and bracket[0] <= f <= bracket[1])
+    if not by_gap:
+        return None
+    best = by_gap[0][1]
+    other = next((u for _, u in by_gap[1:] if abs(u - best) >= 1e-3), None)
+    return None if other is None else [other, best]
 
 
 def _secant(h, u0: float, u1: float, bounds: tuple[float, float], tol: float, max_iter: int = 30) -> float | None:
@@ -244,6 +306,6 @@ def _secant(h, u0: float, u1: float, bounds: tuple[float, float], tol: float, ma
         if not bounds[0] <= u2 <= bounds[1]:
             return None
         if abs(u2 - u1) <= tol:
-            return u2
+            return u1  # within tol of the root too, and the model has run there (_Search.pressure)
         u0, h0, u1, h1 = u1, h1, u2, h(u2)
     return None

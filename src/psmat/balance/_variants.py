@@ -25,6 +25,7 @@ maps of 0.5–2.5 and CoP moved by 1–2 cm on a twin trial whose gains are 15 %
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -34,7 +35,7 @@ from ..sensor import MPICreep, inverse_over_gaps
 from ._cop import _geometry, cop
 from ._emulate import subgrids
 from ._equilibrate import equilibrate
-from ._scale import scale_factor, scale_factors
+from ._scale import _shared_searches, scale_factor
 
 __all__ = ["BASE_VARIANTS", "VARIANTS", "EXTRA_VARIANTS", "KNOWN_VARIANTS", "VariantName", "describe",
            "legend_label", "VariantTrace", "variant_traces"]
@@ -174,10 +175,11 @@ def variant_traces(G: ArrayLike, g: ArrayLike, periods: float | ArrayLike, *, we
     # Work shared between variants, each computed once when first needed. The sensor model acts
     # cell by cell, so a sub-grid's CHC is the slice of the full mat's where their complete frames
     # agree (each frame complete or missing as a whole, as the chain gives them); the SCHC
-    # searches share their starting runs (:func:`scale_factors`).
+    # searches share their runs (:func:`scale_factors`), and each variant's pressures are its
+    # search's last run (the factor is where it ran).
     chc: NDArray[np.float64] | None = None
     whole = _whole_frames(g)
-    schc: tuple[float | None, dict[tuple[int, int], float]] | None = None
+    schc: tuple[tuple[float | None, dict[tuple[int, int], float]], Any, dict[tuple[int, int], Any]] | None = None
     out: dict[str, VariantTrace] = {}
     for name in names:
         base, coarse = name.removesuffix("-8x8"), name.endswith("-8x8")
@@ -206,13 +208,18 @@ def variant_traces(G: ArrayLike, g: ArrayLike, periods: float | ArrayLike, *, we
                 p = inverse_over_gaps(sensor, eq.apply(img), periods)
             else:
                 if schc is None:
-                    schc = scale_factors(g, periods, float(weight_n), sensor, cell_area, factor=_FACTOR,
-                                         full="SCHC" in names)
-                f = schc[1][sub] if sub is not None else schc[0]
+                    schc = _shared_searches(g, periods, float(weight_n), sensor, cell_area, _FACTOR,
+                                            "SCHC" in names)
+                (f_full, f_sub), full_search, sub_searches = schc
+                f = f_sub[sub] if sub is not None else f_full
+                p = None
                 if f is None:  # not in the shared searches
                     f = scale_factor(img, periods, float(weight_n), sensor, area)
+                else:  # the search's last run, at f: what inverse_over_gaps gives for f * img
+                    p = (full_search if sub is None else sub_searches[sub]).pressure(f, img.shape)
                 factors.append(f)
-                p = inverse_over_gaps(sensor, f * img, periods)
+                if p is None:
+                    p = inverse_over_gaps(sensor, f * img, periods)
             cops.append(cop(p, geometry=where))
         out[name] = VariantTrace(name, np.stack(cops), np.array(factors) if factors else None)
     return out
