@@ -142,21 +142,31 @@ void MPICreep::inverse(const ConstRowMatRef& g, const ConstVecRef& dt, MPICreepS
       };
       double x, s = 0;
       const double p_max = p_.p_max;
+      // bracket [lo, hi] in [0, p_max] with h(lo) <= target <= h(hi), hi doubling from the
+      // previous sample's pressure; h(p_max) < target is found on the way (no h(p_max) first:
+      // one evaluation of h fewer a sample, the same result)
+      double lo = 0.0, hi = std::min(std::max(st.p_prev[c], 1.0), p_max);
+      bool above = false;
+      if (target > 0) {
+        while (h(hi, s) < target) {
+          if (hi >= p_max) {
+            above = true;
+            break;
+          }
+          lo = hi;
+          hi = std::min(2.0 * hi, p_max);
+        }
+      }
       if (target <= 0) {
         x = 0.0;
         ++n_clipped;
-      } else if (h(p_max, s) < target) {
+      } else if (above) {
         // above the model's range: it is identified and checked monotone on [0, p_max] only
         // (docs/spec.md §4); beyond, the polynomial may turn down, so no root is sought there
         x = p_max;
         ++n_clipped;
       } else {
-        // bracket [lo, hi] in [0, p_max] with h(lo) <= target <= h(hi), then safeguarded Newton
-        double lo = 0.0, hi = std::min(std::max(st.p_prev[c], 1.0), p_max);
-        while (h(hi, s) < target) {
-          lo = hi;
-          hi = std::min(2.0 * hi, p_max);
-        }
+        // safeguarded Newton in the bracket
         x = std::min(std::max(st.p_prev[c], lo), hi);
         for (int it = 0; it < 100; ++it) {
           const double f = h(x, s) - target;
