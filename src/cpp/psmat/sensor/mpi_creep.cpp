@@ -146,14 +146,22 @@ void MPICreep::inverse(const ConstRowMatRef& g, const ConstVecRef& dt, MPICreepS
       // previous sample's pressure; h(p_max) < target is found on the way (no h(p_max) first:
       // one evaluation of h fewer a sample, the same result)
       double lo = 0.0, hi = std::min(std::max(st.p_prev[c], 1.0), p_max);
+      // h and its slope where the bracket evaluated them (lo only once it has moved from 0):
+      // Newton below starts at one of them for a loaded cell, and takes them instead of
+      // evaluating h there again
+      double h_lo = 0, s_lo = 0, h_hi = 0, s_hi = 0;
       bool above = false;
       if (target > 0) {
-        while (h(hi, s) < target) {
+        for (;;) {
+          h_hi = h(hi, s_hi);
+          if (!(h_hi < target)) break;
           if (hi >= p_max) {
             above = true;
             break;
           }
           lo = hi;
+          h_lo = h_hi;
+          s_lo = s_hi;
           hi = std::min(2.0 * hi, p_max);
         }
       }
@@ -169,7 +177,17 @@ void MPICreep::inverse(const ConstRowMatRef& g, const ConstVecRef& dt, MPICreepS
         // safeguarded Newton in the bracket
         x = std::min(std::max(st.p_prev[c], lo), hi);
         for (int it = 0; it < 100; ++it) {
-          const double f = h(x, s) - target;
+          double hx;
+          if (it == 0 && x == hi) {
+            hx = h_hi;
+            s = s_hi;
+          } else if (it == 0 && x == lo && lo > 0) {
+            hx = h_lo;
+            s = s_lo;
+          } else {
+            hx = h(x, s);
+          }
+          const double f = hx - target;
           if (std::abs(f) <= 1e-15 * std::max(target, 1e-300) + 1e-300) break;
           if (f > 0) hi = x; else lo = x;
           double xn = (s > 0) ? x - f / s : 0.5 * (lo + hi);
