@@ -133,12 +133,15 @@ class _Search:
         if not np.any(np.all(np.isfinite(cells), axis=1)):
             raise ValueError("g has no complete frame: nothing to scale")
         self.loaded = np.nanmax(cells, axis=0) > 0  # cells that never conduct add M(0) = 0 at any f
+        complete = np.all(np.isfinite(cells), axis=1)  # frames complete on every cell, loaded or not
         cells = cells[:, self.loaded]
         if cells.shape[1] == 0:
             raise ValueError("g is zero everywhere: no f can carry the weight")
         # once: every evaluation of the root reuses them
         self.usable, self.steps = usable_steps(cells, periods)
         self.cells = cells[self.usable]
+        # the model's frames are those of the whole mat (no frame missing on a quiet cell only)
+        self.whole_frames = bool(np.array_equal(complete, self.usable))
         self.in_mean = None
         if mean_over is not None:
             chosen = np.asarray(mean_over, dtype=bool)
@@ -168,8 +171,9 @@ class _Search:
         """The trial's pressures (T, R, C), psi, at ``f`` when the latest :meth:`run` was at exactly
         ``f``: what :func:`psmat.sensor.inverse_over_gaps` gives for ``f·g`` (NaN on the incomplete
         frames, 0 on the cells that never conduct, the sensor model acting cell by cell), without
-        running the model again; else None."""
-        if self.kept is None or self.kept[0] != f:
+        running the model again; else None (also when a frame misses a cell that never conducts:
+        :func:`~psmat.sensor.inverse_over_gaps` leaves that frame out, the search did not)."""
+        if self.kept is None or self.kept[0] != f or not self.whole_frames:
             return None
         out = np.full((shape[0], int(self.loaded.size)), np.nan)
         rows = np.zeros((int(self.usable.sum()), int(self.loaded.size)))
