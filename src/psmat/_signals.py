@@ -79,7 +79,10 @@ def stop_requests() -> Iterator[threading.Event]:
 
     For a loop that can stop cleanly at its next turn (``psmat record``): an exception raised
     at an arbitrary point of the loop may leave a lock of another thread's held (a progress
-    bar's, a buffer's) and hang the close that follows; setting an event cannot. A second
+    bar's, a buffer's) and hang the close that follows; setting an event cannot, as long as the
+    main thread only polls it (``is_set()``) and never waits on it: the handler runs in the main
+    thread, and ``Event.set`` there while that thread is inside ``Event.wait`` (which holds the
+    event's lock across a call) would wait for its own lock. A second
     signal while the event is set raises :class:`KeyboardInterrupt` (stop now). Outside the
     main thread it only yields an event nobody sets. The previous handlers are restored.
     """

@@ -206,9 +206,11 @@ def test_the_page_says_what_the_device_counters_say_went_wrong(tmp_path) -> None
             LabServer([port, "--profile", str(wide), "--no-browser", "--port", "0", "--data", str(tmp_path / "d")],
                       timeout_s=GUARD_S) as server, Chromium(exe, timeout_s=GUARD_S) as browser:
         browser.navigate(server.url)
-        shown = browser.wait_for("(() => { const w = document.querySelector('#warnings');"
-                                 " return !w.hidden && w.textContent; })()", timeout_s=GUARD_S)
-        items = browser.evaluate("[...document.querySelectorAll('#warnings li')].map(li => li.textContent)")
+        # the band and its items read at one moment: the line counts the frames, which go on arriving
+        shown, items = browser.wait_for(
+            "(() => { const w = document.querySelector('#warnings');"
+            " return !w.hidden && [w.textContent,"
+            " [...document.querySelectorAll('#warnings li')].map(li => li.textContent)]; })()", timeout_s=GUARD_S)
     assert len(items) == 1 and items[0] in shown
     assert items[0].startswith("no count above 10") and items[0].endswith(
         "(12 bits): is the board's ADC 10-bit? Every cell then reads as loaded: record with --bits 10 (or a "

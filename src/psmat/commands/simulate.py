@@ -61,7 +61,6 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     import signal
     import sys
-    import threading
     import time
 
     from ..twin import Faults, PsmSource, SerialTwin
@@ -97,12 +96,16 @@ def run(args: argparse.Namespace) -> int:
     protocol = "v2" if args.firmware else prof.protocol
     print(f"serving {what} (profile {prof.name}, {protocol}, {twin.rate_hz:g} Hz) on {twin.port}; "
           "Ctrl-C stops", file=sys.stderr, flush=True)
-    done = threading.Event()
-    signal.signal(signal.SIGTERM, lambda *_: done.set())
+    # SIGTERM appends to a plain list: a handler runs in the main thread between two of its Python
+    # steps, so one that set a threading.Event while the main thread was inside that event's wait()
+    # (which holds the event's lock across a call) would wait for its own lock for ever
+    stopping: list[int] = []
+    signal.signal(signal.SIGTERM, lambda signum, _frame: stopping.append(signum))
     twin.start()
     t0 = time.monotonic()
     try:
-        while not done.wait(0.2):
+        while not stopping:
+            time.sleep(0.2)
             if args.duration is not None and time.monotonic() - t0 >= args.duration:
                 break
             if twin.disconnected:
