@@ -25,7 +25,6 @@ maps of 0.5–2.5 and CoP moved by 1–2 cm on a twin trial whose gains are 15 %
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -35,7 +34,7 @@ from ..sensor import MPICreep, inverse_over_gaps
 from ._cop import _geometry, cop
 from ._emulate import subgrids
 from ._equilibrate import equilibrate
-from ._scale import _shared_searches, scale_factor
+from ._scale import _Search, _shared_searches, scale_factor
 
 __all__ = ["BASE_VARIANTS", "VARIANTS", "EXTRA_VARIANTS", "KNOWN_VARIANTS", "VariantName", "describe",
            "legend_label", "VariantTrace", "variant_traces"]
@@ -179,7 +178,7 @@ def variant_traces(G: ArrayLike, g: ArrayLike, periods: float | ArrayLike, *, we
     # search's last run (the factor is where it ran).
     chc: NDArray[np.float64] | None = None
     whole = _whole_frames(g)
-    schc: tuple[tuple[float | None, dict[tuple[int, int], float]], Any, dict[tuple[int, int], Any]] | None = None
+    schc: tuple[tuple[float | None, dict[tuple[int, int], float]], _Search, dict[tuple[int, int], _Search]] | None = None
     out: dict[str, VariantTrace] = {}
     for name in names:
         base, coarse = name.removesuffix("-8x8"), name.endswith("-8x8")
