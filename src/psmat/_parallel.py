@@ -4,7 +4,8 @@ One home for the process pool of :func:`psmat.study.run_study` and
 :func:`psmat.posture.load_posture_study`: joblib's loky processes (not threads: most
 of a task is Python that the GIL would serialise), one task per process at a time; one
 worker, or one task, runs in this process. The workers end with this process, even when it is
-killed outright (:func:`psmat._orphans.exit_with_parent`).
+killed outright (:func:`psmat._orphans.exit_with_parent`), and keep the memory a task freed for
+the next (:func:`psmat._malloc.keep_freed_memory`).
 """
 
 from __future__ import annotations
@@ -96,9 +97,16 @@ def _parallel(n: int, fn: Callable[..., R], args: Sequence[tuple[object, ...]]) 
 
     from joblib import Parallel, delayed, parallel_config
 
-    from ._orphans import exit_with_parent
-
     # the pool is made inside the configuration, its results read outside it (no setting held across yields)
-    with parallel_config(backend="loky", inner_max_num_threads=1, initializer=exit_with_parent,
+    with parallel_config(backend="loky", inner_max_num_threads=1, initializer=_start_worker,
                          initargs=(os.getpid(),)):
         return Parallel(n_jobs=n, return_as="generator_unordered")(delayed(fn)(*a) for a in args)
+
+
+def _start_worker(parent: int) -> None:
+    """Run in each worker process as it starts: it ends when ``parent`` does, and keeps freed memory."""
+    from ._malloc import keep_freed_memory
+    from ._orphans import exit_with_parent
+
+    exit_with_parent(parent)
+    keep_freed_memory()

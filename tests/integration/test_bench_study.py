@@ -263,27 +263,31 @@ def test_scaling_on_a_local_dask_cluster_too(tmp_path) -> None:
     assert "Dask LocalCluster: least-squares fit" in text and "Dask LocalCluster: 2->16 goal not measured" in text
 
 
-def test_bench_dask_workers_start_without_the_malloc_trim_variable(monkeypatch) -> None:
-    # Dask's nanny sets MALLOC_TRIM_THRESHOLD_ (which makes psmat's sessions ~10 % slower): the
-    # bench's workers run in the real worker processes without it, with one BLAS thread, also where
-    # an earlier cluster of this process left it in os.environ (a nanny writes its environment there)
+def test_bench_dask_workers_start_with_the_pools_malloc_settings(monkeypatch) -> None:
+    # Dask's nanny sets MALLOC_TRIM_THRESHOLD_=65536 (which made psmat's sessions ~10 % slower): the
+    # bench's workers run in the real worker processes with the pool's settings instead
+    # (psmat._malloc: freed memory kept), with one BLAS thread, also where an earlier cluster of
+    # this process left Dask's value in os.environ (a nanny writes its environment there)
     pytest.importorskip("distributed")
     monkeypatch.setenv("MALLOC_TRIM_THRESHOLD_", "65536")
+    monkeypatch.delenv("MALLOC_MMAP_THRESHOLD_", raising=False)
     import dask
     from distributed import Client
 
+    from psmat._malloc import ENVIRONMENT
     from psmat.bench.study_scaling import local_cluster, worker_environ
 
-    assert "MALLOC_TRIM_THRESHOLD_" in dask.config.get("distributed.nanny.pre-spawn-environ")  # Dask's default
-    assert "MALLOC_TRIM_THRESHOLD_" not in worker_environ()
+    assert dask.config.get("distributed.nanny.pre-spawn-environ")["MALLOC_TRIM_THRESHOLD_"] == 65536  # Dask's default
+    assert ENVIRONMENT == {"MALLOC_MMAP_THRESHOLD_": str(32 << 20), "MALLOC_TRIM_THRESHOLD_": str(1 << 30)}
+    assert {k: worker_environ()[k] for k in ENVIRONMENT} == ENVIRONMENT
     with local_cluster(2) as cluster, Client(cluster) as client:
         seen = client.run(lambda: (os.getpid(), os.environ.get("MALLOC_TRIM_THRESHOLD_"),
-                                   os.environ.get("OPENBLAS_NUM_THREADS")))
-    assert len(seen) == 2 and len({pid for pid, _, _ in seen.values()} | {os.getpid()}) == 3
-    assert all(trim is None and blas == "1" for _, trim, blas in seen.values())
-    # outside the bench's clusters Dask's own setting is back, and this process's variable
-    assert "MALLOC_TRIM_THRESHOLD_" in dask.config.get("distributed.nanny.pre-spawn-environ")
-    assert os.environ.get("MALLOC_TRIM_THRESHOLD_") == "65536"
+                                   os.environ.get("MALLOC_MMAP_THRESHOLD_"), os.environ.get("OPENBLAS_NUM_THREADS")))
+    assert len(seen) == 2 and len({pid for pid, _, _, _ in seen.values()} | {os.getpid()}) == 3
+    assert all((trim, mmap, blas) == (str(1 << 30), str(32 << 20), "1") for _, trim, mmap, blas in seen.values())
+    # outside the bench's clusters Dask's own setting is back, and this process's variables as they were
+    assert dask.config.get("distributed.nanny.pre-spawn-environ")["MALLOC_TRIM_THRESHOLD_"] == 65536
+    assert os.environ.get("MALLOC_TRIM_THRESHOLD_") == "65536" and "MALLOC_MMAP_THRESHOLD_" not in os.environ
 
 
 def test_dask_only_runs_the_clusters_counts_alone(tmp_path) -> None:

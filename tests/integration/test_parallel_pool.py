@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import os
+import sys
 import time
 
 import pytest
@@ -68,3 +69,42 @@ def test_one_process_starts_nothing() -> None:
     assert start_pool(os.getpid, 5, 1)() is None
     assert start_pool(os.getpid, 1, 4)() is None
     assert list(map_unordered(_pid, [0], 4)) == [os.getpid()]
+
+
+_ROUNDS = """
+import resource
+import numpy as np
+
+def rounds(k=3):
+    # k times: ten 8 MB arrays touched, then all freed; the page faults of each round
+    out = []
+    for _ in range(k):
+        before = resource.getrusage(resource.RUSAGE_SELF).ru_minflt
+        arrays = [np.ones(1_000_000) for _ in range(10)]
+        del arrays
+        out.append(resource.getrusage(resource.RUSAGE_SELF).ru_minflt - before)
+    return out
+"""
+
+
+def _fault_rounds(_: object) -> list[int]:
+    scope: dict[str, object] = {}
+    exec(_ROUNDS, scope)
+    return scope["rounds"]()  # type: ignore[operator]
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="glibc's allocator (psmat._malloc) on Linux only")
+def test_a_pool_worker_reuses_the_memory_a_task_freed() -> None:
+    import subprocess
+
+    # a process that starts as Python does (the environment without glibc's MALLOC_ variables):
+    # every round's arrays are mapped afresh, thousands of page faults each time
+    env = {k: v for k, v in os.environ.items() if not k.startswith("MALLOC_")}
+    fresh = subprocess.run([sys.executable, "-c", _ROUNDS + "\nprint(rounds())"], env=env, capture_output=True,
+                           text=True, check=True)
+    plain = [int(v) for v in fresh.stdout.strip().strip("[]").split(",")]
+    assert min(plain[1:]) > 1000, plain
+    # a worker of the pool (psmat._malloc.keep_freed_memory at its start): after the first round
+    # (whose faults depend on what the worker ran before) the freed memory is reused
+    for worker in map_unordered(_fault_rounds, [0, 1], 2):
+        assert max(worker[1:]) < 100, worker

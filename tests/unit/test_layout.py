@@ -24,7 +24,7 @@ PACKAGE = ROOT / "src" / "psmat"
 # from its own layer or a lower one, and the graph between the parts has no cycle.
 LAYERS: list[tuple[str, set[str]]] = [
     ("foundation", {"_core", "_checks", "_atomic", "_filelock", "_cpus", "_progress",
-                    "_signals", "_orphans", "_parallel", "_help", "_runners", "_version", "_browser", "_png", "_text", "_folders", "_wallclock", "units",
+                    "_signals", "_orphans", "_malloc", "_parallel", "_help", "_runners", "_version", "_browser", "_png", "_text", "_folders", "_wallclock", "units",
                     "frames"}),
     ("formats", {"protocol", "io"}),
     ("models", {"circuit", "noise", "iecm", "qzpm", "sensor", "profile"}),

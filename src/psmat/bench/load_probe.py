@@ -9,7 +9,8 @@ a lower all-core clock, shared caches and memory bandwidth), that ratio is below
 can beat it. The probe measures it with the study's own work: for each worker count n, n
 processes of a fresh pool each process the study's first session (the same file, through
 :func:`psmat.study.process_trial`, nothing written) — once to load their imports and caches,
-then again, timed in each process. The median of those n wall times is one session's time at
+then again, timed in each process (their malloc set as the study pool's workers set it,
+:mod:`psmat._malloc`). The median of those n wall times is one session's time at
 n; each process's CPU time is kept too. The probe checks that the n timed sessions ran at once
 (each began before any ended); otherwise its figure is flagged.
 """
@@ -28,8 +29,11 @@ __all__ = ["probe_load", "format_probe"]
 
 
 def _at_once(args: SessionArgs, n: int) -> dict[str, Any]:
-    """``n`` processes, each processing ``args`` once untimed then once timed, all at the same time."""
-    with mp.get_context("spawn").Pool(n) as pool:
+    """``n`` processes, each processing ``args`` once untimed then once timed, all at the same time;
+    their allocator set as in the study's pool (:func:`psmat._malloc.keep_freed_memory`)."""
+    from .._malloc import keep_freed_memory
+
+    with mp.get_context("spawn").Pool(n, initializer=keep_freed_memory) as pool:
         pool.map(timed_one, [args] * n, chunksize=1)  # imports, caches: not timed
         runs = pool.map(timed_one, [args] * n, chunksize=1)
         pool.close()

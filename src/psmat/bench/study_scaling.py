@@ -6,8 +6,9 @@ run computes every session and starts its own workers — first on this machine'
 (:func:`psmat.study.run_study` with ``workers=n``), then with ``dask=True`` on a Dask
 ``distributed.LocalCluster(n_workers=n, threads_per_worker=1, processes=True)`` on 127.0.0.1
 (``run_study(scheduler=address)``), started before its run's clock (its start is recorded apart)
-and closed after it. Its workers start with Dask's environment less ``MALLOC_TRIM_THRESHOLD_``
-(:func:`worker_environ`: with it, sessions took ~10 % longer than in the pool).
+and closed after it. Its workers start with Dask's environment, glibc's malloc set as in the
+pool's workers (:func:`worker_environ`: with Dask's own setting, sessions took ~10 % longer than
+in the pool).
 
 For each run: its wall time (s, this process's clock around ``run_study``), its CPU time (s, the
 stages of its ``results/timings.csv`` summed: the session, page and figure tasks' CPU in their
@@ -159,18 +160,23 @@ def _one_run(root: Path, kind: str, n: int, scheduler: str | None, progress: boo
 
 def worker_environ() -> dict[str, Any]:
     """The environment the bench's Dask workers start with: Dask's own (``distributed.nanny.
-    pre-spawn-environ``: one BLAS/OpenMP thread) without ``MALLOC_TRIM_THRESHOLD_``.
+    pre-spawn-environ``: one BLAS/OpenMP thread) with glibc's malloc set as psmat's own pool
+    workers set it (:data:`psmat._malloc.ENVIRONMENT`: freed memory kept for the next task).
 
-    Setting that variable at all (Dask sets 65536) turns off glibc's adaptive mmap threshold, so
-    every temporary array above 128 KiB is mapped and unmapped again; a study's sessions then took
-    ~10 % longer on a Dask worker than in the process pool (3 volunteers x 3 trials x 60 s, one
-    worker, this project's 2-core machine: 2.75-2.90 s a session against 2.52-2.64 s; without the
-    variable 2.46-2.48 s; with it set to 128 MiB still 2.75-2.80 s).
+    Dask sets ``MALLOC_TRIM_THRESHOLD_=65536``, which also turns off glibc's adaptive mmap
+    threshold, so every temporary array above 128 KiB is mapped and unmapped again; a study's
+    sessions then took ~10 % longer on a Dask worker than in the process pool (3 volunteers x 3
+    trials x 60 s, one worker, this project's 2-core machine: 2.75-2.90 s a session against
+    2.52-2.64 s; without the variable 2.46-2.48 s; with it set to 128 MiB still 2.75-2.80 s, the
+    mmap threshold staying at 128 KiB). The pool's workers keep freed memory since; these
+    variables do the same in a process that starts with them.
     """
     import dask
 
+    from .._malloc import ENVIRONMENT
+
     env = dict(dask.config.get("distributed.nanny.pre-spawn-environ", default={}) or {})
-    env.pop("MALLOC_TRIM_THRESHOLD_", None)
+    env.update(ENVIRONMENT)
     return env
 
 
@@ -183,10 +189,14 @@ def local_cluster(n: int) -> Iterator[Any]:
     import dask
     import distributed
 
-    # A nanny writes its pre-spawn environment into this process's own os.environ, so a cluster
-    # started here earlier with Dask's defaults leaves MALLOC_TRIM_THRESHOLD_ behind for every
-    # worker spawned later: it is taken out while this cluster lives.
-    trim = os.environ.pop("MALLOC_TRIM_THRESHOLD_", None)
+    from .._malloc import ENVIRONMENT
+
+    # A worker's environment is this process's os.environ over its nanny's pre-spawn environment,
+    # and a nanny writes that environment into os.environ: a cluster started here earlier with
+    # Dask's defaults leaves MALLOC_TRIM_THRESHOLD_ behind, which would win over worker_environ's.
+    # The malloc variables are taken out of os.environ while this cluster lives, and this
+    # process's own put back after it (removed where it had none).
+    saved = {k: os.environ.pop(k, None) for k in ENVIRONMENT}
     try:
         with dask.config.set({"distributed.nanny.pre-spawn-environ": worker_environ()}):
             # the scheduler's HTTP server (health, metrics; no dashboard) on a free loopback port: its
@@ -197,8 +207,11 @@ def local_cluster(n: int) -> Iterator[Any]:
                                           silence_logs=logging.ERROR) as cluster:
                 yield cluster
     finally:
-        if trim is not None:
-            os.environ["MALLOC_TRIM_THRESHOLD_"] = trim
+        for k, v in saved.items():
+            if v is None:
+                os.environ.pop(k, None)
+            else:
+                os.environ[k] = v
 
 
 def _dask_run(root: Path, n: int, progress: bool) -> dict[str, Any]:
