@@ -64,7 +64,9 @@ def cop(pressure: ArrayLike, pitch_cm: float | None = None, *, geometry: Geometr
     if np.any(p < 0):
         idx = tuple(int(v) for v in np.argwhere(p < 0)[0])
         raise ValueError(f"pressure must be >= 0 (index {idx} is {p[idx]:g})")
-    p = np.where(np.isfinite(p), p, 0.0)
+    finite = np.isfinite(p)
+    if not finite.all():  # (a copy only where a reading is missing)
+        p = np.where(finite, p, 0.0)
     total = p.sum(axis=(-2, -1))
     coords = []
     for coordinate in ("x", "y"):

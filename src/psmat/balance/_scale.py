@@ -134,12 +134,17 @@ class _Search:
             raise ValueError("g has no complete frame: nothing to scale")
         self.loaded = np.nanmax(cells, axis=0) > 0  # cells that never conduct add M(0) = 0 at any f
         complete = np.all(np.isfinite(cells), axis=1)  # frames complete on every cell, loaded or not
-        cells = cells[:, self.loaded]
+        every_cell = bool(self.loaded.all())
+        if not every_cell:  # (no copy where every cell conducts at some frame, as on a noisy mat)
+            cells = cells[:, self.loaded]
         if cells.shape[1] == 0:
             raise ValueError("g is zero everywhere: no f can carry the weight")
         # once: every evaluation of the root reuses them
-        self.usable, self.steps = usable_steps(cells, periods)
-        self.cells = cells[self.usable]
+        if every_cell:
+            self.usable, self.steps = complete, steps_over_gaps(periods, complete)[0]
+        else:
+            self.usable, self.steps = usable_steps(cells, periods)
+        self.cells = cells if self.usable.all() else cells[self.usable]  # read only: each run scales a copy
         # the model's frames are those of the whole mat (no frame missing on a quiet cell only)
         self.whole_frames = bool(np.array_equal(complete, self.usable))
         self.in_mean = None
@@ -175,6 +180,8 @@ class _Search:
         :func:`~psmat.sensor.inverse_over_gaps` leaves that frame out, the search did not)."""
         if self.kept is None or self.kept[0] != f or not self.whole_frames:
             return None
+        if self.loaded.all() and self.usable.all():  # the run's own array (read only), as (T, R, C)
+            return self.kept[1].reshape(shape)
         out = np.full((shape[0], int(self.loaded.size)), np.nan)
         rows = np.zeros((int(self.usable.sum()), int(self.loaded.size)))
         rows[:, self.loaded] = self.kept[1]
@@ -185,6 +192,13 @@ class _Search:
         """The mean force (N) of one :meth:`run`'s pressures: left side of eq. 3.3 (as :func:`_mean_force`)."""
         force = pressure_psi.sum(axis=1)
         return float(np.mean(force if self.in_mean is None else force[self.in_mean]) * PSI_PA * self.area * 1e-4)
+
+    def force_of_means(self, mean_psi: np.ndarray) -> float:
+        """:meth:`force_n` from the cells' means over the frames instead (the mean of the frames' sums is the
+        sum of the cells' means; only with every frame in the mean)."""
+        if self.in_mean is not None:
+            raise ValueError("the cells' means give the mean force only when every frame is in the mean")
+        return float(mean_psi.sum() * PSI_PA * self.area * 1e-4)
 
     def solve(self, known: dict[float, float] | None = None, nearest: bool = False) -> float:
         """``f`` (the root of eq. 3.3); ``known`` maps a factor to its mean force (N) already computed
@@ -271,8 +285,9 @@ def _shared_searches(cells: np.ndarray, dt: float | ArrayLike, weight_n: float, 
                 shared[(r0, c0)] = (mine, {})
 
     def tell(f: float, pressure: np.ndarray) -> None:
+        means = pressure.mean(axis=0)  # each loaded cell's mean over the frames: one pass for every sub-grid
         for key, (mine, forces) in shared.items():
-            forces[f] = subs[key].force_n(pressure[:, mine])
+            forces[f] = subs[key].force_of_means(means[mine])
 
     search.seen.append(tell)
     starts = search.start_f()
