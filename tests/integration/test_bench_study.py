@@ -176,11 +176,20 @@ def test_scaling_runs_each_count_from_scratch_with_the_same_metrics(tmp_path) ->
     assert load["ceiling"]["1"] == 1.0 and load["ceiling"]["2"] == pytest.approx(
         load["runs"][0]["wall_s"] / load["runs"][1]["wall_s"])
     probe = re.findall(r"^ +(\d) at once: ([\d.]+) s wall, ([\d.]+) s CPU; ceiling on efficiency against 1: "
-                       r"([\d.]+)(?:  \(not all at once: .*\))?$", text, re.M)
+                       r"([\d.]+)(?:  \(not all at once: .*\))? \[(\d+) page faults, ([\d.]+) s system\]$", text, re.M)
     assert len(probe) == 4 and probe[:2] == probe[2:] and text.index("at once") < text.index("run done")
-    for (n, wall, cpu, ceiling), x in zip(probe, load["runs"]):
+    for (n, wall, cpu, ceiling, faults, system), x in zip(probe, load["runs"]):
         assert (float(wall), float(cpu)) == pytest.approx((x["wall_s"], x["cpu_s"]), abs=0.006)
         assert float(ceiling) == pytest.approx(load["ceiling"][n], abs=0.006)
+        assert int(faults) == round(x["page_faults"]) and float(system) == pytest.approx(x["system_s"], abs=0.006)
+        assert 0 <= x["system_s"] <= x["cpu_s"]
+    # the largest count once more, the allocator as the environment leaves it: its line, and the
+    # ratio of its time to the same count's with the pool's setting (by hand)
+    d = load["default_malloc"]
+    assert d["processes"] == 2 and d["wall_s"] > 0 and d["page_faults"] >= 0
+    m = re.search(r"^ +2 at once, the allocator as the environment leaves it \(not the pool's psmat._malloc "
+                  r"setting\): ([\d.]+) s wall, ([\d.]+) s CPU, ([\d.]+) times the time with it", text, re.M)
+    assert m and float(m.group(3)) == pytest.approx(d["wall_s"] / load["runs"][1]["wall_s"], abs=0.006)
     # 1 and 2 workers are not the goal's 2 and 16: the efficiency without a met/MISSED mark
     assert s["pool_goal_efficiency"] is None
     assert "pool: 2->16 goal not measured here: counts 1,2; efficiency at 2 workers against 1: " in text
@@ -232,6 +241,17 @@ def test_the_counts_and_the_goal_mark() -> None:
            "allow" in text
     assert "warning: 16 workers exceed the 2 CPUs this process may use: their efficiency measures " \
            "oversubscription, not scaling" in text
+    # a probe of this version: each line's page faults and system time, and the largest count with the
+    # allocator's defaults, 6.0 s against 5.0 s with the pool's setting: 1.20 times (by hand)
+    for r, faults, system in zip(s["load"]["runs"], (420, 380), (0.01, 0.02)):
+        r.update(page_faults=faults, system_s=system)
+    s["load"]["default_malloc"] = {"processes": 16, "wall_s": 6.0, "cpu_s": 5.8, "page_faults": 24000.0,
+                                   "system_s": 0.4, "distinct_processes": 16, "overlapped": True}
+    text = format_scaling(s)
+    assert "   2 at once: 4.00 s wall, 3.90 s CPU; ceiling on efficiency against 2: 1.00 [420 page faults, 0.01 s " \
+           "system]\n" in text
+    assert "  16 at once, the allocator as the environment leaves it (not the pool's psmat._malloc setting): 6.00 s " \
+           "wall, 5.80 s CPU, 1.20 times the time with it [24000 page faults, 0.40 s system]\n" in text
 
 
 def test_scaling_options_refused_in_one_line(capsys) -> None:

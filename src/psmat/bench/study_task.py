@@ -31,10 +31,21 @@ def process_one(args: SessionArgs) -> int:
     return len(process_trial(session, plate, subject, trial, weight))
 
 
-def timed_one(args: SessionArgs) -> tuple[float, float, float, float, int]:
+def timed_one(args: SessionArgs) -> tuple[float, float, float, float, int, int, float]:
     """:func:`process_one` timed in the process that runs it: (start and end on the machine's
-    monotonic clock, s, comparable between its processes; wall and CPU time, s; the process id)."""
+    monotonic clock, s, comparable between its processes; wall and CPU time, s; the process id;
+    the minor page faults and the system CPU time, s, it took: -1 where the platform has no
+    ``resource`` module)."""
+    try:
+        import resource
+    except ImportError:  # Windows
+        resource = None  # type: ignore[assignment]
+    r0 = resource.getrusage(resource.RUSAGE_SELF) if resource else None
     t0, c0 = time.monotonic(), time.process_time()
     process_one(args)
     t1 = time.monotonic()
-    return t0, t1, t1 - t0, time.process_time() - c0, os.getpid()
+    cpu = time.process_time() - c0
+    if r0 is None or resource is None:
+        return t0, t1, t1 - t0, cpu, os.getpid(), -1, -1.0
+    r1 = resource.getrusage(resource.RUSAGE_SELF)
+    return t0, t1, t1 - t0, cpu, os.getpid(), r1.ru_minflt - r0.ru_minflt, r1.ru_stime - r0.ru_stime
