@@ -131,7 +131,7 @@ void MPICreep::inverse(const ConstRowMatRef& g, const ConstVecRef& dt, MPICreepS
       // step (with h'' = 2 a2 + 6 a3 x) converges cubically there. On 300 frames of a simulated
       // balance trial's cells after IECM (16x16, scaled by f = 0.5 as in the SCHC search): 0.81
       // evaluations of h a sample against 1.52 with the two-sided slope and Newton after a
-      // doubling bracket from the previous pressure (quiet cells need none); 12-21 % less time
+      // doubling bracket from the previous pressure (quiet cells need none); 10-21 % less time
       // over such trials at f = 0.3, 0.5, 0.8 (alternating in one process), the pressures within
       // 5.4e-12 relative of the earlier code's, direct(inverse(g)) = g to 1.2e-15.
       auto h = [&](double x, double& up, double& down) {
