@@ -46,7 +46,7 @@ def keep_freed_memory() -> bool:
         return False
     try:
         mallopt = ctypes.CDLL(None).mallopt
-    except (OSError, AttributeError):  # no C library symbols in this process, or no mallopt (musl has one, a stub)
+    except (OSError, AttributeError):  # no C library symbols in this process, or a C library without mallopt
         return False
     mallopt.argtypes = (ctypes.c_int, ctypes.c_int)
     mallopt.restype = ctypes.c_int
