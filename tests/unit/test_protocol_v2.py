@@ -157,6 +157,46 @@ def test_t_us_unwrapped():
     assert (np.diff(out["t_us"]) == 1000).all() and out["t_us"].dtype == np.int64
 
 
+def test_a_frame_scanned_before_a_reply_is_not_a_wrap():
+    """A reply is stamped when it is sent, a frame when its scan began: a frame sent after a reply can carry an
+    earlier time. Before, the reply moved the frames' reference and that frame went 2**32 µs forwards (a box
+    asked for its rate mid-stream; a fresh decoder whose first packet was the reply)."""
+    f = np.zeros((1, 1), dtype=np.uint16)
+    ok = encode_reply(Opcode.SET_RATE, Status.OK, "", 0, 345_123)
+    data = b"".join(encode_v2(f, k, 290_000 + 10_000 * k) for k in range(5)) + ok + b"".join(
+        encode_v2(f, k, 290_000 + 10_000 * k) for k in range(5, 8))
+    events = V2Decoder().feed(data)
+    assert [e.t_us for e in events] == [290_000 + 10_000 * k for k in range(5)] + [345_123] + [
+        290_000 + 10_000 * k for k in range(5, 8)]
+    events = V2Decoder().feed(ok + encode_v2(f, 0, 340_000) + encode_v2(f, 1, 360_000))
+    assert [e.t_us for e in events] == [345_123, 340_000, 360_000]
+    # across a wrap: the frame just after it, sent after a reply stamped later still
+    t0 = 2**32 - 15_000
+    events = V2Decoder().feed(encode_v2(f, 0, t0) + encode_reply(Opcode.START, Status.OK, "", 1, 7_000)
+                              + encode_v2(f, 1, (t0 + 20_000) % 2**32))
+    assert [e.t_us for e in events] == [t0, 2**32 + 7_000, t0 + 20_000]
+
+
+def test_frames_go_forwards_across_a_restart_told_by_a_reply():
+    """A device that restarts mid-stream: its first reply is placed where it was stamped (before the last
+    frame); its frames still follow the last frame's (the clock over the frames is monotonic), each step the
+    device's own, and replies hours apart keep the clock through a long stop of the frames."""
+    f = np.zeros((1, 1), dtype=np.uint16)
+    dec = V2Decoder()
+    first = dec.feed(encode_v2(f, 700, 8_820_000))[0].t_us
+    r = dec.feed(encode_reply(Opcode.IDENTIFY, Status.OK, "", 0, 300_500))[0]
+    frames = dec.feed(encode_v2(f, 0, 300_000) + encode_v2(f, 1, 310_000))
+    assert r.t_us == 300_500 and first == 8_820_000
+    assert [e.t_us for e in frames] == [8_820_000 + 2**32 - 8_520_000, 8_820_000 + 2**32 - 8_510_000]
+    # the frames stop for three hours (2.5 wraps); a reply every 20 minutes
+    dec = V2Decoder()
+    dec.feed(encode_v2(f, 0, 0))
+    step = 1_200_000_000
+    replies = [dec.feed(encode_reply(Opcode.IDENTIFY, Status.OK, "", k, (k * step) % 2**32))[0].t_us for k in range(1, 10)]
+    assert replies == [k * step for k in range(1, 10)]
+    assert dec.feed(encode_v2(f, 1, (9 * step + 5_000) % 2**32))[0].t_us == 9 * step + 5_000
+
+
 def test_replies_in_v2_stream():
     f = np.zeros((2, 2), dtype=np.uint16)
     text = "device=psm fw=0.1.0 rows=16 cols=16 rate=100 proto=2 serial=0000A1B2 r_o=2200 v_ref=3.3 bits=12"

@@ -59,9 +59,11 @@ they depend on how the stream was chunked, the events do not): ``candidates`` (m
 judged), ``crc_bytes`` (bytes run through the CRC-16), ``check_bytes`` (bytes read by v1
 checks and their pre-check).
 
-v2 ``t_us`` is unwrapped into a monotonic 64-bit device clock (microseconds since the
-device's counter origin, first frame's raw value as the starting point): each frame adds
-``(t_us - previous t_us) mod 2**32``.
+v2 ``t_us`` is unwrapped into a 64-bit device clock (microseconds since the device's counter
+origin, the first packet's raw value as the starting point), monotonic over the frames: each
+packet lies within half a wrap of the packet before it, frame or reply (a frame sent after a
+reply may have been scanned before it), unless a frame would then go before the last frame,
+which it follows by ``(t_us - previous frame's t_us) mod 2**32`` (a wrap, or a device restart).
 """
 
 from __future__ import annotations
@@ -180,8 +182,10 @@ class _Decoder(ABC):
         self._base = 0          # stream offset of _buf[0]
         self._pos = 0           # next index of _buf to examine
         self._owned_end = 0     # stream offset where the reported rows/replies end
-        self._last_t: int | None = None
+        self._last_t: int | None = None   # the last frame's raw time and its place on the clock
         self._clock = 0
+        self._ref_t: int | None = None    # the same for the latest frame or reply
+        self._ref_clock = 0
         self.bytes_in = 0
         self.frames = 0
         self.invalid = 0
@@ -267,15 +271,25 @@ class _Decoder(ABC):
                 self.skipped += end - start
 
     def _unwrap(self, t_raw: int, *, frame: bool) -> int:
-        if self._last_t is None:
-            self._last_t, self._clock = t_raw, t_raw
-            return t_raw
-        delta = (t_raw - self._last_t) % _WRAP
-        if frame or delta < _HALF:
-            self._last_t = t_raw
-            self._clock += delta
-            return self._clock
-        return self._clock - (_WRAP - delta)  # a reply stamped slightly before the last frame
+        """``t_raw`` (µs, 32 bits) on the unwrapped device clock.
+
+        A packet is placed within half a wrap of the latest packet, frame or reply, either side: a
+        reply is stamped when it is sent and a frame when its scan began, so a frame sent after a
+        reply may carry an earlier time. A frame never goes before the frame before it: where that
+        placing would, the device wrapped or restarted, and the frame goes forwards of the last
+        frame by the difference mod 2**32.
+        """
+        if self._ref_t is None:
+            clock = t_raw
+        else:
+            delta = (t_raw - self._ref_t) % _WRAP
+            clock = self._ref_clock + (delta - _WRAP if delta >= _HALF else delta)
+        if frame:
+            if self._last_t is not None and clock < self._clock:
+                clock = self._clock + (t_raw - self._last_t) % _WRAP
+            self._last_t, self._clock = t_raw, clock
+        self._ref_t, self._ref_clock = t_raw, clock
+        return clock
 
     def _reply(self, payload: bytes, seq: int, t_raw: int, k: int) -> Reply:
         self.replies += 1
