@@ -35,6 +35,20 @@ def test_missing_and_empty_frames():
         cop(np.ones(4))
 
 
+def test_a_missing_reading_in_one_frame_of_a_stack_leaves_the_others_alone():
+    """NaN and inf are missing readings, left out of both sums of their own frame only; a negative
+    reading behind a NaN (which hides it from a minimum) is still refused, with its index."""
+    p = np.zeros((3, 2, 2))
+    p[:, 0, 0], p[:, 1, 1] = 1.0, 3.0          # (0, 0) and (2, 2) cm at pitch 2: x = y = 3·2/4 = 1.5
+    p[1, 0, 1] = np.nan
+    p[2, 0, 1] = np.inf
+    np.testing.assert_allclose(cop(p, pitch_cm=2.0), [[1.5, 1.5]] * 3)
+    q = np.ones((2, 3, 3))
+    q[0, 0, 0], q[1, 2, 1] = np.nan, -0.5
+    with pytest.raises(ValueError, match=r"index \(1, 2, 1\) is -0.5"):
+        cop(q)
+
+
 def test_eu_divides_by_n():
     a = np.zeros((4, 2))
     b = np.array([[3.0, 4.0], [0, 0], [0, 0], [0, 0]])  # one distance of 5

@@ -61,18 +61,23 @@ def cop(pressure: ArrayLike, pitch_cm: float | None = None, *, geometry: Geometr
     if p.ndim < 2:
         raise ValueError(f"pressure must be (..., R, C), got shape {p.shape}")
     geo = _geometry(p.shape[-2:], pitch_cm, geometry)
-    if np.any(p < 0):
-        idx = tuple(int(v) for v in np.argwhere(p < 0)[0])
-        raise ValueError(f"pressure must be >= 0 (index {idx} is {p[idx]:g})")
-    finite = np.isfinite(p)
-    if not finite.all():  # (a copy only where a reading is missing)
-        p = np.where(finite, p, 0.0)
-    total = p.sum(axis=(-2, -1))
+    # three passes over the frames (a minimum, the row sums, the column sums), no temporaries: the
+    # checks and the missing readings' copy only where the minimum or a total says they are needed
+    if p.size and not p.min() >= 0:  # a negative reading, or a NaN (the minimum is NaN then)
+        if np.any(p < 0):
+            idx = tuple(int(v) for v in np.argwhere(p < 0)[0])
+            raise ValueError(f"pressure must be >= 0 (index {idx} is {p[idx]:g})")
+    sums = {-1: p.sum(axis=-1), -2: p.sum(axis=-2)}   # over the columns: (..., R); over the rows: (..., C)
+    total = sums[-1].sum(axis=-1)
+    if not np.isfinite(total).all():  # a missing reading (NaN, inf): left out of both sums
+        p = np.where(np.isfinite(p), p, 0.0)
+        sums = {-1: p.sum(axis=-1), -2: p.sum(axis=-2)}
+        total = sums[-1].sum(axis=-1)
     coords = []
     for coordinate in ("x", "y"):
         # each coordinate changes along one axis of the frame: sum over the other, then weigh the lines
         axis, pos = geo.axis_positions_cm(coordinate)
-        lines = p.sum(axis=-2) if axis == -1 else p.sum(axis=-1)
+        lines = sums[-2] if axis == -1 else sums[-1]
         with np.errstate(invalid="ignore", divide="ignore"):
             coords.append(lines @ pos / total)
     out = np.stack(coords, axis=-1)
