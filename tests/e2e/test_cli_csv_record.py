@@ -258,11 +258,13 @@ def test_a_10_bit_board_recorded_as_12_bits_is_told_its_adc_is_narrower(tmp_path
             runs[bits] = done.stdout
     s12 = load_session(tmp_path / "b12.h5")
     top = int(s12.counts[s12.valid].max())
-    assert 0 < top <= 1023 and s12.valid.all()
+    # every frame valid but perhaps the first: the line the board was sending when the port opened may be cut
+    # (on a loaded machine its tail can come after the recording began)
+    assert 0 < top <= 1023 and s12.valid[1:].all()
     told = [ln.strip() for ln in runs["12"].splitlines() if ln.startswith("  no count above")]
     # an open cell: V_ref through R_o (2200 ohm) into the ADC's input resistance (the arduino16 profile's 1e8 ohm)
     empty = round(4095 * 1e8 / (1e8 + 2200))
-    assert told == [f"no count above {top} in {s12.n_frames} valid frames, where an empty cell reads {empty} of 4095 "
+    assert told == [f"no count above {top} in {int(s12.valid.sum())} valid frames, where an empty cell reads {empty} of 4095 "
                     "(12 bits): is the board's ADC 10-bit? Every cell then reads as loaded: record with --bits 10 "
                     "(or a profile with bits = 10)"]
     assert "no count above" not in runs["10"]
