@@ -552,10 +552,10 @@ class Device(BufferedSource):
         self._lost_at = self.clock.now()
         with self._write_lock:
             self._close_port()
-        try:
+        try:  # what the lost connection left held is judged; a failure there is said, not raised
             self._handle(self._decoder.reset(), self.clock.now())
-        except Exception:  # noqa: BLE001
-            pass
+        except Exception as exc:  # noqa: BLE001
+            self._last_error += f"; its last bytes could not be read: {type(exc).__name__}: {exc}"
         if not self.reconnect:
             self._gone = True
         self._ring.wake()

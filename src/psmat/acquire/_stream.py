@@ -150,11 +150,13 @@ class StreamDecoder:
         self._pending_protocol = None
 
     def reset(self) -> list[Row | Reply | Gap]:
-        """End of one connection: judge held bytes, then start a fresh decoder (counters kept)."""
-        out = self._convert(self._dec.finish())
-        self._retire()
-        self._dec = self._new_decoder()
-        return out
+        """End of one connection: judge held bytes, then start a fresh decoder (counters kept), also when
+        judging them raised: the next connection never continues this one's state (its clock, its sequence)."""
+        try:
+            return self._convert(self._dec.finish())
+        finally:
+            self._retire()
+            self._dec = self._new_decoder()
 
     def feed(self, chunk: bytes) -> list[Row | Reply | Gap]:
         """Decode a chunk; return its rows, replies and gaps (v2 frames lost just before the next row), in order."""
