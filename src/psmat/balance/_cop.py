@@ -67,17 +67,17 @@ def cop(pressure: ArrayLike, pitch_cm: float | None = None, *, geometry: Geometr
         if np.any(p < 0):
             idx = tuple(int(v) for v in np.argwhere(p < 0)[0])
             raise ValueError(f"pressure must be >= 0 (index {idx} is {p[idx]:g})")
-    sums = {-1: p.sum(axis=-1), -2: p.sum(axis=-2)}   # over the columns: (..., R); over the rows: (..., C)
-    total = sums[-1].sum(axis=-1)
+    row_sums, col_sums = p.sum(axis=-1), p.sum(axis=-2)   # (..., R), (..., C)
+    total = row_sums.sum(axis=-1)
     if not np.isfinite(total).all():  # a missing reading (NaN, inf): left out of both sums
         p = np.where(np.isfinite(p), p, 0.0)
-        sums = {-1: p.sum(axis=-1), -2: p.sum(axis=-2)}
-        total = sums[-1].sum(axis=-1)
+        row_sums, col_sums = p.sum(axis=-1), p.sum(axis=-2)
+        total = row_sums.sum(axis=-1)
     coords = []
     for coordinate in ("x", "y"):
         # each coordinate changes along one axis of the frame: sum over the other, then weigh the lines
         axis, pos = geo.axis_positions_cm(coordinate)
-        lines = sums[-2] if axis == -1 else sums[-1]
+        lines = col_sums if axis == -1 else row_sums
         with np.errstate(invalid="ignore", divide="ignore"):
             coords.append(lines @ pos / total)
     out = np.stack(coords, axis=-1)
