@@ -10,18 +10,23 @@ daemon thread and ends the worker as soon as that process is gone:
   or a subreaper); checked every :data:`POLL_S` s.
 * Windows: the thread waits on a handle of the parent process, which is signalled when it exits.
 
-Linux's ``prctl(PR_SET_PDEATHSIG)`` is not used: it fires when the *thread* that started the
+Linux's ``prctl(PR_SET_PDEATHSIG)`` is not used there: it fires when the *thread* that started the
 worker ends, and a pool may start workers from a helper thread that ends while the pool lives.
-Imports nothing but the standard library.
+A child whose starting thread outlives it (a browser opened and closed in one ``with`` block) can
+use it: :func:`parent_death_preexec`. Imports nothing but the standard library.
 """
 
 from __future__ import annotations
 
+import ctypes
 import os
+import signal
+import sys
 import threading
 import time
+from collections.abc import Callable
 
-__all__ = ["POLL_S", "exit_with_parent"]
+__all__ = ["POLL_S", "exit_with_parent", "parent_death_preexec"]
 
 #: how often a worker on POSIX looks at its parent (s)
 POLL_S = 0.2
@@ -67,3 +72,30 @@ def exit_with_parent(parent_pid: int) -> None:
     """
     target = _watch_windows if os.name == "nt" else _watch_posix
     threading.Thread(target=target, args=(int(parent_pid),), name="psmat-exit-with-parent", daemon=True).start()
+
+
+def parent_death_preexec(sig: int = signal.SIGTERM) -> Callable[[], None] | None:
+    """A ``preexec_fn`` for :class:`subprocess.Popen`: the child gets ``sig`` when the thread that starts it
+    ends, the process killed outright included (Linux's ``prctl(PR_SET_PDEATHSIG)``); None elsewhere.
+
+    Only for a child that its starting thread outlives (the signal follows that thread, not the
+    process). The signal survives ``exec`` but not ``fork``: a child that starts the real program as
+    its own child must ``exec`` it. ``prctl`` is looked up here, in the parent, so that the child
+    only makes the call; a parent gone before the call is seen by the child, which then signals
+    itself.
+    """
+    if not sys.platform.startswith("linux"):
+        return None
+    try:
+        prctl = ctypes.CDLL(None, use_errno=True).prctl
+    except (OSError, AttributeError):  # pragma: no cover - a libc without prctl
+        return None
+    prctl.argtypes = [ctypes.c_int, ctypes.c_ulong, ctypes.c_ulong, ctypes.c_ulong, ctypes.c_ulong]
+    parent = os.getpid()
+    number = int(sig)
+
+    def arm() -> None:
+        prctl(1, number, 0, 0, 0)  # PR_SET_PDEATHSIG
+        if os.getppid() != parent:
+            os.kill(os.getpid(), number)
+    return arm

@@ -34,7 +34,7 @@ websockets_sync = pytest.importorskip("websockets.sync.client")
 from psmat.io import journal_path, load_session  # noqa: E402
 from psmat.process import session_clock  # noqa: E402
 
-from conftest import default_stop_signals  # noqa: E402
+from conftest import child_preexec  # noqa: E402
 from csv_twin import csv_twin  # noqa: E402
 from small_disk import small_disk  # noqa: E402
 
@@ -51,7 +51,7 @@ class Lab:
         self.data = data
         self.proc = subprocess.Popen([sys.executable, "-m", "psmat", "lab", *source, "--no-browser", "--port", "0",
                                       "--data", str(data), *extra], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
-                                     text=True, preexec_fn=default_stop_signals)
+                                     text=True, preexec_fn=child_preexec)
         line = self.proc.stdout.readline().strip()
         m = URL.match(line)
         if not m:

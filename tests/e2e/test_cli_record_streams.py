@@ -24,7 +24,7 @@ from psmat.cli import main
 from psmat.io import STREAMS_FORMAT_VERSION, journal_path, load_session
 from psmat.twin import Faults, SerialTwin
 
-from conftest import default_stop_signals
+from conftest import child_preexec
 
 MAT_HZ, IMU_HZ = 100.0, 10.0  # the twins' default rates (SerialTwin)
 
@@ -95,7 +95,7 @@ def test_ctrl_c_stops_every_device_and_completes_the_file(tmp_path: Path) -> Non
     psmat = str(Path(sys.executable).parent / "psmat")
     proc = subprocess.Popen([psmat, "record", "--simulate", "--also", "imu", "-o", str(out)],
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-                            preexec_fn=default_stop_signals)  # SIGINT not left ignored by a background shell
+                            preexec_fn=child_preexec)  # SIGINT not left ignored by a background shell
     try:
         ij = journal_path(out, "imu")
         deadline = time.monotonic() + 60  # a hang guard, not a duration

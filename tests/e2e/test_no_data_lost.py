@@ -37,7 +37,7 @@ import pytest
 from psmat._atomic import OutputRefused, check_outputs, replacing
 from psmat.io import journal_path, load_session
 
-from conftest import default_stop_signals
+from conftest import child_preexec
 from small_disk import small_disk
 
 #: generous bound for a subprocess to reach a state or to end (s); never asserted as a duration
@@ -189,7 +189,7 @@ def test_a_replacement_that_fails_leaves_the_file_as_it_was(tmp_path) -> None:
 def _start_record(out: Path, *extra: str) -> subprocess.Popen:
     return subprocess.Popen([sys.executable, "-m", "psmat", "record", "--simulate", "-o", str(out), *extra],
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-                            preexec_fn=default_stop_signals if os.name == "posix" else None)
+                            preexec_fn=child_preexec if os.name == "posix" else None)
 
 
 def _stopped(proc: subprocess.Popen, sig: int) -> str:
@@ -242,7 +242,7 @@ def test_a_stop_signal_closes_the_demos_recording(tmp_path) -> None:
     proc = subprocess.Popen([sys.executable, "-m", "psmat", "demo", "--twin", "--seconds", "120", "--session",
                              str(session), "--out", str(tmp_path / "d.png")], stdout=subprocess.PIPE,
                             stderr=subprocess.PIPE, text=True, env={**os.environ, "MPLBACKEND": "Agg"},
-                            preexec_fn=default_stop_signals if os.name == "posix" else None)
+                            preexec_fn=child_preexec if os.name == "posix" else None)
     _wait_for_frames(proc, journal_path(session))
     err = _stopped(proc, signal.SIGTERM)
     assert proc.returncode == 128 + signal.SIGTERM and "stopped by SIGTERM" in err, err
@@ -386,7 +386,8 @@ def test_a_killed_study_run_leaves_no_worker_behind(small_study, tmp_path) -> No
     psutil = pytest.importorskip("psutil")
     root = Path(shutil.copytree(small_study, tmp_path / "study"))
     proc = subprocess.Popen([sys.executable, "-m", "psmat", "study", "run", str(root), "--workers", "2", "--quiet"],
-                            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+                            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+                            preexec_fn=child_preexec if os.name == "posix" else None)
     parent = psutil.Process(proc.pid)
     children: list = []
     try:

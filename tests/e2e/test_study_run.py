@@ -27,6 +27,7 @@ from psmat.study import run_study
 from psmat.synth import simulate_study
 from psmat.study import study_lock
 from psmat.study import COLUMNS, process_trial
+from conftest import child_preexec
 
 SUBJECTS = ("V01", "V02")
 TRIALS = ("right-leg", "left-leg")
@@ -118,7 +119,7 @@ def test_a_killed_run_resumes_with_the_unfinished_sessions_only(study, tmp_path)
     copy = _copy(root, tmp_path / "killed", results=False)
     results = copy / "results" / "sessions"
     proc = subprocess.Popen([sys.executable, "-m", "psmat", "study", "run", str(copy), "--workers", "1", "--quiet"],
-                            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+                            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, preexec_fn=child_preexec)
     try:
         deadline = time.monotonic() + 120
         while not _entries(results) and proc.poll() is None and time.monotonic() < deadline:

@@ -4,12 +4,19 @@ from __future__ import annotations
 
 import http.server
 import os
+import signal
 import struct
+import subprocess
+import sys
+import textwrap
 import threading
+import time
+from pathlib import Path
 
 import pytest
 
 from chromium import Chromium, ChromiumError, chromium_or_skip
+from hang_guard import HANG_GUARD_S
 
 PAGE = b"""<!doctype html><title>driver check</title>
 <button id="b" onclick="window.clicks = (window.clicks || 0) + 1">b</button>
@@ -80,3 +87,36 @@ def test_a_refused_address_is_a_clear_error(tmp_path) -> None:
         with pytest.raises(ChromiumError, match="failed: net::ERR_CONNECTION_REFUSED"):
             browser.navigate(f"http://127.0.0.1:{port}/")
     assert _group_gone(browser.pid)
+
+
+#: a process that opens the driver, says the browser's process group, and waits to be killed
+OPENER = textwrap.dedent("""
+    import sys, time
+    from psmat.bench.chromium import Chromium
+    browser = Chromium(sys.argv[1])
+    print(browser.pid, flush=True)
+    time.sleep(600)
+""")
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="PR_SET_PDEATHSIG is Linux's")
+def test_no_browser_outlives_a_process_killed_outright() -> None:
+    exe = chromium_or_skip()
+    opener = subprocess.Popen([sys.executable, "-c", OPENER, exe], stdout=subprocess.PIPE, text=True,
+                              cwd=Path(__file__).parent)
+    pgid = None
+    try:
+        pgid = int(opener.stdout.readline())
+        assert not _group_gone(pgid)
+        os.kill(opener.pid, signal.SIGKILL)  # close() never runs
+        opener.wait(timeout=HANG_GUARD_S)
+        deadline = time.monotonic() + HANG_GUARD_S
+        while not _group_gone(pgid) and time.monotonic() < deadline:
+            time.sleep(0.1)
+        assert _group_gone(pgid), "Chromium outlived the process that drove it"
+    finally:
+        opener.kill()
+        opener.wait()
+        opener.stdout.close()
+        if pgid is not None and not _group_gone(pgid):
+            os.killpg(pgid, signal.SIGKILL)

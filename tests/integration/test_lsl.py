@@ -26,6 +26,7 @@ pylsl = pytest.importorskip("pylsl")
 
 from psmat.acquire import HostClock, LslInlet, PressureOutlets  # noqa: E402
 from psmat.io import load_session  # noqa: E402
+from conftest import child_preexec  # noqa: E402
 
 ENV = {**os.environ, "PYTHONUNBUFFERED": "1"}
 
@@ -144,7 +145,8 @@ def test_pushed_frames_arrive_equal_with_timestamps_on_lsl_clock() -> None:
 def test_psmat_lsl_simulate_publishes_streams_another_process_reads(tmp_path: Path) -> None:
     name = unique("twin")
     p = subprocess.Popen([sys.executable, "-m", "psmat", "lsl", "--simulate", "--seconds", "3", "--name", name],
-                         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=ENV, cwd=tmp_path)
+                         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=ENV, cwd=tmp_path,
+                         preexec_fn=child_preexec)
     try:
         first = p.stdout.readline()
         assert f"{name}-pressure" in first, (first, p.stderr.read() if p.poll() is not None else "")

@@ -21,6 +21,7 @@ import numpy as np
 import pytest
 
 from psmat.io import SessionFormatError, SessionWriter, journal_path, load_session, repair_session, save_product
+from conftest import child_preexec
 
 PROFILE = {"name": "psm16", "kind": "psm", "shape": [4, 3], "pitch_cm": 2.0, "rate_hz": 100,
            "geometry": {"origin_cm": [0.0, 0.0], "x": "+columns", "y": "+rows"}}
@@ -198,7 +199,8 @@ def test_a_writer_killed_with_sigkill_keeps_every_event_whose_add_event_returned
     script = tmp_path / "writer.py"
     script.write_text(WRITER)
     with open(tmp_path / "stderr.txt", "wb") as err:
-        proc = subprocess.Popen([sys.executable, str(script), str(path), str(progress), "psm8"], stderr=err)
+        proc = subprocess.Popen([sys.executable, str(script), str(path), str(progress), "psm8"], stderr=err,
+                                preexec_fn=child_preexec)
     try:
         deadline = time.monotonic() + 60
         while (progress.read_bytes().count(b"E ") if progress.exists() else 0) < 30:

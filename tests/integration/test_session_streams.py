@@ -34,6 +34,7 @@ from psmat.io import (
     save_product,
     stream_csv_path,
 )
+from conftest import child_preexec
 
 MAT_DEV = {"serial": "0000A1B2", "r_o": 2200.0, "v_ref": 3.3, "bits": 12, "fw": "0.1.0", "protocol": 2, "rate": 100}
 IMU_DEV = {"serial": "IMU00001", "fw": "0.1.0", "protocol": 2, "rate": 10}
@@ -387,7 +388,7 @@ def test_sigkill_keeps_every_returned_append_of_both_streams(tmp_path: Path, wai
     errlog = tmp_path / "stderr.txt"
     with open(errlog, "wb") as err:
         proc = subprocess.Popen([sys.executable, str(script), str(path), str(progress)], stderr=err,
-                                env=dict(os.environ))
+                                env=dict(os.environ), preexec_fn=child_preexec)
     try:
         deadline = time.monotonic() + 60
         while not all(tag in (progress.read_bytes() if progress.exists() else b"") for tag in (b"M ", b"I 3\n")):

@@ -12,6 +12,7 @@ from pathlib import Path
 import pytest
 
 from psmat.study import study_lock
+from conftest import child_preexec
 
 #: a process that takes the lock, says so, and holds it until its standard input closes
 HOLDER = textwrap.dedent("""
@@ -27,7 +28,7 @@ HOLDER = textwrap.dedent("""
 
 def _holder(results: Path) -> subprocess.Popen:
     proc = subprocess.Popen([sys.executable, "-c", HOLDER, str(results)], stdin=subprocess.PIPE,
-                            stdout=subprocess.PIPE, text=True)
+                            stdout=subprocess.PIPE, text=True, preexec_fn=child_preexec)
     assert proc.stdout.readline().strip() == "held"  # blocks until the lock is taken (or the process died)
     return proc
 

@@ -14,6 +14,7 @@ import serial
 from psmat import protocol
 from psmat.twin import Faults, SerialTwin
 from psmat.twin.pty_link import pty_available
+from conftest import child_preexec
 
 
 def _read_until(port: serial.Serial, decoder, done, timeout_s: float = 30.0) -> list:
@@ -111,7 +112,8 @@ def test_a_gone_twins_port_never_leads_to_a_later_twin(end: str):
 @pytest.mark.skipif(not pty_available(), reason="no pseudo-terminals here (Windows): tests/integration/test_twin_tcp.py covers TCP")
 def test_simulate_command_prints_the_port_first():
     with subprocess.Popen([sys.executable, "-m", "psmat", "simulate", "--rate", "100", "--protocol", "v1",
-                           "--scene", "quiet", "--duration", "20"], stdout=subprocess.PIPE, text=True) as proc:
+                           "--scene", "quiet", "--duration", "20"], stdout=subprocess.PIPE, text=True,
+                          preexec_fn=child_preexec) as proc:
         try:
             port = proc.stdout.readline().strip()
             assert os.path.realpath(port).startswith("/dev/")  # a terminal device

@@ -10,7 +10,10 @@ answered by the reply that carries its id; events met on the way are kept for
 The browser runs in a process group of its own (``/usr/bin/chromium`` is a shell script that
 starts the real binary, which starts its renderers): :meth:`Chromium.close` ends the whole
 group (SIGTERM, then SIGKILL after a grace time) and removes the user data folder, so no
-Chromium process outlives the driver. Only the standard library and ``websockets``.
+Chromium process outlives the driver. On Linux the browser also gets SIGTERM when the thread that
+started it ends, the process killed outright included (``psmat._orphans.parent_death_preexec``;
+the script execs the binary, which ends its own children), so a benchmark or test killed with
+``kill -9`` leaves no browser running. Only the standard library and ``websockets``.
 """
 
 from __future__ import annotations
@@ -32,6 +35,7 @@ from types import TracebackType
 from typing import Any
 
 from .._browser import CANDIDATES, find_chromium
+from .._orphans import parent_death_preexec
 
 __all__ = ["Chromium", "ChromiumError", "find_chromium", "CANDIDATES"]
 
@@ -76,7 +80,7 @@ class Chromium:
                 "--disable-dev-shm-usage", "--disable-background-timer-throttling",
                 "--disable-renderer-backgrounding", "--disable-backgrounding-occluded-windows", "about:blank"]
         self._proc = subprocess.Popen(argv, stdin=subprocess.DEVNULL, stdout=self._log, stderr=subprocess.STDOUT,
-                                      start_new_session=sys.platform != "win32")
+                                      start_new_session=sys.platform != "win32", preexec_fn=parent_death_preexec())
         try:
             self._connect(window)
         except BaseException:
