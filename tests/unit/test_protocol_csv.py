@@ -188,6 +188,41 @@ def test_finish_judges_the_last_line_and_closes_the_block():
     assert flags(run(b"1,2,3\n")[0]) == [False]
 
 
+# -- a port just opened ----------------------------------------------------------------------
+def test_a_port_opened_within_a_line_skips_the_cut_piece():
+    # the port opened in the middle of "1,2,3,40,50,60\n": "3,40,50,60\n" (4 counts) is no row, its 11 bytes
+    # are skipped; read as a whole log (opened=False) the same bytes are one invalid row (count)
+    cut = LINE[4:]
+    events, dec = run(cut + LINE + LINE, opened=True)
+    assert flags(events) == [True, True] and dec.invalid == 0 and dec.skipped == len(cut) == 11
+    assert [e.offset for e in events] == [11, 11 + len(LINE)]
+    events, dec = run(cut + LINE + LINE)
+    assert flags(events) == [False, True, True] and dec.reasons["count"] == 1 and dec.skipped == 0
+
+
+def test_a_port_opened_within_a_block_skips_the_cut_block():
+    # opened after the first row of a block: "40,50,60\n\n" closes a block of one row (short_block): skipped,
+    # its row and its closing blank line, 10 bytes
+    cut = BLOCK[6:]
+    events, dec = run(cut + BLOCK + BLOCK, opened=True)
+    assert flags(events) == [True, True] and dec.invalid == 0 and dec.skipped == len(cut) == 10
+    assert [e.offset for e in events] == [10, 10 + len(BLOCK)]
+    # opened within a row: "50,60\n" (2 counts, no block seen yet) is a cut line frame, skipped, and the blank
+    # line after it closes no block (skipped as ever): 7 bytes, then every block
+    events, dec = run(BLOCK[9:] + BLOCK + BLOCK, opened=True)
+    assert flags(events) == [True, True] and dec.invalid == 0 and dec.skipped == 7
+
+
+def test_a_port_opened_on_a_line_boundary_loses_nothing_and_only_the_first_frame_is_forgiven():
+    events, dec = run(LINE + LINE, opened=True)
+    assert flags(events) == [True, True] and dec.skipped == 0
+    # a bad line later is an invalid row as ever, and so is one after a valid first frame
+    events, dec = run(LINE[4:] + LINE[4:] + LINE, opened=True)
+    assert flags(events) == [False, True] and dec.reasons["count"] == 1 and dec.skipped == 11
+    events, dec = run(LINE + LINE[4:], opened=True)
+    assert flags(events) == [True, False]
+
+
 # -- bounded memory ------------------------------------------------------------------------
 def test_a_line_longer_than_the_longest_legal_line_is_cut():
     dec = CsvDecoder((2, 3), 10)

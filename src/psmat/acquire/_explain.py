@@ -14,15 +14,15 @@ __all__ = ["invalid_line", "silence_line", "link_line"]
 NOISE_SHARE = 0.01
 
 
-def invalid_line(reasons: dict[str, int], dev: Any, rows: int | None = None, openings: int = 1) -> str | None:
+def invalid_line(reasons: dict[str, int], dev: Any, rows: int | None = None, losses: int = 0) -> str | None:
     """``invalid rows by reason, since the port opened: range 2990: ...; count 3: ...``: a csv mat's invalid
     rows by reason, most first, the usual slips said (a board whose ADC is wider than the profile's bits,
     another shape, another baud rate); None without any, and, given ``rows`` (valid and invalid since the
-    port opened), for at most one per opening of the port (``openings``: the first line after the port
-    opens is often cut; a port re-opened after it was lost opens again) or fewer than :data:`NOISE_SHARE`
-    of them."""
+    port opened), for at most one per loss of the port (``losses``: the line being sent when the port
+    vanished is cut; the line cut by an opening is no row, :class:`psmat.protocol.CsvDecoder`'s
+    ``opened``) or fewer than :data:`NOISE_SHARE` of them."""
     invalid = sum(reasons.values())
-    if not invalid or (rows is not None and (invalid <= openings or invalid < NOISE_SHARE * rows)):
+    if not invalid or (rows is not None and (invalid <= losses or invalid < NOISE_SHARE * rows)):
         return None
     bits, (n_rows, n_cols) = int(getattr(dev, "bits", 0) or 0), dev.shape[:2]
     said = {"range": f"counts above {2 ** bits - 1}, the most {bits} bits hold: is the board's ADC wider (the "

@@ -102,7 +102,8 @@ class StreamDecoder:
         if self.kind == "daq":
             return DaqLineDecoder(n_sensors=self.shape[0])
         if self.protocol == "csv":
-            return CsvDecoder(self.shape, self.bits)  # type: ignore[arg-type]
+            # each decoder reads a port from its opening: a first line or block cut by it is skipped bytes
+            return CsvDecoder(self.shape, self.bits, opened=True)  # type: ignore[arg-type]
         if self.protocol == 2:
             return V2Decoder()
         return V1Decoder(self.shape) if self.kind == "psm" else ImuV1Decoder()

@@ -423,7 +423,7 @@ def _warnings(dev: Any, feed: DisplayFeed | None, profile: Any) -> list[str]:
         out.append(why)
     rows = int(getattr(st, "frames", 0)) + int(getattr(st, "invalid", 0))
     if why := invalid_line(dict(getattr(st, "invalid_reasons", {}) or {}), dev, rows,
-                           openings=1 + int(getattr(st, "reconnects", 0) or 0)):
+                           losses=int(getattr(st, "reconnects", 0) or 0)):
         out.append(why)
     silent = rows == 0
     if silent and feed is not None and time.monotonic() - feed.started_s >= _SILENT_S and \

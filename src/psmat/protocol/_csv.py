@@ -115,6 +115,12 @@ class CsvDecoder:
         at most ``D + 8`` bytes. A longer line is cut: its bytes are dropped up to its
         newline without being held, and it counts as a bad data line (reason ``"long"``),
         unless it starts as text (a long banner, then it is skipped).
+    opened : bool
+        The stream is a port just opened, which may begin within a line or a block: the first
+        frame, when invalid, is the cut piece of the one the board was sending, and its bytes
+        are skipped (counted in ``skipped``, like the binary decoders' bytes before their first
+        frame), not an invalid row. A valid first frame is kept. Default False: a whole log
+        (:func:`decode_csv`), whose first frame is judged like any other.
 
     Notes
     -----
@@ -149,11 +155,12 @@ class CsvDecoder:
     line by O(1) Python steps; memory: at most ``max_line`` held bytes plus one block's rows
     beside the chunk being fed. Counters (attributes, also :attr:`stats`): ``bytes_in``,
     ``frames`` (valid), ``invalid`` (invalid rows), ``skipped`` (bytes of blank, header and
-    marker lines that close no block), ``dropped``, ``replies``, ``restarts`` (always 0: no
+    marker lines that close no block, and of a cut first frame: ``opened``), ``dropped``, ``replies``, ``restarts`` (always 0: no
     sequence numbers, no replies); :attr:`reasons` counts the invalid rows by reason.
     """
 
-    def __init__(self, shape: tuple[int, int], bits: int = 10, *, max_line: int | None = None) -> None:
+    def __init__(self, shape: tuple[int, int], bits: int = 10, *, max_line: int | None = None,
+                 opened: bool = False) -> None:
         r, c = shape2(shape)
         if not is_int(bits) or not 1 <= bits <= 16:
             raise ValueError(f"bits must be an integer 1 ... 16, got {bits!r}")
@@ -173,6 +180,7 @@ class CsvDecoder:
         self._block_off = 0
         self._block_bad: str | None = None
         self._layout: str | None = None
+        self._at_open = bool(opened)             # no frame yet since the port opened (``opened``)
         self._zeros = np.zeros((r, c), dtype=np.uint16)
         self._zeros.setflags(write=False)
         self.bytes_in = 0
@@ -229,7 +237,7 @@ class CsvDecoder:
             self._lines(region, self._line_off, events, no_newline=True)
         self._line_off = self.bytes_in
         if self._block_n:
-            self._close_block(events)
+            self._close_block(events, self.bytes_in)
         return events
 
     # -- bytes -> lines -----------------------------------------------------------------
@@ -323,21 +331,21 @@ class CsvDecoder:
         R, C = self.shape
         if kind != _DATA:
             if self._block_n:
-                self._close_block(events)
+                self._close_block(events, off + nbytes)
             else:
                 self.skipped += nbytes
             return
         if n == R * C:
             if self._block_n:
-                self._end_block(events, self._block_bad or "unclosed")
+                self._end_block(events, self._block_bad or "unclosed", off)
             self._layout = "line"
-            self._emit(events, off, vals, reason)
+            self._emit(events, off, vals, reason, off + nbytes)
             return
         is_row = n == C
         if R > 1 and (is_row or self._block_n or self._layout == "block"):
             carried = None
             if self._block_n == R:
-                self._end_block(events, self._block_bad or "long_block")
+                self._end_block(events, self._block_bad or "long_block", off)
                 carried = "long_block"
             if not self._block_n:
                 self._block_off = off
@@ -351,20 +359,28 @@ class CsvDecoder:
             if is_row:
                 self._layout = "block"
             return
-        self._emit(events, off, None, reason if n < 0 else "count")
+        self._emit(events, off, None, reason if n < 0 else "count", off + nbytes)
 
-    def _close_block(self, events: list[Frame]) -> None:
-        """A closing line (or the end of the stream) ends the open block."""
+    def _close_block(self, events: list[Frame], end: int) -> None:
+        """A closing line (or the end of the stream), ending at stream offset ``end``, ends the open block."""
         reason = self._block_bad or (None if self._block_n == self.shape[0] else "short_block")
-        self._end_block(events, reason)
+        self._end_block(events, reason, end)
 
-    def _end_block(self, events: list[Frame], reason: str | None) -> None:
+    def _end_block(self, events: list[Frame], reason: str | None, end: int) -> None:
         rows = self._rows
         self._rows, self._block_n, self._block_bad = [], 0, None
-        self._emit(events, self._block_off, [v for row in rows for v in row] if reason is None else None, reason)
+        self._emit(events, self._block_off, [v for row in rows for v in row] if reason is None else None, reason,
+                   end)
 
-    def _emit(self, events: list[Frame], off: int, vals: list[int] | None, reason: str | None) -> None:
-        if reason is None and vals is not None:
+    def _emit(self, events: list[Frame], off: int, vals: list[int] | None, reason: str | None, end: int) -> None:
+        """One frame from stream offset ``off`` to ``end`` (its bytes, its closing line's included)."""
+        valid = reason is None and vals is not None
+        if self._at_open:  # the first frame since the port opened: an invalid one is the cut piece (``opened``)
+            self._at_open = False
+            if not valid:
+                self.skipped += end - off
+                return
+        if valid:
             self.frames += 1
             data = np.array(vals, dtype=np.uint16).reshape(self.shape)
             events.append(Frame("psm", data, True, None, None, off))
