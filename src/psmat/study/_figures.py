@@ -29,6 +29,8 @@ TRACE_VARIANTS = ("PROP", "SCHC", "SCHC-8x8")
 AXES = {"sd_ml_cm": ("M-L", r"$\sigma_{ML}$"), "sd_ap_cm": ("A-P", r"$\sigma_{AP}$")}
 LONG_AXES = {"M-L": "the medial-lateral direction (M-L)", "A-P": "the anterior-posterior direction (A-P)"}
 DPI = 100
+#: Tick spacings the small panels may use (times a power of ten): matplotlib's automatic ones.
+TICK_STEPS = (1, 2, 2.5, 5, 10)
 
 
 def _figure(nrows: int, ncols: int, size: tuple[float, float]) -> Any:
@@ -232,11 +234,15 @@ def bland_altman_plot(study: StudyRows, summary: Sequence[Mapping[str, Any]], me
         raise ValueError(f"Bland–Altman of {metric!r}: only {' or '.join(SIGMAS)}")
     key = metric[:-3]
     trials, variants = study.trials, study.compared
+    from matplotlib.ticker import MaxNLocator
+
     fig, ax = _figure(len(trials), max(len(variants), 1), (2.8 * max(len(variants), 1) + 0.6, 2.5 * len(trials) + 0.6))
+    rows_of = {(r["trial"], r["variant"]): r for r in summary}
+    shown = [[(trial, variant) in rows_of for variant in variants] for trial in trials]
     for i, trial in enumerate(trials):
         for j, variant in enumerate(variants):
             a = ax[i, j]
-            row = next((r for r in summary if r["trial"] == trial and r["variant"] == variant), None)
+            row = rows_of.get((trial, variant))
             if row is None:  # no rows of this variant in this trial
                 a.set_axis_off()
                 continue
@@ -248,8 +254,14 @@ def bland_altman_plot(study: StudyRows, summary: Sequence[Mapping[str, Any]], me
                     a.axhline(y, color="grey", ls=style, lw=0.8)
             a.axhline(0.0, color="black", lw=0.5)
             a.set_title(f"{variant}, {trial}", fontsize="medium", y=1.0)
-            a.set_xlabel(f"mean of {AXES[metric][1]} (cm)")
-            a.set_ylabel(f"{AXES[metric][1]} − FP (cm)")
+            # every panel of a row has the same y quantity, of a column the same x: each said once, on the
+            # row's first panel and the column's lowest; four intervals on each axis of these small panels
+            if not any(shown[k][j] for k in range(i + 1, len(trials))):
+                a.set_xlabel(f"mean of {AXES[metric][1]} (cm)")
+            if not any(shown[i][:j]):
+                a.set_ylabel(f"{AXES[metric][1]} − FP (cm)")
+            a.xaxis.set_major_locator(MaxNLocator(4, steps=TICK_STEPS))
+            a.yaxis.set_major_locator(MaxNLocator(4, steps=TICK_STEPS))
     key = _key(fig, variants)
     return _finish(fig, ax, _title(f"Bland–Altman of σ, the standard deviation of the centre of pressure\nalong "
                                    f"{LONG_AXES[AXES[metric][0]]}, against the force platform (FP): bias, 95 % limits",
