@@ -155,8 +155,9 @@ class CsvDecoder:
     line by O(1) Python steps; memory: at most ``max_line`` held bytes plus one block's rows
     beside the chunk being fed. Counters (attributes, also :attr:`stats`): ``bytes_in``,
     ``frames`` (valid), ``invalid`` (invalid rows), ``skipped`` (bytes of blank, header and
-    marker lines that close no block, and of a cut first frame: ``opened``), ``dropped``, ``replies``, ``restarts`` (always 0: no
-    sequence numbers, no replies); :attr:`reasons` counts the invalid rows by reason.
+    marker lines that close no block, and of a cut first frame: ``opened``), ``dropped``,
+    ``replies``, ``restarts`` (always 0: no sequence numbers, no replies); :attr:`reasons`
+    counts the invalid rows by reason.
     """
 
     def __init__(self, shape: tuple[int, int], bits: int = 10, *, max_line: int | None = None,

@@ -232,12 +232,14 @@ def bland_altman_plot(study: StudyRows, summary: Sequence[Mapping[str, Any]], me
     """
     if metric not in SIGMAS:
         raise ValueError(f"Bland–Altman of {metric!r}: only {' or '.join(SIGMAS)}")
-    key = metric[:-3]
-    trials, variants = study.trials, study.compared
     from matplotlib.ticker import MaxNLocator
 
+    key = metric[:-3]
+    trials, variants = study.trials, study.compared
     fig, ax = _figure(len(trials), max(len(variants), 1), (2.8 * max(len(variants), 1) + 0.6, 2.5 * len(trials) + 0.6))
-    rows_of = {(r["trial"], r["variant"]): r for r in summary}
+    rows_of: dict[tuple[str, str], Mapping[str, Any]] = {}
+    for r in summary:
+        rows_of.setdefault((r["trial"], r["variant"]), r)
     shown = [[(trial, variant) in rows_of for variant in variants] for trial in trials]
     for i, trial in enumerate(trials):
         for j, variant in enumerate(variants):
