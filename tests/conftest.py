@@ -10,6 +10,7 @@ from __future__ import annotations
 import json
 import os
 import signal
+from collections.abc import Callable
 from pathlib import Path
 
 # One BLAS thread, here and in every process a test starts (they inherit it), unless the caller
@@ -26,26 +27,30 @@ from psmat._orphans import parent_death_preexec  # noqa: E402
 #: ``tests/data`` in the repository (this file is ``<root>/tests/conftest.py``).
 DATA_DIR = Path(__file__).resolve().parent / "data"
 
-_ARM_PARENT_DEATH = parent_death_preexec()  # made in the test process (pytest's main thread)
 
-
-def child_preexec() -> None:
-    """``preexec_fn`` for every child a test starts (``psmat lab``, ``psmat simulate``, ``psmat record``...).
+def child_preexec() -> Callable[[], None]:
+    """The ``preexec_fn`` for a child a test starts (``psmat lab``, ``psmat simulate``, ``psmat record``...):
+    ``Popen(..., preexec_fn=child_preexec())``, made in the process that starts the child.
 
     * The default handling of SIGINT, SIGHUP and SIGTERM: a process started in the background by a
       non-interactive shell ignores SIGINT, and one under ``nohup`` ignores SIGHUP; a child inherits
       that, and Python keeps an ignored signal ignored, so without this the child never sees the
       signal the test sends.
-    * On Linux, SIGTERM when the test process dies (``PR_SET_PDEATHSIG``): a pytest killed outright
-      never reaches the ``finally`` clauses that stop its children, and a ``psmat lab --simulate``
-      would otherwise serve its twin for hours. The signal follows the thread that started the child,
-      so the tests start them from their main thread.
+    * On Linux, SIGTERM when the test process dies (``PR_SET_PDEATHSIG``,
+      :func:`psmat._orphans.parent_death_preexec`): a pytest killed outright never reaches the
+      ``finally`` clauses that stop its children, and a ``psmat lab --simulate`` would otherwise serve
+      its twin for hours. The signal follows the thread that started the child, so the tests start
+      them from their main thread.
     """
-    for name in ("SIGINT", "SIGHUP", "SIGTERM"):
-        if hasattr(signal, name):
-            signal.signal(getattr(signal, name), signal.SIG_DFL)
-    if _ARM_PARENT_DEATH is not None:
-        _ARM_PARENT_DEATH()
+    arm = parent_death_preexec()
+
+    def preexec() -> None:
+        for name in ("SIGINT", "SIGHUP", "SIGTERM"):
+            if hasattr(signal, name):
+                signal.signal(getattr(signal, name), signal.SIG_DFL)
+        if arm is not None:
+            arm()
+    return preexec
 
 
 def load_reference(name: str) -> dict:

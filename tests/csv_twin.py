@@ -18,7 +18,7 @@ def box_twin(*options: str, protocol: str = "v2", rate_hz: float = 100.0) -> Ite
     """The port of ``psmat simulate --protocol PROTOCOL --rate RATE_HZ OPTIONS``."""
     proc = subprocess.Popen([sys.executable, "-m", "psmat", "simulate", "--protocol", protocol, "--rate",
                              f"{rate_hz:g}", *options], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-                            preexec_fn=child_preexec)
+                            preexec_fn=child_preexec())
     try:
         port = proc.stdout.readline().strip()
         assert port, proc.communicate()

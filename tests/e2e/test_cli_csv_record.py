@@ -119,7 +119,7 @@ def _recorder_on_a_pty(*options: str):
     termios.tcsetattr(slave, termios.TCSANOW, attrs)
     proc = subprocess.Popen([sys.executable, "-m", "psmat", "record", os.ttyname(slave), "--protocol", "csv",
                              *options], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-                            preexec_fn=child_preexec)
+                            preexec_fn=child_preexec())
     try:
         _wait(lambda: proc.poll() is not None or termios.tcgetattr(slave)[5] == termios.B115200,
               "the recorder never configured the port")
@@ -172,7 +172,7 @@ def test_simulate_serves_csv_that_open_device_reads(tmp_path: Path) -> None:
     proc = subprocess.Popen([sys.executable, "-m", "psmat", "simulate", "--protocol", "csv", "--scene", "quiet",
                              "--rate", "50", "--shape", "8x12"],
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-                            preexec_fn=child_preexec)
+                            preexec_fn=child_preexec())
     try:
         port = proc.stdout.readline().strip()
         assert port, proc.communicate()

@@ -51,7 +51,7 @@ class Lab:
         self.data = data
         self.proc = subprocess.Popen([sys.executable, "-m", "psmat", "lab", *source, "--no-browser", "--port", "0",
                                       "--data", str(data), *extra], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
-                                     text=True, preexec_fn=child_preexec)
+                                     text=True, preexec_fn=child_preexec())
         line = self.proc.stdout.readline().strip()
         m = URL.match(line)
         if not m:

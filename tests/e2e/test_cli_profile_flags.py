@@ -111,7 +111,7 @@ def test_a_user_profile_served_and_recorded_comes_out_in_logical_order(tmp_path:
     assert (wire != loaded).sum() >= 20 and (twice != loaded).sum() >= 20  # the test can tell them apart
 
     sim = subprocess.Popen([sys.executable, "-m", "psmat", "simulate", "--profile", str(path), "--scene", "quiet"],
-                           stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, preexec_fn=child_preexec)
+                           stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, preexec_fn=child_preexec())
     try:
         port = sim.stdout.readline().strip()
         assert port, sim.communicate()

@@ -95,7 +95,7 @@ def test_ctrl_c_stops_every_device_and_completes_the_file(tmp_path: Path) -> Non
     psmat = str(Path(sys.executable).parent / "psmat")
     proc = subprocess.Popen([psmat, "record", "--simulate", "--also", "imu", "-o", str(out)],
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-                            preexec_fn=child_preexec)  # SIGINT not left ignored by a background shell
+                            preexec_fn=child_preexec())  # SIGINT not left ignored by a background shell
     try:
         ij = journal_path(out, "imu")
         deadline = time.monotonic() + 60  # a hang guard, not a duration

@@ -189,7 +189,7 @@ def test_a_replacement_that_fails_leaves_the_file_as_it_was(tmp_path) -> None:
 def _start_record(out: Path, *extra: str) -> subprocess.Popen:
     return subprocess.Popen([sys.executable, "-m", "psmat", "record", "--simulate", "-o", str(out), *extra],
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-                            preexec_fn=child_preexec if os.name == "posix" else None)
+                            preexec_fn=child_preexec() if os.name == "posix" else None)
 
 
 def _stopped(proc: subprocess.Popen, sig: int) -> str:
@@ -242,7 +242,7 @@ def test_a_stop_signal_closes_the_demos_recording(tmp_path) -> None:
     proc = subprocess.Popen([sys.executable, "-m", "psmat", "demo", "--twin", "--seconds", "120", "--session",
                              str(session), "--out", str(tmp_path / "d.png")], stdout=subprocess.PIPE,
                             stderr=subprocess.PIPE, text=True, env={**os.environ, "MPLBACKEND": "Agg"},
-                            preexec_fn=child_preexec if os.name == "posix" else None)
+                            preexec_fn=child_preexec() if os.name == "posix" else None)
     _wait_for_frames(proc, journal_path(session))
     err = _stopped(proc, signal.SIGTERM)
     assert proc.returncode == 128 + signal.SIGTERM and "stopped by SIGTERM" in err, err
@@ -387,7 +387,7 @@ def test_a_killed_study_run_leaves_no_worker_behind(small_study, tmp_path) -> No
     root = Path(shutil.copytree(small_study, tmp_path / "study"))
     proc = subprocess.Popen([sys.executable, "-m", "psmat", "study", "run", str(root), "--workers", "2", "--quiet"],
                             stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
-                            preexec_fn=child_preexec if os.name == "posix" else None)
+                            preexec_fn=child_preexec() if os.name == "posix" else None)
     parent = psutil.Process(proc.pid)
     children: list = []
     try:

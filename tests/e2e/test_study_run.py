@@ -119,7 +119,7 @@ def test_a_killed_run_resumes_with_the_unfinished_sessions_only(study, tmp_path)
     copy = _copy(root, tmp_path / "killed", results=False)
     results = copy / "results" / "sessions"
     proc = subprocess.Popen([sys.executable, "-m", "psmat", "study", "run", str(copy), "--workers", "1", "--quiet"],
-                            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, preexec_fn=child_preexec)
+                            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, preexec_fn=child_preexec())
     try:
         deadline = time.monotonic() + 120
         while not _entries(results) and proc.poll() is None and time.monotonic() < deadline:

@@ -146,7 +146,7 @@ def test_psmat_lsl_simulate_publishes_streams_another_process_reads(tmp_path: Pa
     name = unique("twin")
     p = subprocess.Popen([sys.executable, "-m", "psmat", "lsl", "--simulate", "--seconds", "3", "--name", name],
                          stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=ENV, cwd=tmp_path,
-                         preexec_fn=child_preexec)
+                         preexec_fn=child_preexec())
     try:
         first = p.stdout.readline()
         assert f"{name}-pressure" in first, (first, p.stderr.read() if p.poll() is not None else "")

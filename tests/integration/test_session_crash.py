@@ -94,7 +94,7 @@ def run_writer(tmp_path: Path, kind: str, mode: str, kill_after: float | None,
     errlog = tmp_path / f"stderr_{kind}.txt"
     with open(errlog, "wb") as err:
         proc = subprocess.Popen([sys.executable, str(script), str(path), str(progress), kind, mode], env=env,
-                                stderr=err, preexec_fn=child_preexec)
+                                stderr=err, preexec_fn=child_preexec())
     try:
         if kill_after is not None:
             deadline = time.monotonic() + 30

@@ -200,7 +200,7 @@ def test_a_writer_killed_with_sigkill_keeps_every_event_whose_add_event_returned
     script.write_text(WRITER)
     with open(tmp_path / "stderr.txt", "wb") as err:
         proc = subprocess.Popen([sys.executable, str(script), str(path), str(progress), "psm8"], stderr=err,
-                                preexec_fn=child_preexec)
+                                preexec_fn=child_preexec())
     try:
         deadline = time.monotonic() + 60
         while (progress.read_bytes().count(b"E ") if progress.exists() else 0) < 30:

@@ -388,7 +388,7 @@ def test_sigkill_keeps_every_returned_append_of_both_streams(tmp_path: Path, wai
     errlog = tmp_path / "stderr.txt"
     with open(errlog, "wb") as err:
         proc = subprocess.Popen([sys.executable, str(script), str(path), str(progress)], stderr=err,
-                                env=dict(os.environ), preexec_fn=child_preexec)
+                                env=dict(os.environ), preexec_fn=child_preexec())
     try:
         deadline = time.monotonic() + 60
         while not all(tag in (progress.read_bytes() if progress.exists() else b"") for tag in (b"M ", b"I 3\n")):

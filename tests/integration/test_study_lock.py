@@ -28,7 +28,7 @@ HOLDER = textwrap.dedent("""
 
 def _holder(results: Path) -> subprocess.Popen:
     proc = subprocess.Popen([sys.executable, "-c", HOLDER, str(results)], stdin=subprocess.PIPE,
-                            stdout=subprocess.PIPE, text=True, preexec_fn=child_preexec)
+                            stdout=subprocess.PIPE, text=True, preexec_fn=child_preexec())
     assert proc.stdout.readline().strip() == "held"  # blocks until the lock is taken (or the process died)
     return proc
 

@@ -23,7 +23,7 @@ PARENT = textwrap.dedent("""
     import subprocess, sys, time
     sys.path.insert(0, sys.argv[1])
     from conftest import child_preexec
-    child = subprocess.Popen([sys.executable, "-c", "import time; time.sleep(600)"], preexec_fn=child_preexec)
+    child = subprocess.Popen([sys.executable, "-c", "import time; time.sleep(600)"], preexec_fn=child_preexec())
     print(child.pid, flush=True)
     time.sleep(600)
 """)
@@ -66,7 +66,7 @@ def test_the_preexec_restores_the_default_stop_signals() -> None:
     try:
         plain = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=HANG_GUARD_S)
         fixed = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=HANG_GUARD_S,
-                               preexec_fn=child_preexec)
+                               preexec_fn=child_preexec())
     finally:
         signal.signal(signal.SIGINT, old[0])
         signal.signal(signal.SIGHUP, old[1])

@@ -113,7 +113,7 @@ def test_a_gone_twins_port_never_leads_to_a_later_twin(end: str):
 def test_simulate_command_prints_the_port_first():
     with subprocess.Popen([sys.executable, "-m", "psmat", "simulate", "--rate", "100", "--protocol", "v1",
                            "--scene", "quiet", "--duration", "20"], stdout=subprocess.PIPE, text=True,
-                          preexec_fn=child_preexec) as proc:
+                          preexec_fn=child_preexec()) as proc:
         try:
             port = proc.stdout.readline().strip()
             assert os.path.realpath(port).startswith("/dev/")  # a terminal device

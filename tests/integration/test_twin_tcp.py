@@ -225,7 +225,7 @@ def test_the_package_imports_and_serves_without_posix_modules() -> None:
 
 
 def _psmat(*args: str, **kw) -> subprocess.Popen:
-    return subprocess.Popen([sys.executable, "-m", "psmat", *args], text=True, preexec_fn=child_preexec, **kw)
+    return subprocess.Popen([sys.executable, "-m", "psmat", *args], text=True, preexec_fn=child_preexec(), **kw)
 
 
 def test_simulate_tcp_prints_its_url_first_and_record_reads_it(tmp_path) -> None:
