@@ -14,6 +14,7 @@ from pathlib import Path
 import psutil
 import pytest
 
+from conftest import child_preexec
 from hang_guard import HANG_GUARD_S
 
 TESTS = Path(__file__).resolve().parents[1]
@@ -39,6 +40,7 @@ def _alive(proc: psutil.Process) -> bool:
 @pytest.mark.skipif(not sys.platform.startswith("linux"), reason="PR_SET_PDEATHSIG is Linux's")
 def test_a_child_ends_when_the_test_process_is_killed() -> None:
     parent = subprocess.Popen([sys.executable, "-c", PARENT, str(TESTS)], stdout=subprocess.PIPE, text=True)
+    child = None
     try:
         child = psutil.Process(int(parent.stdout.readline()))
         assert child.ppid() == parent.pid and child.is_running()
@@ -53,15 +55,14 @@ def test_a_child_ends_when_the_test_process_is_killed() -> None:
         parent.kill()
         parent.wait()
         parent.stdout.close()
+        if child is not None and _alive(child):  # (the check failed: not left sleeping)
+            child.kill()
 
 
 def test_the_preexec_restores_the_default_stop_signals() -> None:
     # a child of a shell that ignores SIGINT (a background job) sees SIGINT again
     code = ("import signal, sys; print(signal.getsignal(signal.SIGINT) is signal.default_int_handler, "
             "signal.getsignal(signal.SIGHUP) == signal.SIG_DFL)")
-    sys.path.insert(0, str(TESTS))
-    from conftest import child_preexec
-
     old = signal.signal(signal.SIGINT, signal.SIG_IGN), signal.signal(signal.SIGHUP, signal.SIG_IGN)
     try:
         plain = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=HANG_GUARD_S)
