@@ -235,7 +235,10 @@ def _past_midnight(t: NDArray[np.float64]) -> NDArray[np.float64]:
     return t + days * DAY_S
 
 
-def _read_table(path: Path, delimiter: str | None) -> tuple[list[str] | None, NDArray[np.float64], list[str], set[int]]:
+Table = tuple[list[str] | None, NDArray[np.float64], list[str], set[int]]
+
+
+def _read_table(path: Path, delimiter: str | None) -> Table:
     """(header, data, preamble, clock) of a platform's table: the header (with a units row's units in
     brackets), the numbers (an empty field: NaN, a lost sample), the lines above the header (the
     software's own notes) and the columns of clock times (``12:30:01.250``, read as seconds of the day,
@@ -245,6 +248,10 @@ def _read_table(path: Path, delimiter: str | None) -> tuple[list[str] | None, ND
     numbers); the rows above it are a preamble (the software's name, the subject, the rate...), kept
     unread, unless a row of numbers is among them: then the first row is the header, as in a file
     without a preamble, and the malformed rows are errors.
+
+    A plain table (below its header: numbers only, every field filled, no clock times, quotes or
+    trailing separators) is read by :func:`_plain_table`, its numbers by NumPy at once; any other by
+    :func:`_table`, field by field. Both give the same result where the first applies.
     """
     try:
         text = read_text(path)
@@ -256,36 +263,52 @@ def _read_table(path: Path, delimiter: str | None) -> tuple[list[str] | None, ND
     if delimiter is None:  # from the last line, a data line: a header may hold any character
         probe = lines[-1]
         delimiter = "\t" if "\t" in probe else ";" if ";" in probe else "," if "," in probe else None
+    plain = _plain_table(lines, delimiter)
+    return plain if plain is not None else _table(path, lines, delimiter)
+
+
+def _rows(lines: list[str], delimiter: str | None) -> tuple[list[list[str]], list[set[int]]]:
+    """The fields of ``lines`` (stripped; a decimal comma read as a point where the separator is not a
+    comma) and, per row, the columns whose clock times were turned into seconds (:func:`_clock_columns`)."""
     if delimiter:
         rows = [[c.strip() for c in r] for r in csv.reader(io.StringIO("\n".join(lines)), delimiter=delimiter)]
     else:
         rows = [ln.split() for ln in lines]
     if delimiter != ",":  # tabs, semicolons or spaces: a decimal comma read as a point (the European CSV)
         rows = [[c.replace(",", ".") for c in r] for r in rows]
-    clocks = _clock_columns(rows)
+    return rows, _clock_columns(rows)
+
+
+def _header(rows: list[list[str]], width: int, complete: bool = True) -> tuple[list[str] | None, int, int] | None:
+    """(header, the first data row, the header's row) of ``rows`` whose last row has ``width`` fields (the
+    rule of :func:`_read_table`). Not ``complete``: ``rows`` are the table's first rows only, and None
+    when the rule would look past them."""
+    if _numeric(rows[0]):
+        return None, 0, 0
+    for i in range(len(rows) - 1):
+        if not complete and i + 2 >= len(rows):
+            return None
+        if _numeric(rows[i]) and len(rows[i]) == width:
+            break  # numbers above any later header: no preamble
+        if len(rows[i]) != width or _numeric(rows[i]):
+            continue
+        if _numeric(rows[i + 1]):
+            return rows[i], i + 1, i
+        if i + 2 < len(rows) and len(rows[i + 1]) <= width and _units_row(rows[i + 1]) and _numeric(rows[i + 2]):
+            units = rows[i + 1] + [""] * (width - len(rows[i + 1]))
+            return [h if not u or _unit_of(h) else f"{h} [{u.strip('[]() ')}]" for h, u in zip(rows[i], units)], i + 2, i
+    return rows[0], 1, 0
+
+
+def _table(path: Path, lines: list[str], delimiter: str | None) -> Table:
+    """:func:`_read_table` field by field: any layout, and the errors that name the row and field."""
+    rows, clocks = _rows(lines, delimiter)
     if delimiter:  # a delimiter that ends every line adds no field; an empty last field of one row is a missing value
         trail = [len(r) - len(_without_trailing_empties(r)) for r in rows]
         numbers = [k for r, k in zip(rows, trail) if _numeric(r)]
         common = min(numbers) if numbers else min(trail)
         rows = [r[:len(r) - min(k, common)] for r, k in zip(rows, trail)]
-    width = len(rows[-1])
-    header: list[str] | None = None
-    start = at = 0  # the first data row; the header's row
-    if not _numeric(rows[0]):
-        header, start = rows[0], 1
-        for i in range(len(rows) - 1):
-            if _numeric(rows[i]) and len(rows[i]) == width:
-                break  # numbers above any later header: no preamble
-            if len(rows[i]) != width or _numeric(rows[i]):
-                continue
-            if _numeric(rows[i + 1]):
-                header, start, at = rows[i], i + 1, i
-                break
-            if i + 2 < len(rows) and len(rows[i + 1]) <= width and _units_row(rows[i + 1]) and _numeric(rows[i + 2]):
-                units = rows[i + 1] + [""] * (width - len(rows[i + 1]))
-                header = [h if not u or _unit_of(h) else f"{h} [{u.strip('[]() ')}]" for h, u in zip(rows[i], units)]
-                start, at = i + 2, i
-                break
+    header, start, at = _header(rows, len(rows[-1]))  # type: ignore[misc]  # complete rows: never None
     preamble = lines[:at]
     rows, clock = rows[start:], set().union(*clocks[start:])  # (clock times in the data, not the preamble)
     if not rows:
@@ -305,6 +328,45 @@ def _read_table(path: Path, delimiter: str | None) -> tuple[list[str] | None, ND
         if np.nanmax(data[:, k]) < DAY_S:  # times of the day (not dates and times)
             data[:, k] = _past_midnight(data[:, k])
     return header, data, preamble, clock
+
+
+#: the lines :func:`_plain_table` reads field by field to find the header (a preamble longer than this: :func:`_table`)
+_HEAD_LINES = 64
+
+
+def _plain_table(lines: list[str], delimiter: str | None) -> Table | None:
+    """:func:`_read_table` for a plain table, None for any other (then :func:`_table` reads it).
+
+    Plain: the header found by :func:`_header` within the first :data:`_HEAD_LINES` lines (read field by
+    field, clock times and decimal commas as :func:`_table` reads them), and below it rows of numbers
+    only, as many in each row as in the first, with no quotes, clock times (``:``) or empty fields.
+    NumPy reads those rows at once; it takes no number that :func:`float` does not (it refuses some
+    that :func:`float` takes, ``1_000``: then None), and gives the same value. With no empty field in
+    the data rows, :func:`_table` drops no trailing field anywhere, so the header and widths agree.
+    """
+    if any(ln.count('"') % 2 for ln in lines[:_HEAD_LINES]):  # a quoted field that may go on to the next line
+        return None
+    head, _ = _rows(lines[:_HEAD_LINES], delimiter)
+    complete = len(lines) <= _HEAD_LINES
+    width = len(head[-1]) if complete else len(_rows(lines[-1:], delimiter)[0][0])
+    found = _header(head, width, complete)
+    if found is None:
+        return None
+    header, start, at = found
+    if start >= min(len(lines), _HEAD_LINES):  # no data row among the rows read
+        return None
+    body = "\n".join(lines[start:])
+    if '"' in body or ":" in body:
+        return None
+    if delimiter != ",":  # a decimal comma, as _rows reads it
+        body = body.replace(",", ".")
+    try:  # (an empty or whitespace field, a row of another width, a non-number: ValueError)
+        data = np.loadtxt(io.StringIO(body), delimiter=delimiter, ndmin=2, dtype=np.float64, comments=None)
+    except ValueError:
+        return None
+    if data.shape != (len(lines) - start, len(head[start])):
+        return None
+    return header, data, lines[:at], set()
 
 
 def _find(header: list[str], names: Sequence[str], given: str | int | None, what: str, path: Path, required: bool = True,
