@@ -340,9 +340,10 @@ def _plain_table(lines: list[str], delimiter: str | None) -> Table | None:
     Plain: the header found by :func:`_header` within the first :data:`_HEAD_LINES` lines (read field by
     field, clock times and decimal commas as :func:`_table` reads them), and below it rows of numbers
     only, as many in each row as in the first, with no quotes, clock times (``:``) or empty fields.
-    NumPy reads those rows at once; it takes no number that :func:`float` does not (it refuses some
-    that :func:`float` takes, ``1_000``: then None), and gives the same value. With no empty field in
-    the data rows, :func:`_table` drops no trailing field anywhere, so the header and widths agree.
+    NumPy reads those rows at once, each number to the value :func:`float` gives; a number it refuses
+    (some that :func:`float` takes, ``1_000``) makes it None, and none it takes was refused by
+    :func:`float` in the cases tried. With no empty field in the data rows, :func:`_table` drops no
+    trailing field anywhere, so the header and widths agree.
     """
     if any(ln.count('"') % 2 for ln in lines[:_HEAD_LINES]):  # a quoted field that may go on to the next line
         return None
