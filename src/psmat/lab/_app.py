@@ -280,14 +280,18 @@ def build_app(lab: LabSession, token: str, hub: ClientHub | None = None) -> Star
             await websocket.send_text(json.dumps({"type": "hello", "status": await run_in_threadpool(lab.status)}))
             if lab.latest is not None:
                 ev.set()
+            sent: str | None = None
             while True:
                 await ev.wait()
                 ev.clear()
                 if gone.is_set():
                     break
+                # the newest message; not the one just sent again: lab.latest changes before the hub's
+                # notice reaches this loop, so a notice can come for a message already read and sent
                 text = lab.latest
-                if text is not None:
+                if text is not None and text is not sent:
                     await websocket.send_text(text)
+                    sent = text
         except (WebSocketDisconnect, RuntimeError, OSError):
             pass
         finally:
