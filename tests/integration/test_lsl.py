@@ -142,6 +142,25 @@ def test_pushed_frames_arrive_equal_with_timestamps_on_lsl_clock() -> None:
     np.testing.assert_allclose(chunk.host_time_s, host, atol=2e-3, rtol=0)
 
 
+def test_stamps_stay_in_order_when_a_chunk_arrived_late() -> None:
+    """A late frame ends one push; the next push's two frames arrived just after it but are 10 ms apart on
+    the device: by the device clock the first would be stamped before the late frame. LSL gets them in
+    order (spread between the two arrivals) instead."""
+    name = unique("late")
+    clock = HostClock()
+    t0 = clock.now()
+    with PressureOutlets((2, 2), rate_hz=100.0, pitch_cm=1.0, serial="BOX2", name=name, clock=clock) as out:
+        raw = raw_inlet(f"{name}-pressure")
+        time.sleep(0.2)  # the inlet connected before the pushes
+        frames = SimpleNamespace(pressure_kpa=np.ones((2, 2, 2)), cop_cm=np.zeros((2, 2)))
+        out.push(frames, [t0, t0 + 0.0293], [0, 10_000])            # the second frame arrived late
+        out.push(frames, [t0 + 0.0297, t0 + 0.0297], [20_000, 30_000])
+        _, stamps = pull_until(raw, 4, 10.0)
+    assert len(stamps) == 4 and np.all(np.diff(stamps) > 0), np.diff(stamps)
+    offset = host_minus_local(clock.now)
+    np.testing.assert_allclose(np.asarray(stamps) + offset, [t0, t0 + 0.0293, t0 + 0.0295, t0 + 0.0297], atol=2e-3)
+
+
 def test_psmat_lsl_simulate_publishes_streams_another_process_reads(tmp_path: Path) -> None:
     name = unique("twin")
     p = subprocess.Popen([sys.executable, "-m", "psmat", "lsl", "--simulate", "--seconds", "3", "--name", name],

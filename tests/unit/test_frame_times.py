@@ -27,6 +27,27 @@ def test_a_run_never_reaches_back_past_the_run_before() -> None:
     assert np.all(np.diff(out) > 0)
 
 
+def test_a_run_spread_by_the_device_clock_never_reaches_back_either() -> None:
+    # a frame that arrived late (0.3142 s), then two frames 10 ms apart on the device that arrived at 0.3146 s:
+    # by the device clock the first of them would be at 0.3046 s, before the late one; spread evenly after it
+    host = [0.2849, 0.3142, 0.3146, 0.3146]
+    dev = [0, 10_000, 20_000, 30_000]
+    out = frame_times(host, dev)
+    np.testing.assert_allclose(out, [0.2849, 0.3142, 0.3142 + 0.0004 / 2, 0.3146], atol=1e-12)
+    assert np.all(np.diff(out) > 0)
+    # one that does not reach back keeps the device clock's spacing
+    np.testing.assert_allclose(frame_times([0.28, 0.3146, 0.3146], [0, 20_000, 30_000]), [0.28, 0.3046, 0.3146],
+                               atol=1e-12)
+
+
+def test_a_run_of_the_next_call_never_reaches_back_past_the_last_one() -> None:
+    # the same two calls: a late frame at 0.3142 s ends one chunk, the next chunk's run arrives at 0.3146 s
+    first = frame_times([0.2849, 0.3142], [0, 10_000])
+    second = frame_times([0.3146, 0.3146], [20_000, 30_000], after=float(first[-1]))
+    np.testing.assert_allclose(second, [0.3142 + 0.0004 / 2, 0.3146], atol=1e-12)
+    np.testing.assert_allclose(frame_times([0.3146, 0.3146], [20_000, 30_000]), [0.3046, 0.3146], atol=1e-12)
+
+
 def test_the_device_clock_comes_before_the_period() -> None:
     host = [10.0, 10.0, 10.0, 11.0, 11.0]
     dev = [0, 10_000, 20_000, -1, 50_000]  # the second run has an unknown device time

@@ -179,6 +179,7 @@ class PressureOutlets:
         self._cop = pylsl.StreamOutlet(cinfo)
         self._markers = pylsl.StreamOutlet(minfo)
         self.pushed = 0
+        self._last_host: float | None = None  # the last frame pushed (host time, s): the next push starts after it
 
     @classmethod
     def from_profile(cls, profile: Any, *, serial: str = "", name: str = "psmat", rate_hz: float | None = None,
@@ -213,10 +214,12 @@ class PressureOutlets:
                              f"got {p.shape} and {cop.shape}")
         if T == 0:
             return 0
-        times = self.lsl_clock.to_lsl(frame_times(host_time_s, device_time_us))
-        if times.shape != (T,):
-            raise ValueError(f"host_time_s must have {T} values, got {times.shape}")
-        stamps = times.tolist()
+        host = frame_times(host_time_s, device_time_us, after=self._last_host)  # in order across pushes too
+        if host.shape != (T,):
+            raise ValueError(f"host_time_s must have {T} values, got {host.shape}")
+        if np.isfinite(host[-1]):
+            self._last_host = float(host[-1])
+        stamps = self.lsl_clock.to_lsl(host).tolist()
         self._pressure.push_chunk(p.reshape(T, -1), stamps)
         self._cop.push_chunk(cop, stamps)
         self.pushed += T

@@ -57,7 +57,7 @@ def run_end_period_s(host_time_s: ArrayLike) -> float:
 
 
 def frame_times(host_time_s: ArrayLike, device_time_us: ArrayLike | None = None, *,
-                period_s: float | None = None) -> NDArray[np.float64]:
+                period_s: float | None = None, after: float | None = None) -> NDArray[np.float64]:
     """Each frame's time on the host clock (s), frames of one serial chunk spread back from its arrival.
 
     Within a run of frames that share one ``host_time_s``:
@@ -65,10 +65,11 @@ def frame_times(host_time_s: ArrayLike, device_time_us: ArrayLike | None = None,
     * when every frame's ``device_time_us`` is known and does not go back, frame ``k`` is put at
       ``host_last − (dev_last − dev_k)·1e-6``: the run's last frame at the arrival, the earlier
       ones as much earlier as the device clock says;
-    * otherwise, with ``period_s``, frame ``k`` is put ``period_s`` before the next one; a run
-      that would then reach back to the run before it is spread evenly between that run's last
-      time and its own arrival instead, so the times increase strictly;
+    * otherwise, with ``period_s``, frame ``k`` is put ``period_s`` before the next one;
     * otherwise the host time stays as it is.
+
+    A run that would reach back to the run before it (one that arrived late: a busy host) is spread
+    evenly between that run's arrival and its own instead, so the times never go back.
 
     Parameters
     ----------
@@ -79,6 +80,9 @@ def frame_times(host_time_s: ArrayLike, device_time_us: ArrayLike | None = None,
     period_s : float, optional
         The device's frame period (s) for runs without a usable device clock (e.g.
         :func:`run_end_period_s`); must be positive and finite.
+    after : float, optional
+        The time (s) of the frame before these, e.g. the last of an earlier call on the same
+        stream: the first run reaches back past it no more than past a run of this call.
     """
     host = np.asarray(host_time_s, np.float64).reshape(-1)
     out = host.copy()
@@ -92,19 +96,21 @@ def frame_times(host_time_s: ArrayLike, device_time_us: ArrayLike | None = None,
     if host.size < 2 or (dev is None and period_s is None):
         return out
     starts, ends = _runs(host)
-    before = -np.inf  # the last finite time before the run
+    before = -np.inf if after is None else float(after)  # the last finite time before the run
     for s, e in zip(starts, ends):
         if e == s:  # one frame (or a frame without a time: NaN equals nothing)
             before = host[e] if np.isfinite(host[e]) else before
             continue
         d = dev[s:e + 1] if dev is not None else None
+        back = None
         if d is not None and d.min() >= 0 and np.all(np.diff(d) >= 0):
-            out[s:e + 1] = host[e] - (d[-1] - d) * 1e-6
+            back = (d[-1] - d) * 1e-6
         elif period_s is not None:
             back = (e - np.arange(s, e + 1)) * float(period_s)
+        if back is not None:
             if host[e] - back[0] > before:
                 out[s:e + 1] = host[e] - back
-            else:  # the period reaches back past the run before: evenly after it instead
+            else:  # the device clock or the period reaches back past the run before: evenly after it instead
                 m = e - s + 1
                 out[s:e + 1] = before + (host[e] - before) * np.arange(1, m + 1) / m
         before = host[e]
