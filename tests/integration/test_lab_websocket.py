@@ -69,14 +69,19 @@ def _until_client(hub: ClientHub) -> None:
         time.sleep(0.01)
 
 
+def _first_message(ws: Any, lab: _Lab, hub: ClientHub) -> None:
+    """The hello, then message 1 published and received, on a client that has joined the hub."""
+    assert json.loads(ws.recv(timeout=HANG_GUARD_S))["type"] == "hello"
+    _until_client(hub)
+    lab.latest = _message(1)
+    hub.notify(lab.latest)
+    assert json.loads(ws.recv(timeout=HANG_GUARD_S))["seq"] == 1
+
+
 def test_a_notice_for_a_message_already_sent_sends_nothing(served) -> None:
     lab, hub, url = served
     with websockets_sync.connect(url, open_timeout=HANG_GUARD_S) as ws:
-        assert json.loads(ws.recv(timeout=HANG_GUARD_S))["type"] == "hello"
-        _until_client(hub)
-        lab.latest = _message(1)
-        hub.notify(lab.latest)
-        assert json.loads(ws.recv(timeout=HANG_GUARD_S))["seq"] == 1
+        _first_message(ws, lab, hub)
         # the late notice of the race: for message 1, which the client's loop already read and sent
         hub.notify(lab.latest)
         with pytest.raises(TimeoutError):
@@ -89,11 +94,7 @@ def test_a_notice_for_a_message_already_sent_sends_nothing(served) -> None:
 def test_a_client_that_does_not_read_gets_the_newest_message_only(served) -> None:
     lab, hub, url = served
     with websockets_sync.connect(url, open_timeout=HANG_GUARD_S) as ws:
-        assert json.loads(ws.recv(timeout=HANG_GUARD_S))["type"] == "hello"
-        _until_client(hub)
-        lab.latest = _message(1)
-        hub.notify(lab.latest)
-        assert json.loads(ws.recv(timeout=HANG_GUARD_S))["seq"] == 1
+        _first_message(ws, lab, hub)
         for seq in range(2, 30):  # many messages before the loop runs: one send, of the newest
             lab.latest = _message(seq)
             hub.notify(lab.latest)
