@@ -8,6 +8,7 @@ import pytest
 
 from psmat import twin
 from psmat.balance import cop, scale_factor, scale_factors, subgrids, variant_traces
+from psmat.balance._scale import RTOL
 from psmat.profile import geometry_for
 from psmat.sensor import MPICreep, inverse_over_gaps
 
@@ -41,14 +42,18 @@ def test_the_chc_of_a_subgrid_is_the_slice_of_the_full_mat(trial) -> None:
     np.testing.assert_array_equal(v["CHC-8x8"].cop_cm, np.stack(by_hand))
 
 
+# two searches for one root from different starts, each within RTOL of it (psmat.balance's tolerance on f)
+SAME = 2 * RTOL
+
+
 def test_shared_scale_factors_are_the_separate_searches(trial) -> None:
     g, periods, weight, sensor = trial
     f_full, f_sub = scale_factors(g, periods, weight, sensor, 4.0)
-    assert f_full == pytest.approx(scale_factor(g, periods, weight, sensor, 4.0), rel=1e-9, abs=0)
+    assert f_full == pytest.approx(scale_factor(g, periods, weight, sensor, 4.0), rel=SAME, abs=0)
     assert list(f_sub) == [(s.rows0, s.cols0) for s in subgrids(g)]
     for s in subgrids(g):
         alone = scale_factor(s.images, periods, weight, sensor, 16.0)  # each kept cell stands for 4
-        assert f_sub[(s.rows0, s.cols0)] == pytest.approx(alone, rel=1e-9, abs=0)
+        assert f_sub[(s.rows0, s.cols0)] == pytest.approx(alone, rel=SAME, abs=0)
     # the four choices see different loads: a test that could not tell them apart would prove nothing
     assert len({round(f, 6) for f in f_sub.values()}) > 1
     assert scale_factors(g, periods, weight, sensor, 4.0, full=False)[0] is None
@@ -61,7 +66,7 @@ def test_a_frame_missing_on_some_cells_only_falls_back_to_separate_runs(trial) -
     _, f_sub = scale_factors(h, periods, weight, sensor, 4.0)
     for s in subgrids(h):
         assert f_sub[(s.rows0, s.cols0)] == pytest.approx(scale_factor(s.images, periods, weight, sensor, 16.0),
-                                                           rel=1e-9, abs=0)
+                                                           rel=SAME, abs=0)
     v = variant_traces(h, h, periods, weight_n=weight, sensor=sensor, pitch_cm=2.0, names=("CHC-8x8", "SCHC-8x8"))
     s11 = next(s for s in subgrids(h, 2.0) if (s.rows0, s.cols0) == (1, 1))
     np.testing.assert_array_equal(v["CHC-8x8"].cop_cm[3],
@@ -106,10 +111,11 @@ def test_the_shared_searches_run_the_model_fewer_times_than_separate_ones(trial)
     f_full, f_sub = scale_factors(g, periods, weight, sensor, 4.0)
     shared = _Counting.runs
     _Counting.runs = 0
-    assert f_full == pytest.approx(scale_factor(g, periods, weight, sensor, 4.0), rel=1e-9, abs=0)
+    assert f_full == pytest.approx(scale_factor(g, periods, weight, sensor, 4.0), rel=SAME, abs=0)
     for s in subgrids(g):
         assert f_sub[(s.rows0, s.cols0)] == pytest.approx(scale_factor(s.images, periods, weight, sensor, 16.0),
-                                                           rel=1e-9, abs=0)
+                                                           rel=SAME, abs=0)
     separate = _Counting.runs
-    # the full mat's runs give each sub-grid its forces there: its search starts near its root
-    assert shared < separate - 8, (shared, separate)
+    # the full mat's runs give each sub-grid its forces there: none of the four sub-grid searches runs
+    # the model for its two starting points (8 runs), and each starts from the two nearest its root
+    assert shared <= separate - 8, (shared, separate)
