@@ -119,3 +119,33 @@ def test_the_shared_searches_run_the_model_fewer_times_than_separate_ones(trial)
     # the full mat's runs give each sub-grid its forces there: none of the four sub-grid searches runs
     # the model for its two starting points (8 runs), and each starts from the two nearest its root
     assert shared <= separate - 8, (shared, separate)
+
+
+@pytest.mark.parametrize("case", ["whole", "partial", "quiet"])
+def test_the_schc_search_takes_chc_run_as_its_first(trial, case: str) -> None:
+    # CHC is the model at f = 1, the SCHC search's first run: computed once when CHC comes first, with
+    # the same factors and traces bit for bit. "partial": a frame missing on one cell, which CHC and
+    # the search both leave out; "quiet": cells that never conduct, one of them missing in a frame that
+    # the search (on the conducting cells) keeps and CHC leaves out: the search runs the model itself
+    g, periods, weight, _ = trial
+    g = g.copy()
+    if case == "quiet":
+        g[:, :3, :] = np.where(np.isnan(g[:, :3, :]), np.nan, 0.0)
+    if case != "whole":
+        g[50, 0, 0] = np.nan
+    sensor = _Counting.thesis()
+    _Counting.runs = 0
+    alone = variant_traces(g, g, periods, weight_n=weight, sensor=sensor, pitch_cm=2.0, names=("SCHC", "SCHC-8x8"))
+    runs_alone = _Counting.runs
+    _Counting.runs = 0
+    chc = inverse_over_gaps(sensor, g, periods)
+    assert _Counting.runs == 1
+    _Counting.runs = 0
+    both = variant_traces(g, g, periods, weight_n=weight, sensor=sensor, pitch_cm=2.0,
+                          names=("CHC", "SCHC", "SCHC-8x8"))
+    shared = case != "quiet"
+    assert _Counting.runs == runs_alone + (0 if shared else 1), (_Counting.runs, runs_alone)
+    for name in ("SCHC", "SCHC-8x8"):
+        np.testing.assert_array_equal(both[name].factor, alone[name].factor)
+        np.testing.assert_array_equal(both[name].cop_cm, alone[name].cop_cm)
+    np.testing.assert_array_equal(both["CHC"].cop_cm[0], cop(chc, geometry=geometry_for((16, 16), pitch_cm=2.0)))

@@ -20,9 +20,9 @@ pressures are that run's (:meth:`_Search.pressure`), not one more run.
 ``rtol`` is :data:`RTOL` (1e-6) unless given: the mean force then equals the weight to about a
 millionth, a thousandth of how well a body weight is known (0.1 kg in 70 kg). Each further digit
 costs about one more run of the sensor model over the trial: on 14 sessions of the simulated
-thesis-size study (``python -m psmat.bench study``), 1e-10 ran the model 21.4 times a session
-against 16.5, and the sessions took 7.6-19.6 % more CPU time (five alternating pairs, median
-8.3 %); the metrics moved by at most 4.4e-7 (relative).
+thesis-size study (``python -m psmat.bench study``), the searches ran the model 21.4 times a
+session with 1e-10 against 16.5, and the sessions took 7.6-19.6 % more CPU time (five
+alternating pairs, median 8.3 %); the metrics moved by at most 4.4e-7 (relative).
 """
 
 from __future__ import annotations
@@ -174,9 +174,22 @@ class _Search:
         """The factors of the secant's two starting evaluations, exactly as :meth:`solve` evaluates them."""
         return [float(np.exp(u)) for u in self.start]
 
-    def run(self, f: float) -> np.ndarray:
-        """The sensor model at ``f·g`` over the trial's complete frames: pressures (U, n loaded cells), psi."""
-        pressure = self.sensor.inverse(f * self.cells, self.steps)
+    def run(self, f: float, given: np.ndarray | None = None) -> np.ndarray:
+        """The sensor model at ``f·g`` over the trial's complete frames: pressures (U, n loaded cells), psi.
+
+        ``given``: the trial's pressures (T, R, C) at ``f`` already computed by
+        :func:`psmat.sensor.inverse_over_gaps` (e.g. CHC's, ``f`` = 1), taken instead of a run where
+        the search's frames are the whole mat's (:attr:`whole_frames`): the model acts cell by cell
+        from rest, so their loaded cells on the complete frames are this run's pressures, bit for bit."""
+        if given is not None and self.whole_frames:
+            pressure = given.reshape(given.shape[0], -1)
+            if not self.usable.all():
+                pressure = pressure[self.usable]
+            if not self.loaded.all():
+                pressure = pressure[:, self.loaded]
+            pressure = np.ascontiguousarray(pressure)  # as a run's: its sums in the same order
+        else:
+            pressure = self.sensor.inverse(f * self.cells, self.steps)
         self.kept = (f, pressure)
         for tell in self.seen:
             tell(f, pressure)
@@ -274,13 +287,15 @@ def scale_factors(g: ArrayLike, dt: float | ArrayLike, weight_n: float, sensor: 
 
 
 def _shared_searches(cells: np.ndarray, dt: float | ArrayLike, weight_n: float, sensor: MPICreep | None,
-                     cell_area_cm2: float | None, k: int, full: bool
+                     cell_area_cm2: float | None, k: int, full: bool, at_one: np.ndarray | None = None
                      ) -> tuple[tuple[float | None, dict[tuple[int, int], float]], _Search, dict[tuple[int, int], _Search]]:
     """:func:`scale_factors`, and the searches that found the factors (the full mat's, and each
     sub-grid's by its ``(r0, c0)``), whose last runs give the variants' pressures (:meth:`_Search.pressure`).
 
     Every run of the full mat's search gives each sub-grid its force at that ``f`` too (the sum of
-    its columns), so a sub-grid's search starts from the two of those nearest its root."""
+    its columns), so a sub-grid's search starts from the two of those nearest its root. ``at_one``:
+    the trial's pressures at ``f`` = 1 when already computed (CHC's), the full mat's first run
+    (:meth:`_Search.run`'s ``given``)."""
     search = _Search(cells, dt, weight_n, sensor, cell_area_cm2, (1e-3, 1e3), RTOL, None)
     R, C = cells.shape[1:]
     where = np.flatnonzero(search.loaded)  # flat cell index of each loaded column of the runs
@@ -301,7 +316,7 @@ def _shared_searches(cells: np.ndarray, dt: float | ArrayLike, weight_n: float, 
 
     search.seen.append(tell)
     starts = search.start_f()
-    runs = [search.run(f) for f in starts]
+    runs = [search.run(f, at_one if f == 1.0 else None) for f in starts]
     known = {f: search.force_n(r) for f, r in zip(starts, runs)}
     del runs
     f_full = search.solve(known) if full else None

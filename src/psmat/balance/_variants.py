@@ -174,8 +174,8 @@ def variant_traces(G: ArrayLike, g: ArrayLike, periods: float | ArrayLike, *, we
     # Work shared between variants, each computed once when first needed. The sensor model acts
     # cell by cell, so a sub-grid's CHC is the slice of the full mat's where their complete frames
     # agree (each frame complete or missing as a whole, as the chain gives them); the SCHC
-    # searches share their runs (:func:`scale_factors`), and each variant's pressures are its
-    # search's last run (the factor is where it ran).
+    # searches share their runs (:func:`scale_factors`), their first at f = 1 being CHC's when CHC
+    # came first, and each variant's pressures are its search's last run (the factor is where it ran).
     chc: NDArray[np.float64] | None = None
     whole = _whole_frames(g)
     schc: tuple[tuple[float | None, dict[tuple[int, int], float]], _Search, dict[tuple[int, int], _Search]] | None = None
@@ -208,7 +208,7 @@ def variant_traces(G: ArrayLike, g: ArrayLike, periods: float | ArrayLike, *, we
             else:
                 if schc is None:
                     schc = _shared_searches(g, periods, float(weight_n), sensor, cell_area, _FACTOR,
-                                            "SCHC" in names)
+                                            "SCHC" in names, chc)
                 (f_full, f_sub), full_search, sub_searches = schc
                 f = f_sub[sub] if sub is not None else f_full
                 p = None
