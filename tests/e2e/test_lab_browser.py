@@ -102,11 +102,11 @@ def test_a_click_on_record_records_the_trial_with_its_marker(lab) -> None:
     _set_field(browser, "#trial", "eyes-closed")
     browser.click("#record")
     _wait_recording(server, True)
-    time.sleep(0.75)
+    _wait_recorded(server, 20)  # frames before the marker
     label = browser.evaluate("document.querySelector('button.marker[data-label]').dataset.label")
     browser.click("button.marker[data-label]")
     _wait_marker_sent(server)
-    time.sleep(0.75)
+    _wait_recorded(server, server.api("/api/status")["record"]["frames"] + 20)  # and after it
     browser.click("#record")  # stop
     _wait_recording(server, False)
     new = sorted(set(data.glob("*.h5")) - before)
@@ -155,6 +155,16 @@ def _wait_recording(server, recording: bool) -> None:
     while server.api("/api/status").get("recording") is not recording:
         if time.monotonic() > deadline:
             pytest.fail(f"the server's status never said recording={recording} after the click")
+        time.sleep(0.05)
+
+
+def _wait_recorded(server, n: int) -> None:
+    """Wait until the running recording holds at least ``n`` frames (not a fixed time: a loaded
+    machine may deliver none in it)."""
+    deadline = time.monotonic() + GUARD_S
+    while ((server.api("/api/status").get("record") or {}).get("frames", 0)) < n:
+        if time.monotonic() > deadline:
+            pytest.fail(f"the recording never held {n} frames")
         time.sleep(0.05)
 
 

@@ -37,6 +37,18 @@ def _cal_dir(lab: Lab) -> str:
     return os.path.join(lab.data, "calibration")
 
 
+def _wait_recorded(lab: Lab, n: int, timeout_s: float = 30.0) -> dict:
+    """The status once the running recording holds at least ``n`` frames."""
+    t_end = time.monotonic() + timeout_s
+    while True:
+        status, st = lab.request("GET", "/api/status")
+        assert status == 200 and st["recording"], st
+        if st["record"]["frames"] >= n:
+            return st
+        assert time.monotonic() < t_end, f"fewer than {n} frames recorded in {timeout_s:g} s: {st}"
+        time.sleep(0.05)
+
+
 def test_calibrate_endpoints_need_the_token(lab: Lab) -> None:
     for token in (None, "wrong" + lab.token[5:]):
         for action, body in (("start", {}), ("step", {"step": "open"}), ("finish", {}), ("cancel", {})):
@@ -118,7 +130,7 @@ def test_walk_through_recovers_the_twins_circuit_and_recordings_store_it(lab: La
     # the twin's mat is plugged back: someone stands on it again (loaded cells read well below full scale)
     status, rec = lab.request("POST", "/api/record/start", {"subject": "S1", "trial": "after", "note": ""})
     assert status == 201
-    time.sleep(1.0)
+    _wait_recorded(lab, 50)  # (a fixed second held no frame once, on a loaded machine)
     status, stop = lab.request("POST", "/api/record/stop", {})
     assert status == 200
     s = load_session(stop["session"])
