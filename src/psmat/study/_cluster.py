@@ -47,6 +47,7 @@ figures of the same bytes: both versions are part of each figure's key, read her
 
 from __future__ import annotations
 
+import gc
 import os
 from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass
@@ -183,13 +184,20 @@ def _client(cluster: Cluster) -> Any:
         return distributed.Client(cluster.scheduler, scheduler_file=cluster.scheduler_file,
                                   security=cluster.security, deserializers=list(PLAIN_DESERIALIZERS))
     except TypeError as exc:  # distributed's words for a tls:// address without credentials
-        raise RuntimeError(f"cannot connect to the Dask scheduler {where}: {' '.join(str(exc).split())} "
-                           "(a tls:// scheduler needs --tls-ca-file, --tls-cert and --tls-key)") from None
+        why = (f"{' '.join(str(exc).split())} (a tls:// scheduler needs --tls-ca-file, --tls-cert and "
+               "--tls-key)")
     except Exception as exc:  # noqa: BLE001 - refused, timed out, a TLS handshake that failed: one line
         # (distributed reports a failed handshake as an OSError, or, depending on timing, an
         # AssertionError from the thread of its event loop)
         why = " ".join(str(exc).split()) or type(exc).__name__
-        raise RuntimeError(f"cannot connect to the Dask scheduler {where}: {why}") from None
+    # The client that failed is in a reference cycle. Collected later, from whatever thread the
+    # collector then runs in, its __del__ stops its event loop under distributed's lock of event
+    # loops; run in the new event loop thread of this process's next client, it waited 10 s for
+    # the lock that client's start holds, which then failed ("AssertionError": a retry in the same
+    # process, after a failed TLS handshake, with nothing allocated between). Collected here, with
+    # no exception holding its frames, it stops now, on this thread.
+    gc.collect()
+    raise RuntimeError(f"cannot connect to the Dask scheduler {where}: {why}")
 
 
 def _answers(client: Any, jobs: Sequence[tuple[Callable[[Any], Any], Any, str]]
