@@ -24,6 +24,7 @@ import csv
 import io
 import os
 import re
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -218,8 +219,11 @@ def _subject_columns(names: list[str]) -> tuple[str, str, float]:
         raise ValueError(f"the column {name!r}: {exc}") from None
 
 
-def _session_meta(path: Path) -> tuple[str | None, str | None, str | None, bool, str | None, str | None,
-                                       Circuit | None, bool]:
+#: what :func:`_session_meta` reads from a session file
+SessionMeta = tuple[str | None, str | None, str | None, bool, str | None, str | None, "Circuit | None", bool]
+
+
+def _session_meta(path: Path) -> SessionMeta:
     """(subject, trial, problem, simulated, not closed, box serial, circuit, whether it is a mat's session
     that stores no calibration of its own) from a session's metadata (the loader checks the file's structure and metadata but reads no frame, a third of
     the cost: a damaged chunk is found, and noted, when the session is processed; it reads the
@@ -254,6 +258,14 @@ def find_study(root: str | os.PathLike[str]) -> StudyLayout:
     FileNotFoundError
         ``root`` or ``root/sessions`` does not exist.
     """
+    return discover(root)
+
+
+def discover(root: str | os.PathLike[str], known: Callable[[Path], SessionMeta | None] | None = None,
+             read: dict[Path, SessionMeta] | None = None) -> StudyLayout:
+    """:func:`find_study`, with each session's metadata from ``known(path)`` where it gives them
+    (``psmat study run``'s record of earlier runs, :mod:`psmat.study` (``_discovery.py``)), else read
+    from the file and, with ``read``, put there by path."""
     from ..io.session import journal_only
 
     root = Path(root)
@@ -278,14 +290,19 @@ def find_study(root: str | os.PathLike[str]) -> StudyLayout:
     else:
         book = workbook_hint(root, "subjects")
         problems.append(f"{root / 'subjects.csv'} not found: no body weights" + (f"; {book}" if book else ""))
-    plates = data_files(root / "forceplate", _PLATFORM_SUFFIXES)
+    plates = data_files(root / "forceplate", PLATFORM_SUFFIXES)
     cal = {p.stem: p for p in sorted((root / "calibration").glob("*.json")) if not hidden(p)}
     logs = data_files(root / "events", (".csv",))
-    problems += nested(root, (("sessions", (".h5",)), ("forceplate", _PLATFORM_SUFFIXES), ("events", (".csv",))))
+    problems += nested(root, (("sessions", (".h5",)), ("forceplate", PLATFORM_SUFFIXES), ("events", (".csv",))))
     items = []
     found = {*sessions.glob("*.h5"), *journal_only(sessions)}  # journal-only: never skipped silently
     for s in sorted(p for p in found if not hidden(p)):
-        subject, trial, problem, simulated, not_closed, serial, circuit, uncalibrated = _session_meta(s)
+        meta = known(s) if known is not None else None
+        if meta is None:
+            meta = _session_meta(s)
+            if read is not None:
+                read[s] = meta
+        subject, trial, problem, simulated, not_closed, serial, circuit, uncalibrated = meta
         plate, plate_problem = companion(s.stem, plates, "force-platform")
         log, log_problem = companion(s.stem, logs, "events")
         item = StudyItem(s.stem, s, plate, subject, trial, simulated=simulated, not_closed=not_closed,
@@ -337,7 +354,8 @@ def find_study(root: str | os.PathLike[str]) -> StudyLayout:
     return StudyLayout(root, subjects, items, cal, problems, refused)
 
 
-_PLATFORM_SUFFIXES = (".csv", ".tsv", ".txt")
+#: suffixes of force-platform files (any case) under forceplate/
+PLATFORM_SUFFIXES = (".csv", ".tsv", ".txt")
 
 
 def _spelled_apart(names: list[str | None], what: str) -> list[str]:

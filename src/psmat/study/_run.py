@@ -10,7 +10,10 @@ search) that the GIL would serialise. A task's result depends only on its inputs
 tables are bit-identical whatever the number of workers, or on a Dask cluster.
 
 **Resumable.** Each session's result is written atomically under ``results/sessions/`` as it
-finishes, keyed by the content of its inputs and the parameters (:mod:`psmat.study` (``_cache.py``));
+finishes, keyed by the content of its inputs and the parameters (:mod:`psmat.study` (``_cache.py``),
+the inputs hashed on threads from the start of the run, :mod:`psmat.study` (``_hashes.py``); a
+session file whose bytes an earlier run read is not read again to find it, :mod:`psmat.study`
+(``_discovery.py``));
 a killed run resumes with the sessions it had not finished, and a changed weight, file,
 calibration or parameter reruns only the sessions it touches. A session whose processing
 failed (status ``error: …``) is not stored: it is tried again next run; nor is a recording that
@@ -71,7 +74,9 @@ from ._cache import SessionStore, Stored, TraceFiles, canonical_json, file_sha25
 from ._dynamic import plan_dynamic
 from ._dynamic_tasks import Answer, DynamicTask, RunDynamic, dynamic_tasks, run_dynamic
 from ._figure_tasks import FigureTask, draw_figure
-from ._layout import StudyItem, StudyLayout, find_study, session_events
+from ._hashes import FileHashes, study_inputs
+from ._discovery import DiscoveryRecord
+from ._layout import PLATFORM_SUFFIXES, SessionMeta, StudyItem, StudyLayout, discover, session_events
 from ._order import most_work_first
 from ._reports import REPORTS_DIR, ReportIndex, ReportTask, report_tasks, run_report
 from ._row_metrics import preprocessing_sentence
@@ -196,15 +201,27 @@ def run_study(root: str | os.PathLike[str], *, workers: int | None = None, sched
         raise ValueError(f"workers must be an integer >= 1, got {workers!r}")
     clock = Stopwatch()
     ready = _start_pool(Path(root), workers) if cluster is None else None
-    with clock.stage("discover"):
-        layout = find_study(root)
-    with study_lock(layout.results):
+    # the inputs' hashes for the keys, on threads while this thread reads the sessions' metadata
+    hashes = FileHashes(study_inputs(Path(root), PLATFORM_SUFFIXES), _key_threads())
+    try:
+        with clock.stage("discover"):  # what an earlier run read from a file of the same bytes is not read again
+            record = DiscoveryRecord(Path(root) / "results", __version__)
+            read: dict[Path, SessionMeta] = {}
+            layout = discover(root, lambda path: record.known(path, hashes), read)
+    except BaseException:
+        hashes.close()
+        raise
+    with hashes, study_lock(layout.results):
         clock.begin("keys")
         store = SessionStore(layout.results / "sessions")
         problems = list(layout.problems)
+        if record.problem:
+            problems.append(record.problem)
         if n := store.remove_temporaries():
             problems.append(f"removed {n} incomplete temporary file(s) an interrupted run left in {store.folder}")
-        tasks = {t.stem: t for t in _tasks(layout, p, __version__)}
+        tasks = {t.stem: t for t in _tasks(layout, p, __version__, hashes)}
+        hashes.close()
+        record.write(read, hashes)
         stale = sorted(set(store.stems()) - set(tasks))
         if stale:
             problems.append(f"{store.folder} holds results of {len(stale)} session(s) no longer in the study, "
@@ -466,29 +483,34 @@ def _from_stem(stem: str) -> tuple[str, str]:
     return subject, trial
 
 
-def _sha(path: Path | None) -> str | None:
-    try:
-        return file_sha256(path)
-    except OSError:
-        return None
-
-
-def _tasks(layout: StudyLayout, params: dict[str, Any], version: str) -> list[SessionTask]:
-    """:func:`_task` of every session of ``layout``, in its order, on a few threads: the time goes into
-    reading and hashing the input files, and both release the GIL (a thesis-size study's 252 files,
-    about 1 GB, hash in ~0.4 s on one core)."""
-    from concurrent.futures import ThreadPoolExecutor
-
+def _key_threads() -> int:
+    """Threads that hash and read the inputs for the keys: the usable cores, at most 8."""
     from .._cpus import usable_cpus
 
-    n = min(len(layout.items), usable_cpus(), 8)
+    return max(1, min(usable_cpus(), 8))
+
+
+def _tasks(layout: StudyLayout, params: dict[str, Any], version: str,
+           hashes: FileHashes | None = None) -> list[SessionTask]:
+    """:func:`_task` of every session of ``layout``, in its order, on a few threads: the time goes into
+    reading and hashing the input files, and both release the GIL (a thesis-size study's 252 files,
+    about 1 GB, hash in ~0.4 s on one core). ``hashes``: the session and platform files' hashes,
+    started before the sessions were found (:mod:`psmat.study` (``_hashes.py``)); the other files are
+    hashed here."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    if hashes is None:
+        hashes = FileHashes((), 1)
+        hashes.close()
+    n = min(len(layout.items), _key_threads())
     if n <= 1:
-        return [_task(item, layout, params, version) for item in layout.items]
+        return [_task(item, layout, params, version, hashes) for item in layout.items]
     with ThreadPoolExecutor(n, thread_name_prefix="psmat-keys") as pool:
-        return list(pool.map(lambda item: _task(item, layout, params, version), layout.items))
+        return list(pool.map(lambda item: _task(item, layout, params, version, hashes), layout.items))
 
 
-def _task(item: StudyItem, layout: StudyLayout, params: dict[str, Any], version: str) -> SessionTask:
+def _task(item: StudyItem, layout: StudyLayout, params: dict[str, Any], version: str,
+          hashes: FileHashes) -> SessionTask:
     """The task of one session and the inputs its key is made of (see :mod:`psmat.study` (``_cache.py``))."""
     from ..io import journal_path
 
@@ -502,10 +524,10 @@ def _task(item: StudyItem, layout: StudyLayout, params: dict[str, Any], version:
     cal = layout.calibrations.get(item.serial) if item.serial is not None else None
     jpath = journal_path(item.session)
     inputs = {"psmat": version, "params": params, "stem": item.stem, "subject": subject, "trial": trial,
-              "weight_kg": weight, "session_sha256": _sha(item.session),
-              "journal_sha256": _sha(jpath) if jpath.is_file() else None,
-              "forceplate_sha256": _sha(item.forceplate), "calibration": None if cal is None else cal.name,
-              "calibration_sha256": _sha(cal), "events_sha256": _sha(item.events)}
+              "weight_kg": weight, "session_sha256": hashes.sha(item.session),
+              "journal_sha256": hashes.sha(jpath) if jpath.is_file() else None,
+              "forceplate_sha256": hashes.sha(item.forceplate), "calibration": None if cal is None else cal.name,
+              "calibration_sha256": hashes.sha(cal), "events_sha256": hashes.sha(item.events)}
     if item.events_unusable:  # its markers are not used (only then in the key: the others' keys stay)
         inputs["events_unusable"] = True
     return SessionTask(item.stem, str(item.session), None if item.forceplate is None else str(item.forceplate),

@@ -1,0 +1,177 @@
+"""What ``psmat study run`` read from each session file's metadata, kept for the next run by the file's
+content: a rerun finds its sessions without opening the files it has seen (docs/spec.md §12).
+
+Finding a study's sessions opens every session file through h5py and checks its structure and
+metadata (:func:`psmat.study.find_study`): ~13 ms a file, 1.6 s of a thesis-size study's rerun that
+computes nothing. A run hashes every session file anyway, for the keys of its results
+(:mod:`psmat.study` (``_hashes.py``)); ``results/.discovery.json`` keeps, for each file read, its
+name, the SHA-256 of its bytes and what was read (subject, trial, whether a simulator wrote it, the
+box serial, the circuit of its description and calibration, whether it stores a calibration). A
+later run takes an entry only for a file of that name whose bytes hash the same, read by the same
+psmat version, with no journal beside it; any other file is read again.
+
+Only what a clean read gave is kept: a file that could not be read, a recording that was not
+closed, a file with a journal beside it or one written to between its hash and the end of its read
+(:meth:`psmat.study._hashes.FileHashes.unchanged`) is read again next run. The record proves itself
+as the session results do (``digest``, :mod:`psmat.study` (``_cache.py``)): one that does not parse,
+is of another psmat or fails its digest or the checks of an entry is not used (the run says why
+among its problems), and is rewritten. As there, the digest detects corruption and edits, not
+forgery: whoever can write ``results/`` can also write ``metrics.csv``.
+"""
+
+from __future__ import annotations
+
+import glob
+import math
+import re
+from collections.abc import Mapping
+from pathlib import Path
+from typing import Any
+
+from ._cache import canonical_json, write_text_atomic
+from ._hashes import FileHashes
+from ._layout import SessionMeta
+from ._plain import digest, parse_json
+
+__all__ = ["NAME", "SCHEMA", "DiscoveryRecord"]
+
+NAME = ".discovery.json"
+SCHEMA = "psmat-study-discovery/1"
+_FIELDS = frozenset({"schema", "psmat", "entries", "digest"})
+_ENTRY = frozenset({"sha256", "subject", "trial", "simulated", "serial", "circuit", "uncalibrated"})
+_SHA = re.compile(r"[0-9a-f]{64}")
+_CIRCUIT = frozenset({"r_o_ohm", "r_mux_ohm", "r_adc_ohm", "v_ref_volt", "bits", "sensor_side"})
+
+
+class DiscoveryRecord:
+    """``results/.discovery.json`` of one study (module docstring).
+
+    Parameters
+    ----------
+    results : path
+        The study's ``results/`` folder (it may not exist yet).
+    version : str
+        This psmat's version: a record of another is not used.
+    """
+
+    def __init__(self, results: Path, version: str) -> None:
+        self.path = Path(results) / NAME
+        self.version = version
+        #: why the record on disk is not used (one line), or None (used, or none there)
+        self.problem: str | None = None
+        self._entries: dict[str, dict[str, Any]] = {}
+        self._used: set[str] = set()
+        try:
+            text = self.path.read_bytes()
+        except FileNotFoundError:
+            return
+        except OSError as exc:
+            self.problem = f"{self.path} not used ({exc.strerror or exc}); every session's metadata read again"
+            return
+        try:
+            self._entries = _parse(text, version)
+        except _Stale:
+            return
+        except ValueError as exc:
+            self.problem = f"{self.path} not used ({exc}); every session's metadata read again"
+
+    def known(self, path: Path, hashes: FileHashes) -> SessionMeta | None:
+        """What an earlier run read from the session file ``path`` when it was these bytes, else None."""
+        e = self._entries.get(path.name)
+        if e is None or _journal_beside(path):
+            return None
+        if hashes.sha(path) != e["sha256"]:
+            return None
+        self._used.add(path.name)
+        return (e["subject"], e["trial"], None, e["simulated"], None, e["serial"], _circuit(e["circuit"]),
+                e["uncalibrated"])
+
+    def write(self, read: Mapping[Path, SessionMeta], hashes: FileHashes) -> bool:
+        """Keep the entries used this run and those of the files read cleanly (module docstring); write
+        the record atomically when that changes it. Returns whether it was written."""
+        entries = {name: self._entries[name] for name in self._used}
+        for path, (subject, trial, problem, simulated, not_closed, serial, circuit, uncalibrated) in read.items():
+            if problem is not None or not_closed is not None or _journal_beside(path) or not hashes.unchanged(path):
+                continue
+            sha = hashes.sha(path)
+            if sha is None:
+                continue
+            entries[path.name] = {"sha256": sha, "subject": subject, "trial": trial, "simulated": bool(simulated),
+                                  "serial": serial, "circuit": None if circuit is None else _circuit_doc(circuit),
+                                  "uncalibrated": bool(uncalibrated)}
+        if entries == self._entries and self.problem is None:
+            return False
+        doc: dict[str, Any] = {"schema": SCHEMA, "psmat": self.version, "entries": entries}
+        doc["digest"] = digest(canonical_json(doc))
+        write_text_atomic(self.path, canonical_json(doc))
+        self._entries, self.problem = entries, None
+        return True
+
+
+def _journal_beside(path: Path) -> bool:
+    """Whether a journal lies beside the session file ``path``: its own (``PATH.journal``), a stream's
+    (``PATH.NAME.journal``) or anything named like one (read again rather than taken from the record)."""
+    return any(path.parent.glob(glob.escape(path.name) + "*.journal"))
+
+
+class _Stale(Exception):
+    """A record of another psmat version or schema: not used, quietly."""
+
+
+def _parse(text: bytes, version: str) -> dict[str, dict[str, Any]]:
+    doc = parse_json(text)
+    if not isinstance(doc, dict) or set(doc) != _FIELDS:
+        raise ValueError("not a discovery record")
+    if doc["schema"] != SCHEMA or doc["psmat"] != version:
+        raise _Stale
+    body = {k: v for k, v in doc.items() if k != "digest"}
+    if doc["digest"] != digest(canonical_json(body)):
+        raise ValueError("its digest does not match: edited or damaged")
+    entries = doc["entries"]
+    if not isinstance(entries, dict):
+        raise ValueError("its entries are not a table")
+    for name, e in entries.items():
+        why = _entry_problem(name, e)
+        if why:
+            raise ValueError(f"entry {name!r}: {why}")
+    return entries
+
+
+def _entry_problem(name: str, e: Any) -> str | None:
+    if not name.endswith(".h5") or "/" in name or "\\" in name or name.startswith("."):
+        return "not a session file's name"
+    if not isinstance(e, dict) or set(e) != _ENTRY:
+        return "not an entry"
+    if not isinstance(e["sha256"], str) or not _SHA.fullmatch(e["sha256"]):
+        return "no SHA-256"
+    if any(e[k] is not None and not isinstance(e[k], str) for k in ("subject", "trial", "serial")):
+        return "subject, trial and serial are text or null"
+    if not isinstance(e["simulated"], bool) or not isinstance(e["uncalibrated"], bool):
+        return "simulated and uncalibrated are true or false"
+    try:
+        _circuit(e["circuit"])
+    except (TypeError, ValueError, KeyError) as exc:
+        return f"not a circuit ({exc})"
+    return None
+
+
+def _circuit_doc(c: Any) -> dict[str, Any]:
+    d = dict(c.as_dict())
+    if math.isinf(d["r_adc_ohm"]):
+        d["r_adc_ohm"] = None  # an ideal ADC (JSON has no infinity)
+    return d
+
+
+def _circuit(d: Any) -> Any:
+    """The circuit of :func:`_circuit_doc`'s ``d`` (None for None); TypeError, ValueError otherwise."""
+    if d is None:
+        return None
+    from ..circuit import Circuit
+
+    if not isinstance(d, dict) or set(d) != _CIRCUIT:
+        raise ValueError("not the constants of a circuit")
+    if isinstance(d["bits"], bool) or not isinstance(d["bits"], int):
+        raise ValueError("bits is not an integer")
+    r_adc = math.inf if d["r_adc_ohm"] is None else d["r_adc_ohm"]
+    return Circuit(r_o=d["r_o_ohm"], r_mux=d["r_mux_ohm"], r_adc=r_adc, v_ref=d["v_ref_volt"], bits=d["bits"],
+                   sensor_side=d["sensor_side"])
