@@ -205,3 +205,32 @@ def test_hashes_ahead_are_the_files_sha256_and_a_write_since_is_seen(tmp_path) -
         assert not hashes.unchanged(a) and hashes.unchanged(b)
     with pytest.raises(ValueError, match="threads must be >= 1"):
         FileHashes([], threads=0)
+
+
+def test_a_record_that_cannot_be_read_or_written_costs_only_its_time(study, reads, tmp_path) -> None:
+    root, metrics = study
+    copy = _copy(root, tmp_path / "s")
+    path, _ = _record(copy)
+    path.unlink()
+    path.mkdir()  # neither readable nor replaceable as a file
+    report = run_study(copy, workers=1, progress=False, params=PARAMS)
+    assert sorted(reads) == sorted(NAMES)
+    assert len(report.problems) == 2
+    assert report.problems[0].startswith(f"{path} not used (") and report.problems[0].endswith("read again")
+    assert report.problems[1].startswith(f"{path} not written (") and "reads every session's metadata again" in \
+        report.problems[1]
+    assert (report.computed, report.reused) == (0, 4)
+    assert (copy / "results" / "metrics.csv").read_bytes() == metrics
+
+
+def test_a_record_too_large_is_not_read(study, reads, tmp_path, monkeypatch) -> None:
+    import psmat.study._discovery as discovery
+
+    root, _ = study
+    copy = _copy(root, tmp_path / "s")
+    path, _ = _record(copy)
+    monkeypatch.setattr(discovery, "MAX_BYTES", path.stat().st_size - 1)
+    report = run_study(copy, workers=1, progress=False, params=PARAMS)
+    assert sorted(reads) == sorted(NAMES)
+    assert report.problems == [f"{path} not used (larger than {path.stat().st_size - 1} bytes, which no record "
+                               "of a study is); every session's metadata read again"]

@@ -33,9 +33,11 @@ from ._hashes import FileHashes
 from ._layout import SessionMeta
 from ._plain import digest, parse_json
 
-__all__ = ["NAME", "SCHEMA", "DiscoveryRecord"]
+__all__ = ["NAME", "SCHEMA", "MAX_BYTES", "DiscoveryRecord"]
 
 NAME = ".discovery.json"
+#: a record larger than this is not read (~330 bytes a session: room for 100 000 sessions)
+MAX_BYTES = 64 << 20
 SCHEMA = "psmat-study-discovery/1"
 _FIELDS = frozenset({"schema", "psmat", "entries", "digest"})
 _ENTRY = frozenset({"sha256", "subject", "trial", "simulated", "serial", "circuit", "uncalibrated"})
@@ -62,11 +64,16 @@ class DiscoveryRecord:
         self._entries: dict[str, dict[str, Any]] = {}
         self._used: set[str] = set()
         try:
-            text = self.path.read_bytes()
+            with open(self.path, "rb") as fh:
+                text = fh.read(MAX_BYTES + 1)
         except FileNotFoundError:
             return
         except OSError as exc:
             self.problem = f"{self.path} not used ({exc.strerror or exc}); every session's metadata read again"
+            return
+        if len(text) > MAX_BYTES:
+            self.problem = (f"{self.path} not used (larger than {MAX_BYTES} bytes, which no record of a study "
+                            "is); every session's metadata read again")
             return
         try:
             self._entries = _parse(text, version)
@@ -88,7 +95,13 @@ class DiscoveryRecord:
 
     def write(self, read: Mapping[Path, SessionMeta], hashes: FileHashes) -> bool:
         """Keep the entries used this run and those of the files read cleanly (module docstring); write
-        the record atomically when that changes it. Returns whether it was written."""
+        the record atomically when that changes it. Returns whether it was written.
+
+        Raises
+        ------
+        OSError
+            The record could not be written (the one on disk, if any, is left whole).
+        """
         entries = {name: self._entries[name] for name in self._used}
         for path, (subject, trial, problem, simulated, not_closed, serial, circuit, uncalibrated) in read.items():
             if problem is not None or not_closed is not None or _journal_beside(path) or not hashes.unchanged(path):

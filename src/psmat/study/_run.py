@@ -221,7 +221,11 @@ def run_study(root: str | os.PathLike[str], *, workers: int | None = None, sched
             problems.append(f"removed {n} incomplete temporary file(s) an interrupted run left in {store.folder}")
         tasks = {t.stem: t for t in _tasks(layout, p, __version__, hashes)}
         hashes.close()
-        record.write(read, hashes)
+        try:
+            record.write(read, hashes)
+        except OSError as exc:  # a rerun then reads the files again: nothing else depends on it
+            problems.append(f"{record.path} not written ({exc.strerror or exc}): the next run reads every "
+                            "session's metadata again")
         stale = sorted(set(store.stems()) - set(tasks))
         if stale:
             problems.append(f"{store.folder} holds results of {len(stale)} session(s) no longer in the study, "
