@@ -234,3 +234,13 @@ def test_a_record_too_large_is_not_read(study, reads, tmp_path, monkeypatch) -> 
     assert sorted(reads) == sorted(NAMES)
     assert report.problems == [f"{path} not used (larger than {path.stat().st_size - 1} bytes, which no record "
                                "of a study is); every session's metadata read again"]
+
+
+def test_a_hash_dropped_before_it_started_is_made_when_asked(tmp_path) -> None:
+    files = [tmp_path / f"{k}.bin" for k in range(20)]
+    for k, p in enumerate(files):
+        p.write_bytes(bytes([k]) * 2_000_000)
+    hashes = FileHashes(files, threads=1)
+    hashes.close()  # those not started yet (one thread, 2 ms a file) are dropped
+    assert [hashes.sha(p) for p in files] == [hashlib.sha256(p.read_bytes()).hexdigest() for p in files]
+    assert hashes.late >= 1 and hashes.ahead + hashes.late == 20

@@ -14,8 +14,9 @@ from __future__ import annotations
 
 import os
 import stat
+import threading
 from collections.abc import Iterable
-from concurrent.futures import Future, ThreadPoolExecutor
+from concurrent.futures import CancelledError, Future, ThreadPoolExecutor
 from pathlib import Path
 from types import TracebackType
 
@@ -70,6 +71,7 @@ class FileHashes:
                 self._ahead[key] = self._pool.submit(file_sha256, key)
         #: how many :meth:`sha` calls found their file hashed ahead, and how many hashed it then
         self.ahead = self.late = 0
+        self._count = threading.Lock()  # sha() is called from several threads (the keys)
 
     def sha(self, path: str | os.PathLike[str] | None) -> str | None:
         """The SHA-256 of ``path``'s bytes; None for no path or a file that cannot be read (as the key
@@ -77,14 +79,29 @@ class FileHashes:
         if path is None:
             return None
         future = self._ahead.get(Path(path))
+        if future is not None and not future.cancelled():
+            try:
+                sha = future.result()
+            except CancelledError:  # dropped by close() meanwhile: hashed below
+                pass
+            except OSError:
+                self._counted(ahead=True)
+                return None
+            else:
+                self._counted(ahead=True)
+                return sha
+        self._counted(ahead=False)
         try:
-            if future is not None and not future.cancelled():
-                self.ahead += 1
-                return future.result()
-            self.late += 1
             return file_sha256(path)
         except OSError:
             return None
+
+    def _counted(self, ahead: bool) -> None:
+        with self._count:
+            if ahead:
+                self.ahead += 1
+            else:
+                self.late += 1
 
     def unchanged(self, path: str | os.PathLike[str]) -> bool:
         """Whether ``path`` was hashed ahead and has not been written to since: its device, inode, size,
