@@ -19,29 +19,23 @@ from pathlib import Path
 import numpy as np
 import pytest
 from dask_cluster import LOOPBACK_HTTP
+from small_study import SUBJECTS, two_trial_study
 
 from psmat import Calibration
 from psmat.balance import VARIANTS
 from psmat.io import load_session
 from psmat.study import run_study
-from psmat.synth import simulate_study
 from psmat.study import study_lock
 from psmat.study import COLUMNS, process_trial
 from conftest import child_preexec
 
-SUBJECTS = ("V01", "V02")
 TRIALS = ("right-leg", "left-leg")
 
 
 @pytest.fixture(scope="module")
 def study(tmp_path_factory):
     """The study and its first, uninterrupted run in one process (workers=1)."""
-    root = simulate_study(tmp_path_factory.mktemp("study") / "study", volunteers=2, duration_s=6.0, seed=12,
-                          rate_hz=50.0)
-    shutil.rmtree(root / "truth")
-    for sid in SUBJECTS:
-        (root / "sessions" / f"{sid}_rotation.h5").unlink()
-        (root / "forceplate" / f"{sid}_rotation.csv").unlink()
+    root = two_trial_study(tmp_path_factory.mktemp("study") / "study", duration_s=6.0, seed=12)
     report = run_study(root, workers=1, progress=False)
     return root, report, (root / "results" / "metrics.csv").read_bytes()
 

@@ -35,9 +35,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 from dask_cluster import LOOPBACK_HTTP
+from small_study import two_trial_study
 
 from psmat.study import run_study
-from psmat.synth import simulate_study
 
 PARAMS = {"variants": ["PROP", "SCHC"]}
 STEMS = ("V01_right-leg", "V01_left-leg", "V02_right-leg", "V02_left-leg")
@@ -81,12 +81,7 @@ sys.addaudithook(_OPENS)
 # ------------------------------------------------------------------ the study
 @pytest.fixture(scope="module")
 def study(tmp_path_factory) -> tuple[Path, bytes]:
-    root = simulate_study(tmp_path_factory.mktemp("trust") / "study", volunteers=2, duration_s=4.0, seed=12,
-                          rate_hz=50.0)
-    shutil.rmtree(root / "truth")
-    for sid in ("V01", "V02"):
-        (root / "sessions" / f"{sid}_rotation.h5").unlink()
-        (root / "forceplate" / f"{sid}_rotation.csv").unlink()
+    root = two_trial_study(tmp_path_factory.mktemp("trust") / "study", duration_s=4.0, seed=12)
     report = run_study(root, workers=1, progress=False, params=PARAMS)
     assert (report.computed, report.failed, report.problems) == (4, 0, [])
     return root, (root / "results" / "metrics.csv").read_bytes()

@@ -18,12 +18,12 @@ from pathlib import Path
 
 import h5py
 import pytest
+from small_study import two_trial_study
 
 import psmat.study._layout as layout_module
 from psmat import __version__
 from psmat.study import run_study
 from psmat.study._hashes import FileHashes
-from psmat.synth import simulate_study
 
 PARAMS = {"variants": ["PROP"]}
 NAMES = ("V01_left-leg.h5", "V01_right-leg.h5", "V02_left-leg.h5", "V02_right-leg.h5")
@@ -31,12 +31,7 @@ NAMES = ("V01_left-leg.h5", "V01_right-leg.h5", "V02_left-leg.h5", "V02_right-le
 
 @pytest.fixture(scope="module")
 def study(tmp_path_factory) -> tuple[Path, bytes]:
-    root = simulate_study(tmp_path_factory.mktemp("found") / "study", volunteers=2, duration_s=2.0, seed=5,
-                          rate_hz=50.0)
-    shutil.rmtree(root / "truth")
-    for sid in ("V01", "V02"):
-        (root / "sessions" / f"{sid}_rotation.h5").unlink()
-        (root / "forceplate" / f"{sid}_rotation.csv").unlink()
+    root = two_trial_study(tmp_path_factory.mktemp("found") / "study", duration_s=2.0, seed=5)
     report = run_study(root, workers=1, progress=False, params=PARAMS)
     assert (report.computed, report.failed, report.problems) == (4, 0, [])
     return root, (root / "results" / "metrics.csv").read_bytes()

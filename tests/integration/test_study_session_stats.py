@@ -11,27 +11,21 @@ of their lag windows per axis.
 from __future__ import annotations
 
 import json
-import shutil
 
 import numpy as np
 import pytest
+from small_study import two_trial_study
 
 from psmat.study import Expect, run_study
 from psmat.study._dynamic import _fir_half, _fir_stats, _series
 from psmat.study._plain import check_traces
-from psmat.synth import simulate_study
 
 PARAMS = {"variants": ["PROP", "SCHC"]}
 
 
 @pytest.fixture(scope="module")
 def study(tmp_path_factory):
-    root = simulate_study(tmp_path_factory.mktemp("stats") / "study", volunteers=2, duration_s=4.0, seed=12,
-                          rate_hz=50.0)
-    shutil.rmtree(root / "truth")
-    for sid in ("V01", "V02"):
-        (root / "sessions" / f"{sid}_rotation.h5").unlink()
-        (root / "forceplate" / f"{sid}_rotation.csv").unlink()
+    root = two_trial_study(tmp_path_factory.mktemp("stats") / "study", duration_s=4.0, seed=12)
     report = run_study(root, workers=1, params=PARAMS, progress=False)
     assert report.computed == 4 and report.failed == 0, str(report)
     return root
