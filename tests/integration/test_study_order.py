@@ -16,6 +16,7 @@ from psmat.io import SessionWriter, load_session
 from psmat.process import session_circuit
 from psmat.study import find_study, run_study
 from psmat.study._order import FIXED_SHARE, LOADED_S, expected_work, most_work_first
+from psmat.study._hashes import FileHashes
 from psmat.study._run import _tasks, _checked_params
 from psmat.synth import simulate_study
 
@@ -52,7 +53,8 @@ def test_sessions_that_cannot_be_estimated_go_first_then_the_most_work(tmp_path)
     root = tmp_path / "study"
     simulate_study(root, volunteers=2, duration_s=4.0, seed=3, rate_hz=50.0)
     layout = find_study(root)
-    tasks = _tasks(layout, _checked_params(None), "test")
+    with FileHashes([], threads=1) as hashes:  # nothing hashed ahead: each file when its key asks
+        tasks = _tasks(layout, _checked_params(None), "test", hashes)
     circuits = {i.stem: i.circuit for i in layout.items}
     assert all(c is not None for c in circuits.values())
     order = [t.stem for t in most_work_first(tasks, circuits)]

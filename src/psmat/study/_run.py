@@ -71,11 +71,11 @@ from typing import TYPE_CHECKING, Any
 from ..balance import KNOWN_VARIANTS, PLATFORM_AXES
 from ._cache import SessionStore, Stored, TraceFiles, canonical_json, file_sha256, normalise_rows, result_key, \
     study_lock, write_text_atomic
+from ._discovery import DiscoveryRecord
 from ._dynamic import plan_dynamic
 from ._dynamic_tasks import Answer, DynamicTask, RunDynamic, dynamic_tasks, run_dynamic
 from ._figure_tasks import FigureTask, draw_figure
 from ._hashes import FileHashes, study_inputs
-from ._discovery import DiscoveryRecord
 from ._layout import PLATFORM_SUFFIXES, SessionMeta, StudyItem, StudyLayout, discover, session_events
 from ._order import most_work_first
 from ._reports import REPORTS_DIR, ReportIndex, ReportTask, report_tasks, run_report
@@ -494,18 +494,14 @@ def _key_threads() -> int:
     return max(1, min(usable_cpus(), 8))
 
 
-def _tasks(layout: StudyLayout, params: dict[str, Any], version: str,
-           hashes: FileHashes | None = None) -> list[SessionTask]:
+def _tasks(layout: StudyLayout, params: dict[str, Any], version: str, hashes: FileHashes) -> list[SessionTask]:
     """:func:`_task` of every session of ``layout``, in its order, on a few threads: the time goes into
     reading and hashing the input files, and both release the GIL (a thesis-size study's 252 files,
-    about 1 GB, hash in ~0.4 s on one core). ``hashes``: the session and platform files' hashes,
-    started before the sessions were found (:mod:`psmat.study` (``_hashes.py``)); the other files are
-    hashed here."""
+    about 1 GB, hash in ~0.4 s on one core). ``hashes``: the session, platform and calibration files'
+    hashes, started before the sessions were found (:mod:`psmat.study` (``_hashes.py``)); the other
+    files (journals, events) are hashed here."""
     from concurrent.futures import ThreadPoolExecutor
 
-    if hashes is None:
-        hashes = FileHashes((), 1)
-        hashes.close()
     n = min(len(layout.items), _key_threads())
     if n <= 1:
         return [_task(item, layout, params, version, hashes) for item in layout.items]
