@@ -27,7 +27,8 @@ import numpy as np
 import pytest
 
 from psmat.acquire import open_device
-from psmat.io import load_session
+from psmat.io import SessionFormatError, journal_path, load_session
+from psmat.io.session import Journal
 from psmat.protocol import encode_csv
 
 from conftest import child_preexec
@@ -100,6 +101,14 @@ def _queued(fd: int) -> int:
     return struct.unpack("i", fcntl.ioctl(fd, termios.FIONREAD, b"\0\0\0\0"))[0]
 
 
+def _journalled(out: Path) -> int:
+    """Frames in the journal of the recording ``out`` so far (0 before it has an intact header)."""
+    try:
+        return sum(int(b.valid.shape[0]) for b in Journal.open(journal_path(out)).blocks())
+    except (SessionFormatError, OSError):
+        return 0
+
+
 def _wait(cond, what: str) -> None:
     deadline = time.monotonic() + GUARD_S
     while not cond():
@@ -153,7 +162,9 @@ def test_record_a_csv_mat_on_a_pty_keeps_every_frame_in_order(tmp_path: Path) ->
         writer.join(GUARD_S)
         assert not writer.is_alive(), "writing to the pty hung"
         _wait(lambda: _queued(slave) == 0 or proc.poll() is not None, "the recorder stopped reading")
-        time.sleep(1.0)  # the last chunk decoded and journalled
+        # every frame decoded and journalled (the recorder still running), then stopped
+        _wait(lambda: proc.poll() is not None or _journalled(out) >= len(expected),
+              f"the journal never held the {len(expected)} frames written")
         proc.send_signal(signal.SIGTERM)
         stdout, stderr = proc.communicate(timeout=GUARD_S)
     assert proc.returncode == 0, stderr
