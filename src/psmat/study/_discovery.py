@@ -11,12 +11,14 @@ later run takes an entry only for a file of that name whose bytes hash the same,
 psmat version, with no journal beside it; any other file is read again.
 
 Only what a clean read gave is kept: a file that could not be read, a recording that was not
-closed, a file with a journal beside it or one written to between its hash and the end of its read
-(:meth:`psmat.study._hashes.FileHashes.unchanged`) is read again next run. The record proves itself
-as the session results do (``digest``, :mod:`psmat.study` (``_cache.py``)): one that does not parse,
-is of another psmat or fails its digest or the checks of an entry is not used (the run says why
-among its problems), and is rewritten. As there, the digest detects corruption and edits, not
-forgery: whoever can write ``results/`` can also write ``metrics.csv``.
+closed, a file with a journal beside it or one written to after its hash started (until the record
+is written: :meth:`psmat.study._hashes.FileHashes.unchanged`) is read again next run. The record
+proves itself as the session results do (``digest``, :mod:`psmat.study` (``_cache.py``)): one of
+another psmat version is not used; one larger than :data:`MAX_BYTES`, that does not parse, or that
+fails its digest or the checks of an entry is not used either, and the run says why among its
+problems; both are rewritten. As there, the digest detects corruption and edits, not forgery:
+whoever can write ``results/`` can also write ``metrics.csv``. A record that cannot be written is a
+problem line of the run, not its end.
 """
 
 from __future__ import annotations
