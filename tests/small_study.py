@@ -20,3 +20,13 @@ def two_trial_study(folder: Path, duration_s: float, seed: int) -> Path:
         (root / "sessions" / f"{sid}_rotation.h5").unlink()
         (root / "forceplate" / f"{sid}_rotation.csv").unlink()
     return root
+
+
+def first_run(root: Path, params: dict) -> bytes:
+    """Run the study of :func:`two_trial_study` once in this process (every session computed, no
+    problem) and return its ``metrics.csv`` bytes, the reference its tests compare against."""
+    from psmat.study import run_study
+
+    report = run_study(root, workers=1, progress=False, params=params)
+    assert (report.computed, report.failed, report.problems) == (2 * len(SUBJECTS), 0, []), report
+    return (root / "results" / "metrics.csv").read_bytes()

@@ -35,7 +35,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 from dask_cluster import LOOPBACK_HTTP
-from small_study import two_trial_study
+from small_study import first_run, two_trial_study
 
 from psmat.study import run_study
 
@@ -82,9 +82,7 @@ sys.addaudithook(_OPENS)
 @pytest.fixture(scope="module")
 def study(tmp_path_factory) -> tuple[Path, bytes]:
     root = two_trial_study(tmp_path_factory.mktemp("trust") / "study", duration_s=4.0, seed=12)
-    report = run_study(root, workers=1, progress=False, params=PARAMS)
-    assert (report.computed, report.failed, report.problems) == (4, 0, [])
-    return root, (root / "results" / "metrics.csv").read_bytes()
+    return root, first_run(root, PARAMS)
 
 
 def _copy(root: Path, dst: Path, results: bool = True) -> Path:

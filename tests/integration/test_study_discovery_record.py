@@ -18,7 +18,7 @@ from pathlib import Path
 
 import h5py
 import pytest
-from small_study import two_trial_study
+from small_study import first_run, two_trial_study
 
 import psmat.study._layout as layout_module
 from psmat import __version__
@@ -32,9 +32,7 @@ NAMES = ("V01_left-leg.h5", "V01_right-leg.h5", "V02_left-leg.h5", "V02_right-le
 @pytest.fixture(scope="module")
 def study(tmp_path_factory) -> tuple[Path, bytes]:
     root = two_trial_study(tmp_path_factory.mktemp("found") / "study", duration_s=2.0, seed=5)
-    report = run_study(root, workers=1, progress=False, params=PARAMS)
-    assert (report.computed, report.failed, report.problems) == (4, 0, [])
-    return root, (root / "results" / "metrics.csv").read_bytes()
+    return root, first_run(root, PARAMS)
 
 
 @pytest.fixture
