@@ -237,3 +237,13 @@ def test_a_hash_dropped_before_it_started_is_made_when_asked(tmp_path) -> None:
     hashes.close()  # those not started yet (one thread, 2 ms a file) are dropped
     assert [hashes.sha(p) for p in files] == [hashlib.sha256(p.read_bytes()).hexdigest() for p in files]
     assert hashes.late >= 1 and hashes.ahead + hashes.late == 20
+
+
+def test_the_sessions_a_journal_lies_beside(tmp_path) -> None:
+    from psmat.study._discovery import _journalled
+
+    for name in ("a.h5.journal", "b.h5.imu.journal", "c.h5x.journal", "d.h5.h5.journal", "e.h5", "f.journal"):
+        (tmp_path / name).write_bytes(b"")
+    # its own journal, a stream's, and for d both d.h5 and d.h5.h5 (either may own it); not c.h5x's
+    assert _journalled(tmp_path) == {"a.h5", "b.h5", "d.h5", "d.h5.h5"}
+    assert _journalled(tmp_path / "missing") == set()

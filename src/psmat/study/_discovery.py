@@ -23,7 +23,6 @@ problem line of the run, not its end.
 
 from __future__ import annotations
 
-import glob
 import math
 import re
 from collections.abc import Mapping
@@ -64,6 +63,8 @@ class DiscoveryRecord:
         #: why the record on disk is not used (one line), or None (used, or none there)
         self.problem: str | None = None
         self._entries: dict[str, dict[str, Any]] = {}
+        self._circuits: dict[str, Any] = {}  # each entry's circuit, made once when the record is checked
+        self._journalled: set[str] | None = None
         self._used: set[str] = set()
         try:
             with open(self.path, "rb") as fh:
@@ -78,7 +79,7 @@ class DiscoveryRecord:
                             "is); every session's metadata read again")
             return
         try:
-            self._entries = _parse(text, version)
+            self._entries, self._circuits = _parse(text, version)
         except _Stale:
             return
         except ValueError as exc:
@@ -87,12 +88,14 @@ class DiscoveryRecord:
     def known(self, path: Path, hashes: FileHashes) -> SessionMeta | None:
         """What an earlier run read from the session file ``path`` when it was these bytes, else None."""
         e = self._entries.get(path.name)
-        if e is None or _journal_beside(path):
+        if e is None:
             return None
-        if hashes.sha(path) != e["sha256"]:
+        if self._journalled is None:  # the folder listed once, not once a session
+            self._journalled = _journalled(path.parent)
+        if path.name in self._journalled or hashes.sha(path) != e["sha256"]:
             return None
         self._used.add(path.name)
-        return (e["subject"], e["trial"], None, e["simulated"], None, e["serial"], _circuit(e["circuit"]),
+        return (e["subject"], e["trial"], None, e["simulated"], None, e["serial"], self._circuits[path.name],
                 e["uncalibrated"])
 
     def write(self, read: Mapping[Path, SessionMeta], hashes: FileHashes) -> bool:
@@ -105,8 +108,12 @@ class DiscoveryRecord:
             The record could not be written (the one on disk, if any, is left whole).
         """
         entries = {name: self._entries[name] for name in self._used}
+        journalled: dict[Path, set[str]] = {}  # each folder listed once, now
         for path, (subject, trial, problem, simulated, not_closed, serial, circuit, uncalibrated) in read.items():
-            if problem is not None or not_closed is not None or _journal_beside(path) or not hashes.unchanged(path):
+            if path.parent not in journalled:
+                journalled[path.parent] = _journalled(path.parent)
+            if problem is not None or not_closed is not None or path.name in journalled[path.parent] \
+                    or not hashes.unchanged(path):
                 continue
             sha = hashes.sha(path)
             if sha is None:
@@ -123,17 +130,32 @@ class DiscoveryRecord:
         return True
 
 
-def _journal_beside(path: Path) -> bool:
-    """Whether a journal lies beside the session file ``path``: its own (``PATH.journal``), a stream's
-    (``PATH.NAME.journal``) or anything named like one (read again rather than taken from the record)."""
-    return any(path.parent.glob(glob.escape(path.name) + "*.journal"))
+def _journalled(folder: Path) -> set[str]:
+    """The names of the session files of ``folder`` that a journal lies beside: its own
+    (``NAME.h5.journal``), a stream's (``NAME.h5.STREAM.journal``) or anything named like one (such a
+    file is read again rather than taken from the record). Every ``….h5`` that a journal's name starts
+    with counts, so that a doubtful name costs a read, never a stale entry."""
+    names: set[str] = set()
+    try:
+        journals = [p.name for p in folder.iterdir() if p.name.endswith(".journal")]
+    except OSError:
+        return names
+    for j in journals:
+        stem = j[: -len(".journal")]
+        at = stem.find(".h5")
+        while at >= 0:
+            if at + 3 == len(stem) or stem[at + 3] == ".":
+                names.add(stem[: at + 3])
+            at = stem.find(".h5", at + 1)
+    return names
 
 
 class _Stale(Exception):
     """A record of another psmat version or schema: not used, quietly."""
 
 
-def _parse(text: bytes, version: str) -> dict[str, dict[str, Any]]:
+def _parse(text: bytes, version: str) -> tuple[dict[str, dict[str, Any]], dict[str, Any]]:
+    """The entries of a record, and each one's circuit; ValueError (why) or _Stale."""
     doc = parse_json(text)
     if not isinstance(doc, dict) or set(doc) != _FIELDS:
         raise ValueError("not a discovery record")
@@ -145,29 +167,32 @@ def _parse(text: bytes, version: str) -> dict[str, dict[str, Any]]:
     entries = doc["entries"]
     if not isinstance(entries, dict):
         raise ValueError("its entries are not a table")
+    circuits = {}
     for name, e in entries.items():
-        why = _entry_problem(name, e)
-        if why:
-            raise ValueError(f"entry {name!r}: {why}")
-    return entries
+        try:
+            circuits[name] = _checked_entry(name, e)
+        except ValueError as exc:
+            raise ValueError(f"entry {name!r}: {exc}") from None
+    return entries, circuits
 
 
-def _entry_problem(name: str, e: Any) -> str | None:
+def _checked_entry(name: str, e: Any) -> Any:
+    """The circuit of the entry ``e`` of the session file ``name`` (None for none); ValueError (why) if
+    the entry is not one a run writes."""
     if not name.endswith(".h5") or "/" in name or "\\" in name or name.startswith("."):
-        return "not a session file's name"
+        raise ValueError("not a session file's name")
     if not isinstance(e, dict) or set(e) != _ENTRY:
-        return "not an entry"
+        raise ValueError("not an entry")
     if not isinstance(e["sha256"], str) or not _SHA.fullmatch(e["sha256"]):
-        return "no SHA-256"
+        raise ValueError("no SHA-256")
     if any(e[k] is not None and not isinstance(e[k], str) for k in ("subject", "trial", "serial")):
-        return "subject, trial and serial are text or null"
+        raise ValueError("subject, trial and serial are text or null")
     if not isinstance(e["simulated"], bool) or not isinstance(e["uncalibrated"], bool):
-        return "simulated and uncalibrated are true or false"
+        raise ValueError("simulated and uncalibrated are true or false")
     try:
-        _circuit(e["circuit"])
+        return _circuit(e["circuit"])
     except (TypeError, ValueError, KeyError) as exc:
-        return f"not a circuit ({exc})"
-    return None
+        raise ValueError(f"not a circuit ({exc})") from None
 
 
 def _circuit_doc(c: Any) -> dict[str, Any]:
