@@ -6,8 +6,8 @@ The sessions are made here from a known load: cell pressures (psi) → the thesi
 (Table 2.11) at the true frame times → cell conductances → crosstalk (:func:`psmat.iecm.forward`)
 → 12-bit counts of the default circuit, frames stamped by the device clock every 10 ms. The
 expected pressures are worked out by hand: the counts read back through the circuit, IECM on the
-surviving frames (``iecm.solve`` on one thread, the numbers of the chain on one worker), and the
-inverse sensor model stepped with the true time between surviving frames.
+surviving frames (``iecm.solve`` on one thread at the chain's tolerance, the numbers of the chain on
+one worker), and the inverse sensor model stepped with the true time between surviving frames.
 """
 
 from __future__ import annotations
@@ -19,7 +19,7 @@ import pytest
 
 from psmat import Calibration, Circuit, iecm
 from psmat.io import SessionWriter, load_session
-from psmat.process import Processor, process_loaded, process_session, session_circuit, session_clock
+from psmat.process import IECM_RTOL, Processor, process_loaded, process_session, session_circuit, session_clock
 from psmat.sensor import MPICreep
 
 SHAPE = (6, 6)
@@ -65,7 +65,7 @@ def _by_hand(counts: np.ndarray, frames: np.ndarray) -> np.ndarray:
     stepped with the true time since the previous surviving frame (the first: one period)."""
     G, flags = Circuit().conductance(counts[frames], return_flags=True)
     assert np.all(flags == Circuit.OK)
-    g = iecm.solve(G, "newton", threads=1)
+    g = iecm.solve(G, "newton", threads=1, rtol=IECM_RTOL)  # the chain's stopping rule
     steps = np.diff(frames * DT, prepend=frames[0] * DT - DT)
     return MPICreep.thesis().inverse(g, steps) * PSI_KPA
 
@@ -105,7 +105,7 @@ def test_the_same_session_without_drops_gives_the_same_pressures_where_the_load_
     held = lossy.pressure_kpa[lossy.usable]
     dev = np.max(np.abs(held - ref) / ref)
     G = Circuit().conductance(counts[survivors])
-    one_period = MPICreep.thesis().inverse(iecm.solve(G, "newton", threads=1), DT) * PSI_KPA
+    one_period = MPICreep.thesis().inverse(iecm.solve(G, "newton", threads=1, rtol=IECM_RTOL), DT) * PSI_KPA
     miss = np.max(np.abs(one_period[after] - ref[after]) / ref[after])
     assert miss > 1e-7, miss  # about 2e-6 of the pressure here
     assert dev < 1e-4 * miss, (dev, miss)  # about 2e-12
@@ -130,7 +130,7 @@ def test_a_box_that_restarted_is_placed_by_the_host_clock_and_stepped_with_the_t
     # the sensor model stepped 0.51 s over the outage, 10 ms elsewhere (by hand, as _by_hand)
     G = Circuit().conductance(counts)
     steps = np.diff(true_s, prepend=-DT)
-    expected = MPICreep.thesis().inverse(iecm.solve(G, "newton", threads=1), steps) * PSI_KPA
+    expected = MPICreep.thesis().inverse(iecm.solve(G, "newton", threads=1, rtol=IECM_RTOL), steps) * PSI_KPA
     np.testing.assert_allclose(out.pressure_kpa, expected, rtol=1e-9, atol=0)
 
 

@@ -1,8 +1,8 @@
 """From ADC counts to pressure and centre of pressure: the mat's one processing chain.
 
 counts ─ :meth:`Circuit.conductance` (docs/spec.md §2) → G ─ :func:`psmat.iecm.solve` (crosstalk
-removed, docs/spec.md §3) → g ─ :meth:`MPICreep.inverse` (hysteresis and creep compensated, docs/spec.md §4)
-→ pressure ─ :func:`psmat.balance.cop` (docs/spec.md §7) → CoP.
+removed to a relative residual of :data:`IECM_RTOL`, docs/spec.md §3) → g ─ :meth:`MPICreep.inverse`
+(hysteresis and creep compensated, docs/spec.md §4) → pressure ─ :func:`psmat.balance.cop` (docs/spec.md §7) → CoP.
 
 * :class:`Processor` is the chain on a stream: frames are pushed in chunks as they arrive and
   the state carried between chunks (the IECM warm start and preconditioner, the sensor
@@ -41,11 +41,11 @@ infinities:
 
 from ..units import PSI_KPA
 from ._adc import adc_hint, adc_line
-from ._chain import Processed, Processor, open_floor, process_counts
+from ._chain import IECM_RTOL, Processed, Processor, open_floor, process_counts
 from ._clock import SessionClock, session_clock
 from ._pressure import PressureRecord, session_pressure
 from ._session import process_loaded, process_session, session_circuit, session_pressure_calibration
 
-__all__ = ["Processed", "Processor", "process_counts", "process_loaded", "process_session", "session_circuit",
-           "session_pressure", "session_pressure_calibration", "PressureRecord", "session_clock", "SessionClock",
+__all__ = ["IECM_RTOL", "Processed", "Processor", "process_counts", "process_loaded", "process_session",
+           "session_circuit", "session_pressure", "session_pressure_calibration", "PressureRecord", "session_clock", "SessionClock",
            "open_floor", "PSI_KPA", "adc_line", "adc_hint"]

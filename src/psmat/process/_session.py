@@ -152,7 +152,7 @@ def process_loaded(session: Any, *, circuit: Circuit | None = None,
         record), as ``params["geometry"]``, ``["profile"]`` and ``["geometry_from"]`` record.
     method, threads
         As :class:`Processor`: ``threads=1`` (default) solves the frames in order, each
-        warm-started from the previous one, in one ``iecm.solve(threads=1)`` batch (the numbers
+        warm-started from the previous one, in one ``iecm.solve(threads=1, rtol=IECM_RTOL)`` batch (the numbers
         of :class:`Processor`'s one-worker stream: the recording is one push).
     progress : bool, optional
         IECM progress bar (default: on for >= 2000 frames when writing to a terminal).

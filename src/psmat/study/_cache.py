@@ -61,7 +61,9 @@ from ._trial import Rows, Traces
 __all__ = ["SCHEMA", "file_sha256", "result_key", "canonical_json", "entry_digest", "SessionStore", "Stored",
            "Lookup", "TraceFiles", "study_lock", "normalise_rows", "write_text_atomic"]
 
-SCHEMA = "psmat-study-session/4"  # 3: rows per condition (column condition); 4: stats:* arrays in the traces
+# 3: rows per condition (column condition); 4: stats:* arrays in the traces; 5: the chain's IECM to a residual
+# of 1e-6 (psmat.process.IECM_RTOL), where it was 1e-10: every result of schema 4 is computed again
+SCHEMA = "psmat-study-session/5"
 #: the fields of an entry (see the module docstring)
 FIELDS = frozenset({"schema", "key", "inputs", "rows", "traces", "traces_sha256", "digest"})
 

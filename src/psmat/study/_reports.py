@@ -40,7 +40,7 @@ from ._task import SessionTask
 
 __all__ = ["ReportTask", "run_report", "render_page", "report_tasks", "ReportIndex", "REPORTS_DIR"]
 
-SCHEMA = "psmat-study-report/1"
+SCHEMA = "psmat-study-report/2"  # 2: the chain's IECM to a residual of 1e-6 (psmat.process.IECM_RTOL)
 #: the folder under ``results/`` that holds the pages
 REPORTS_DIR = "reports"
 

@@ -48,7 +48,9 @@ DEFAULT_PARAMS: dict[str, Any] = {
     "pitch_column": 2,  # Euler angle of the sagittal tilt: (heading, roll, pitch), docs/spec.md §5
     "max_lag_s": 30.0,  # alignment search range for recordings made apart, s
 }
-_INPUTS_SCHEMA = "psmat-posture-inputs/3"  # 3: samples of one serial chunk spread (_arrivals_spread)
+# 3: samples of one serial chunk spread (_arrivals_spread); 4: the chain's IECM to a residual of 1e-6
+# (psmat.process.IECM_RTOL)
+_INPUTS_SCHEMA = "psmat-posture-inputs/4"
 #: why a session without the spine IMUs is left out (a balance study's sessions, for instance)
 NO_IMU = "no 'imu' stream and no IMU log"
 
