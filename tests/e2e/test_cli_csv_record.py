@@ -27,16 +27,15 @@ import numpy as np
 import pytest
 
 from psmat.acquire import open_device
-from psmat.io import SessionFormatError, journal_path, load_session
-from psmat.io.session import Journal
+from psmat.io import load_session
 from psmat.protocol import encode_csv
 
 from conftest import child_preexec
 from csv_twin import csv_twin
+from recording_journal import GUARD_S, journalled, wait_until
 
 R, C = 16, 16
 BITS = 10
-GUARD_S = 60.0  # hang guard, not a duration
 
 pytestmark = pytest.mark.skipif(not hasattr(os, "openpty"), reason="needs pseudo-terminals (POSIX)")
 
@@ -101,21 +100,6 @@ def _queued(fd: int) -> int:
     return struct.unpack("i", fcntl.ioctl(fd, termios.FIONREAD, b"\0\0\0\0"))[0]
 
 
-def _journalled(out: Path) -> int:
-    """Frames in the journal of the recording ``out`` so far (0 before it has an intact header)."""
-    try:
-        return sum(int(b.valid.shape[0]) for b in Journal.open(journal_path(out)).blocks())
-    except (SessionFormatError, OSError):
-        return 0
-
-
-def _wait(cond, what: str) -> None:
-    deadline = time.monotonic() + GUARD_S
-    while not cond():
-        assert time.monotonic() < deadline, what
-        time.sleep(0.02)
-
-
 @contextlib.contextmanager
 def _recorder_on_a_pty(*options: str):
     """``psmat record PTY --protocol csv OPTIONS`` on a real pty pair, yielded as (process, master, slave) once
@@ -130,7 +114,7 @@ def _recorder_on_a_pty(*options: str):
                              *options], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
                             preexec_fn=child_preexec())
     try:
-        _wait(lambda: proc.poll() is not None or termios.tcgetattr(slave)[5] == termios.B115200,
+        wait_until(lambda: proc.poll() is not None or termios.tcgetattr(slave)[5] == termios.B115200,
               "the recorder never configured the port")
         assert proc.poll() is None, proc.communicate()
         yield proc, master, slave
@@ -161,9 +145,9 @@ def test_record_a_csv_mat_on_a_pty_keeps_every_frame_in_order(tmp_path: Path) ->
         writer.start()
         writer.join(GUARD_S)
         assert not writer.is_alive(), "writing to the pty hung"
-        _wait(lambda: _queued(slave) == 0 or proc.poll() is not None, "the recorder stopped reading")
+        wait_until(lambda: _queued(slave) == 0 or proc.poll() is not None, "the recorder stopped reading")
         # every frame decoded and journalled (the recorder still running), then stopped
-        _wait(lambda: proc.poll() is not None or _journalled(out) >= len(expected),
+        wait_until(lambda: proc.poll() is not None or journalled(out) >= len(expected),
               f"the journal never held the {len(expected)} frames written")
         proc.send_signal(signal.SIGTERM)
         stdout, stderr = proc.communicate(timeout=GUARD_S)

@@ -17,6 +17,12 @@ float64 ``(T, channels)``, their LSL timestamps mapped to the session's host clo
 (``host_time_s = timestamp + LSL time correction + offset``, the offset between LSL's clock and
 the host clock measured once when the stream is opened; psmat.acquire.LslInlet). The session's
 stream is named ``lsl_NAME`` (characters other than letters, digits and ``_`` made ``_``).
+
+A device's port that vanishes (a cable pulled) is re-opened whenever it is back at the same path,
+without a limit on attempts, as the lab does (docs/spec.md §13): the recording keeps its file and goes
+on with the frames after the gap, which the chain places by the host clock (docs/spec.md §5). One line
+on stderr says when the port is lost and one when it is found again; the summary says how often and
+for how long, and a port still lost when the recording ends makes the exit status 1.
 """
 
 from __future__ import annotations
@@ -142,6 +148,7 @@ class _Source:
     writer: Any
     frames: int = 0
     ended: str | None = None
+    link: tuple[bool, int] = (False, 0)  # the device's port lost now, and its reconnections, when last said
 
     @property
     def label(self) -> str:
@@ -150,9 +157,10 @@ class _Source:
 
 def run(args: argparse.Namespace) -> int:
     import sys
+    import time
 
+    from ..acquire import invalid_line, link_line, silence_line
     from ..io import SessionNotCompleted, load_session, row_counts
-    from ..acquire import invalid_line, silence_line
     from ..process import adc_line
 
     try:  # the devices' profiles: the first's from --profile and the options, the others' their kind's
@@ -197,6 +205,12 @@ def run(args: argparse.Namespace) -> int:
             print(f"  {silent}")
         if narrow := adc_line(saved if src.name is None else saved.streams[src.name]):
             print(f"  {narrow}")
+        if getattr(st, "lost_at", None) is not None:  # lost when the recording ended
+            print(f"  {src.dev.port} was lost at {time.strftime('%H:%M:%S', time.localtime(st.lost_at))} and not found "
+                  "again before the recording ended: the recording has no frames after that")
+            status = 1
+        elif gap := link_line(st, src.dev):
+            print(f"  {gap}")
     return status
 
 
@@ -220,7 +234,10 @@ def _record(args: argparse.Namespace, kind: str, prof: Any, profiles: list[Any],
             ports = [_twin(stack, pr, args.rate if k == 0 else None, k) for k, pr in enumerate(profiles)]
         devs = []
         for k, (pr, port) in enumerate(zip(profiles, ports)):
-            dev = open_device(port, pr.kind, clock=clock, **_device_options(pr))
+            # a cable pulled and put back (the port back at the same path) is re-opened, however long it
+            # stayed away (psmat.acquire.link_line says so, _loop prints it)
+            dev = open_device(port, pr.kind, clock=clock, reconnect=True, reconnect_attempts=None,
+                              **_device_options(pr))
             stack.callback(dev.close)
             if k == 0 and args.rate and not args.simulate and pr.kind != "daq":
                 dev.set_rate(int(args.rate))
@@ -314,6 +331,19 @@ def _twin(stack: Any, prof: Any, rate_hz: float | None, k: int) -> str:
     return twin.port
 
 
+def _link_news(src: _Source) -> str | None:
+    """The line of ``src``'s port lost or found again (:func:`psmat.acquire.link_line`) when that changed
+    since it was last said, else None."""
+    from ..acquire import link_line
+
+    st = src.dev.stats
+    state = (getattr(st, "lost_at", None) is not None, int(getattr(st, "reconnects", 0) or 0))
+    if state == src.link:
+        return None
+    src.link = state
+    return link_line(st, src.dev)
+
+
 def _loop(sources: list[_Source], args: argparse.Namespace) -> int:
     """Read every device until ``--seconds``, Ctrl-C or every device gone; one progress bar. Exit status.
 
@@ -348,6 +378,8 @@ def _loop(sources: list[_Source], args: argparse.Namespace) -> int:
                         continue
                     s.frames += n
                     bar.update(n)
+                    if news := _link_news(s):  # its port lost, or found again
+                        print(f"\npsmat record: {news}", file=sys.stderr)
                     if s.dev.recording_error:  # the file takes no more frames (a full disk): stop, say so
                         print(f"\npsmat record: {args.out} takes no more frames ({s.dev.recording_error}): the "
                               "recording stopped; the frames before it are kept", file=sys.stderr)
