@@ -4,10 +4,12 @@ from __future__ import annotations
 
 import http.server
 import os
+import shutil
 import signal
 import struct
 import subprocess
 import sys
+import tempfile
 import textwrap
 import threading
 import time
@@ -74,6 +76,29 @@ def test_the_driver_loads_evaluates_clicks_and_shoots(server, tmp_path) -> None:
         browser.close()
     assert _group_gone(browser.pid), "a Chromium process outlived close()"
     browser.close()  # twice is harmless
+
+
+def test_the_browser_leaves_nothing_in_the_temporary_folder(monkeypatch) -> None:
+    """Chromium makes its own temporary folder (org.chromium.Chromium.XXXXXX, its single-instance socket),
+    which a browser ended by a signal, as close() ends it, leaves behind: hundreds of them piled up in /tmp
+    over the test runs before it was made inside the driver's folder."""
+    exe = chromium_or_skip()
+    # a short path: the browser's socket path must fit in 107 bytes (a longer TMPDIR keeps the inherited one)
+    tmp = Path(tempfile.mkdtemp(prefix="pc-", dir="/tmp"))
+    try:
+        monkeypatch.setenv("TMPDIR", str(tmp))  # the system's temporary folder, for the driver and the browser
+        monkeypatch.setattr(tempfile, "tempdir", None)  # read again from TMPDIR
+        browser = Chromium(exe, window=(320, 200))
+        try:
+            assert browser.evaluate("1 + 1") == 2
+            ours = list(tmp.iterdir())  # the driver's folder alone, the browser's own inside it
+            assert len(ours) == 1 and ours[0].name.startswith("psmat-chromium-"), ours
+            assert list(ours[0].glob("org.chromium.Chromium.*"))
+        finally:
+            browser.close()
+        assert list(tmp.iterdir()) == []
+    finally:
+        shutil.rmtree(tmp, ignore_errors=True)
 
 
 def test_a_refused_address_is_a_clear_error(tmp_path) -> None:

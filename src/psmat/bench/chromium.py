@@ -39,6 +39,10 @@ from .._orphans import parent_death_preexec
 
 __all__ = ["Chromium", "ChromiumError", "find_chromium", "CANDIDATES"]
 
+#: what Chromium adds to its TMPDIR for its single-instance socket, and the longest path a Unix socket takes
+_SOCKET_IN_TMP = "/org.chromium.Chromium.XXXXXX/SingletonSocket"
+_SOCKET_PATH_MAX = 107
+
 class ChromiumError(RuntimeError):
     """Chromium could not be started or driven, or a script threw in the page."""
 
@@ -79,7 +83,14 @@ class Chromium:
                 "--no-first-run", "--no-default-browser-check", "--hide-scrollbars", "--mute-audio",
                 "--disable-dev-shm-usage", "--disable-background-timer-throttling",
                 "--disable-renderer-backgrounding", "--disable-backgrounding-occluded-windows", "about:blank"]
+        # the browser's own temporary folder (org.chromium.Chromium.XXXXXX, its single-instance socket, which
+        # a browser ended by a signal leaves behind) made in ours and removed with it, where the socket's
+        # path fits in a Unix socket address (107 bytes; Chromium aborts on a longer one)
+        env = dict(os.environ)
+        if len(os.fsencode(self._dir)) + len(_SOCKET_IN_TMP) <= _SOCKET_PATH_MAX:
+            env["TMPDIR"] = self._dir
         self._proc = subprocess.Popen(argv, stdin=subprocess.DEVNULL, stdout=self._log, stderr=subprocess.STDOUT,
+                                      env=env,
                                       start_new_session=sys.platform != "win32", preexec_fn=parent_death_preexec())
         try:
             self._connect(window)
