@@ -77,7 +77,8 @@ def _recording_behind_a_link(tmp_path: Path, frames: int) -> tuple[_Recorder, Pa
             rec.stop()
             raise
     try:
-        wait_until(lambda: rec.said(f"psmat record: {link} is lost since "), f"no line while the port is lost: {rec.lines}")
+        wait_until(lambda: rec.said(f"psmat record: {link} is lost since "),
+                   f"no line while the port is lost: {rec.lines}")
     except BaseException:
         rec.stop()
         raise
@@ -94,8 +95,9 @@ def test_a_cable_pulled_and_put_back_is_reopened_and_the_recording_goes_on(tmp_p
             tmp = tmp_path / "new-link"
             os.symlink(second, tmp)
             os.replace(tmp, link)  # the board is back, at the same path
-            wait_until(lambda: rec.proc.poll() is not None or (journalled(out) >= before + 20 and rec.said("found again")),
-                  f"not re-opened, or nothing recorded after: {rec.lines}")
+            wait_until(lambda: rec.proc.poll() is not None
+                       or (journalled(out) >= before + 20 and rec.said("found again")),
+                       f"not re-opened, or nothing recorded after: {rec.lines}")
             rc, summary = rec.stop()
     finally:
         rec.stop()

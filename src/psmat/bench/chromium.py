@@ -43,6 +43,7 @@ __all__ = ["Chromium", "ChromiumError", "find_chromium", "CANDIDATES"]
 _SOCKET_IN_TMP = "/org.chromium.Chromium.XXXXXX/SingletonSocket"
 _SOCKET_PATH_MAX = 107
 
+
 class ChromiumError(RuntimeError):
     """Chromium could not be started or driven, or a script threw in the page."""
 

@@ -2,7 +2,8 @@
 
 counts ─ :meth:`Circuit.conductance` (docs/spec.md §2) → G ─ :func:`psmat.iecm.solve` (crosstalk
 removed to a relative residual of :data:`IECM_RTOL`, docs/spec.md §3) → g ─ :meth:`MPICreep.inverse`
-(hysteresis and creep compensated, docs/spec.md §4) → pressure ─ :func:`psmat.balance.cop` (docs/spec.md §7) → CoP.
+(hysteresis and creep compensated, docs/spec.md §4) → pressure ─ :func:`psmat.balance.cop`
+(docs/spec.md §7) → CoP.
 
 * :class:`Processor` is the chain on a stream: frames are pushed in chunks as they arrive and
   the state carried between chunks (the IECM warm start and preconditioner, the sensor
@@ -47,5 +48,5 @@ from ._pressure import PressureRecord, session_pressure
 from ._session import process_loaded, process_session, session_circuit, session_pressure_calibration
 
 __all__ = ["IECM_RTOL", "Processed", "Processor", "process_counts", "process_loaded", "process_session",
-           "session_circuit", "session_pressure", "session_pressure_calibration", "PressureRecord", "session_clock", "SessionClock",
-           "open_floor", "PSI_KPA", "adc_line", "adc_hint"]
+           "session_circuit", "session_pressure", "session_pressure_calibration", "PressureRecord", "session_clock",
+           "SessionClock", "open_floor", "PSI_KPA", "adc_line", "adc_hint"]
