@@ -14,6 +14,7 @@ from typing import Any
 import numpy as np
 
 from ..balance import describe
+from ..process import IECM_RTOL
 from . import thesis_tables as thesis
 from ._romberg import romberg_section
 from ._summary import StudyRows
@@ -38,8 +39,9 @@ TERMS = (
     ("r", "Pearson correlation coefficient"),
     ("BA", "Bland–Altman analysis: the bias and 95 % limits of agreement of the differences"),
 )
+_RTOL = f"{IECM_RTOL:g}".replace("e-0", "e-")  # 1e-6 rather than 1e-06
 IECM = ("IECM, the Inverse of Equivalent Conductance Method (thesis §2.1.4), removes the crosstalk between the "
-        "mat's cells.")
+        f"mat's cells, each frame solved to a relative residual of {_RTOL}.")
 
 
 def _f(x: Any, fmt: str = ".3g") -> str:
