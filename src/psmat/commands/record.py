@@ -20,9 +20,9 @@ stream is named ``lsl_NAME`` (characters other than letters, digits and ``_`` ma
 
 A device's port that vanishes (a cable pulled) is re-opened whenever it is back at the same path,
 without a limit on attempts, as the lab does (docs/spec.md §13): the recording keeps its file and goes
-on with the frames after the gap, which the chain places by the host clock (docs/spec.md §5). One line
-on stderr says when the port is lost and one when it is found again; the summary says how often and
-for how long, and a port still lost when the recording ends makes the exit status 1.
+on with the frames after the gap, which the chain steps over by the frames' clocks (docs/spec.md §5).
+One line on stderr says when the port is lost and one when it is found again; the summary says how
+often and for how long, and a port still lost when the recording ends makes the exit status 1.
 """
 
 from __future__ import annotations
