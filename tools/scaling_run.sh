@@ -17,7 +17,9 @@
 #         with the time left; one cut by the deadline leaves what it printed in OUT:
 #           1. python -m psmat.bench study --scaling $COUNTS: the load probe (one session run by
 #              n processes at once), then a process pool at each count;
-#           2. the same counts on a Dask LocalCluster (--dask-only), on the same simulated study.
+#           2. the same counts on a Dask LocalCluster (--dask-only), on the same simulated study,
+#              or only the largest when the time left would not hold them all (judged from the
+#              pool's times); then its metrics.csv is compared byte for byte with the pool's.
 #
 # Environment: COUNTS (default 2,16), BENCH_ARGS (more arguments for both steps, e.g. --quick to
 # try the tool on a tiny study), STUDY_DIR (default /tmp/psmat-scaling-study; kept between steps).
@@ -67,4 +69,33 @@ step() {  # step NAME ARGS...: the benchmark with the time left, its output in O
 }
 
 step pool
-step dask --dask-only --no-load-probe
+cp "$study/results/metrics.csv" "$out/pool_metrics.csv" 2>/dev/null
+
+# The Dask step gets every count only when the time left holds them at 1.25 times the pool's
+# times (and 40 s for the clusters); else the largest count alone, compared with the pool's smallest.
+dask_counts=$(python3 - "$out/pool.json" "$(( deadline - $(date +%s) ))" <<'PY'
+import json, sys
+try:
+    runs = {r["workers"]: r["wall_s"] for r in json.load(open(sys.argv[1]))["scaling"]["runs"]
+            if r["kind"] == "pool"}
+except (OSError, KeyError, ValueError):
+    runs = {}
+left = float(sys.argv[2])
+if runs and left > 1.25 * sum(runs.values()) + 40:
+    print(",".join(str(n) for n in sorted(runs)))
+elif runs and left > 1.5 * runs[max(runs)] + 30:
+    print(max(runs))
+PY
+)
+if [ -n "$dask_counts" ]; then
+  counts=$dask_counts
+  step dask --dask-only --no-load-probe
+  if cmp -s "$out/pool_metrics.csv" "$study/results/metrics.csv"; then
+    echo "metrics.csv: the pool's last run and the Dask LocalCluster's last run are byte-identical" \
+      | tee -a "$out/steps.txt"
+  else
+    echo "metrics.csv: the pool's last run and the Dask LocalCluster's last run DIFFER" | tee -a "$out/steps.txt"
+  fi
+else
+  echo "dask: not run, too little time left after the pool's runs" | tee -a "$out/skipped.txt"
+fi
