@@ -612,6 +612,32 @@ TEST_CASE("active_set: cold start and a warm start from a point with no cell at 
   }
 }
 
+TEST_CASE("active_set: a warm start far from the frame is replaced by the cold point g = G") {
+  // kFarStart (solve_active_set.cpp): a quiet mat with one blob, then a frame of another mat
+  // loaded everywhere (2e-3 S under every cell). Warm-started from the first frame's solution
+  // (background at the floor, where the second frame needs ~2e-3 S) max |phi| starts near 2, over
+  // the cold point's bound of 1 (F(G) >= G): the frame starts from g = G and runs as a cold solve.
+  const Shape s{16, 16};
+  SolveOptions o;
+  o.method = Method::ActiveSet;
+  o.max_iter = 1000;
+  const VectorXd A = noisy_frame(s, 0, 2500);
+  VectorXd g_loaded = VectorXd::Constant(s.cells(), 2e-3);
+  for (Index a = 0; a < s.cells(); a += 7) g_loaded[a] = 6e-3;
+  const VectorXd noise = random_normal(s.cells(), 2501);
+  const VectorXd B = F(s, g_loaded) + 1.5e-7 * noise;
+  Solver warm(s, o), cold(s, o);
+  VectorXd g_warm(s.cells()), g_cold(s.cells());
+  REQUIRE(warm.solve(A, g_warm, false).converged());
+  const SolveReport rw = warm.solve(B, g_warm, true), rc = cold.solve(B, g_cold, false);
+  REQUIRE(rc.converged());
+  CHECK(rw.converged());
+  CHECK(!rw.used_fallback);
+  CHECK(rw.iterations == rc.iterations);
+  CHECK(rw.evaluations == rc.evaluations + 1);  // the cold point evaluated beside the warm start
+  for (Index a = 0; a < s.cells(); ++a) CHECK(same_free_cell(g_warm[a], g_cold[a], B[a], o.rtol));
+}
+
 TEST_CASE("pcg and pcg_from: the same solution from 0 and from a guess; Sy accumulated") {
   // numerics/pcg.hpp on an SPD system with a diagonal preconditioner: from y = 0 and from a guess
   // near the solution both reach the tolerance; the guess needs fewer steps, an exact guess none
