@@ -210,6 +210,19 @@ def test_processes_and_a_dask_cluster_give_the_same_bytes(study, tmp_path) -> No
     dyn = [t for t in stream.data if str(t["key"]).startswith("psmat-dynamic-")]
     assert len(dyn) == len(SUBJECTS) and {t["worker"] for t in dyn} <= workers
     assert set(ran.values()) <= workers
+    # a first run warms each worker first (psmat.study._warm): one task on each, begun before that
+    # worker's first session (the task stream's stop of one task and start of the next on a worker
+    # may overlap by a few ms: their bookkeeping)
+    warm = [t for t in stream.data if str(t["key"]).startswith("psmat-warm-")]
+    assert sorted(t["worker"] for t in warm) == sorted(workers)
+
+    def computed(t):
+        return [s for s in t["startstops"] if s["action"] == "compute"]
+
+    for t in warm:
+        sessions = [s["start"] for u in stream.data if u["worker"] == t["worker"]
+                    and str(u["key"]).startswith("psmat-study-") for s in computed(u)]
+        assert sessions and max(s["start"] for s in computed(t)) < min(sessions)
     for name in ("V01_right-leg", "V02_left-leg"):
         mine, ref = (json.loads((d / "results" / "sessions" / f"{name}.json").read_text()) for d in (dask, root))
         assert mine["key"] == ref["key"]  # the key is made of contents, not of where the folder lies

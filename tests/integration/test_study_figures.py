@@ -53,22 +53,30 @@ def _narrow_rows() -> list[dict]:
 
 
 def _written(tmp_path, rows: list[dict], traces: dict, label: str | None) -> dict:
-    """{file name: the matplotlib Figure as written} of a study's results."""
+    """{file name: the matplotlib Figure as written} of a study's results (each figure known by the
+    task drawing it: they are drawn the longest first, not in the report's order)."""
     from matplotlib.figure import Figure
 
-    figures = {}
-    save = Figure.savefig
+    from psmat.study import _results
+
+    figures, drawing = {}, []
+    save, draw = Figure.savefig, _results.draw_figure
 
     def keep(fig, fname, *args, **kwargs):
         save(fig, fname, *args, **kwargs)
-        figures[len(figures)] = fig
+        figures[drawing[-1]] = fig
+
+    def named(task):
+        drawing.append(task.name)
+        return draw(task)
 
     with pytest.MonkeyPatch.context() as mp:
         mp.setattr(Figure, "savefig", keep)
+        mp.setattr(_results, "draw_figure", named)
         paths = write_results(tmp_path, rows, traces, label=label)
     names = [name for name in paths if name not in ("summary", "pairwise", "report")]
-    assert len(names) == len(figures)
-    return dict(zip(names, figures.values()))
+    assert sorted(names) == sorted(figures) and len(drawing) == len(names)
+    return {name: figures[name] for name in names}
 
 
 @pytest.fixture(scope="module")

@@ -66,7 +66,7 @@ if TYPE_CHECKING:  # pragma: no cover
     from ._task import SessionTask
 
 __all__ = ["PLAIN_DESERIALIZERS", "Cluster", "security", "run_encoded", "run_session", "run_page", "run_figure",
-           "run_on_cluster", "on_cluster", "cluster_drawer", "run_dynamic_plain", "cluster_dynamic"]
+           "run_on_cluster", "on_cluster", "cluster_drawer", "run_dynamic_plain", "cluster_dynamic", "warm_cluster"]
 
 #: the only way a result may come back to the client: msgpack (bytes, numbers, text, lists, maps)
 PLAIN_DESERIALIZERS = ("msgpack",)
@@ -198,6 +198,41 @@ def _client(cluster: Cluster) -> Any:
     # no exception holding its frames, it stops now, on this thread.
     gc.collect()
     raise RuntimeError(f"cannot connect to the Dask scheduler {where}: {why}")
+
+
+def warm_cluster(cluster: Cluster) -> Callable[[], None]:
+    """Send :func:`psmat.study._warm.warm` to each of the cluster's workers now, one task pinned to
+    each, without waiting: the imports a worker's first task needs (the chain's, matplotlib's for
+    the figures) then pass while this process finds the sessions, instead of delaying each worker's
+    first session. What is returned lets go of those tasks and closes this connection: call it once
+    the run is over (a warm-up still running then, on a worker busy with another client's tasks, is
+    cancelled; nothing depends on it).
+
+    Raises
+    ------
+    RuntimeError, OSError
+        The cluster cannot be reached, or refused the connection: raised here, before the sessions
+        are found, as the sessions' own connection would raise it (:func:`_client`).
+    """
+    from uuid import uuid4
+
+    from ._warm import warm
+
+    client = _client(cluster)
+    try:
+        token = uuid4().hex  # a run's own keys on a cluster that others may use too
+        futures = [client.submit(warm, key=f"psmat-warm-{token}-{i}", workers=[w], allow_other_workers=False,
+                                 pure=False) for i, w in enumerate(client.ncores())]
+    except Exception:  # noqa: BLE001 - the warm-up only saves time: the run goes on without it
+        client.close()
+        return lambda: None
+
+    def release() -> None:
+        for f in futures:
+            f.release()
+        client.close()
+
+    return release
 
 
 def _answers(client: Any, jobs: Sequence[tuple[Callable[[Any], Any], Any, str]]

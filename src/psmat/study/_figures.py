@@ -21,7 +21,7 @@ from ..balance import legend_label
 from ._figure_layout import arrange
 from ._summary import REFERENCE, SIGMAS, StudyRows
 
-__all__ = ["TRACE_VARIANTS", "sigma_bars", "eu_bars", "median_session", "ranking_variant", "trace_variants", "cop_traces",
+__all__ = ["TRACE_VARIANTS", "load_canvas", "sigma_bars", "eu_bars", "median_session", "ranking_variant", "trace_variants", "cop_traces",
            "draw_cop_traces", "bland_altman_plot"]
 
 #: Variants drawn against FP in the trace figures when present (thesis Figs. 3.6, 3.7).
@@ -33,12 +33,20 @@ DPI = 100
 TICK_STEPS = (1, 2, 2.5, 5, 10)
 
 
-def _figure(nrows: int, ncols: int, size: tuple[float, float]) -> Any:
-    # Object-oriented matplotlib: no pyplot state, rendered by Agg when saved; no layout engine
-    # (its extra draw on save was most of a figure's time): :func:`_finish` places the panels.
+def load_canvas() -> tuple[Any, Any]:
+    """matplotlib's ``Figure`` and Agg canvas, imported (about 0.3 s the first time in a process on the
+    2-core machine, which a worker process can spend before its first figure: :mod:`psmat.study`
+    (``_warm.py``))."""
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
 
+    return Figure, FigureCanvasAgg
+
+
+def _figure(nrows: int, ncols: int, size: tuple[float, float]) -> Any:
+    # Object-oriented matplotlib: no pyplot state, rendered by Agg when saved; no layout engine
+    # (its extra draw on save was most of a figure's time): :func:`_finish` places the panels.
+    Figure, FigureCanvasAgg = load_canvas()
     fig = Figure(figsize=size, dpi=DPI)
     FigureCanvasAgg(fig)
     return fig, fig.subplots(nrows, ncols, squeeze=False)

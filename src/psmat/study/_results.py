@@ -22,7 +22,7 @@ from ._conditions import condition_of
 from ._report import render_report
 from ._romberg import ROMBERG_COLUMNS, romberg_rows
 from ._summary import PAIRWISE_COLUMNS, SUMMARY_COLUMNS, index_rows, pairwise_rows, summary_rows, table_text
-from ._figure_tasks import FigureIndex, FigureTask, draw_figure, figure_tasks
+from ._figure_tasks import FigureIndex, FigureTask, draw_figure, figure_tasks, most_work_first
 from ._timings import Stopwatch, TaskTime, timed
 
 __all__ = ["write_results", "write_outputs", "DrawFigures"]
@@ -134,7 +134,7 @@ def write_results(results_dir: str | os.PathLike[str], rows: Iterable[Mapping[st
     tasks = figure_tasks(figures_dir, [r for r in rows if not condition_of(r)], study, summary, traces or {}, label,
                          __version__)
     index = FigureIndex(figures_dir)
-    todo = [t for t in tasks if not index.current(t)]
+    todo = most_work_first([t for t in tasks if not index.current(t)])
     by_name = {t.name: t for t in todo}
     cpu = 0.0
     for name, data, took in (draw or _draw_here)(todo):

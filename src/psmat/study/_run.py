@@ -181,10 +181,6 @@ def run_study(root: str | os.PathLike[str], *, workers: int | None = None, sched
         The cluster cannot be reached or refused the connection (e.g. TLS credentials of
         another CA), or the scheduler file does not exist.
     """
-    from psmat._progress import tqdm
-
-    from .. import __version__
-
     p = _checked_params(params)
     if (scheduler is not None or scheduler_file is not None) and workers is not None:
         raise ValueError("give workers or a scheduler, not both (the cluster's workers run the sessions)")
@@ -201,6 +197,22 @@ def run_study(root: str | os.PathLike[str], *, workers: int | None = None, sched
         raise ValueError(f"workers must be an integer >= 1, got {workers!r}")
     clock = Stopwatch()
     ready = _start_pool(Path(root), workers) if cluster is None else None
+    # a first run's Dask workers import the tasks' modules while this process finds the sessions
+    release = _warm_cluster(Path(root), cluster) if cluster is not None else None
+    try:
+        return _run(Path(root), p, workers, cluster, progress, reports, clock, ready)
+    finally:
+        if release is not None:
+            release()
+
+
+def _run(root: Path, p: dict[str, Any], workers: int | None, cluster: Any, progress: bool, reports: bool,
+         clock: Stopwatch, ready: Callable[[], None] | None) -> RunReport:
+    """:func:`run_study` once its arguments are checked and its workers started (or warmed)."""
+    from psmat._progress import tqdm
+
+    from .. import __version__
+
     # the inputs' hashes for the keys, on threads while this thread reads the sessions' metadata
     hashes = FileHashes(study_inputs(Path(root), PLATFORM_SUFFIXES), _key_threads())
     try:
@@ -625,25 +637,38 @@ def _execute(todo: list[SessionTask], workers: int | None, cluster: Any, pages: 
     yield from map_unordered(_work, [*todo, *pages], workers)
 
 
-def _start_pool(root: Path, workers: int | None) -> Callable[[], None] | None:
-    """On a first run (no stored session result), start the pool's processes now, without waiting,
-    so that their start and imports (~1 s) pass while this process finds the sessions and their
-    keys; what is returned waits for them (:func:`psmat._parallel.start_pool`). None otherwise: a
-    run that may reuse everything starts its pool only if it has sessions to compute."""
-    from .._parallel import start_pool
-
+def _first_run(root: Path) -> int:
+    """The sessions of a first run (no stored session result): its workers are started, or
+    warmed, before the sessions are found; 0 for a run that may reuse everything."""
     sessions = root / "sessions"
     store = root / "results" / "sessions"
-    if workers == 1 or not sessions.is_dir() or (store.is_dir() and any(store.glob("*.json"))):
-        return None
-    count = sum(1 for _ in sessions.glob("*.h5"))
-    return start_pool(_ready, count, workers) if count > 1 else None
+    if not sessions.is_dir() or (store.is_dir() and any(store.glob("*.json"))):
+        return 0
+    return sum(1 for _ in sessions.glob("*.h5"))
 
 
-def _ready() -> int:
-    """What a started pool process runs first: nothing, once this module (and so the tasks'
-    imports) is loaded."""
-    return os.getpid()
+def _start_pool(root: Path, workers: int | None) -> Callable[[], None] | None:
+    """On a first run (:func:`_first_run`), start the pool's processes now, without waiting, each
+    running :func:`psmat.study._warm.warm`, so that their start and imports (~1.4 s, matplotlib's
+    for the figures included) pass while this process finds the sessions and their keys; what is
+    returned waits for them (:func:`psmat._parallel.start_pool`). None otherwise: a run that may
+    reuse everything starts its pool only if it has sessions to compute."""
+    from .._parallel import start_pool
+    from ._warm import warm
+
+    count = 0 if workers == 1 else _first_run(root)
+    return start_pool(warm, count, workers) if count > 1 else None
+
+
+def _warm_cluster(root: Path, cluster: Any) -> Callable[[], None]:
+    """On a first run (:func:`_first_run`), one :func:`psmat.study._warm.warm` task on each of the
+    cluster's workers now (:func:`psmat.study._cluster.warm_cluster`); what is returned lets go of
+    them. A cluster that cannot be reached raises here, as the sessions' own connection would."""
+    if not _first_run(root):
+        return lambda: None
+    from ._cluster import warm_cluster
+
+    return warm_cluster(cluster)
 
 
 def _drawer(size: int, cluster: Any) -> DrawFigures | None:
