@@ -36,7 +36,7 @@ from typing import Any
 
 from .._cpus import usable_cpus
 
-__all__ = ["parse_counts", "fit_serial_parallel", "stage_times", "run_scaling", "format_scaling",
+__all__ = ["parse_counts", "fit_serial_parallel", "stage_times", "first_and_later_cpu", "run_scaling", "format_scaling",
            "worker_environ", "local_cluster", "GOAL"]
 
 #: docs/spec.md §10: from 2 to 16 workers at least 80 % parallel efficiency
@@ -122,6 +122,29 @@ def session_spread(path: Path) -> tuple[float, float] | None:
     return min(float(r["start_s"]) for r in rows), max(last.values()) - min(last.values())
 
 
+def first_and_later_cpu(path: Path) -> tuple[float, float | None] | None:
+    """From a run's ``session_timings.csv``: the mean CPU time (s) of each worker's first session
+    and of its later ones (None without a later one); None without computed sessions. A worker's
+    first session pays what is loaded or allocated once per process; with more workers it is a
+    larger share of the sessions (a 16-worker run of 126 sessions: 1 in 8, a 2-worker run: 1 in
+    63), so a per-session CPU time that grows with the count may be that, not the machine."""
+    import csv
+
+    with path.open(newline="", encoding="utf-8") as f:
+        rows = [r for r in csv.DictReader(f) if r["result"] == "computed" and r["start_s"] and r["cpu_s"]]
+    if not rows:
+        return None
+    by_worker: dict[str, list[tuple[float, float]]] = {}
+    for r in rows:
+        by_worker.setdefault(r["worker"] or r["pid"], []).append((float(r["start_s"]), float(r["cpu_s"])))
+    first, later = [], []
+    for runs in by_worker.values():
+        runs.sort()
+        first.append(runs[0][1])
+        later += [c for _, c in runs[1:]]
+    return sum(first) / len(first), (sum(later) / len(later) if later else None)
+
+
 def _stop_pool() -> None:
     """Shut joblib's reusable loky executor, so the next run starts its own workers as a first run
     does (otherwise a run would find the previous run's workers started, their imports done)."""
@@ -149,9 +172,11 @@ def _one_run(root: Path, kind: str, n: int, scheduler: str | None, progress: boo
     cpu = sum(s["cpu_s"] for s in stages.values())
     metrics = report.metrics.read_bytes()
     spread = session_spread(root / "results" / "session_timings.csv")
+    split = first_and_later_cpu(root / "results" / "session_timings.csv")
     return {"kind": kind, "workers": n, "wall_s": wall, "cpu_s": cpu if cpu > 0 else None,
             "first_session_s": None if spread is None else spread[0],
             "tail_s": None if spread is None else spread[1],
+            "first_cpu_s": None if split is None else split[0], "later_cpu_s": None if split is None else split[1],
             "serial_s": max(0.0, wall - stages["sessions"]["wall_s"]), "stages": stages,
             "sessions": report.sessions, "computed": report.computed, "reused": report.reused, "failed": report.failed,
             "problems": list(report.problems), "metrics_sha256": hashlib.sha256(metrics).hexdigest(),
@@ -272,6 +297,14 @@ def _said(r: dict[str, Any]) -> dict[str, Any]:
     return r
 
 
+def _first_later(r: dict[str, Any]) -> str:
+    """`` (a worker's first 4.41 s, its later ones 3.52 s)`` of a run (:func:`first_and_later_cpu`), or ""."""
+    if r.get("first_cpu_s") is None:
+        return ""
+    later = "" if r.get("later_cpu_s") is None else f", its later ones {r['later_cpu_s']:.2f} s"
+    return f" (a worker's first {r['first_cpu_s']:.2f} s{later})"
+
+
 def _name(r: dict[str, Any]) -> str:
     return f"{KINDS[r['kind']]}, {r['workers']} worker{'s' if r['workers'] != 1 else ''}"
 
@@ -387,7 +420,7 @@ def format_scaling(s: dict[str, Any], sessions: int | None = None) -> str:
                          f"{','.join(map(str, s['counts']))}; efficiency at {mine[-1]['workers']} workers against "
                          f"{mine[0]['workers']}: {mine[-1]['efficiency']:.2f}")
     per = [f"{KINDS[r['kind']]} {r['workers']}: {r['stages']['sessions']['cpu_s'] / r['computed']:.2f} s"
-           for r in runs if r.get("stages") and r.get("computed")]
+           + _first_later(r) for r in runs if r.get("stages") and r.get("computed")]
     if per:
         lines.append(f"the session tasks' CPU time per session (s, in their workers): {', '.join(per)}")
     if s.get("load") is not None:

@@ -21,8 +21,8 @@ from ..balance import legend_label
 from ._figure_layout import arrange
 from ._summary import REFERENCE, SIGMAS, StudyRows
 
-__all__ = ["TRACE_VARIANTS", "load_canvas", "sigma_bars", "eu_bars", "median_session", "ranking_variant", "trace_variants", "cop_traces",
-           "draw_cop_traces", "bland_altman_plot"]
+__all__ = ["TRACE_VARIANTS", "load_canvas", "sigma_bars", "eu_bars", "median_session", "ranking_variant",
+           "trace_variants", "cop_traces", "draw_cop_traces", "bland_altman_plot"]
 
 #: Variants drawn against FP in the trace figures when present (thesis Figs. 3.6, 3.7).
 TRACE_VARIANTS = ("PROP", "SCHC", "SCHC-8x8")
