@@ -41,7 +41,7 @@ def warm() -> int:
     int
         This process's id (a plain number, as a cluster's answers must be).
     """
-    from . import _run  # noqa: F401 - the session, page, figure and SCHC-DYN tasks' modules
+    from . import _task  # noqa: F401 - the session chain (the package's import brings the other tasks' modules)
     from ._figures import load_canvas
 
     load_canvas()
