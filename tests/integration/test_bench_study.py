@@ -81,10 +81,10 @@ def test_each_workers_first_session_and_its_later_ones_by_hand(tmp_path) -> None
     path.write_text(head + "V1,b,V1_b,computed,3.5,1.0,1.0,11,\nV1,a,V1_a,computed,1.5,2.0,2.0,11,\n"
                     "V2,a,V2_a,computed,1.2,3.0,3.0,12,\nV1,c,V1_c,computed,4.5,1.5,1.5,11,\n"
                     "V2,b,V2_b,reused,,,,,\n")
-    assert first_and_later_cpu(path) == pytest.approx((2.5, 1.25))  # (2 + 3) / 2 and (1 + 1.5) / 2
+    assert first_and_later_cpu(path) == pytest.approx((2.5, 1.25, 2))  # (2 + 3) / 2 and (1 + 1.5) / 2
     path.write_text(head + "V1,a,V1_a,computed,0.5,1.0,1.25,7,tcp://a:1\nV1,b,V1_b,computed,0.5,2.0,2.75,7,tcp://b:1\n")
-    first, later = first_and_later_cpu(path)  # two workers of one session each: no later session
-    assert first == pytest.approx(2.0) and later is None
+    first, later, n = first_and_later_cpu(path)  # two workers of one session each: no later session
+    assert first == pytest.approx(2.0) and later is None and n == 2
     path.write_text(head + "V2,b,V2_b,reused,,,,,\n")
     assert first_and_later_cpu(path) is None
 
@@ -180,14 +180,16 @@ def test_scaling_runs_each_count_from_scratch_with_the_same_metrics(tmp_path) ->
     # the session tasks' CPU per session: the session stage's CPU over the sessions it computed
     # and a worker's first session beside its later ones (3 sessions on at most 2 workers: a later one
     # always), as the JSON has them
-    part = r"([\d.]+) s \(a worker's first ([\d.]+) s, its later ones ([\d.]+) s\)"
+    part = r"([\d.]+) s \((\d+) process(?:es)?; a worker's first ([\d.]+) s, its later ones ([\d.]+) s\)"
     m = re.search(rf"^the session tasks' CPU time per session \(s, in their workers\): pool 1: {part}, "
                   rf"pool 2: {part}$", text, re.M)
     assert m, text
-    for run_, (shown, first, later) in zip((one, two), (m.groups()[:3], m.groups()[3:])):
+    for run_, (shown, procs, first, later) in zip((one, two), (m.groups()[:4], m.groups()[4:])):
         assert float(shown) == pytest.approx(run_["stages"]["sessions"]["cpu_s"] / 3, abs=0.006)
         assert (float(first), float(later)) == pytest.approx((run_["first_cpu_s"], run_["later_cpu_s"]), abs=0.006)
         assert 0 < run_["first_cpu_s"] and 0 < run_["later_cpu_s"]
+        # the processes that ran sessions: at most the run's workers (none replaced in so short a run)
+        assert int(procs) == run_["processes"] and 1 <= run_["processes"] <= run_["workers"]
     # the load probe, before the runs: one session in 1 and then 2 processes at once, its ceiling the
     # ratio of the two medians (by hand), printed before the first run and again under the table
     load = s["load"]

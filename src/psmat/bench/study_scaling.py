@@ -122,12 +122,15 @@ def session_spread(path: Path) -> tuple[float, float] | None:
     return min(float(r["start_s"]) for r in rows), max(last.values()) - min(last.values())
 
 
-def first_and_later_cpu(path: Path) -> tuple[float, float | None] | None:
+def first_and_later_cpu(path: Path) -> tuple[float, float | None, int] | None:
     """From a run's ``session_timings.csv``: the mean CPU time (s) of each worker's first session
-    and of its later ones (None without a later one); None without computed sessions. A worker's
-    first session pays what is loaded or allocated once per process; with more workers it is a
-    larger share of the sessions (a 16-worker run of 126 sessions: 1 in 8, a 2-worker run: 1 in
-    63), so a per-session CPU time that grows with the count may be that, not the machine."""
+    and of its later ones (None without a later one), and how many worker processes ran sessions;
+    None without computed sessions. A worker's first session pays what is loaded or allocated once
+    per process; with more workers it is a larger share of the sessions (a 16-worker run of 126
+    sessions: 1 in 8, a 2-worker run: 1 in 63), so a per-session CPU time that grows with the count
+    may be that, not the machine. More processes than workers means workers were replaced during
+    the run (joblib's loky replaces one whose memory grew 300 MB past its size after its first
+    task), each replacement paying its start again."""
     import csv
 
     with path.open(newline="", encoding="utf-8") as f:
@@ -142,7 +145,7 @@ def first_and_later_cpu(path: Path) -> tuple[float, float | None] | None:
         runs.sort()
         first.append(runs[0][1])
         later += [c for _, c in runs[1:]]
-    return sum(first) / len(first), (sum(later) / len(later) if later else None)
+    return sum(first) / len(first), (sum(later) / len(later) if later else None), len(by_worker)
 
 
 def _stop_pool() -> None:
@@ -177,6 +180,7 @@ def _one_run(root: Path, kind: str, n: int, scheduler: str | None, progress: boo
             "first_session_s": None if spread is None else spread[0],
             "tail_s": None if spread is None else spread[1],
             "first_cpu_s": None if split is None else split[0], "later_cpu_s": None if split is None else split[1],
+            "processes": None if split is None else split[2],
             "serial_s": max(0.0, wall - stages["sessions"]["wall_s"]), "stages": stages,
             "sessions": report.sessions, "computed": report.computed, "reused": report.reused, "failed": report.failed,
             "problems": list(report.problems), "metrics_sha256": hashlib.sha256(metrics).hexdigest(),
@@ -298,11 +302,13 @@ def _said(r: dict[str, Any]) -> dict[str, Any]:
 
 
 def _first_later(r: dict[str, Any]) -> str:
-    """`` (a worker's first 4.41 s, its later ones 3.52 s)`` of a run (:func:`first_and_later_cpu`), or ""."""
+    """`` (16 processes; a worker's first 4.41 s, its later ones 3.52 s)`` of a run
+    (:func:`first_and_later_cpu`), or ""."""
     if r.get("first_cpu_s") is None:
         return ""
     later = "" if r.get("later_cpu_s") is None else f", its later ones {r['later_cpu_s']:.2f} s"
-    return f" (a worker's first {r['first_cpu_s']:.2f} s{later})"
+    n = r.get("processes")
+    return f" ({n} process{'es' if n != 1 else ''}; a worker's first {r['first_cpu_s']:.2f} s{later})"
 
 
 def _name(r: dict[str, Any]) -> str:
