@@ -72,21 +72,21 @@ def test_the_first_session_and_the_tail_by_hand(tmp_path) -> None:
     assert session_spread(path) is None
 
 
-def test_each_workers_first_session_and_its_later_ones_by_hand(tmp_path) -> None:
-    from psmat.bench.study_scaling import first_and_later_cpu
+def test_each_workers_first_session_and_its_second_by_hand(tmp_path) -> None:
+    from psmat.bench.study_scaling import first_and_second_cpu
 
     path = tmp_path / "session_timings.csv"
     head = "subject,trial,stem,result,start_s,wall_s,cpu_s,pid,worker\n"
-    # pid 11: 2.0 s CPU first (started 1.5), then 1.0 and 1.5; pid 12: 3.0 s alone; listed out of order
+    # pid 11: 2.0 s CPU first (started 1.5), then 1.0, then 1.5; pid 12: 3.0 s then 2.5; out of order
     path.write_text(head + "V1,b,V1_b,computed,3.5,1.0,1.0,11,\nV1,a,V1_a,computed,1.5,2.0,2.0,11,\n"
                     "V2,a,V2_a,computed,1.2,3.0,3.0,12,\nV1,c,V1_c,computed,4.5,1.5,1.5,11,\n"
-                    "V2,b,V2_b,reused,,,,,\n")
-    assert first_and_later_cpu(path) == pytest.approx((2.5, 1.25, 2))  # (2 + 3) / 2 and (1 + 1.5) / 2
+                    "V2,c,V2_c,computed,4.2,2.5,2.5,12,\nV2,b,V2_b,reused,,,,,\n")
+    assert first_and_second_cpu(path) == pytest.approx((2.5, 1.75, 2))  # (2 + 3) / 2 and (1 + 2.5) / 2
     path.write_text(head + "V1,a,V1_a,computed,0.5,1.0,1.25,7,tcp://a:1\nV1,b,V1_b,computed,0.5,2.0,2.75,7,tcp://b:1\n")
-    first, later, n = first_and_later_cpu(path)  # two workers of one session each: no later session
-    assert first == pytest.approx(2.0) and later is None and n == 2
+    first, second, n = first_and_second_cpu(path)  # two workers of one session each: no second
+    assert first == pytest.approx(2.0) and second is None and n == 2
     path.write_text(head + "V2,b,V2_b,reused,,,,,\n")
-    assert first_and_later_cpu(path) is None
+    assert first_and_second_cpu(path) is None
 
 
 def test_the_replayed_finish_by_hand() -> None:
@@ -178,16 +178,16 @@ def test_scaling_runs_each_count_from_scratch_with_the_same_metrics(tmp_path) ->
         one["wall_s"] - p)
     assert "pool: least-squares fit T(n) = S + P/n: S = " in text
     # the session tasks' CPU per session: the session stage's CPU over the sessions it computed
-    # and a worker's first session beside its later ones (3 sessions on at most 2 workers: a later one
-    # always), as the JSON has them
-    part = r"([\d.]+) s \((\d+) process(?:es)?; a worker's first ([\d.]+) s, its later ones ([\d.]+) s\)"
+    # and a worker's first session beside its second (3 sessions on at most 2 workers: some worker
+    # ran two), as the JSON has them
+    part = r"([\d.]+) s \((\d+) process(?:es)?; a worker's first session ([\d.]+) s, its second ([\d.]+) s\)"
     m = re.search(rf"^the session tasks' CPU time per session \(s, in their workers\): pool 1: {part}, "
                   rf"pool 2: {part}$", text, re.M)
     assert m, text
-    for run_, (shown, procs, first, later) in zip((one, two), (m.groups()[:4], m.groups()[4:])):
+    for run_, (shown, procs, first, second) in zip((one, two), (m.groups()[:4], m.groups()[4:])):
         assert float(shown) == pytest.approx(run_["stages"]["sessions"]["cpu_s"] / 3, abs=0.006)
-        assert (float(first), float(later)) == pytest.approx((run_["first_cpu_s"], run_["later_cpu_s"]), abs=0.006)
-        assert 0 < run_["first_cpu_s"] and 0 < run_["later_cpu_s"]
+        assert (float(first), float(second)) == pytest.approx((run_["first_cpu_s"], run_["second_cpu_s"]), abs=0.006)
+        assert 0 < run_["first_cpu_s"] and 0 < run_["second_cpu_s"]
         # the processes that ran sessions: at most the run's workers (none replaced in so short a run)
         assert int(procs) == run_["processes"] and 1 <= run_["processes"] <= run_["workers"]
     # the load probe, before the runs: one session in 1 and then 2 processes at once, its ceiling the

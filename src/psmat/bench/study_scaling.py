@@ -36,8 +36,8 @@ from typing import Any
 
 from .._cpus import usable_cpus
 
-__all__ = ["parse_counts", "fit_serial_parallel", "stage_times", "first_and_later_cpu", "run_scaling", "format_scaling",
-           "worker_environ", "local_cluster", "GOAL"]
+__all__ = ["parse_counts", "fit_serial_parallel", "stage_times", "first_and_second_cpu", "run_scaling",
+           "format_scaling", "worker_environ", "local_cluster", "GOAL"]
 
 #: docs/spec.md §10: from 2 to 16 workers at least 80 % parallel efficiency
 GOAL = (2, 16, 0.80)
@@ -122,15 +122,19 @@ def session_spread(path: Path) -> tuple[float, float] | None:
     return min(float(r["start_s"]) for r in rows), max(last.values()) - min(last.values())
 
 
-def first_and_later_cpu(path: Path) -> tuple[float, float | None, int] | None:
-    """From a run's ``session_timings.csv``: the mean CPU time (s) of each worker's first session
-    and of its later ones (None without a later one), and how many worker processes ran sessions;
-    None without computed sessions. A worker's first session pays what is loaded or allocated once
-    per process; with more workers it is a larger share of the sessions (a 16-worker run of 126
+def first_and_second_cpu(path: Path) -> tuple[float, float | None, int] | None:
+    """From a run's ``session_timings.csv``: the mean CPU time (s) of each worker's first session and
+    of its second (None when no worker ran two), and how many worker processes ran sessions; None
+    without computed sessions. A worker's first session pays what is loaded or allocated once per
+    process; with more workers it is a larger share of the sessions (a 16-worker run of 126
     sessions: 1 in 8, a 2-worker run: 1 in 63), so a per-session CPU time that grows with the count
-    may be that, not the machine. More processes than workers means workers were replaced during
-    the run (joblib's loky replaces one whose memory grew 300 MB past its size after its first
-    task), each replacement paying its start again."""
+    may be that, not the machine. The second sessions are the measure: the run hands out the most
+    expected work first (:mod:`psmat.study` (``_order.py``)), so a worker's first two sessions are
+    alike, and its later ones cheaper (the thesis-size study on the 2-core machine, 2 workers: the
+    first sessions 3.33 and 3.61 s, the second 3.07 and 3.30 s, all rotation trials; the mean of
+    all later ones 2.41 s). More processes than workers means workers were replaced during the
+    run (joblib's loky replaces one whose memory grew 300 MB past its size after its first task),
+    each replacement paying its start again."""
     import csv
 
     with path.open(newline="", encoding="utf-8") as f:
@@ -140,12 +144,12 @@ def first_and_later_cpu(path: Path) -> tuple[float, float | None, int] | None:
     by_worker: dict[str, list[tuple[float, float]]] = {}
     for r in rows:
         by_worker.setdefault(r["worker"] or r["pid"], []).append((float(r["start_s"]), float(r["cpu_s"])))
-    first, later = [], []
+    first, second = [], []
     for runs in by_worker.values():
         runs.sort()
         first.append(runs[0][1])
-        later += [c for _, c in runs[1:]]
-    return sum(first) / len(first), (sum(later) / len(later) if later else None), len(by_worker)
+        second += [runs[1][1]] if len(runs) > 1 else []
+    return sum(first) / len(first), (sum(second) / len(second) if second else None), len(by_worker)
 
 
 def _stop_pool() -> None:
@@ -175,11 +179,11 @@ def _one_run(root: Path, kind: str, n: int, scheduler: str | None, progress: boo
     cpu = sum(s["cpu_s"] for s in stages.values())
     metrics = report.metrics.read_bytes()
     spread = session_spread(root / "results" / "session_timings.csv")
-    split = first_and_later_cpu(root / "results" / "session_timings.csv")
+    split = first_and_second_cpu(root / "results" / "session_timings.csv")
     return {"kind": kind, "workers": n, "wall_s": wall, "cpu_s": cpu if cpu > 0 else None,
             "first_session_s": None if spread is None else spread[0],
             "tail_s": None if spread is None else spread[1],
-            "first_cpu_s": None if split is None else split[0], "later_cpu_s": None if split is None else split[1],
+            "first_cpu_s": None if split is None else split[0], "second_cpu_s": None if split is None else split[1],
             "processes": None if split is None else split[2],
             "serial_s": max(0.0, wall - stages["sessions"]["wall_s"]), "stages": stages,
             "sessions": report.sessions, "computed": report.computed, "reused": report.reused, "failed": report.failed,
@@ -301,14 +305,14 @@ def _said(r: dict[str, Any]) -> dict[str, Any]:
     return r
 
 
-def _first_later(r: dict[str, Any]) -> str:
-    """`` (16 processes; a worker's first 4.41 s, its later ones 3.52 s)`` of a run
-    (:func:`first_and_later_cpu`), or ""."""
+def _first_second(r: dict[str, Any]) -> str:
+    """`` (16 processes; a worker's first session 4.41 s, its second 3.52 s)`` of a run
+    (:func:`first_and_second_cpu`), or ""."""
     if r.get("first_cpu_s") is None:
         return ""
-    later = "" if r.get("later_cpu_s") is None else f", its later ones {r['later_cpu_s']:.2f} s"
+    second = "" if r.get("second_cpu_s") is None else f", its second {r['second_cpu_s']:.2f} s"
     n = r.get("processes")
-    return f" ({n} process{'es' if n != 1 else ''}; a worker's first {r['first_cpu_s']:.2f} s{later})"
+    return f" ({n} process{'es' if n != 1 else ''}; a worker's first session {r['first_cpu_s']:.2f} s{second})"
 
 
 def _name(r: dict[str, Any]) -> str:
@@ -426,7 +430,7 @@ def format_scaling(s: dict[str, Any], sessions: int | None = None) -> str:
                          f"{','.join(map(str, s['counts']))}; efficiency at {mine[-1]['workers']} workers against "
                          f"{mine[0]['workers']}: {mine[-1]['efficiency']:.2f}")
     per = [f"{KINDS[r['kind']]} {r['workers']}: {r['stages']['sessions']['cpu_s'] / r['computed']:.2f} s"
-           + _first_later(r) for r in runs if r.get("stages") and r.get("computed")]
+           + _first_second(r) for r in runs if r.get("stages") and r.get("computed")]
     if per:
         lines.append(f"the session tasks' CPU time per session (s, in their workers): {', '.join(per)}")
     if s.get("load") is not None:
