@@ -105,21 +105,31 @@ def stage_times(path: Path) -> dict[str, dict[str, float]]:
         return {r["stage"]: {"wall_s": float(r["wall_s"]), "cpu_s": float(r["cpu_s"])} for r in csv.DictReader(f)}
 
 
+def _sessions_by_worker(path: Path) -> dict[str, list[tuple[float, float, float]]]:
+    """A run's computed sessions from its ``session_timings.csv``, by worker (its address on a
+    cluster, else its pid): ``(start_s, wall_s, cpu_s)`` each, in the order they started."""
+    import csv
+
+    by_worker: dict[str, list[tuple[float, float, float]]] = {}
+    with path.open(newline="", encoding="utf-8") as f:
+        for r in csv.DictReader(f):
+            if r["result"] == "computed" and r["start_s"] and r["wall_s"] and r["cpu_s"]:
+                by_worker.setdefault(r["worker"] or r["pid"], []).append(
+                    (float(r["start_s"]), float(r["wall_s"]), float(r["cpu_s"])))
+    for runs in by_worker.values():
+        runs.sort()
+    return by_worker
+
+
 def session_spread(path: Path) -> tuple[float, float] | None:
     """From a run's ``session_timings.csv``: when its first session started (s after the run
     began: the pool's or cluster's start-up) and how far apart its workers' last sessions ended
     (s: the tail an order of the sessions leaves); None without computed sessions."""
-    import csv
-
-    with path.open(newline="", encoding="utf-8") as f:
-        rows = [r for r in csv.DictReader(f) if r["result"] == "computed" and r["start_s"]]
-    if not rows:
+    by_worker = _sessions_by_worker(path)
+    if not by_worker:
         return None
-    last: dict[str, float] = {}
-    for r in rows:
-        who = r["worker"] or r["pid"]
-        last[who] = max(last.get(who, 0.0), float(r["start_s"]) + float(r["wall_s"]))
-    return min(float(r["start_s"]) for r in rows), max(last.values()) - min(last.values())
+    last = [max(start + wall for start, wall, _ in runs) for runs in by_worker.values()]
+    return min(runs[0][0] for runs in by_worker.values()), max(last) - min(last)
 
 
 def first_and_second_cpu(path: Path) -> tuple[float, float | None, int] | None:
@@ -135,20 +145,11 @@ def first_and_second_cpu(path: Path) -> tuple[float, float | None, int] | None:
     all later ones 2.41 s). More processes than workers means workers were replaced during the
     run (joblib's loky replaces one whose memory grew 300 MB past its size after its first task),
     each replacement paying its start again."""
-    import csv
-
-    with path.open(newline="", encoding="utf-8") as f:
-        rows = [r for r in csv.DictReader(f) if r["result"] == "computed" and r["start_s"] and r["cpu_s"]]
-    if not rows:
+    by_worker = _sessions_by_worker(path)
+    if not by_worker:
         return None
-    by_worker: dict[str, list[tuple[float, float]]] = {}
-    for r in rows:
-        by_worker.setdefault(r["worker"] or r["pid"], []).append((float(r["start_s"]), float(r["cpu_s"])))
-    first, second = [], []
-    for runs in by_worker.values():
-        runs.sort()
-        first.append(runs[0][1])
-        second += [runs[1][1]] if len(runs) > 1 else []
+    first = [runs[0][2] for runs in by_worker.values()]
+    second = [runs[1][2] for runs in by_worker.values() if len(runs) > 1]
     return sum(first) / len(first), (sum(second) / len(second) if second else None), len(by_worker)
 
 

@@ -196,11 +196,12 @@ def run_study(root: str | os.PathLike[str], *, workers: int | None = None, sched
     if workers is not None and (isinstance(workers, bool) or not isinstance(workers, int) or workers < 1):
         raise ValueError(f"workers must be an integer >= 1, got {workers!r}")
     clock = Stopwatch()
-    ready = _start_pool(Path(root), workers) if cluster is None else None
+    folder = Path(root)
+    ready = _start_pool(folder, workers) if cluster is None else None
     # a first run's Dask workers import the tasks' modules while this process finds the sessions
-    release = _warm_cluster(Path(root), cluster) if cluster is not None else None
+    release = _warm_cluster(folder, cluster) if cluster is not None else None
     try:
-        return _run(Path(root), p, workers, cluster, progress, reports, clock, ready)
+        return _run(folder, p, workers, cluster, progress, reports, clock, ready)
     finally:
         if release is not None:
             release()
@@ -214,10 +215,10 @@ def _run(root: Path, p: dict[str, Any], workers: int | None, cluster: Any, progr
     from .. import __version__
 
     # the inputs' hashes for the keys, on threads while this thread reads the sessions' metadata
-    hashes = FileHashes(study_inputs(Path(root), PLATFORM_SUFFIXES), _key_threads())
+    hashes = FileHashes(study_inputs(root, PLATFORM_SUFFIXES), _key_threads())
     try:
         with clock.stage("discover"):  # what an earlier run read from a file of the same bytes is not read again
-            record = DiscoveryRecord(Path(root) / "results", __version__)
+            record = DiscoveryRecord(root / "results", __version__)
             read: dict[Path, SessionMeta] = {}
             layout = discover(root, lambda path: record.known(path, hashes), read)
     except BaseException:
