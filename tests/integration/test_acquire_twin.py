@@ -52,7 +52,8 @@ def test_a_165_hz_recording_holds_every_frame_sent(protocol, tmp_path):
 
 
 def test_a_vanishing_port_is_reported_not_hung_on():
-    with SerialTwin("psm", 100, "v2", scene="quiet", faults=Faults(disconnect_after_s=0.5)) as twin:
+    # the fault counts from the twin's start: 2 s leave a loaded machine time to open the port first
+    with SerialTwin("psm", 100, "v2", scene="quiet", faults=Faults(disconnect_after_s=2.0)) as twin:
         with open_device(twin.port, "psm", "v2") as dev:
             dev.start()
             with pytest.raises(DeviceDisconnected):

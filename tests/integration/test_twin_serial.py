@@ -84,11 +84,12 @@ def test_bit_flips_become_invalid_rows_not_lost_time():
 
 
 def test_a_disconnect_is_seen_by_the_host():
-    with SerialTwin("psm", 100, "v2", scene="quiet", faults=Faults(disconnect_after_s=0.3)) as twin:
+    # the fault counts from the twin's start: 2 s leave a loaded machine time to open the port first
+    with SerialTwin("psm", 100, "v2", scene="quiet", faults=Faults(disconnect_after_s=2.0)) as twin:
         s = serial.serial_for_url(twin.port, timeout=0.05)
         t0 = time.monotonic()
         with pytest.raises(serial.SerialException):
-            while time.monotonic() - t0 < 30:  # hang guard: the disconnect comes after 0.3 s
+            while time.monotonic() - t0 < 30:  # hang guard: the disconnect comes after 2 s
                 s.read(4096)
         assert twin.disconnected
         assert not os.path.lexists(twin.port)  # the port went with the cable
