@@ -4,6 +4,8 @@
 // (solve_bounded_newton.cpp) on a noisy stream: same bound set, same free cells.
 #include <algorithm>
 #include <cmath>
+#include <cstdlib>
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -636,6 +638,58 @@ TEST_CASE("active_set: a warm start far from the frame is replaced by the cold p
   CHECK(rw.iterations == rc.iterations);
   CHECK(rw.evaluations == rc.evaluations + 1);  // the cold point evaluated beside the warm start
   for (Index a = 0; a < s.cells(); ++a) CHECK(same_free_cell(g_warm[a], g_cold[a], B[a], o.rtol));
+}
+
+TEST_CASE("active_set: the result does not depend on what the heap held before the solve") {
+  // Every buffer a frame reads is written first: a frame's numbers depend on its inputs and the
+  // solver's state only, not on leftovers of freed memory (a process that ran other work before
+  // computes the same numbers). The case that read one: a mat loaded everywhere (a split factor,
+  // its core the 30 cells of a blob, the fringe the rest), then a frame far from it (kFarStart:
+  // the cold point g = G, whose PDAS rule frees no cell at all). The first inner step with free
+  // cells keeps the earlier frame's factor and used to start PCG from the QP's earlier solution,
+  // which did not exist (no cell was free before): an uninitialised vector. Freed blocks of the
+  // solver's vector size, filled with NaN, are what it would then find.
+  const Shape s{16, 16};
+  const Index n = s.cells();
+  VectorXd gA(n);
+  const VectorXd z = random_normal(n, 2600);
+  for (Index a = 0; a < n; ++a) gA[a] = 1e-4 * std::exp(0.3 * z[a]);  // all above the noise
+  for (Index r = 5; r < 10; ++r)
+    for (Index c = 4; c < 10; ++c) gA[r * 16 + c] = 1e-2 * std::exp(0.3 * z[(r * 16 + c + 1) % n]);
+  const VectorXd nA = random_normal(n, 2601), nB = random_normal(n, 2602);
+  const VectorXd GA = F(s, gA).cwiseProduct((1.0 + 1e-4 * nA.array()).matrix());
+  const VectorXd GB = F(s, VectorXd(0.05 * gA)).cwiseProduct((1.0 + 1e-4 * nB.array()).matrix());
+  SolveOptions o;
+  o.method = Method::ActiveSet;
+  o.max_iter = 1000;
+  auto run = [&](bool poison, SolveReport& rB) {
+    Solver sv(s, o);
+    VectorXd g(n);
+    REQUIRE(sv.solve(GA, g, false).converged());
+    if (poison) {  // in this thread: the blocks the next allocations of n doubles reuse
+      std::vector<double*> blocks;
+      for (int k = 0; k < 256; ++k) {
+        double* p = static_cast<double*>(std::malloc(sizeof(double) * size_t(n)));
+        REQUIRE(p != nullptr);
+        std::fill(p, p + n, std::numeric_limits<double>::quiet_NaN());
+        blocks.push_back(p);
+      }
+      for (double* p : blocks) std::free(p);
+    }
+    rB = sv.solve(GB, g, true);
+    return g;
+  };
+  SolveReport clean, poisoned;
+  const VectorXd g_clean = run(false, clean), g_poisoned = run(true, poisoned);
+  REQUIRE(clean.converged());
+  CHECK(poisoned.converged());
+  CHECK(poisoned.iterations == clean.iterations);
+  CHECK(poisoned.factorizations == clean.factorizations);
+  CHECK(poisoned.krylov_iterations == clean.krylov_iterations);
+  CHECK(poisoned.residual == clean.residual);
+  Index same = 0;
+  for (Index a = 0; a < n; ++a) same += g_poisoned[a] == g_clean[a];
+  CHECK(same == n);  // bit for bit
 }
 
 TEST_CASE("pcg and pcg_from: the same solution from 0 and from a guess; Sy accumulated") {

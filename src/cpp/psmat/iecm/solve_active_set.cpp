@@ -234,8 +234,9 @@ SolveReport solve_active_set(Solver& s, const ConstVecRef& G_exp, VecRef g) {
   else
     for (Index c = 0; c < n; ++c) is_free[static_cast<size_t>(c)] = g[c] - fl > s.ra[c];
   std::vector<std::vector<char>> seen;  // free sets of the current QP (keep)
-  Eigen::VectorXd y(n), lo(n), qc(n), yA(n), yA_prev(n), SyA(n), Sy(n), b(n), dg(n), gt(n),
-      g_prev(n);
+  // (dg zeroed: it is PCG's guess below, read only after a solve of the same QP wrote it)
+  Eigen::VectorXd y(n), lo(n), qc(n), yA(n), yA_prev(n), SyA(n), Sy(n), b(n),
+      dg = Eigen::VectorXd::Zero(n), gt(n), g_prev(n);
   bool handed_over = false;
   bool factored_this_frame = false;  // a factorisation at a point of this frame (keep)
   for (;; ++rep.iterations) {
@@ -258,6 +259,7 @@ SolveReport solve_active_set(Solver& s, const ConstVecRef& G_exp, VecRef g) {
     FreeBlockSolver& fs = s.free_block;
     bool factor_here = false;  // the stored factor is of S at this point
     if (keep) seen.assign(1, is_free);
+    bool solved = false;  // a solve of this QP left its y in dg (kWarmPcg's guess)
     for (int inner = 0;; ++inner) {
       // I and y_A = lo on the bound set, without branches on the (noise-drawn) pattern of I
       free_cells.resize(static_cast<size_t>(n));
@@ -320,8 +322,10 @@ SolveReport solve_active_set(Solver& s, const ConstVecRef& G_exp, VecRef g) {
           factor_here = true;
           factored_this_frame = true;
         }
-        // PCG on a factor of an earlier point starts from the last solve of this QP (kWarmPcg)
-        const bool from_guess = inner > 0 && !fresh && !factor_here;
+        // PCG on a factor of an earlier point starts from the last solve of this QP (kWarmPcg),
+        // where there was one: an inner step whose free set was empty solved nothing (a cold
+        // point whose PDAS rule frees no cell, kFarStart), and dg then holds no y of this QP
+        const bool from_guess = solved && !fresh && !factor_here;
         int k = fs.solve(s.op, s.net, s.Gm, free_cells, b, dg, Sy, tol, kmax, from_guess);
         rep.krylov_iterations += k >= 0 ? k : kmax;
         if (k < 0 && !fresh) {  // a stale factor: rebuild it here and solve again
@@ -334,6 +338,7 @@ SolveReport solve_active_set(Solver& s, const ConstVecRef& G_exp, VecRef g) {
           k = fs.solve(s.op, s.net, s.Gm, free_cells, b, dg, Sy, tol, 4 * kmax);
           rep.krylov_iterations += k > 0 ? k : 4 * kmax;
         }
+        solved = true;
         for (Index c : free_cells) y[c] = dg[c];
         if (moved) Sy += SyA;  // S y = S y_I (from PCG) + S y_A
       } else if (moved) {
