@@ -28,7 +28,7 @@ from ._dynamic import DynamicPlan, correct_session, dynamic_rows, fit_correction
 from ._figures import median_session
 from ._layout import StudyItem, StudyLayout, Subject, find_study, read_subjects, session_events
 from ._order import expected_work, most_work_first
-from ._plain import Expect, decode_result, digest, encode_result, first_line, parse_json
+from ._plain import Expect, StaleEntry, decode_result, digest, encode_result, first_line, npz_text, parse_json
 from ._results import write_results
 from ._run import RunReport, run_study
 from ._summary import index_rows, pairwise_rows, summary_rows
@@ -38,6 +38,7 @@ from ._trial import COLUMNS, DEFAULT_PARAMS, METRICS, Rows, Traces, process_tria
 __all__ = ["Subject", "StudyItem", "StudyLayout", "find_study", "read_subjects", "process_trial", "COLUMNS",
            "METRICS", "DEFAULT_PARAMS", "Rows", "Traces", "RunReport", "SessionTask", "run_study", "Cluster",
            "on_cluster", "security", "file_sha256", "result_key", "study_lock", "Expect", "encode_result",
-           "decode_result", "digest", "first_line", "parse_json", "dynamic_rows", "fit_correction", "write_results",
+           "decode_result", "digest", "first_line", "parse_json", "npz_text", "StaleEntry", "dynamic_rows",
+           "fit_correction", "write_results",
            "session_stats", "plan_dynamic", "correct_session", "DynamicPlan", "summary_rows", "pairwise_rows",
            "index_rows", "median_session", "thesis_tables", "expected_work", "most_work_first", "session_events"]

@@ -54,7 +54,8 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from ._dynamic_tasks import Answer, DynamicTask, RunDynamic, decode_dynamic, encode_dynamic, run_dynamic, task_key
+from ._dynamic_tasks import (Answer, DynamicTask, RunDynamic, decode_dynamic, encode_dynamic, run_dynamic, task_key,
+                             trace_lengths)
 from ._figure_tasks import FigureTask, draw_figure
 from ._plain import check_timed, decode_result, encode_result, first_line, stamp
 from ._reports import ReportTask, render_page
@@ -394,14 +395,8 @@ def cluster_dynamic(cluster: Cluster) -> RunDynamic:
     """What runs SCHC-DYN's tasks (:mod:`psmat.study` (``_dynamic_tasks.py``)) on the cluster: each
     answer checked (:func:`decode_dynamic`, against the length of each session's trace read here)
     or, refused or lost, computed in this process."""
-    import numpy as np
-
     def check(task: DynamicTask, result: Any) -> list[Answer]:
-        lengths = {}
-        for trial, path, _, _ in task.sessions:
-            with np.load(path) as z:
-                lengths[trial] = int(z["t_s"].shape[0])
-        return decode_dynamic(result, task, lengths)
+        return decode_dynamic(result, task, trace_lengths(task))
 
     def run(tasks: list[DynamicTask]) -> Iterator[tuple[DynamicTask, list[Answer], TaskTime | None]]:
         yield from _checked_or_here(cluster, tasks, lambda t: (run_dynamic_plain, f"psmat-dynamic-{task_key(t)}"),

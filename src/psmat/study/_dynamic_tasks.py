@@ -32,7 +32,8 @@ from ._plain import STATS_PREFIX, check_row, digest, encode_plain, plain_rows, r
 from ._timings import TaskTime
 from ._trial import COLUMNS
 
-__all__ = ["RunDynamic", "DynamicTask", "dynamic_tasks", "run_dynamic", "encode_dynamic", "decode_dynamic", "task_key"]
+__all__ = ["RunDynamic", "DynamicTask", "dynamic_tasks", "run_dynamic", "encode_dynamic", "decode_dynamic", "task_key",
+           "trace_lengths"]
 
 #: one session of a task: its trial, traces file, base row and the correction fitted without its volunteer
 Session = tuple[str, str, Mapping[str, Any], Correction]
@@ -79,13 +80,35 @@ def run_dynamic(task: DynamicTask) -> list[Answer]:
     return out
 
 
-def task_key(task: DynamicTask) -> str:
-    """A digest of everything the task's answer depends on (its Dask key)."""
+def task_key(task: DynamicTask, *, file_names: bool = False) -> str:
+    """A digest of everything the task's answer depends on (its Dask key). ``file_names``: the
+    traces files by name (they carry their session's key) instead of by path, so that the key
+    outlives a move of the study's folder (the key kept on disk, psmat.study._dynamic_cache)."""
     parts: list[str | bytes] = [task.subject, repr(task.rate_hz), task.base, repr(task.preprocess), repr(task.descriptors)]
     for trial, path, row, corr in task.sessions:
-        parts += [trial, path, json.dumps(plain_rows([row])), corr.model, repr(corr.rate_hz),
+        parts += [trial, Path(path).name if file_names else path, json.dumps(plain_rows([row])), corr.model,
+                  repr(corr.rate_hz),
                   *(np.asarray(c, np.float64).tobytes() for c in corr.coef)]
     return digest(*parts)
+
+
+def trace_lengths(task: DynamicTask) -> dict[str, int]:
+    """Each trial's trace length (samples) from its own traces file: the shape in the header of
+    its ``t_s`` array, the array itself not read (what :func:`decode_dynamic` checks against)."""
+    out = {}
+    for trial, path, _, _ in task.sessions:
+        with np.load(path) as z:
+            with z.zip.open("t_s.npy") as fh:
+                major, _ = np.lib.format.read_magic(fh)
+                if major in (1, 2):
+                    read = np.lib.format.read_array_header_1_0 if major == 1 else np.lib.format.read_array_header_2_0
+                    shape, _, _ = read(fh)
+                else:  # a header version without a public reader: the array itself
+                    shape = z["t_s"].shape
+        if len(shape) != 1:
+            raise ValueError(f"{Path(path).name}: t_s of shape {shape}")
+        out[trial] = int(shape[0])
+    return out
 
 
 def encode_dynamic(task: DynamicTask, answers: Iterable[Answer]) -> bytes:

@@ -177,6 +177,25 @@ def check_traces(traces: Mapping[str, Any], expect: Expect) -> Traces:
     return out
 
 
+class StaleEntry(Exception):
+    """A stored entry made from other inputs than the current ones: recomputed, nothing to report
+    (the caches of psmat.study and psmat.posture)."""
+
+
+def npz_text(arrays: Mapping[str, np.ndarray], name: str) -> str:
+    """The text entry ``name`` of a stored ``.npz`` (a 0-d unicode array).
+
+    Raises
+    ------
+    ValueError
+        It is not one.
+    """
+    a = arrays[name]
+    if a.ndim != 0 or a.dtype.kind != "U":
+        raise ValueError(f"{name} is not text")
+    return str(a)
+
+
 def digest(*parts: str | bytes) -> str:
     """SHA-256 (hex) of ``parts``, each length-prefixed so that no two sequences collide."""
     h = hashlib.sha256()

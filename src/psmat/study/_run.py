@@ -73,6 +73,7 @@ from ._cache import SessionStore, Stored, TraceFiles, canonical_json, file_sha25
     study_lock, write_text_atomic
 from ._discovery import DiscoveryRecord
 from ._dynamic import plan_dynamic
+from ._dynamic_cache import DynamicStore
 from ._dynamic_tasks import Answer, DynamicTask, RunDynamic, dynamic_tasks, run_dynamic
 from ._figure_tasks import FigureTask, draw_figure
 from ._hashes import FileHashes, study_inputs
@@ -316,9 +317,12 @@ def _run(root: Path, p: dict[str, Any], workers: int | None, cluster: Any, progr
         files = TraceFiles({(tasks[s].subject, tasks[s].trial): t for s in keep if (t := done[s].traces)})
         traces: Mapping[tuple[str, str], Traces] = files
         if "SCHC" in p["variants"]:  # beyond the thesis: SCHC-DYN across volunteers
-            run_dyn = _dynamic_runner(size, cluster)
+            dyn_store = DynamicStore(layout.results)  # the volunteers' answers of an earlier run
+            run_dyn = dyn_store.around(_dynamic_runner(size, cluster))
             rows, traces, cpu = _with_dynamic(rows, files, p, run_dyn)
+            problems += dyn_store.problems
             clock.add("after_sessions", 0.0, cpu)  # the workers' CPU time correcting the sessions
+            clock.count("after_sessions", dyn_store.computed, dyn_store.reused)
         metrics = layout.results / "metrics.csv"
         write_metrics(metrics, rows)
         links = {s: path.relative_to(layout.results).as_posix() for s, path in listed.items()}

@@ -14,15 +14,16 @@
   tasks of the same pool or cluster; without ``--reports``, the pool's shutdown); ``cpu_s``
   summed from their workers;
 * ``after_sessions`` — SCHC-DYN across volunteers (its fits here, each volunteer's corrections
-  as tasks of the pool or cluster: ``cpu_s`` adds their workers'), ``metrics.csv``, the summary
-  tables and the check of ``results/.outputs.json``;
+  as tasks of the pool or cluster: ``cpu_s`` adds their workers'; ``computed`` and ``reused``
+  count the volunteers whose corrections were made now or read back from ``results/dynamic``),
+  ``metrics.csv``, the summary tables and the check of ``results/.outputs.json``;
 * ``figures`` and ``report`` — the figures (tasks of the pool or cluster; ``cpu_s`` adds their
   workers') and ``report.md`` (0 when reused unchanged).
 
 Columns: ``stage``, ``wall_s`` (s, this process's clock), ``cpu_s`` (s: this process's CPU time,
 or for ``sessions``/``reports`` the workers' summed), ``computed`` and ``reused`` (how many
-sessions, pages, figures or reports were made now or found up to date; empty where it does not
-apply). ``session_timings.csv``: one row per session — ``subject``, ``trial``, ``stem``,
+sessions, pages, volunteers' SCHC-DYN corrections, figures or reports were made now or found up
+to date; empty where it does not apply). ``session_timings.csv``: one row per session — ``subject``, ``trial``, ``stem``,
 ``result`` (``computed``, ``reused``, ``failed`` or ``not closed``), ``start_s`` (s after the run
 began that the task started in its worker: a worker's start-up delays its first task),
 ``wall_s`` and ``cpu_s`` of the task in its worker (CPU: :func:`time.process_time` of the worker's

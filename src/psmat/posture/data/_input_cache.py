@@ -26,7 +26,7 @@ from pathlib import Path
 import numpy as np
 
 from ..._atomic import open_atomic
-from ...study import digest, first_line, parse_json
+from ...study import StaleEntry, digest, first_line, npz_text, parse_json
 from ._recording import Recording
 
 __all__ = ["read_cached", "write_cached", "cache_digest"]
@@ -57,33 +57,22 @@ def write_cached(path: Path, key: str, rec: Recording) -> None:
         fh.write(buf.getvalue())
 
 
-class _Stale(Exception):
-    """Made from other inputs: recompute, nothing to report."""
-
-
-def _text(arrays: dict[str, np.ndarray], name: str) -> str:
-    a = arrays[name]
-    if a.ndim != 0 or a.dtype.kind != "U":
-        raise ValueError(f"{name} is not text")
-    return str(a)
-
-
 def _verified(path: Path, key: str, results: Path) -> Recording:
     real = path.resolve()
     if not real.is_relative_to(results.resolve()):
         raise ValueError(f"it leads outside {results} (to {real}); not read")
     with open(real, "rb") as fh, np.load(fh, allow_pickle=False) as z:  # our handle: closed even on a bad zip
         arrays = {k: z[k] for k in z.files}
-    if "key" not in arrays or _text(arrays, "key") != key:
-        raise _Stale
+    if "key" not in arrays or npz_text(arrays, "key") != key:
+        raise StaleEntry
     if set(arrays) != _ENTRIES:
         raise ValueError(f"entries {sorted(arrays)}, expected {sorted(_ENTRIES)}")
     for name, (dtype, ndim) in _ARRAYS.items():
         if arrays[name].dtype != dtype or arrays[name].ndim != ndim:
             raise ValueError(f"{name} is {arrays[name].dtype} with {arrays[name].ndim} dimension(s), "
                              f"expected {dtype} with {ndim}")
-    info = _text(arrays, "info")
-    if _text(arrays, "digest") != cache_digest(key, info, arrays):
+    info = npz_text(arrays, "info")
+    if npz_text(arrays, "digest") != cache_digest(key, info, arrays):
         raise ValueError("digest mismatch: the file changed after it was written")
     doc = parse_json(info)
     if not (isinstance(doc, dict) and isinstance(doc.get("subject"), str) and type(doc.get("day")) is int
@@ -112,7 +101,7 @@ def read_cached(path: str | os.PathLike[str], key: str, results: str | os.PathLi
         return None, None
     try:
         return _verified(path, key, Path(results)), None
-    except _Stale:
+    except StaleEntry:
         return None, None
     except Exception as exc:  # noqa: BLE001 - zip, format, JSON, shape: whatever is wrong, recompute
         what = str(exc) if isinstance(exc, ValueError) else f"{type(exc).__name__}: {exc}"
