@@ -50,6 +50,8 @@ from ._timings import TaskTime
 
 __all__ = ["SCHEMA", "DynamicStore"]
 
+# bumped when what psmat.study.correct_session computes changes (the sway metrics and descriptors it
+# shares with the sessions change the session results' SCHEMA, which is part of the key too)
 SCHEMA = "psmat-study-dynamic/1"
 _ENTRIES = frozenset({"key", "answer", "digest"})
 
