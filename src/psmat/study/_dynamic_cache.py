@@ -16,9 +16,9 @@ SHA-256 of the volunteer's name, a safe file name for any name), holding
 * ``digest`` (text): ``digest(key, answer)`` (:func:`psmat.study._plain.digest`: each part
   length-prefixed).
 
-A file whose key differs from the current task's is stale and is rewritten quietly. One with the current key is used only if it opens (NumPy, ``allow_pickle=False``),
-holds exactly these entries, lies inside ``DIR/results`` once links are resolved, its digest
-matches and its answer passes :func:`psmat.study._dynamic_tasks.decode_dynamic`'s checks (the
+A file whose key differs from the current task's is stale and is rewritten quietly. One with the
+current key is used only if it opens (NumPy, ``allow_pickle=False``), holds exactly these entries,
+lies inside ``DIR/results`` once links are resolved, its digest matches and its answer passes :func:`psmat.study._dynamic_tasks.decode_dynamic`'s checks (the
 volunteer, one row per session with the base row's columns and types, the variant, each trace
 float64 of the session's own length); anything else is computed again, rewritten and said among
 the run's problems, never trusted and never fatal. The digest detects corruption and edits, not a
