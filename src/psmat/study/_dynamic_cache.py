@@ -18,9 +18,10 @@ SHA-256 of the volunteer's name, a safe file name for any name), holding
 
 A file whose key differs from the current task's is stale and is rewritten quietly. One with the
 current key is used only if it opens (NumPy, ``allow_pickle=False``), holds exactly these entries,
-lies inside ``DIR/results`` once links are resolved, its digest matches and its answer passes :func:`psmat.study._dynamic_tasks.decode_dynamic`'s checks (the
-volunteer, one row per session with the base row's columns and types, the variant, each trace
-float64 of the session's own length); anything else is computed again, rewritten and said among
+lies inside ``DIR/results`` once links are resolved, its digest matches and its answer passes
+:func:`psmat.study._dynamic_tasks.decode_dynamic`'s checks (the volunteer, one row per session with
+the base row's columns and types, the variant, each trace float64 of the session's own length);
+anything else is computed again, rewritten and said among
 the run's problems, never trusted and never fatal. The digest detects corruption and edits, not a
 forger: whoever can write ``results/`` can write ``metrics.csv``. Each file is written whole or not
 at all (:func:`psmat._atomic.open_atomic`), as soon as its volunteer's answer is in: a killed run
@@ -128,7 +129,8 @@ class DynamicStore:
 
         def cached(tasks: list[DynamicTask]) -> Iterator[tuple[DynamicTask, list[Answer], TaskTime | None]]:
             if self.folder.is_dir() and (n := remove_temporaries(self.folder)):  # (the run holds the study's lock)
-                self.problems.append(f"removed {n} incomplete temporary file(s) an interrupted run left in {self.folder}")
+                self.problems.append(f"removed {n} incomplete temporary file(s) an interrupted run left in "
+                                     f"{self.folder}")
             todo = []
             for task in tasks:
                 answers, problem = self.load(task)
